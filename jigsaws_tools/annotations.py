@@ -1,0 +1,142 @@
+"""Annotation versions: the release's labels ("original") and the paper's 12 amendments ("revised").
+
+The amendments come from the appendix of van Amsterdam et al. (ICRA 2020) and ship as
+``jigsaws_tools/data/revised_amendments.csv`` (trial, start, end, gesture; 1-based inclusive
+frames at 30 Hz, the convention of the release's transcriptions). Applying a version relabels
+every frame of each listed range, whatever its previous label.
+"""
+from __future__ import annotations
+
+import csv
+from collections import Counter
+from dataclasses import dataclass
+from importlib import resources
+
+import numpy as np
+
+from .errors import FormatError, JigsawsError
+from .gestures import GESTURE_INDEX, GESTURES, UNLABELLED
+
+ANNOTATION_VERSIONS = ("original", "revised")
+_AMENDMENT_FILES = {"revised": "revised_amendments.csv"}
+
+
+@dataclass(frozen=True)
+class Amendment:
+    """Frames ``start..end`` (1-based, inclusive, 30 Hz) of ``trial`` are relabelled ``gesture``."""
+
+    trial: str
+    start: int
+    end: int
+    gesture: str
+
+
+@dataclass(frozen=True)
+class AmendmentEffect:
+    """What one amendment did to one trial's per-frame labels."""
+
+    amendment: Amendment
+    status: str                      # "applied", or why it was not
+    frames_changed: int              # frames whose label differs afterwards
+    previous: dict[str, int]         # previous label -> frame count within the range
+
+
+def check_version(version: str) -> str:
+    if version not in ANNOTATION_VERSIONS:
+        raise JigsawsError(f"unknown annotation version {version!r}; "
+                           f"choose one of {', '.join(ANNOTATION_VERSIONS)}")
+    return version
+
+
+def amendments(version: str) -> tuple[Amendment, ...]:
+    """The amendments a version applies to the release (none for ``original``)."""
+    check_version(version)
+    if version not in _AMENDMENT_FILES:
+        return ()
+    source = resources.files("jigsaws_tools") / "data" / _AMENDMENT_FILES[version]
+    with source.open(encoding="utf-8") as f:
+        return tuple(_parse_amendment(str(source), number, row)
+                     for number, row in enumerate(csv.DictReader(f), start=2))
+
+
+def amendment_table_text(version: str) -> str:
+    """The raw table behind a version ('' for ``original``); part of the dataset cache key."""
+    check_version(version)
+    if version not in _AMENDMENT_FILES:
+        return ""
+    return (resources.files("jigsaws_tools") / "data" / _AMENDMENT_FILES[version]).read_text("utf-8")
+
+
+def _parse_amendment(path: str, number: int, row: dict[str, str]) -> Amendment:
+    try:
+        start, end = int(row["start"]), int(row["end"])
+    except (KeyError, TypeError, ValueError):
+        raise FormatError(path, number, row, "expected integer start and end columns") from None
+    if row.get("gesture") not in GESTURE_INDEX:
+        raise FormatError(path, number, row.get("gesture"), "unknown Suturing gesture")
+    if start < 1 or end < start:
+        raise FormatError(path, number, f"{start} {end}", "frames must satisfy 1 <= start <= end")
+    return Amendment(row["trial"], start, end, row["gesture"])
+
+
+def apply_amendments(trial: str, labels: np.ndarray, version: str
+                     ) -> tuple[np.ndarray, list[AmendmentEffect]]:
+    """Relabel one trial's frames under ``version``.
+
+    Args:
+        trial: trial name, e.g. ``"Suturing_B004"``.
+        labels: ``[n_frames]`` int gesture class indices at 30 Hz (``UNLABELLED`` = -1).
+
+    Returns:
+        The amended copy of ``labels`` and the effect of each amendment of this trial.
+    """
+    labels = labels.copy()
+    effects = []
+    for a in amendments(version):
+        if a.trial != trial:
+            continue
+        if a.end > len(labels):
+            effects.append(AmendmentEffect(a, f"skipped: range ends beyond the {len(labels)} "
+                                              f"frames of the trial", 0, {}))
+            continue
+        window = labels[a.start - 1:a.end]
+        previous = Counter(_label_name(v) for v in window)
+        new = GESTURE_INDEX[a.gesture]
+        changed = int(np.count_nonzero(window != new))
+        window[:] = new
+        effects.append(AmendmentEffect(a, "applied", changed, dict(sorted(previous.items()))))
+    return labels, effects
+
+
+def _label_name(value: int) -> str:
+    return "unlabelled" if value == UNLABELLED else GESTURES[value]
+
+
+def amendment_report(index: "ReleaseIndex", version: str) -> list[tuple[str, AmendmentEffect]]:
+    """Effect of every amendment of ``version`` on the release behind ``index``.
+
+    A trial with a transcription but no kinematics is relabelled on its transcription alone (status
+    says so); a trial absent altogether is reported with status ``"skipped: trial absent"``.
+    """
+    from .release import frame_labels, read_kinematics, read_transcription, transcriptions_dir
+
+    complete = {t.name: t for t in index.trials}
+    report = []
+    for name in dict.fromkeys(a.trial for a in amendments(version)):
+        transcription = transcriptions_dir(index.root) / f"{name}.txt"
+        if name in complete:
+            n_frames = len(read_kinematics(complete[name].kinematics))
+            status = None
+        elif transcription.is_file():
+            n_frames, status = None, "applied to the transcription only (no kinematics)"
+        else:
+            report += [(name, AmendmentEffect(a, "skipped: trial absent", 0, {}))
+                       for a in amendments(version) if a.trial == name]
+            continue
+        segments = read_transcription(transcription, n_frames=n_frames)
+        n_frames = n_frames or segments[-1].end
+        _, effects = apply_amendments(name, frame_labels(segments, n_frames), version)
+        report += [(name, e if status is None or e.status != "applied"
+                    else AmendmentEffect(e.amendment, status, e.frames_changed, e.previous))
+                   for e in effects]
+    return report

@@ -1,0 +1,166 @@
+"""Deterministic synthetic JIGSAWS-format Suturing release (the project's embedded default).
+
+Writes the official layout (76-column kinematics at 30 Hz, transcriptions with CRLF line ends and
+trailing spaces, meta file) for 8 users x 5 trials. Each trial follows the suturing grammar: reach
+(G1, sometimes G5), several throws of position / push / pull (G2, G3, G6) with adjustment gestures
+(G4, G8) and tightening (G9, G10) between them, and a final drop (G11). Kinematics move each
+patient-side arm towards a gesture-specific pose with a gesture-specific oscillation; users differ
+in speed, workspace offset and motion amplitude, trials in pose jitter, and every signal carries
+noise: learnable from context, but not from one sample.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .gestures import GESTURES
+from .release import KINEMATICS_HZ, kinematics_dir, meta_path, trial_name, transcriptions_dir
+
+SYNTH_USERS = ("B", "C", "D", "E", "F", "G", "H", "I")
+SYNTH_SKILLS = ("N", "I", "E", "E", "I", "N", "N", "N")
+TRIALS_PER_USER = 5
+
+#: Gesture -> (min, max) duration in 30 Hz frames before the user's speed factor.
+_DURATIONS = {"G1": (45, 110), "G2": (45, 140), "G3": (70, 170), "G4": (40, 100), "G5": (40, 90),
+              "G6": (70, 150), "G8": (40, 110), "G9": (30, 80), "G10": (30, 70), "G11": (45, 110)}
+
+
+@dataclass(frozen=True)
+class SynthConfig:
+    """Knobs of the generator; the defaults are the embedded demo release."""
+
+    seed: int = 0
+    users: tuple[str, ...] = SYNTH_USERS
+    trials_per_user: int = TRIALS_PER_USER
+    min_throws: int = 3
+    max_throws: int = 5
+    noise: float = 0.35          # measurement noise, in units of the typical pose separation
+    pose_jitter: float = 0.35    # per-trial perturbation of the gesture poses, same units
+
+
+def gesture_sequence(rng: np.random.Generator, config: SynthConfig) -> list[str]:
+    """Sample one trial's gesture sequence from the suturing grammar."""
+    seq = ["G1"] + (["G5"] if rng.random() < 0.5 else [])
+    for throw in range(rng.integers(config.min_throws, config.max_throws + 1)):
+        if throw > 0 and rng.random() < 0.5:
+            seq.append("G4" if rng.random() < 0.5 else "G8")
+        elif throw == 0 and rng.random() < 0.4:
+            seq.append("G8")
+        seq.append("G2")
+        if rng.random() < 0.15:
+            seq.append("G8")
+        seq.append("G3")
+        if rng.random() < 0.2:
+            seq.append("G4")
+        seq.append("G6")
+        if rng.random() < 0.25:
+            seq.append("G9" if rng.random() < 0.75 else "G10")
+    if rng.random() < 0.3:
+        seq.append("G4")
+    seq.append("G11")
+    return seq
+
+
+def _prototypes(seed: int) -> dict[str, dict[str, np.ndarray]]:
+    """Per-gesture motion prototype for both arms: pose [2, 3], gripper [2], wobble [2, 3], rate."""
+    rng = np.random.default_rng([seed, 7919])
+    protos = {}
+    for g in GESTURES:
+        protos[g] = {"pose": rng.normal(0.0, 1.0, (2, 3)), "grip": rng.uniform(-0.3, 1.2, 2),
+                     "wobble": rng.normal(0.0, 0.6, (2, 3)), "rate": rng.uniform(0.3, 1.5),
+                     "turn": rng.normal(0.0, 0.5, (2, 3))}
+    return protos
+
+
+def _segments(seq: list[str], rng: np.random.Generator, speed: float) -> list[tuple[str, int]]:
+    return [(g, max(8, int(rng.integers(*_DURATIONS[g]) * speed))) for g in seq]
+
+
+def _arm_signals(segments: list[tuple[str, int]], protos, rng: np.random.Generator,
+                 style: dict[str, np.ndarray], config: SynthConfig) -> np.ndarray:
+    """``[n_frames, 2, 19]`` patient-side signals per arm (release column order within an arm)."""
+    n = sum(d for _, d in segments)
+    target = np.empty((n, 2, 3))
+    grip = np.empty((n, 2))
+    wobble = np.empty((n, 2, 3))
+    turn = np.empty((n, 2, 3))
+    start = 0
+    for g, d in segments:
+        p = protos[g]
+        jitter = rng.normal(0.0, config.pose_jitter, (2, 3))
+        phase = np.arange(d)[:, None, None] / KINEMATICS_HZ * 2 * np.pi * p["rate"] * style["tempo"]
+        target[start:start + d] = p["pose"] + jitter
+        grip[start:start + d] = p["grip"] + rng.normal(0.0, 0.1, 2)
+        wobble[start:start + d] = p["wobble"] * np.sin(phase + rng.uniform(0, 2 * np.pi))
+        turn[start:start + d] = p["turn"] + rng.normal(0.0, 0.2, (2, 3))
+        start += d
+    # The arms approach each gesture's pose smoothly (first-order lag, ~0.4 s time constant).
+    alpha = 1.0 - np.exp(-1.0 / (0.4 * KINEMATICS_HZ))
+    pos = np.empty_like(target)
+    angles = np.empty_like(turn)
+    pos[0], angles[0] = target[0], turn[0]
+    for i in range(1, n):
+        pos[i] = pos[i - 1] + alpha * (target[i] - pos[i - 1])
+        angles[i] = angles[i - 1] + alpha * (turn[i] - angles[i - 1])
+    pos = pos + wobble * style["amplitude"]
+    pos = style["offset"] + 0.01 * pos + 0.01 * config.noise * rng.normal(0.0, 1.0, pos.shape)
+    grip = grip + 0.15 * config.noise * rng.normal(0.0, 1.0, grip.shape)
+    vel = np.gradient(pos, axis=0) * KINEMATICS_HZ + 0.002 * rng.normal(0.0, 1.0, pos.shape)
+    ang_vel = np.gradient(angles, axis=0) * KINEMATICS_HZ + 0.05 * rng.normal(0.0, 1.0, pos.shape)
+    rot = _rotation_matrices(angles).reshape(n, 2, 9)
+    return np.concatenate([pos, rot, vel, ang_vel, grip[..., None]], axis=2)
+
+
+def _rotation_matrices(angles: np.ndarray) -> np.ndarray:
+    """Z-Y-X Euler angles ``[..., 3]`` -> rotation matrices ``[..., 3, 3]``."""
+    a, b, c = (angles[..., i] for i in range(3))
+    ca, sa, cb, sb, cc, sc = np.cos(a), np.sin(a), np.cos(b), np.sin(b), np.cos(c), np.sin(c)
+    return np.stack([
+        np.stack([ca * cb, ca * sb * sc - sa * cc, ca * sb * cc + sa * sc], -1),
+        np.stack([sa * cb, sa * sb * sc + ca * cc, sa * sb * cc - ca * sc], -1),
+        np.stack([-sb, cb * sc, cb * cc], -1)], -2)
+
+
+def synth_trial(config: SynthConfig, user_index: int, trial: int
+                ) -> tuple[np.ndarray, list[tuple[int, int, str]]]:
+    """One trial: kinematics ``[n_frames, 76]`` at 30 Hz and its ``(start, end, gesture)`` lines."""
+    protos = _prototypes(config.seed)
+    user_rng = np.random.default_rng([config.seed, 1, user_index])
+    style = {"tempo": user_rng.uniform(0.7, 1.3), "amplitude": user_rng.uniform(0.6, 1.4),
+             "offset": user_rng.normal(0.0, 0.02, (2, 3)), "speed": user_rng.uniform(0.75, 1.35)}
+    rng = np.random.default_rng([config.seed, 2, user_index, trial])
+    segments = _segments(gesture_sequence(rng, config), rng, style["speed"])
+    lead, tail = int(rng.integers(15, 90)), int(rng.integers(0, 40))
+    slave = _arm_signals([("G1", lead)] + segments + [("G11", tail)], protos, rng, style, config)
+    master = slave.copy()
+    master[..., 0:3] = slave[..., 0:3] * 3.0 + 0.002 * rng.normal(0.0, 1.0, slave[..., 0:3].shape)
+    master[..., 12:15] *= 3.0
+    kinematics = np.concatenate([master.reshape(len(slave), 38), slave.reshape(len(slave), 38)], 1)
+    lines, frame = [], lead + 1
+    for g, d in segments:
+        lines.append((frame, frame + d - 1, g))
+        frame += d
+    return kinematics, lines
+
+
+def write_release(out: Path | str, config: SynthConfig = SynthConfig()) -> Path:
+    """Write a complete synthetic Suturing release under ``out`` and return ``out``."""
+    out = Path(out)
+    kinematics_dir(out).mkdir(parents=True, exist_ok=True)
+    transcriptions_dir(out).mkdir(parents=True, exist_ok=True)
+    meta_lines = []
+    for u, user in enumerate(config.users):
+        skill = SYNTH_SKILLS[u % len(SYNTH_SKILLS)]
+        grs_rng = np.random.default_rng([config.seed, 3, u])
+        for trial in range(1, config.trials_per_user + 1):
+            name = trial_name(user, trial)
+            kinematics, lines = synth_trial(config, u, trial)
+            np.savetxt(kinematics_dir(out) / f"{name}.txt", kinematics, fmt="%15.8f", delimiter=" ")
+            with open(transcriptions_dir(out) / f"{name}.txt", "wb") as f:
+                f.write("".join(f"{s} {e} {g} \r\n" for s, e, g in lines).encode())
+            items = grs_rng.integers(1, 6, 6)
+            meta_lines.append(f"{name}\t\t{skill}\t{items.sum()}\t\t" + "\t".join(map(str, items)))
+    meta_path(out).write_bytes(("\r\n".join(meta_lines) + "\r\n").encode())
+    return out
