@@ -22,6 +22,7 @@ setup(
     entry_points={
         "console_scripts": [
             "jigsaws-tools=jigsaws_tools.cli:main",
+            "baseline-train=baseline.cli:main",
         ],
     },
 )

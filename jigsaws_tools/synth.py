@@ -36,8 +36,8 @@ class SynthConfig:
     trials_per_user: int = TRIALS_PER_USER
     min_throws: int = 3
     max_throws: int = 5
-    noise: float = 0.35          # measurement noise, in units of the typical pose separation
-    pose_jitter: float = 0.35    # per-trial perturbation of the gesture poses, same units
+    noise: float = 1.0           # measurement noise, in units of the typical pose separation
+    pose_jitter: float = 0.8     # per-segment perturbation of the gesture poses, same units
 
 
 def gesture_sequence(rng: np.random.Generator, config: SynthConfig) -> list[str]:
@@ -71,6 +71,10 @@ def _prototypes(seed: int) -> dict[str, dict[str, np.ndarray]]:
         protos[g] = {"pose": rng.normal(0.0, 1.0, (2, 3)), "grip": rng.uniform(-0.3, 1.2, 2),
                      "wobble": rng.normal(0.0, 0.6, (2, 3)), "rate": rng.uniform(0.3, 1.5),
                      "turn": rng.normal(0.0, 0.5, (2, 3))}
+    # Related gestures look alike: the two adjustments, and tightening / loosening vs pulling.
+    for g, like in (("G8", "G4"), ("G9", "G6"), ("G10", "G6"), ("G5", "G1")):
+        for key in ("pose", "wobble", "turn"):
+            protos[g][key] = 0.6 * protos[like][key] + 0.4 * protos[g][key]
     return protos
 
 
@@ -164,3 +168,24 @@ def write_release(out: Path | str, config: SynthConfig = SynthConfig()) -> Path:
             meta_lines.append(f"{name}\t\t{skill}\t{items.sum()}\t\t" + "\t".join(map(str, items)))
     meta_path(out).write_bytes(("\r\n".join(meta_lines) + "\r\n").encode())
     return out
+
+
+def ensure_release(cache_dir: Path | str, config: SynthConfig = SynthConfig()) -> Path:
+    """The synthetic release for ``config`` under ``cache_dir``, written once (atomically)."""
+    import shutil
+    import tempfile
+
+    target = Path(cache_dir) / f"synthetic-seed{config.seed}" / "Suturing"
+    if target.is_dir():
+        return target
+    target.parent.parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(dir=target.parent.parent, prefix=".synthetic-"))
+    try:
+        write_release(staging / "Suturing", config)
+        staging.rename(target.parent)
+    except OSError:
+        if not target.is_dir():        # lost no race: a real failure
+            raise
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+    return target

@@ -1,0 +1,52 @@
+"""Model "A": DiPietro et al.'s BiLSTM gesture recogniser (and its forward-LSTM online twin)."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Callable, Sequence
+
+from jigsaws_tools.dataset import Dataset, Trial, load_dataset
+from jigsaws_tools.gestures import GESTURES
+from rnn_seg.model import SegmentationModel
+from rnn_seg.tasks import SoftmaxClassification, Task
+from rnn_seg.training import SequenceSet, Trainer
+
+from .config import RunConfig
+
+#: Trial attribute holding each task's integer labels.
+LABEL_FIELDS = {"gesture": "gestures", "progress": "progress"}
+
+
+def gesture_task() -> Task:
+    """10-way softmax over G1-G6, G8-G11 with mean cross-entropy."""
+    return SoftmaxClassification("gesture", GESTURES)
+
+
+def to_sequences(trials: Sequence[Trial], tasks: Sequence[Task]) -> SequenceSet:
+    """Trials -> the engine's named sequences with one label list per task."""
+    return SequenceSet(
+        names=[t.name for t in trials],
+        inputs=[t.inputs for t in trials],
+        labels={task.name: [getattr(t, LABEL_FIELDS[task.name]) for t in trials] for task in tasks},
+        frames=[t.frames for t in trials])
+
+
+TrainerFactory = Callable[..., Trainer]
+
+
+def build_trainer(config: RunConfig, tasks: Sequence[Task], run_dir: Path,
+                  dataset: Dataset | None = None, trainer: TrainerFactory = Trainer,
+                  extra_configs: dict | None = None, log: Callable[[str], None] = print) -> Trainer:
+    """Load the fold's data, build the model and return a ready ``Trainer`` for ``run_dir``."""
+    dataset = dataset or load_dataset(config.data)
+    train, test = dataset.louo_split(config.test_user)
+    model = SegmentationModel(dataset.num_features, config.encoder, tasks, config.train.seed)
+    configs = {"run": config, "tasks": [t.name for t in tasks], **(extra_configs or {})}
+    return trainer(model, tasks, config.optim, config.train, to_sequences(train, tasks),
+                   to_sequences(test, tasks), run_dir, configs,
+                   config.data.preprocessing.sample_hz, log=log)
+
+
+def train_baseline(config: RunConfig, run_dir: Path, dataset: Dataset | None = None,
+                   log: Callable[[str], None] = print) -> dict:
+    """Train model A on one fold; returns the run's metrics (see ``rnn_seg.training``)."""
+    return build_trainer(config, [gesture_task()], run_dir, dataset, log=log).run()

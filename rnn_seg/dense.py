@@ -1,0 +1,21 @@
+"""Fully connected output layer applied at every time step."""
+from __future__ import annotations
+
+import tensorflow as tf
+
+
+class Dense(tf.Module):
+    """``[B, T, D]`` -> ``[B, T, K]`` linear map; weights uniform in ``[-init_scale, init_scale]``.
+
+    The bias starts uniform too, as in DiPietro's logits layer (``b`` there takes the scope's
+    uniform initializer).
+    """
+
+    def __init__(self, input_size: int, output_size: int, init_scale: float,
+                 rng: tf.random.Generator, name: str):
+        super().__init__(name=name)
+        self.W = tf.Variable(rng.uniform([input_size, output_size], -init_scale, init_scale), name="W")
+        self.b = tf.Variable(rng.uniform([output_size], -init_scale, init_scale), name="b")
+
+    def __call__(self, features: tf.Tensor) -> tf.Tensor:
+        return tf.tensordot(features, self.W, 1) + self.b

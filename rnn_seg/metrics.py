@@ -1,0 +1,125 @@
+"""Frame-wise and segmental metrics of label sequences (all scores in percent).
+
+* accuracy: correctly labelled frames / frames.
+* edit score (Lea et al. 2017): ``100 * (1 - lev(P, Y) / max(|P|, |Y|))`` on the segment label
+  sequences P, Y (consecutive repeats collapsed); 100 when both are empty.
+* edit distance (DiPietro et al. 2016): the raw Levenshtein distance ``lev(P, Y)``.
+* F1@k (Lea et al.): each predicted segment is matched to the true segment of the same label with
+  the highest IoU; it is a true positive when that IoU >= k/100 and the true segment is still
+  unused, else a false positive; unused true segments are false negatives.
+  Reported per sequence and averaged (Lea's TCN code), or pooled: TP/FP/FN summed over sequences
+  before one F1 (MS-TCN's code). Tables name which.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+F1_OVERLAPS = (10, 25, 50)
+
+
+def segments(labels: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Run-length segments of ``[T]`` labels: ``(label [S], start [S], end [S])``, end exclusive."""
+    labels = np.asarray(labels)
+    if labels.size == 0:
+        empty = np.zeros(0, dtype=np.int64)
+        return empty, empty, empty
+    starts = np.flatnonzero(np.r_[True, labels[1:] != labels[:-1]])
+    ends = np.r_[starts[1:], labels.size]
+    return labels[starts], starts, ends
+
+
+def accuracy(pred: np.ndarray, true: np.ndarray) -> float:
+    return 100.0 * float(np.mean(np.asarray(pred) == np.asarray(true)))
+
+
+def levenshtein(a: Sequence[int], b: Sequence[int]) -> int:
+    """Edit distance (insertions, deletions, substitutions, each of cost 1)."""
+    row = np.arange(len(b) + 1)
+    for i, x in enumerate(a, start=1):
+        prev_diag, row[0] = row[0], i
+        for j, y in enumerate(b, start=1):
+            prev_diag, row[j] = row[j], min(row[j] + 1, row[j - 1] + 1, prev_diag + (x != y))
+    return int(row[-1])
+
+
+def edit_distance(pred: np.ndarray, true: np.ndarray) -> int:
+    """DiPietro's segment-level edit distance (unnormalised)."""
+    return levenshtein(segments(pred)[0].tolist(), segments(true)[0].tolist())
+
+
+def edit_score(pred: np.ndarray, true: np.ndarray) -> float:
+    p, y = segments(pred)[0].tolist(), segments(true)[0].tolist()
+    longest = max(len(p), len(y))
+    return 100.0 if longest == 0 else 100.0 * (1.0 - levenshtein(p, y) / longest)
+
+
+@dataclass(frozen=True)
+class SegmentCounts:
+    tp: int
+    fp: int
+    fn: int
+
+    def __add__(self, other: "SegmentCounts") -> "SegmentCounts":
+        return SegmentCounts(self.tp + other.tp, self.fp + other.fp, self.fn + other.fn)
+
+    @property
+    def f1(self) -> float:
+        """F1 in percent; 0 when there are no true positives."""
+        return 0.0 if self.tp == 0 else 100.0 * 2 * self.tp / (2 * self.tp + self.fp + self.fn)
+
+
+def overlap_counts(pred: np.ndarray, true: np.ndarray, overlap: float) -> SegmentCounts:
+    """TP / FP / FN of the overlap matching at IoU threshold ``overlap`` (a fraction, e.g. 0.1)."""
+    p_label, p_start, p_end = segments(pred)
+    y_label, y_start, y_end = segments(true)
+    used = np.zeros(len(y_label), dtype=bool)
+    tp = 0
+    for label, start, end in zip(p_label, p_start, p_end):
+        intersection = np.minimum(end, y_end) - np.maximum(start, y_start)
+        union = np.maximum(end, y_end) - np.minimum(start, y_start)
+        iou = np.where(y_label == label, np.clip(intersection, 0, None) / union, 0.0)
+        if iou.size == 0:
+            continue
+        best = int(np.argmax(iou))
+        if iou[best] >= overlap and not used[best]:
+            used[best] = True
+            tp += 1
+    return SegmentCounts(tp, len(p_label) - tp, len(y_label) - int(used.sum()))
+
+
+def f1_score(pred: np.ndarray, true: np.ndarray, k: int) -> float:
+    """F1@k (k in percent IoU) of one sequence."""
+    return overlap_counts(pred, true, k / 100.0).f1
+
+
+def class_accuracy(preds: Sequence[np.ndarray], trues: Sequence[np.ndarray], num_classes: int
+                   ) -> np.ndarray:
+    """``[num_classes]`` percent of each true class's frames labelled correctly; NaN if absent."""
+    pred, true = np.concatenate(preds), np.concatenate(trues)
+    hits = np.bincount(true[pred == true], minlength=num_classes)
+    totals = np.bincount(true, minlength=num_classes)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(totals > 0, 100.0 * hits / totals, np.nan)
+
+
+def segmentation_metrics(preds: Sequence[np.ndarray], trues: Sequence[np.ndarray]
+                         ) -> dict[str, float]:
+    """Metrics over several sequences.
+
+    ``accuracy``, ``edit``, ``edit_distance`` and ``f1@k`` are means of per-sequence values (as in
+    Lea et al. and DiPietro et al.); ``accuracy_pooled`` counts frames over all sequences and
+    ``f1@k_pooled`` sums TP/FP/FN over all sequences first (as MS-TCN does).
+    """
+    pairs = list(zip(preds, trues))
+    out = {"accuracy": float(np.mean([accuracy(p, y) for p, y in pairs])),
+           "accuracy_pooled": accuracy(np.concatenate(preds), np.concatenate(trues)),
+           "edit": float(np.mean([edit_score(p, y) for p, y in pairs])),
+           "edit_distance": float(np.mean([edit_distance(p, y) for p, y in pairs]))}
+    for k in F1_OVERLAPS:
+        counts = [overlap_counts(p, y, k / 100.0) for p, y in pairs]
+        out[f"f1@{k}"] = float(np.mean([c.f1 for c in counts]))
+        out[f"f1@{k}_pooled"] = sum(counts, SegmentCounts(0, 0, 0)).f1
+    return out

@@ -1,0 +1,85 @@
+"""Tasks: what a head predicts, its training targets, loss and decoding.
+
+A task maps integer labels ``[T]`` per sequence to float targets ``[T, K]``, scores a head's raw
+outputs ``[B, T, K]`` with a loss averaged over every time step of the sweep, and decodes outputs
+``[T, K]`` back to integer labels ``[T]``.
+"""
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+import tensorflow as tf
+
+
+class Task:
+    """Base class; subclasses fix the encoding, loss and decoding."""
+
+    #: Whether the classes are ordered stages (plotted as a line of truth vs prediction too).
+    ordered = False
+
+    def __init__(self, name: str, class_names: Sequence[str]):
+        self.name = name
+        self.class_names = tuple(class_names)
+
+    @property
+    def num_classes(self) -> int:
+        return len(self.class_names)
+
+    @property
+    def num_outputs(self) -> int:
+        return self.num_classes
+
+    def encode(self, labels: np.ndarray) -> np.ndarray:
+        """Integer labels ``[..., T]`` -> float32 targets ``[..., T, num_outputs]``."""
+        raise NotImplementedError
+
+    def loss(self, outputs: tf.Tensor, targets: tf.Tensor) -> tf.Tensor:
+        """Scalar mean loss over every step of ``outputs`` ``[B, T, K]``."""
+        raise NotImplementedError
+
+    def scores(self, outputs: np.ndarray) -> np.ndarray:
+        """Raw outputs ``[T, K]`` -> per-step scores written next to predictions (``[T, K]``)."""
+        raise NotImplementedError
+
+    def decode(self, outputs: np.ndarray) -> np.ndarray:
+        """Raw outputs ``[T, K]`` -> integer labels ``[T]``."""
+        raise NotImplementedError
+
+    def score_columns(self) -> list[str]:
+        return [f"p_{c}" for c in self.class_names]
+
+    def extra_metrics(self, outputs: Sequence[np.ndarray], labels: Sequence[np.ndarray]
+                      ) -> dict[str, float]:
+        """Task-specific metrics beyond the segmentation ones (none by default)."""
+        return {}
+
+
+class SoftmaxClassification(Task):
+    """Softmax over classes, mean cross-entropy, arg-max decoding (DiPietro's gesture head)."""
+
+    def encode(self, labels):
+        return np.eye(self.num_classes, dtype=np.float32)[labels]
+
+    def loss(self, outputs, targets):
+        return tf.reduce_mean(tf.nn.softmax_cross_entropy_with_logits(targets, outputs))
+
+    def scores(self, outputs):
+        e = np.exp(outputs - outputs.max(axis=-1, keepdims=True))
+        return e / e.sum(axis=-1, keepdims=True)
+
+    def decode(self, outputs):
+        return np.argmax(outputs, axis=-1)
+
+
+def task_metrics(task: Task, outputs: Sequence[np.ndarray], labels: Sequence[np.ndarray]
+                 ) -> dict[str, float]:
+    """Segmentation metrics of decoded outputs against labels, plus the task's own extras."""
+    from .metrics import class_accuracy, segmentation_metrics
+
+    preds = [task.decode(o) for o in outputs]
+    metrics = segmentation_metrics(preds, labels)
+    per_class = class_accuracy(preds, labels, task.num_classes)
+    metrics.update({f"accuracy_{c}": float(a) for c, a in zip(task.class_names, per_class)})
+    metrics.update(task.extra_metrics(outputs, labels))
+    return metrics

@@ -1,0 +1,249 @@
+"""Training loop over sweeps: progress output, checkpoints with resume, evaluation points.
+
+A run directory holds::
+
+    config.json                  every configuration dataclass of the run
+    checkpoints/                 TF checkpoints (model, optimiser state, dropout RNG, sweep count)
+    history.csv                  one line per logged epoch / unit
+    eval/<unit><N>/metrics.json  test metrics at evaluation point N
+    eval/<unit><N>/predictions/<sequence>.csv, plots/<sequence>.png
+    metrics.json                 every evaluation point and their mean
+    finished.json                written last; a run without it is incomplete and will resume
+"""
+from __future__ import annotations
+
+import csv
+import json
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Literal, Sequence
+
+import numpy as np
+import pandas as pd
+import tensorflow as tf
+
+from .model import SegmentationModel
+from .optim import SGD, OptimConfig
+from .plots import plot_sequence
+from .rundir import is_finished, mark_finished, write_atomic, write_json
+from .sweeps import make_sweep, reset_flags, sweep_indices, sweeps_per_epoch
+from .tasks import Task, task_metrics
+
+PredictionMode = Literal["sweep", "per_sequence"]
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """Batching, seeding and what a run writes."""
+
+    batch_size: int = 5
+    seed: int = 0
+    eval_points: tuple[int, ...] = (100, 110, 120)   # in the schedule's unit; () = at the end
+    prediction: PredictionMode = "sweep"
+    log_every: int = 1                               # units between progress lines
+    checkpoint_every: int = 1                        # units between checkpoints
+    plots: bool = True
+
+
+@dataclass
+class SequenceSet:
+    """Named sequences: inputs ``[T_i, F]`` float32, integer labels ``[T_i]`` per task, and the
+    source frame number ``[T_i]`` of each sample (written next to predictions)."""
+
+    names: list[str]
+    inputs: list[np.ndarray]
+    labels: dict[str, list[np.ndarray]]
+    frames: list[np.ndarray] = field(default_factory=list)
+
+    def __len__(self) -> int:
+        return len(self.names)
+
+
+def predict(model: SegmentationModel, inputs: Sequence[np.ndarray], mode: PredictionMode
+            ) -> dict[str, list[np.ndarray]]:
+    """Raw head outputs ``[T_i, K]`` per sequence, without dropout.
+
+    ``sweep`` (DiPietro's way): all sequences in one wrapped sweep, outputs cut to each length; in
+    ``original`` reset mode the reverse direction of a wrapped sequence then starts its last frames
+    from the state of the following copy. ``per_sequence``: each sequence alone, no wrapping.
+    """
+    groups = [list(range(len(inputs)))] if mode == "sweep" else [[i] for i in range(len(inputs))]
+    out: dict[str, list[np.ndarray]] = {name: [None] * len(inputs) for name in model.heads}
+    for group in groups:
+        lengths = [len(inputs[i]) for i in group]
+        duration = max(lengths)
+        x = tf.constant(make_sweep([inputs[i] for i in group], duration))
+        r = tf.constant(reset_flags(lengths, duration))
+        outputs = _forward(model, x, r)
+        for name, value in outputs.items():
+            for row, i in enumerate(group):
+                out[name][i] = value[row, :lengths[row]].numpy()
+    return out
+
+
+@tf.function(reduce_retracing=True)
+def _forward(model, x, r):
+    return model(x, r, None)
+
+
+class Trainer:
+    """Trains ``model`` on ``train`` with a weighted sum of task losses; evaluates on ``test``.
+
+    Subclasses change how task weights are chosen by overriding ``_train_step`` and may register
+    further checkpointed state in ``extra_state``.
+    """
+
+    def __init__(self, model: SegmentationModel, tasks: Sequence[Task], optim: OptimConfig,
+                 config: TrainConfig, train: SequenceSet, test: SequenceSet, run_dir: Path,
+                 configs: dict, sample_hz: float, log: Callable[[str], None] = print):
+        self.model, self.tasks, self.optim, self.config = model, list(tasks), optim, config
+        self.train, self.test, self.run_dir, self.log = train, test, Path(run_dir), log
+        self.sample_hz = sample_hz
+        self.variables = model.trainable_variables
+        self.sgd = SGD(self.variables, optim.momentum, optim.clip_norm)
+        self.dropout_rng = tf.random.Generator.from_seed(config.seed + 1_000_003)
+        self.sweep = tf.Variable(0, dtype=tf.int64, trainable=False, name="sweep")
+        self.spe = sweeps_per_epoch(len(train), config.batch_size)
+        self.total_sweeps = optim.sweeps(optim.total, self.spe)
+        points = config.eval_points or (optim.total,)
+        if max(points) > optim.total:
+            raise ValueError(f"evaluation point {max(points)} is beyond the {optim.total} "
+                             f"{optim.unit} of training")
+        self.eval_sweeps = {optim.sweeps(p, self.spe): p for p in points}
+        write_json(self.run_dir / "config.json", configs)
+        self._targets = {t.name: [t.encode(y) for y in train.labels[t.name]] for t in self.tasks}
+
+    # -- state ---------------------------------------------------------------------------------
+    def extra_state(self) -> dict:
+        return {}
+
+    def _checkpoint_manager(self) -> tf.train.CheckpointManager:
+        checkpoint = tf.train.Checkpoint(model=self.model, sgd=self.sgd, sweep=self.sweep,
+                                         dropout_rng=self.dropout_rng, **self.extra_state())
+        return tf.train.CheckpointManager(checkpoint, self.run_dir / "checkpoints", max_to_keep=2)
+
+    # -- one step ------------------------------------------------------------------------------
+    def _task_losses(self, inputs, resets, targets):
+        outputs = self.model(inputs, resets, self.dropout_rng)
+        return tf.stack([t.loss(outputs[t.name], y) for t, y in zip(self.tasks, targets)])
+
+    @tf.function(reduce_retracing=True)
+    def _train_step(self, inputs, resets, targets, learning_rate):
+        """One SGD step on the unweighted sum of task losses; returns the task losses ``[n_tasks]``."""
+        with tf.GradientTape() as tape:
+            losses = self._task_losses(inputs, resets, targets)
+            total = tf.reduce_sum(losses)
+        self.sgd.apply(tape.gradient(total, self.variables), self.variables, learning_rate)
+        return losses
+
+    def _batch(self, sweep: int):
+        idx = sweep_indices(len(self.train), self.config.batch_size, self.config.seed, sweep)
+        lengths = [len(self.train.inputs[i]) for i in idx]
+        duration = max(lengths)
+        inputs = make_sweep([self.train.inputs[i] for i in idx], duration)
+        targets = tuple(tf.constant(make_sweep([self._targets[t.name][i] for i in idx], duration))
+                        for t in self.tasks)
+        return tf.constant(inputs), tf.constant(reset_flags(lengths, duration)), targets
+
+    # -- the loop ------------------------------------------------------------------------------
+    def run(self) -> dict:
+        """Train to the end (resuming from the last checkpoint) and return ``metrics.json``'s content."""
+        if is_finished(self.run_dir):
+            self.log(f"{self.run_dir}: already finished")
+            return json.loads((self.run_dir / "metrics.json").read_text())
+        manager = self._checkpoint_manager()
+        if manager.latest_checkpoint:
+            manager.checkpoint.restore(manager.latest_checkpoint).assert_existing_objects_matched()
+            self.log(f"resuming from sweep {int(self.sweep.numpy())} ({manager.latest_checkpoint})")
+        unit_sweeps = self.optim.sweeps(1, self.spe)
+        losses, started = [], time.time()
+        for sweep in range(int(self.sweep.numpy()), self.total_sweeps):
+            lr = self.optim.learning_rate_at(sweep, self.spe)
+            losses.append(self._train_step(*self._batch(sweep), tf.constant(lr, tf.float32)).numpy())
+            done = sweep + 1
+            self.sweep.assign(done)
+            if done % (unit_sweeps * self.config.log_every) == 0 or done == self.total_sweeps:
+                self._log_progress(done, lr, np.mean(losses, axis=0), time.time() - started)
+                losses = []
+            if done in self.eval_sweeps:
+                self._evaluate(self.eval_sweeps[done])
+            if done % (unit_sweeps * self.config.checkpoint_every) == 0 or done == self.total_sweeps:
+                manager.save(checkpoint_number=done)
+        return self._finish()
+
+    def _log_progress(self, done: int, lr: float, losses: np.ndarray, elapsed: float) -> None:
+        unit = done / self.optim.sweeps(1, self.spe)
+        train = self._quick_metrics(self.train)
+        test = self._quick_metrics(self.test)
+        row = {"unit": self.optim.unit, "n": round(unit, 3), "sweep": done, "lr": lr,
+               **{f"loss_{t.name}": float(v) for t, v in zip(self.tasks, losses)},
+               **{f"train_{k}": v for k, v in train.items()},
+               **{f"test_{k}": v for k, v in test.items()}, "seconds": round(elapsed, 1)}
+        self._append_history(row)
+        shown = " ".join(f"{k}={v:.3f}" if isinstance(v, float) else f"{k}={v}"
+                         for k, v in row.items() if k not in ("unit", "n", "sweep"))
+        self.log(f"[{self.run_dir.name}] {self.optim.unit[:-1]} {unit:g}/{self.optim.total} "
+                 f"sweep {done}/{self.total_sweeps} {shown}")
+
+    def _quick_metrics(self, data: SequenceSet) -> dict[str, float]:
+        """Accuracy and edit score of every task (for progress lines)."""
+        outputs = predict(self.model, data.inputs, self.config.prediction)
+        out = {}
+        for t in self.tasks:
+            m = task_metrics(t, outputs[t.name], data.labels[t.name])
+            out[f"{t.name}_acc"], out[f"{t.name}_edit"] = m["accuracy"], m["edit"]
+        return out
+
+    def _append_history(self, row: dict) -> None:
+        path = self.run_dir / "history.csv"
+        new = not path.exists()
+        with open(path, "a", newline="") as f:
+            writer = csv.DictWriter(f, fieldnames=list(row))
+            if new:
+                writer.writeheader()
+            writer.writerow(row)
+
+    def _evaluate(self, point: int) -> None:
+        """Write predictions, plots and metrics of the test set at evaluation point ``point``."""
+        folder = self.run_dir / "eval" / f"{self.optim.unit[:-1]}{point:04d}"
+        outputs = predict(self.model, self.test.inputs, self.config.prediction)
+        metrics = {t.name: task_metrics(t, outputs[t.name], self.test.labels[t.name])
+                   for t in self.tasks}
+        for i, name in enumerate(self.test.names):
+            true = {t.name: self.test.labels[t.name][i] for t in self.tasks}
+            pred = {t.name: t.decode(outputs[t.name][i]) for t in self.tasks}
+            columns = {"frame": self.test.frames[i] if self.test.frames else np.arange(len(
+                self.test.inputs[i]))}
+            for t in self.tasks:
+                columns[f"{t.name}_true"] = true[t.name]
+                columns[f"{t.name}_pred"] = pred[t.name]
+                columns.update(zip([f"{t.name}_{c}" for c in t.score_columns()],
+                                   t.scores(outputs[t.name][i]).T))
+            write_atomic(folder / "predictions" / f"{name}.csv",
+                         pd.DataFrame(columns).to_csv(index=False, float_format="%.5f"))
+            if self.config.plots:
+                plot_sequence(f"{name} - {self.optim.unit[:-1]} {point}", self.tasks, true, pred,
+                              folder / "plots" / f"{name}.png", self.sample_hz)
+        write_json(folder / "metrics.json", {"point": point, "unit": self.optim.unit,
+                                             "metrics": metrics})
+        summary = ", ".join(f"{t.name} acc {metrics[t.name]['accuracy']:.1f} edit "
+                            f"{metrics[t.name]['edit']:.1f} F1@10 {metrics[t.name]['f1@10']:.1f}"
+                            for t in self.tasks)
+        self.log(f"[{self.run_dir.name}] evaluation at {self.optim.unit[:-1]} {point}: {summary}")
+
+    def _finish(self) -> dict:
+        points = sorted(self.eval_sweeps.values())
+        per_point = {p: _read_point(self.run_dir, self.optim.unit, p) for p in points}
+        mean = {task: {k: float(np.mean([per_point[p][task][k] for p in points]))
+                       for k in per_point[points[0]][task]}
+                for task in per_point[points[0]]}
+        result = {"points": per_point, "mean": mean, "unit": self.optim.unit}
+        write_json(self.run_dir / "metrics.json", result)
+        mark_finished(self.run_dir, {"sweeps": self.total_sweeps})
+        return result
+
+
+def _read_point(run_dir: Path, unit: str, point: int) -> dict:
+    path = run_dir / "eval" / f"{unit[:-1]}{point:04d}" / "metrics.json"
+    return json.loads(path.read_text())["metrics"]
