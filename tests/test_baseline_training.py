@@ -1,0 +1,108 @@
+"""Model A trains, writes its outputs, resumes after interruption, and runs at paper size."""
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from baseline.cli import main as baseline_main
+from baseline.config import RunConfig
+from baseline.model import train_baseline
+from jigsaws_tools.dataset import DataConfig, load_dataset
+from rnn_seg.lstm import EncoderConfig
+from rnn_seg.optim import OptimConfig
+from rnn_seg.rundir import is_finished
+from rnn_seg.training import Trainer, TrainConfig
+
+
+def _config(data_dir, epochs=12, hidden=32, eval_points=(), bidirectional=True, **train):
+    return RunConfig(data=DataConfig(str(data_dir)), test_user="B",
+                     encoder=EncoderConfig(hidden=hidden, bidirectional=bidirectional),
+                     optim=OptimConfig(total=epochs, decay_start=(2 * epochs) // 3, decay_every=100),
+                     train=TrainConfig(seed=0, eval_points=eval_points, **train))
+
+
+def _majority_accuracy(trials):
+    gestures = np.concatenate([t.gestures for t in trials])
+    return 100.0 * np.bincount(gestures).max() / len(gestures)
+
+
+@pytest.mark.parametrize("bidirectional", [True, False])
+def test_model_a_beats_majority_on_held_out_user(synth_dir, tmp_path, bidirectional):
+    config = _config(synth_dir, bidirectional=bidirectional)
+    result = train_baseline(config, tmp_path / "run", log=lambda m: None)
+    _, test = load_dataset(config.data).louo_split("B")
+    chance = _majority_accuracy(test)
+    assert result["mean"]["gesture"]["accuracy"] > chance + 30, (result["mean"], chance)
+
+
+def test_run_outputs(synth_dir, tmp_path):
+    run = tmp_path / "run"
+    train_baseline(_config(synth_dir, epochs=3, eval_points=(2, 3)), run, log=lambda m: None)
+    assert is_finished(run)
+    config = json.loads((run / "config.json").read_text())
+    assert config["run"]["encoder"]["hidden"] == 32 and config["tasks"] == ["gesture"]
+    metrics = json.loads((run / "metrics.json").read_text())
+    assert set(metrics["points"]) == {"2", "3"}
+    assert metrics["mean"]["gesture"]["accuracy"] == pytest.approx(
+        np.mean([metrics["points"][p]["gesture"]["accuracy"] for p in ("2", "3")]))
+    for point in ("epoch0002", "epoch0003"):
+        csvs = sorted((run / "eval" / point / "predictions").glob("*.csv"))
+        assert [p.stem for p in csvs] == [f"Suturing_B00{i}" for i in range(1, 6)]
+        table = pd.read_csv(csvs[0])
+        assert list(table.columns[:3]) == ["frame", "gesture_true", "gesture_pred"]
+        np.testing.assert_allclose(table.filter(like="gesture_p_").sum(axis=1), 1.0, atol=1e-3)
+        assert len(list((run / "eval" / point / "plots").glob("*.png"))) == 5
+    history = pd.read_csv(run / "history.csv")
+    assert list(history["n"]) == [1, 2, 3]
+    assert list((run / "checkpoints").glob("ckpt-*.index"))
+
+
+class _Interrupt(Exception):
+    pass
+
+
+def test_resume_after_interruption_matches_uninterrupted(synth_dir, tmp_path, monkeypatch):
+    config = _config(synth_dir, epochs=4, eval_points=(4,), plots=False)
+    straight = tmp_path / "straight"
+    train_baseline(config, straight, log=lambda m: None)
+
+    resumed = tmp_path / "resumed"
+    original = Trainer._log_progress
+
+    def crash_at_epoch_3(self, done, *args):
+        if done == 3 * self.spe:
+            raise _Interrupt
+        original(self, done, *args)
+
+    monkeypatch.setattr(Trainer, "_log_progress", crash_at_epoch_3)
+    with pytest.raises(_Interrupt):
+        train_baseline(config, resumed, log=lambda m: None)
+    assert not is_finished(resumed) and not (resumed / "metrics.json").exists()
+    monkeypatch.setattr(Trainer, "_log_progress", original)
+    messages = []
+    train_baseline(config, resumed, log=messages.append)
+    assert any("resuming from sweep" in m for m in messages)
+    assert list(pd.read_csv(resumed / "history.csv")["n"]) == [1, 2, 3, 4]
+    for csv in (straight / "eval/epoch0004/predictions").glob("*.csv"):
+        a, b = pd.read_csv(csv), pd.read_csv(resumed / "eval/epoch0004/predictions" / csv.name)
+        np.testing.assert_allclose(a.to_numpy(), b.to_numpy(), atol=1e-4)
+    # a finished run is not trained again
+    messages.clear()
+    train_baseline(config, resumed, log=messages.append)
+    assert messages == [f"{resumed}: already finished"]
+
+
+def test_cli_paper_size_two_sweeps(synth_dir, tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("JIGSAWS_DIR", str(synth_dir))
+    code = baseline_main(["--sweeps", "2", "--out", str(tmp_path / "paper"), "--no-plots",
+                          "--test-user", "C"])
+    assert code == 0
+    out = capsys.readouterr().out
+    assert "hidden=1024" in out and "done: gesture accuracy" in out
+    assert json.loads((tmp_path / "paper/config.json").read_text())["run"]["optim"]["unit"] == "sweeps"
+
+
+def test_cli_reports_bad_input(tmp_path, capsys):
+    assert baseline_main(["--data-dir", str(tmp_path / "nope"), "--out", str(tmp_path / "r")]) == 2
+    assert "not found" in capsys.readouterr().err

@@ -1,0 +1,133 @@
+"""The TF LSTM layer against the NumPy reference: outputs and gradients, both reset modes."""
+import numpy as np
+import pytest
+import tensorflow as tf
+
+from rnn_seg.lstm import EncoderConfig, RecurrentEncoder, reverse_resets
+from rnn_seg.sweeps import make_sweep, reset_flags
+from tests.lstm_reference import bidirectional_forward, lstm_forward
+
+F, H = 3, 6
+
+
+def _encoder(mode, bidirectional=True, layers=1):
+    config = EncoderConfig(hidden=H, layers=layers, bidirectional=bidirectional, keep_prob=1.0,
+                           reset_mode=mode)
+    enc = RecurrentEncoder(F, config, tf.random.Generator.from_seed(3))
+    for cells in enc.cells.values():     # non-zero biases so they are checked too
+        for cell in cells:
+            cell.b.assign(tf.random.stateless_uniform(cell.b.shape, [1, 2], -0.1, 0.1))
+    return enc
+
+
+def _params(cell):
+    return tuple(v.numpy().astype(np.float64) for v in (cell.W_x, cell.W_h, cell.peep, cell.b))
+
+
+def _wrapped_batch():
+    rng = np.random.default_rng(0)
+    seqs = [rng.normal(size=(n, F)).astype(np.float32) for n in (7, 3, 5)]
+    lengths = [len(s) for s in seqs]
+    return make_sweep(seqs), reset_flags(lengths, max(lengths))
+
+
+@pytest.mark.parametrize("mode", ["original", "corrected"])
+def test_bidirectional_outputs_match_reference(mode):
+    enc = _encoder(mode)
+    x, r = _wrapped_batch()
+    got = enc(tf.constant(x), tf.constant(r), None).numpy()
+    want = bidirectional_forward(x.astype(np.float64), r, _params(enc.cells["fw"][0]),
+                                 _params(enc.cells["rv"][0]), mode)
+    np.testing.assert_allclose(got, want, atol=1e-5)
+
+
+def test_reset_modes_differ_only_where_the_original_resets_the_reverse_state():
+    """Original: the reverse state restarts before each copy's first frame, so that frame sees only
+    itself in reverse; a wrapped copy's last frames carry state from the next copy. The longest
+    sequence (no wrap) differs between the modes at its first frame only."""
+    x, r = _wrapped_batch()
+    a = _encoder("original")(tf.constant(x), tf.constant(r), None).numpy()
+    b = _encoder("corrected")(tf.constant(x), tf.constant(r), None).numpy()
+    np.testing.assert_allclose(a[..., :H], b[..., :H], atol=1e-6)   # forward identical
+    np.testing.assert_allclose(a[0, 1:, H:], b[0, 1:, H:], atol=1e-6)
+    assert not np.allclose(a[0, 0, H:], b[0, 0, H:])
+    assert not np.allclose(a[1, 1:3, H:], b[1, 1:3, H:])           # wrapped: state leaks in
+
+
+def test_corrected_reverse_equals_each_sequence_alone():
+    rng = np.random.default_rng(1)
+    seqs = [rng.normal(size=(n, F)).astype(np.float32) for n in (6, 4)]
+    enc = _encoder("corrected")
+    x, r = make_sweep(seqs), reset_flags([6, 4], 6)
+    together = enc(tf.constant(x), tf.constant(r), None).numpy()
+    alone = enc(tf.constant(seqs[1][None]), tf.constant(reset_flags([4], 4)), None).numpy()
+    np.testing.assert_allclose(together[1, :4], alone[0], atol=1e-6)
+
+
+def test_reverse_resets_corrected_marks_last_frames():
+    r = tf.constant(reset_flags([3, 2], 5))
+    np.testing.assert_array_equal(reverse_resets(r, "corrected").numpy(),
+                                  [[0, 0, 1, 0, 1], [0, 1, 0, 1, 1]])
+
+
+@pytest.mark.parametrize("mode", ["original", "corrected"])
+def test_gradients_match_reference(mode):
+    """d(sum of outputs * weights)/d(params) against central finite differences of the reference."""
+    enc = _encoder(mode)
+    x, r = _wrapped_batch()
+    readout = np.random.default_rng(2).normal(size=(x.shape[0], x.shape[1], 2 * H))
+    with tf.GradientTape() as tape:
+        y = enc(tf.constant(x), tf.constant(r), None)
+        loss = tf.reduce_sum(y * readout)
+    variables = [enc.cells["fw"][0].W_h, enc.cells["rv"][0].peep, enc.cells["rv"][0].W_x,
+                 enc.cells["fw"][0].b]
+    grads = [g.numpy() for g in tape.gradient(loss, variables)]
+
+    def ref_loss():
+        out = bidirectional_forward(x.astype(np.float64), r, _params(enc.cells["fw"][0]),
+                                    _params(enc.cells["rv"][0]), mode)
+        return float(np.sum(out * readout))
+
+    rng = np.random.default_rng(3)
+    for var, grad in zip(variables, grads):
+        base = var.numpy()
+        for _ in range(4):
+            idx = tuple(rng.integers(0, s) for s in base.shape)
+            eps = 1e-3
+            for sign in (+1, -1):
+                bumped = base.copy()
+                bumped[idx] += sign * eps
+                var.assign(bumped)
+                if sign > 0:
+                    up = ref_loss()
+                else:
+                    down = ref_loss()
+            var.assign(base)
+            np.testing.assert_allclose(grad[idx], (up - down) / (2 * eps), rtol=2e-2, atol=2e-3)
+
+
+def test_two_layers_forward_only_matches_reference():
+    enc = _encoder("original", bidirectional=False, layers=2)
+    x, r = _wrapped_batch()
+    got = enc(tf.constant(x), tf.constant(r), None).numpy()
+    h1 = lstm_forward(x.astype(np.float64), r, *_params(enc.cells["fw"][0]))
+    want = lstm_forward(h1, r, *_params(enc.cells["fw"][1]))
+    assert got.shape == (3, 7, H)
+    np.testing.assert_allclose(got, want, atol=1e-5)
+
+
+def test_dropout_only_in_training_and_independent_per_step():
+    config = EncoderConfig(hidden=32, keep_prob=0.5)
+    enc = RecurrentEncoder(16, config, tf.random.Generator.from_seed(0))
+    x = tf.random.stateless_normal([4, 30, 16], [0, 1])
+    r = tf.zeros([4, 30], bool)
+    clean = enc(x, r, None).numpy()
+    np.testing.assert_array_equal(clean, enc(x, r, None).numpy())
+    assert np.all(clean != 0)
+    dropped = enc(x, r, tf.random.Generator.from_seed(1)).numpy() == 0
+    assert 0.4 < dropped.mean() < 0.6            # output dropout at keep 0.5
+    varies_in_time = dropped.any(axis=1) & ~dropped.all(axis=1)
+    assert varies_in_time.mean() > 0.95          # a fresh mask at every step, not across time
+    init = config.init_scale
+    w = enc.cells["fw"][0].W_h.numpy()
+    assert np.abs(w).max() <= init and np.all(enc.cells["fw"][0].b.numpy() == 0)
