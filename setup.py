@@ -23,6 +23,7 @@ setup(
         "console_scripts": [
             "jigsaws-tools=jigsaws_tools.cli:main",
             "baseline-train=baseline.cli:main",
+            "multitask-train=multitask.cli:main",
         ],
     },
 )

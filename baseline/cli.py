@@ -57,15 +57,18 @@ def add_run_arguments(parser: argparse.ArgumentParser, optim: OptimConfig) -> No
     run.add_argument("--seed", type=int, default=0)
     run.add_argument("--eval-at", default=None,
                      help="comma-separated evaluation points in the schedule's unit "
-                          "(default 100,110,120 for 120 epochs, else the final unit)")
+                          "(default: the paper's, e.g. 100,110,120 of 120 epochs; the final "
+                          "unit when --epochs/--sweeps change the length)")
     run.add_argument("--prediction", choices=("sweep", "per_sequence"), default="sweep")
     run.add_argument("--no-plots", action="store_true")
     run.add_argument("--threads", type=int, default=0, help="TF threads (0 = all cores)")
     run.add_argument("--out", type=Path, required=True, help="run directory")
 
 
-def run_config_from_args(args: argparse.Namespace, optim: OptimConfig) -> RunConfig:
-    """Build the run's configuration from parsed options over the defaults in ``optim``."""
+def run_config_from_args(args: argparse.Namespace, optim: OptimConfig,
+                         eval_points: tuple[int, ...] = (100, 110, 120)) -> RunConfig:
+    """Build the run's configuration from parsed options over the defaults in ``optim``;
+    ``eval_points`` apply when the schedule keeps its default length, else the last unit."""
     if args.synthetic:
         data_dir = ensure_release(default_cache_dir(), SynthConfig(seed=args.synthetic_seed))
     else:
@@ -77,7 +80,7 @@ def run_config_from_args(args: argparse.Namespace, optim: OptimConfig) -> RunCon
     if args.eval_at:
         eval_points = tuple(int(p) for p in args.eval_at.split(","))
     else:
-        eval_points = (100, 110, 120) if default_length and total == 120 else (total,)
+        eval_points = eval_points if default_length else (total,)
     return RunConfig(
         data=DataConfig(str(data_dir), feature_set=args.features, annotations=args.annotations),
         test_user=args.test_user,

@@ -90,8 +90,8 @@ def _forward(model, x, r):
 class Trainer:
     """Trains ``model`` on ``train`` with a weighted sum of task losses; evaluates on ``test``.
 
-    Subclasses change how task weights are chosen by overriding ``_train_step`` and may register
-    further checkpointed state in ``extra_state``.
+    Subclasses change how task weights are chosen by overriding ``_step``, may register further
+    checkpointed state in ``extra_state`` and write their own per-unit logs in ``_on_log``.
     """
 
     def __init__(self, model: SegmentationModel, tasks: Sequence[Task], optim: OptimConfig,
@@ -137,6 +137,13 @@ class Trainer:
         self.sgd.apply(tape.gradient(total, self.variables), self.variables, learning_rate)
         return losses
 
+    def _step(self, inputs, resets, targets, learning_rate: float) -> np.ndarray:
+        """One training sweep; returns the task losses ``[n_tasks]``."""
+        return self._train_step(inputs, resets, targets, tf.constant(learning_rate, tf.float32)).numpy()
+
+    def _on_log(self, done: int) -> None:
+        """Called at every progress line (after ``done`` sweeps); for subclasses' own logs."""
+
     def _batch(self, sweep: int):
         idx = sweep_indices(len(self.train), self.config.batch_size, self.config.seed, sweep)
         lengths = [len(self.train.inputs[i]) for i in idx]
@@ -160,7 +167,7 @@ class Trainer:
         losses, started = [], time.time()
         for sweep in range(int(self.sweep.numpy()), self.total_sweeps):
             lr = self.optim.learning_rate_at(sweep, self.spe)
-            losses.append(self._train_step(*self._batch(sweep), tf.constant(lr, tf.float32)).numpy())
+            losses.append(self._step(*self._batch(sweep), lr))
             done = sweep + 1
             self.sweep.assign(done)
             if done % (unit_sweeps * self.config.log_every) == 0 or done == self.total_sweeps:
@@ -181,6 +188,7 @@ class Trainer:
                **{f"train_{k}": v for k, v in train.items()},
                **{f"test_{k}": v for k, v in test.items()}, "seconds": round(elapsed, 1)}
         self._append_history(row)
+        self._on_log(done)
         shown = " ".join(f"{k}={v:.3f}" if isinstance(v, float) else f"{k}={v}"
                          for k, v in row.items() if k not in ("unit", "n", "sweep"))
         self.log(f"[{self.run_dir.name}] {self.optim.unit[:-1]} {unit:g}/{self.optim.total} "
@@ -196,13 +204,7 @@ class Trainer:
         return out
 
     def _append_history(self, row: dict) -> None:
-        path = self.run_dir / "history.csv"
-        new = not path.exists()
-        with open(path, "a", newline="") as f:
-            writer = csv.DictWriter(f, fieldnames=list(row))
-            if new:
-                writer.writeheader()
-            writer.writerow(row)
+        append_csv_row(self.run_dir / "history.csv", row)
 
     def _evaluate(self, point: int) -> None:
         """Write predictions, plots and metrics of the test set at evaluation point ``point``."""
@@ -242,6 +244,16 @@ class Trainer:
         write_json(self.run_dir / "metrics.json", result)
         mark_finished(self.run_dir, {"sweeps": self.total_sweeps})
         return result
+
+
+def append_csv_row(path: Path, row: dict) -> None:
+    """Append one row to a CSV log, writing the header first when the file is new."""
+    new = not path.exists()
+    with open(path, "a", newline="") as f:
+        writer = csv.DictWriter(f, fieldnames=list(row))
+        if new:
+            writer.writeheader()
+        writer.writerow(row)
 
 
 def _read_point(run_dir: Path, unit: str, point: int) -> dict:

@@ -1,0 +1,122 @@
+"""Time one training sweep (forward, backward, SGD update) of the bidirectional LSTM model.
+
+Compares ``rnn_seg``'s layer with a per-gate reference written like the original code, at paper
+size (H=1024, B=5, 14 inputs, T=800) and H=256, in the same run. Each (implementation, H) runs in
+its own process so its peak resident memory is its own. Prints medians, ratios and peak memory.
+
+    python bench/lstm_sweep.py [--hidden 1024 256] [--repeats 5] [--steps 800]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "2")
+ROOT = Path(__file__).resolve().parents[1]
+sys.path[:0] = [str(ROOT), str(ROOT / "bench")]
+F, K, B = 14, 10, 5
+IMPLEMENTATIONS = ("rnn_seg", "per_gate")
+
+
+def _step_function(impl: str, hidden: int):
+    import tensorflow as tf
+
+    from rnn_seg.dense import Dense
+    from rnn_seg.lstm import EncoderConfig
+    from rnn_seg.model import SegmentationModel
+    from rnn_seg.optim import SGD
+    from rnn_seg.tasks import SoftmaxClassification
+
+    task = SoftmaxClassification("gesture", [f"G{k}" for k in range(K)])
+    rng = tf.random.Generator.from_seed(0)
+    dropout_rng = tf.random.Generator.from_seed(1)
+    if impl == "rnn_seg":
+        model = SegmentationModel(F, EncoderConfig(hidden=hidden), [task], seed=0)
+
+        def outputs(x, r):
+            return model(x, r, dropout_rng)["gesture"]
+        variables = model.trainable_variables
+    else:
+        from per_gate_reference import PerGateLSTM
+        fw, rv = PerGateLSTM(F, hidden, rng, "fw"), PerGateLSTM(F, hidden, rng, "rv")
+        head = Dense(2 * hidden, K, 0.1, rng, "head")
+
+        def drop(t):
+            return tf.nn.experimental.stateless_dropout(t, 0.5, seed=dropout_rng.make_seeds(1)[:, 0])
+
+        def outputs(x, r):
+            xt = tf.transpose(x, [1, 0, 2])
+            rt = tf.transpose(tf.cast(r, tf.float32))[:, :, None]
+            h_fw = drop(fw(drop(xt), rt))
+            h_rv = tf.reverse(drop(rv(drop(tf.reverse(xt, [0])), tf.reverse(rt, [0]))), [0])
+            return head(tf.transpose(tf.concat([h_fw, h_rv], 2), [1, 0, 2]))
+        variables = [*fw.trainable_variables, *rv.trainable_variables, *head.trainable_variables]
+    sgd = SGD(variables, momentum=0.0, clip_norm=1.0)
+
+    @tf.function
+    def step(x, r, y):
+        with tf.GradientTape() as tape:
+            loss = task.loss(outputs(x, r), y)
+        sgd.apply(tape.gradient(loss, variables), variables, tf.constant(1.0))
+        return loss
+    return step
+
+
+def worker(impl: str, hidden: int, steps: int, repeats: int) -> dict:
+    import numpy as np
+    import tensorflow as tf
+
+    rng = np.random.default_rng(0)
+    x = tf.constant(rng.normal(size=(B, steps, F)).astype(np.float32))
+    r = tf.constant(np.eye(1, steps, dtype=bool).repeat(B, 0))
+    y = tf.constant(np.eye(K, dtype=np.float32)[rng.integers(0, K, (B, steps))])
+    step = _step_function(impl, hidden)
+    step(x, r, y).numpy()                               # trace and warm up
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        step(x, r, y).numpy()
+        times.append(time.perf_counter() - start)
+    peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    return {"impl": impl, "hidden": hidden, "times": times, "peak_mb": peak_mb}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    parser.add_argument("--hidden", type=int, nargs="+", default=[1024, 256])
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--steps", type=int, default=800)
+    parser.add_argument("--impl", nargs="+", default=list(IMPLEMENTATIONS))
+    parser.add_argument("--worker", nargs=2, metavar=("IMPL", "HIDDEN"), help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.worker:
+        print(json.dumps(worker(args.worker[0], int(args.worker[1]), args.steps, args.repeats)))
+        return
+    print(f"training sweep: bidirectional LSTM, B={B}, F={F}, T={args.steps}, "
+          f"{args.repeats} timed repeats after one warm-up; {os.cpu_count()} cores")
+    for hidden in args.hidden:
+        results = {}
+        for impl in args.impl:
+            out = subprocess.run([sys.executable, __file__, "--worker", impl, str(hidden),
+                                  "--steps", str(args.steps), "--repeats", str(args.repeats)],
+                                 check=True, capture_output=True, text=True).stdout
+            results[impl] = json.loads(out.strip().splitlines()[-1])
+        for impl, res in results.items():
+            med = statistics.median(res["times"])
+            print(f"H={hidden:5d} {impl:9s} median {med:7.3f} s  "
+                  f"(min {min(res['times']):.3f}, max {max(res['times']):.3f})  "
+                  f"peak RSS {res['peak_mb']:7.0f} MB")
+        if len(results) == 2:
+            ours, ref = (statistics.median(results[i]["times"]) for i in IMPLEMENTATIONS)
+            print(f"H={hidden:5d} speed-up rnn_seg vs per_gate: {ref / ours:.2f}x")
+
+
+if __name__ == "__main__":
+    main()

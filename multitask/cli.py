@@ -1,0 +1,56 @@
+"""``multitask-train``: train one of A, APr, APc, APoc, Pr, Pc, Poc on one LOUO fold."""
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import sys
+
+from baseline.cli import add_run_arguments, configure_threads, run_config_from_args
+from jigsaws_tools.errors import JigsawsError
+
+from .gradnorm import GradNormConfig
+from .train import WEIGHTINGS, train_variant
+from .variants import VARIANTS, get_variant
+
+
+def build_parser(variant_name: str) -> argparse.ArgumentParser:
+    variant = get_variant(variant_name)
+    parser = argparse.ArgumentParser(prog="multitask-train", description=__doc__)
+    parser.add_argument("--variant", choices=list(VARIANTS), default="APc")
+    parser.add_argument("--weighting", choices=WEIGHTINGS, default="fixed")
+    parser.add_argument("--alpha", type=float, default=GradNormConfig.alpha)
+    parser.add_argument("--weight-lr", type=float, default=GradNormConfig.learning_rate,
+                        help="learning rate of the GradNorm task weights")
+    add_run_arguments(parser, variant.optim())
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "2")
+    logging.basicConfig(format="%(levelname)s: %(message)s", level=logging.WARNING)
+    pre = argparse.ArgumentParser(add_help=False)
+    pre.add_argument("--variant", choices=list(VARIANTS), default="APc")
+    known, _ = pre.parse_known_args(argv)
+    variant = get_variant(known.variant)
+    args = build_parser(variant.name).parse_args(argv)
+    try:
+        configure_threads(args.threads)
+        config = run_config_from_args(args, variant.optim(), variant.eval_points())
+        print(f"variant: {variant.name} ({args.weighting})\n{config.describe()}", flush=True)
+        result = train_variant(variant, args.weighting, config, args.out,
+                               GradNormConfig(alpha=args.alpha, learning_rate=args.weight_lr),
+                               log=lambda m: print(m, flush=True))
+    except (JigsawsError, ValueError) as error:
+        print(f"multitask-train: error: {error}", file=sys.stderr)
+        return 2
+    summary = "; ".join(f"{task}: accuracy {m['accuracy']:.1f}, edit {m['edit']:.1f}, "
+                        f"F1@10 {m['f1@10']:.1f}" + (f", MAE {m['mae_normalised']:.1f}"
+                                                     if "mae_normalised" in m else "")
+                        for task, m in result["mean"].items())
+    print(f"done: {summary} (mean over evaluation points); outputs in {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
