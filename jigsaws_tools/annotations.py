@@ -16,6 +16,8 @@ import numpy as np
 
 from .errors import FormatError, JigsawsError
 from .gestures import GESTURE_INDEX, GESTURES, UNLABELLED
+from .release import (ReleaseIndex, frame_labels, read_kinematics, read_transcription,
+                      transcriptions_dir)
 
 ANNOTATION_VERSIONS = ("original", "revised")
 _AMENDMENT_FILES = {"revised": "revised_amendments.csv"}
@@ -112,14 +114,12 @@ def _label_name(value: int) -> str:
     return "unlabelled" if value == UNLABELLED else GESTURES[value]
 
 
-def amendment_report(index: "ReleaseIndex", version: str) -> list[tuple[str, AmendmentEffect]]:
+def amendment_report(index: ReleaseIndex, version: str) -> list[tuple[str, AmendmentEffect]]:
     """Effect of every amendment of ``version`` on the release behind ``index``.
 
     A trial with a transcription but no kinematics is relabelled on its transcription alone (status
     says so); a trial absent altogether is reported with status ``"skipped: trial absent"``.
     """
-    from .release import frame_labels, read_kinematics, read_transcription, transcriptions_dir
-
     complete = {t.name: t for t in index.trials}
     report = []
     for name in dict.fromkeys(a.trial for a in amendments(version)):
