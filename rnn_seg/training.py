@@ -163,6 +163,8 @@ class Trainer:
         if manager.latest_checkpoint:
             manager.checkpoint.restore(manager.latest_checkpoint).assert_existing_objects_matched()
             self.log(f"resuming from sweep {int(self.sweep.numpy())} ({manager.latest_checkpoint})")
+        for log in self.run_dir.glob("*.csv"):      # rows past the checkpoint will be redone
+            truncate_csv_log(log, int(self.sweep.numpy()))
         unit_sweeps = self.optim.sweeps(1, self.spe)
         losses, started = [], time.time()
         for sweep in range(int(self.sweep.numpy()), self.total_sweeps):
@@ -254,6 +256,13 @@ def append_csv_row(path: Path, row: dict) -> None:
         if new:
             writer.writeheader()
         writer.writerow(row)
+
+
+def truncate_csv_log(path: Path, last_sweep: int) -> None:
+    """Drop the rows of a per-sweep CSV log (``sweep`` column) written after ``last_sweep``."""
+    table = pd.read_csv(path)
+    if (table["sweep"] > last_sweep).any():
+        write_atomic(path, table[table["sweep"] <= last_sweep].to_csv(index=False))
 
 
 def _read_point(run_dir: Path, unit: str, point: int) -> dict:

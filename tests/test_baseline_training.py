@@ -71,14 +71,15 @@ def test_resume_after_interruption_matches_uninterrupted(synth_dir, tmp_path, mo
     original = Trainer._log_progress
 
     def crash_at_epoch_3(self, done, *args):
-        if done == 3 * self.spe:
-            raise _Interrupt
         original(self, done, *args)
+        if done == 3 * self.spe:     # after the progress row, before the checkpoint
+            raise _Interrupt
 
     monkeypatch.setattr(Trainer, "_log_progress", crash_at_epoch_3)
     with pytest.raises(_Interrupt):
         train_baseline(config, resumed, log=lambda m: None)
     assert not is_finished(resumed) and not (resumed / "metrics.json").exists()
+    assert list(pd.read_csv(resumed / "history.csv")["n"]) == [1, 2, 3]
     monkeypatch.setattr(Trainer, "_log_progress", original)
     messages = []
     train_baseline(config, resumed, log=messages.append)
