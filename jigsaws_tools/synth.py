@@ -10,6 +10,9 @@ noise: learnable from context, but not from one sample.
 """
 from __future__ import annotations
 
+import hashlib
+import shutil
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -18,6 +21,8 @@ import numpy as np
 from .gestures import GESTURES
 from .release import KINEMATICS_HZ, kinematics_dir, meta_path, trial_name, transcriptions_dir
 
+#: Bump whenever the generator's output changes for the same ``SynthConfig``.
+GENERATOR_VERSION = 2
 SYNTH_USERS = ("B", "C", "D", "E", "F", "G", "H", "I")
 SYNTH_SKILLS = ("N", "I", "E", "E", "I", "N", "N", "N")
 TRIALS_PER_USER = 5
@@ -171,11 +176,13 @@ def write_release(out: Path | str, config: SynthConfig = SynthConfig()) -> Path:
 
 
 def ensure_release(cache_dir: Path | str, config: SynthConfig = SynthConfig()) -> Path:
-    """The synthetic release for ``config`` under ``cache_dir``, written once (atomically)."""
-    import shutil
-    import tempfile
+    """The synthetic release for ``config`` under ``cache_dir``, written once (atomically).
 
-    target = Path(cache_dir) / f"synthetic-seed{config.seed}" / "Suturing"
+    The folder name carries ``GENERATOR_VERSION`` and a hash of ``config``, so a changed generator
+    or option never reuses an older release.
+    """
+    key = hashlib.sha256(repr((GENERATOR_VERSION, config)).encode()).hexdigest()[:12]
+    target = Path(cache_dir) / f"synthetic-seed{config.seed}-{key}" / "Suturing"
     if target.is_dir():
         return target
     target.parent.parent.mkdir(parents=True, exist_ok=True)

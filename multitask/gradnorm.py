@@ -74,7 +74,7 @@ class GradNormTrainer(Trainer):
         G = weights * norms
         ratio = losses / self.initial_losses
         r = ratio / tf.reduce_mean(ratio)
-        target = tf.stop_gradient(tf.reduce_mean(G) * r ** self.gradnorm.alpha)
+        target = tf.reduce_mean(G) * r ** self.gradnorm.alpha               # held constant
         d_weights = tf.sign(G - target) * norms                            # dL_grad / dw_i
         new = tf.maximum(weights - self.gradnorm.learning_rate * d_weights, MIN_WEIGHT)
         self.weights.assign(new * len(self.tasks) / tf.reduce_sum(new))

@@ -5,7 +5,7 @@ ordered classification; Pr / Pc / Poc = progress only. Optimiser defaults are th
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from baseline.model import gesture_task
 from rnn_seg.optim import OptimConfig
@@ -47,8 +47,8 @@ class Variant:
         base = _MULTITASK[self.progress] if self.progress else OptimConfig()
         if self.gestures:
             return base
-        return OptimConfig(**{**base.__dict__, "total": base.total - SINGLE_TASK_SHIFT,
-                              "decay_start": base.decay_start - SINGLE_TASK_SHIFT})
+        return replace(base, total=base.total - SINGLE_TASK_SHIFT,
+                       decay_start=base.decay_start - SINGLE_TASK_SHIFT)
 
     def eval_points(self) -> tuple[int, ...]:
         shift = 0 if self.gestures else SINGLE_TASK_SHIFT

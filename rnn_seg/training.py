@@ -65,8 +65,9 @@ def predict(model: SegmentationModel, inputs: Sequence[np.ndarray], mode: Predic
     """Raw head outputs ``[T_i, K]`` per sequence, without dropout.
 
     ``sweep`` (DiPietro's way): all sequences in one wrapped sweep, outputs cut to each length; in
-    ``original`` reset mode the reverse direction of a wrapped sequence then starts its last frames
-    from the state of the following copy. ``per_sequence``: each sequence alone, no wrapping.
+    ``original`` reset mode the reverse direction of a shorter sequence then enters its last frames
+    with the state of the wrapped copy after them. ``per_sequence``: each sequence alone, no
+    wrapping. (Either way, ``original`` mode restarts the reverse state before each first frame.)
     """
     groups = [list(range(len(inputs)))] if mode == "sweep" else [[i] for i in range(len(inputs))]
     out: dict[str, list[np.ndarray]] = {name: [None] * len(inputs) for name in model.heads}
@@ -113,6 +114,7 @@ class Trainer:
         self.eval_sweeps = {optim.sweeps(p, self.spe): p for p in points}
         write_json(self.run_dir / "config.json", configs)
         self._targets = {t.name: [t.encode(y) for y in train.labels[t.name]] for t in self.tasks}
+        self._test_outputs_at: tuple[int, dict] | None = None   # (sweep, outputs) of the test set
 
     # -- state ---------------------------------------------------------------------------------
     def extra_state(self) -> dict:
@@ -196,9 +198,19 @@ class Trainer:
         self.log(f"[{self.run_dir.name}] {self.optim.unit[:-1]} {unit:g}/{self.optim.total} "
                  f"sweep {done}/{self.total_sweeps} {shown}")
 
+    def _test_outputs(self) -> dict[str, list[np.ndarray]]:
+        """Test-set outputs of the current model, computed once per sweep (progress line and
+        evaluation point usually fall on the same sweep)."""
+        sweep = int(self.sweep.numpy())
+        if self._test_outputs_at is None or self._test_outputs_at[0] != sweep:
+            self._test_outputs_at = (sweep, predict(self.model, self.test.inputs,
+                                                    self.config.prediction))
+        return self._test_outputs_at[1]
+
     def _quick_metrics(self, data: SequenceSet) -> dict[str, float]:
         """Accuracy and edit score of every task (for progress lines)."""
-        outputs = predict(self.model, data.inputs, self.config.prediction)
+        outputs = (self._test_outputs() if data is self.test
+                   else predict(self.model, data.inputs, self.config.prediction))
         out = {}
         for t in self.tasks:
             m = task_metrics(t, outputs[t.name], data.labels[t.name])
@@ -210,8 +222,8 @@ class Trainer:
 
     def _evaluate(self, point: int) -> None:
         """Write predictions, plots and metrics of the test set at evaluation point ``point``."""
-        folder = self.run_dir / "eval" / f"{self.optim.unit[:-1]}{point:04d}"
-        outputs = predict(self.model, self.test.inputs, self.config.prediction)
+        folder = point_dir(self.run_dir, self.optim.unit, point)
+        outputs = self._test_outputs()
         metrics = {t.name: task_metrics(t, outputs[t.name], self.test.labels[t.name])
                    for t in self.tasks}
         for i, name in enumerate(self.test.names):
@@ -265,6 +277,10 @@ def truncate_csv_log(path: Path, last_sweep: int) -> None:
         write_atomic(path, table[table["sweep"] <= last_sweep].to_csv(index=False))
 
 
+def point_dir(run_dir: Path, unit: str, point: int) -> Path:
+    """``eval/<unit><N>`` folder of evaluation point N, e.g. ``eval/epoch0100``."""
+    return run_dir / "eval" / f"{unit[:-1]}{point:04d}"
+
+
 def _read_point(run_dir: Path, unit: str, point: int) -> dict:
-    path = run_dir / "eval" / f"{unit[:-1]}{point:04d}" / "metrics.json"
-    return json.loads(path.read_text())["metrics"]
+    return json.loads((point_dir(run_dir, unit, point) / "metrics.json").read_text())["metrics"]

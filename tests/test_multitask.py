@@ -1,5 +1,6 @@
 """Progress heads, GradNorm, the variants, and A through multitask-train == baseline-train."""
 import json
+from dataclasses import replace
 
 import numpy as np
 import pandas as pd
@@ -133,8 +134,7 @@ def test_registry_and_paper_optimisers():
 def _run_config(synth_dir, optim, epochs=14, hidden=48):
     return RunConfig(data=DataConfig(str(synth_dir)), test_user="C",
                      encoder=EncoderConfig(hidden=hidden),
-                     optim=OptimConfig(**{**optim.__dict__, "total": epochs,
-                                          "decay_start": (2 * epochs) // 3}),
+                     optim=replace(optim, total=epochs, decay_start=(2 * epochs) // 3),
                      train=TrainConfig(eval_points=(epochs,), plots=False))
 
 

@@ -142,3 +142,17 @@ def test_cli_commands(synth_dir, tmp_path, capsys):
     assert (tmp_path / "l.png").stat().st_size > 10_000
     assert main(["inspect", str(tmp_path / "missing")]) == 2
     assert "not found" in capsys.readouterr().err
+
+
+def test_ensure_release_writes_once_and_keys_by_config(tmp_path):
+    from jigsaws_tools.synth import ensure_release
+
+    config = SynthConfig(seed=4, trials_per_user=1, users=("B", "C"))
+    first = ensure_release(tmp_path, config)
+    stamp = (first / "transcriptions/Suturing_B001.txt").stat().st_mtime_ns
+    assert ensure_release(tmp_path, config) == first
+    assert (first / "transcriptions/Suturing_B001.txt").stat().st_mtime_ns == stamp
+    other = ensure_release(tmp_path, SynthConfig(seed=4, trials_per_user=1, users=("B", "C"),
+                                                 noise=0.5))
+    assert other != first and len(discover(other).trials) == 2
+    assert not list(tmp_path.glob(".synthetic-*"))
