@@ -14,6 +14,7 @@ from jigsaws_tools.features import FEATURE_SETS
 from jigsaws_tools.synth import SynthConfig, ensure_release
 from rnn_seg.lstm import RESET_MODES, EncoderConfig
 from rnn_seg.optim import OptimConfig
+from rnn_seg.threads import configure_threads
 from rnn_seg.training import TrainConfig
 
 from .config import RunConfig
@@ -61,7 +62,9 @@ def add_run_arguments(parser: argparse.ArgumentParser, optim: OptimConfig) -> No
                           "unit when --epochs/--sweeps change the length)")
     run.add_argument("--prediction", choices=("sweep", "per_sequence"), default="sweep")
     run.add_argument("--no-plots", action="store_true")
-    run.add_argument("--threads", type=int, default=0, help="TF threads (0 = all cores)")
+    run.add_argument("--threads", type=int, default=0,
+                     help="cores for this run (0 = all), split between TensorFlow's thread pools "
+                          "as rnn_seg.threads measures best")
     run.add_argument("--out", type=Path, required=True, help="run directory")
 
 
@@ -95,15 +98,6 @@ def run_config_from_args(args: argparse.Namespace, optim: OptimConfig,
                           prediction=args.prediction, plots=not args.no_plots))
 
 
-def configure_threads(threads: int) -> None:
-    """Limit TensorFlow's thread pools (before any op runs)."""
-    import tensorflow as tf
-
-    if threads:
-        tf.config.threading.set_intra_op_parallelism_threads(threads)
-        tf.config.threading.set_inter_op_parallelism_threads(threads)
-
-
 def main(argv: list[str] | None = None) -> int:
     os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "2")
     logging.basicConfig(format="%(levelname)s: %(message)s", level=logging.WARNING)
@@ -111,7 +105,7 @@ def main(argv: list[str] | None = None) -> int:
     add_run_arguments(parser, OptimConfig())
     args = parser.parse_args(argv)
     try:
-        configure_threads(args.threads)
+        configure_threads(args.threads, args.hidden)
         config = run_config_from_args(args, OptimConfig())
         print(config.describe(), flush=True)
         result = train_baseline(config, args.out, log=lambda m: print(m, flush=True))

@@ -2,7 +2,10 @@
 
 Compares ``rnn_seg``'s layer with a per-gate reference written like the original code, at paper
 size (H=1024, B=5, 14 inputs, T=800) and H=256, in the same run. Each (implementation, H) runs in
-its own process so its peak resident memory is its own. Prints medians, ratios and peak memory.
+its own process so its peak resident memory is its own; ``rnn_seg`` uses its own thread plan
+(rnn_seg.threads), the reference TensorFlow's default (its fastest here). Also times the bare
+recurrent product on this machine, which gives the floor: T steps x 2 directions x 3 products.
+Prints medians, ratios to the floor and the reference, and peak memory.
 
     python bench/lstm_sweep.py [--hidden 1024 256] [--repeats 5] [--steps 800]
 """
@@ -73,6 +76,10 @@ def worker(impl: str, hidden: int, steps: int, repeats: int) -> dict:
     import numpy as np
     import tensorflow as tf
 
+    from rnn_seg.threads import configure_threads
+
+    threads = configure_threads(0, hidden) if impl == "rnn_seg" else "TF default"
+
     rng = np.random.default_rng(0)
     x = tf.constant(rng.normal(size=(B, steps, F)).astype(np.float32))
     r = tf.constant(np.eye(1, steps, dtype=bool).repeat(B, 0))
@@ -85,7 +92,31 @@ def worker(impl: str, hidden: int, steps: int, repeats: int) -> dict:
         step(x, r, y).numpy()
         times.append(time.perf_counter() - start)
     peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    return {"impl": impl, "hidden": hidden, "times": times, "peak_mb": peak_mb}
+    return {"impl": impl, "hidden": hidden, "times": times, "peak_mb": peak_mb, "threads": threads}
+
+
+def product_time(hidden: int, repeats: int) -> float:
+    """Seconds for one recurrent product ``[B, H] x [H, 4H]``: fastest of ``repeats`` loops of 800,
+    all cores inside each product."""
+    import tensorflow as tf
+
+    tf.config.threading.set_intra_op_parallelism_threads(os.cpu_count() or 1)
+    tf.config.threading.set_inter_op_parallelism_threads(1)
+
+    steps = 800
+    h, W = tf.random.normal([B, hidden]), tf.random.normal([hidden, 4 * hidden]) * 0.01
+
+    @tf.function
+    def loop():
+        return tf.while_loop(lambda t, a: t < steps,
+                             lambda t, a: (t + 1, tf.tanh(tf.matmul(a, W)[:, :hidden])), (0, h))[1]
+    loop().numpy()
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        loop().numpy()
+        times.append(time.perf_counter() - start)
+    return min(times) / steps
 
 
 def main() -> None:
@@ -97,25 +128,35 @@ def main() -> None:
     parser.add_argument("--worker", nargs=2, metavar=("IMPL", "HIDDEN"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
-        print(json.dumps(worker(args.worker[0], int(args.worker[1]), args.steps, args.repeats)))
+        impl, hidden = args.worker[0], int(args.worker[1])
+        result = (product_time(hidden, args.repeats) if impl == "product"
+                  else worker(impl, hidden, args.steps, args.repeats))
+        print(json.dumps(result))
         return
     print(f"training sweep: bidirectional LSTM, B={B}, F={F}, T={args.steps}, "
           f"{args.repeats} timed repeats after one warm-up; {os.cpu_count()} cores")
     for hidden in args.hidden:
-        results = {}
-        for impl in args.impl:
-            out = subprocess.run([sys.executable, __file__, "--worker", impl, str(hidden),
-                                  "--steps", str(args.steps), "--repeats", str(args.repeats)],
-                                 check=True, capture_output=True, text=True).stdout
-            results[impl] = json.loads(out.strip().splitlines()[-1])
+        product = _run_worker("product", hidden, args)
+        floor = product * args.steps * 2 * 3        # 2 directions; 1 product forward, 2 backward
+        print(f"H={hidden:5d} recurrent product {product * 1e6:.0f} us -> floor "
+              f"{args.steps} x 2 x 3 x product = {floor:.3f} s per sweep")
+        results = {impl: _run_worker(impl, hidden, args) for impl in args.impl}
         for impl, res in results.items():
             med = statistics.median(res["times"])
             print(f"H={hidden:5d} {impl:9s} median {med:7.3f} s  "
                   f"(min {min(res['times']):.3f}, max {max(res['times']):.3f})  "
-                  f"peak RSS {res['peak_mb']:7.0f} MB")
+                  f"{med / floor:.2f}x floor  peak RSS {res['peak_mb']:6.0f} MB  "
+                  f"threads (intra, inter) {res['threads']}")
         if len(results) == 2:
             ours, ref = (statistics.median(results[i]["times"]) for i in IMPLEMENTATIONS)
             print(f"H={hidden:5d} speed-up rnn_seg vs per_gate: {ref / ours:.2f}x")
+
+
+def _run_worker(impl: str, hidden: int, args):
+    out = subprocess.run([sys.executable, __file__, "--worker", impl, str(hidden),
+                          "--steps", str(args.steps), "--repeats", str(args.repeats)],
+                         check=True, capture_output=True, text=True).stdout
+    return json.loads(out.strip().splitlines()[-1])
 
 
 if __name__ == "__main__":

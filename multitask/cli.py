@@ -6,8 +6,9 @@ import logging
 import os
 import sys
 
-from baseline.cli import add_run_arguments, configure_threads, run_config_from_args
+from baseline.cli import add_run_arguments, run_config_from_args
 from jigsaws_tools.errors import JigsawsError
+from rnn_seg.threads import configure_threads
 
 from .gradnorm import GradNormConfig
 from .train import WEIGHTINGS, train_variant
@@ -35,7 +36,7 @@ def main(argv: list[str] | None = None) -> int:
     variant = get_variant(known.variant)
     args = build_parser(variant.name).parse_args(argv)
     try:
-        configure_threads(args.threads)
+        configure_threads(args.threads, args.hidden)
         config = run_config_from_args(args, variant.optim(), variant.eval_points())
         print(f"variant: {variant.name} ({args.weighting})\n{config.describe()}", flush=True)
         result = train_variant(variant, args.weighting, config, args.out,

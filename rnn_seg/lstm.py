@@ -65,7 +65,7 @@ class LSTMCellWeights(tf.Module):
 
 def lstm_scan(x_proj: tf.Tensor, resets: tf.Tensor, W_h: tf.Variable, peep: tf.Variable
               ) -> tf.Tensor:
-    """Run the cell over time.
+    """Run the cell over time, with a hand-written backward pass through time.
 
     Args:
         x_proj: ``[T, B, 4H]`` time-major ``x W_x + b`` for every step (one product for all steps).
@@ -75,27 +75,108 @@ def lstm_scan(x_proj: tf.Tensor, resets: tf.Tensor, W_h: tf.Variable, peep: tf.V
     Returns:
         ``[T, B, H]`` hidden outputs h_t.
     """
-    batch = tf.shape(x_proj)[1]
-    hidden = tf.shape(W_h)[0]
-    zeros = tf.zeros(tf.stack([batch, hidden]))
+    return _lstm_bptt(x_proj, 1.0 - resets, tf.convert_to_tensor(W_h), tf.convert_to_tensor(peep))
+
+
+@tf.custom_gradient
+def _lstm_bptt(x_proj, keep, W_h, peep):
+    """``lstm_scan`` on plain tensors (``keep = 1 - resets``); the gradient runs one recurrent
+    product per step.
+
+    The forward loop keeps every step's gate activations. Before the backward loop, every factor
+    of the chain rule that does not depend on the incoming gradient is computed for all steps at
+    once, so each backward step is one product ``dz W_h^T`` and a few multiply-adds; ``dW_h`` and
+    the peephole gradients are then single reductions over all steps.
+    """
+    state = _forward(x_proj, keep, W_h, peep)                        # h, c, g, i, f, o [T, B, H]
+
+    def grad(dh_out):
+        h, c = state[0], state[1]
+        hidden = tf.shape(W_h)[0]
+        dz = _backward(dh_out, keep, _backward_factors(state, keep, peep), W_h)   # [T, B, 4H]
+        h_prev, c_prev = keep * _shift(h), keep * _shift(c)
+        dW_h = tf.matmul(tf.reshape(h_prev, [-1, hidden]), tf.reshape(dz, [-1, 4 * hidden]),
+                         transpose_a=True)
+        _, dz_i, dz_f, dz_o = tf.split(dz, 4, axis=2)
+        dpeep = tf.stack([tf.reduce_sum(dz_i * c_prev, [0, 1]), tf.reduce_sum(dz_f * c_prev, [0, 1]),
+                          tf.reduce_sum(dz_o * c, [0, 1])])
+        return dz, None, dW_h, dpeep
+
+    return state[0], grad
+
+
+def _shift(x: tf.Tensor) -> tf.Tensor:
+    """``[T, ...]`` -> the previous step's value at each step, zeros at the first."""
+    return tf.concat([tf.zeros_like(x[:1]), x[:-1]], axis=0)
+
+
+def _forward(x_proj, keep, W_h, peep):
+    """The cell over time; returns ``(h, c, g, i, f, o)``, each ``[T, B, H]``."""
+    steps = tf.shape(x_proj)[0]
     w_ic, w_fc, w_oc = peep[0], peep[1], peep[2]
 
-    def step(state, inputs):
-        c_prev, h_prev = state
-        z_x, r = inputs
-        keep = 1.0 - r
-        c_prev, h_prev = c_prev * keep, h_prev * keep
-        z = z_x + tf.matmul(h_prev, W_h)
+    def body(t, c_prev, h_prev, records):
+        k = keep[t]
+        c_prev = c_prev * k
+        z = x_proj[t] + tf.matmul(h_prev * k, W_h)
         z_g, z_i, z_f, z_o = tf.split(z, 4, axis=1)
         g = tf.tanh(z_g)
         i = tf.sigmoid(z_i + w_ic * c_prev)
         f = tf.sigmoid(z_f + w_fc * c_prev)
         c = g * i + c_prev * f
         o = tf.sigmoid(z_o + w_oc * c)
-        return c, o * tf.tanh(c)
+        h = o * tf.tanh(c)
+        return t + 1, c, h, [r.write(t, v) for r, v in zip(records, (h, c, g, i, f, o))]
 
-    _, h = tf.scan(step, (x_proj, resets), initializer=(zeros, zeros))
-    return h
+    zeros = tf.zeros(tf.stack([tf.shape(x_proj)[1], tf.shape(W_h)[0]]))
+    records = [tf.TensorArray(tf.float32, size=steps) for _ in range(6)]
+    *_, records = tf.while_loop(lambda t, *_: t < steps, body, (0, zeros, zeros, records),
+                                parallel_iterations=1)
+    return [r.stack() for r in records]
+
+
+def _backward_factors(state, keep, peep):
+    """Per-step factors of the chain rule that do not depend on the incoming gradient.
+
+    Returns ``(out_c, gates_dc, gates_dh, to_prev)``: ``dc = dc_next + dh * out_c``;
+    ``dz = dc * gates_dc + dh * gates_dh`` (``[T, B, 4, H]``, gate order g, i, f, o);
+    ``dc_{t-1} = dc * to_prev`` (``to_prev`` includes the reset).
+    """
+    _, c, g, i, f, o = state
+    w_ic, w_fc, w_oc = peep[0], peep[1], peep[2]
+    c_prev = keep * _shift(c)
+    tc = tf.tanh(c)
+    d_i, d_f = i * (1.0 - i), f * (1.0 - f)                          # sigmoid derivatives
+    out_o = tc * o * (1.0 - o)                                       # dz_o / dh
+    out_c = o * (1.0 - tc * tc) + out_o * w_oc                       # dc / dh, same step
+    zeros = tf.zeros_like(c)
+    gates_dc = tf.stack([i * (1.0 - g * g), g * d_i, c_prev * d_f, zeros], axis=2)
+    gates_dh = tf.stack([zeros, zeros, zeros, out_o], axis=2)
+    to_prev = keep * (f + g * d_i * w_ic + c_prev * d_f * w_fc)
+    return out_c, gates_dc, gates_dh, to_prev
+
+
+def _backward(dh_out, keep, factors, W_h):
+    """Reverse loop over time; returns ``dz`` ``[T, B, 4H]``, the gradient of the gate inputs.
+
+    ``dh_out`` ``[T, B, H]`` is the gradient arriving at the outputs; the state passed back one
+    step is ``dc * to_prev`` and ``keep * dz W_h^T``.
+    """
+    steps, batch = tf.shape(dh_out)[0], tf.shape(dh_out)[1]
+    out_c, gates_dc, gates_dh, to_prev = factors
+    W_t = tf.transpose(W_h)                                          # [4H, H]
+
+    def body(t, dh_next, dc_next, records):
+        dh = dh_out[t] + dh_next
+        dc = dc_next + dh * out_c[t]
+        dz = tf.reshape(dc[:, None] * gates_dc[t] + dh[:, None] * gates_dh[t], [batch, -1])
+        return t - 1, keep[t] * tf.matmul(dz, W_t), dc * to_prev[t], records.write(t, dz)
+
+    zeros = tf.zeros_like(dh_out[0])
+    records = tf.TensorArray(tf.float32, size=steps)
+    *_, records = tf.while_loop(lambda t, *_: t >= 0, body, (steps - 1, zeros, zeros, records),
+                                parallel_iterations=1)
+    return records.stack()
 
 
 def reverse_resets(resets: tf.Tensor, mode: ResetMode) -> tf.Tensor:
@@ -127,23 +208,30 @@ class RecurrentEncoder(tf.Module):
 
     def __call__(self, inputs: tf.Tensor, resets: tf.Tensor, dropout_rng: tf.random.Generator | None
                  ) -> tf.Tensor:
-        """``inputs`` ``[B, T, F]`` float32, ``resets`` ``[B, T]`` bool; ``dropout_rng`` None = no dropout."""
-        outputs = [self._direction(inputs, resets, "fw", dropout_rng)]
-        if "rv" in self.cells:
-            rv_resets = reverse_resets(resets, self.config.reset_mode)
-            rv = self._direction(tf.reverse(inputs, [1]), tf.reverse(rv_resets, [1]), "rv",
-                                 dropout_rng)
-            outputs.append(tf.reverse(rv, [1]))
-        return tf.concat(outputs, axis=2)
+        """``inputs`` ``[B, T, F]`` float32, ``resets`` ``[B, T]`` bool; ``dropout_rng`` None = no dropout.
 
-    def _direction(self, inputs, resets, direction, dropout_rng):
-        """One direction's stack; each direction draws its own dropout masks, as in the original."""
-        r = tf.transpose(tf.cast(resets, tf.float32))[:, :, None]
-        x = dropout(tf.transpose(inputs, [1, 0, 2]), self.config.keep_prob, dropout_rng)
-        for cell in self.cells[direction]:
-            h = lstm_scan(tf.tensordot(x, cell.W_x, 1) + cell.b, r, cell.W_h, cell.peep)
-            x = dropout(h, self.config.keep_prob, dropout_rng)
-        return tf.transpose(x, [1, 0, 2])
+        Every direction keeps its own stack (layer l+1 of a direction reads layer l of the same
+        direction) and draws its own dropout masks, as in the original. The directions' loops are
+        independent, so TensorFlow's inter-op threads run them side by side. The reverse
+        direction sees inputs and reset flags reversed in time.
+        """
+        x = tf.transpose(inputs, [1, 0, 2])                               # [T, B, F]
+        flags = {"fw": resets}
+        if "rv" in self.cells:
+            flags["rv"] = tf.reverse(reverse_resets(resets, self.config.reset_mode), [1])
+        flags = {d: tf.transpose(tf.cast(f, tf.float32))[:, :, None] for d, f in flags.items()}
+        xs = {d: x if d == "fw" else tf.reverse(x, [0]) for d in self.cells}
+        xs = {d: dropout(v, self.config.keep_prob, dropout_rng) for d, v in xs.items()}
+        for layer in range(self.config.layers):
+            xs = {d: dropout(self._layer(self.cells[d][layer], x, flags[d]), self.config.keep_prob,
+                             dropout_rng) for d, x in xs.items()}
+        outputs = [xs["fw"]] + ([tf.reverse(xs["rv"], [0])] if "rv" in xs else [])
+        return tf.transpose(tf.concat(outputs, axis=2), [1, 0, 2])
+
+    @staticmethod
+    def _layer(cell: LSTMCellWeights, x: tf.Tensor, resets: tf.Tensor) -> tf.Tensor:
+        """``[T, B, F]`` -> ``[T, B, H]``; the input product for all steps at once."""
+        return lstm_scan(tf.tensordot(x, cell.W_x, 1) + cell.b, resets, cell.W_h, cell.peep)
 
 
 def dropout(x: tf.Tensor, keep_prob: float, rng: tf.random.Generator | None) -> tf.Tensor:

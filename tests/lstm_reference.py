@@ -37,3 +37,21 @@ def bidirectional_forward(x, resets, fw, rv, mode):
     forward = lstm_forward(x, resets, *fw)
     reverse = lstm_forward(x[:, ::-1], rv_resets[:, ::-1], *rv)[:, ::-1]
     return np.concatenate([forward, reverse], axis=2)
+
+
+def tf_lstm_forward(x, resets, W_x, W_h, peep, b):
+    """The same cell in TensorFlow ops, step by step, for gradients by autodiff (the reference
+    for rnn_seg's hand-written backward pass). x ``[B, T, F]``, resets ``[B, T]`` bool."""
+    import tensorflow as tf
+
+    keep = 1.0 - tf.cast(resets, x.dtype)[:, :, None]
+    c = h = tf.zeros([x.shape[0], W_h.shape[0]], x.dtype)
+    out = []
+    for t in range(x.shape[1]):
+        c, h = c * keep[:, t], h * keep[:, t]
+        zg, zi, zf, zo = tf.split(x[:, t] @ W_x + h @ W_h + b, 4, axis=1)
+        g, i, f = tf.tanh(zg), tf.sigmoid(zi + peep[0] * c), tf.sigmoid(zf + peep[1] * c)
+        c = g * i + c * f
+        h = tf.sigmoid(zo + peep[2] * c) * tf.tanh(c)
+        out.append(h)
+    return tf.stack(out, axis=1)
