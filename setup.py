@@ -18,12 +18,18 @@ setup(
         "pandas>=2.0",
         "matplotlib>=3.7",
     ],
-    extras_require={"test": ["pytest>=7"]},
+    extras_require={
+        # Dask distributed: runs the grid's jobs on a cluster (multitask-grid --scheduler)
+        "dask": ["dask[distributed]>=2023.1"],
+        "test": ["pytest>=7", "dask[distributed]>=2023.1"],
+    },
     entry_points={
         "console_scripts": [
             "jigsaws-tools=jigsaws_tools.cli:main",
             "baseline-train=baseline.cli:main",
             "multitask-train=multitask.cli:main",
+            "multitask-grid=multitask.grid_cli:main",
+            "multitask-tables=multitask.tables_cli:main",
         ],
     },
 )

@@ -54,6 +54,19 @@ class Variant:
         shift = 0 if self.gestures else SINGLE_TASK_SHIFT
         return tuple(p - shift for p in MULTITASK_EVAL)
 
+    def schedule(self, scale: float = 1.0) -> tuple[OptimConfig, tuple[int, ...]]:
+        """The paper's optimiser and evaluation epochs with every epoch count (length, decay
+        start and interval, evaluation points) multiplied by ``scale`` and rounded half up."""
+        optim, points = self.optim(), self.eval_points()
+        if scale == 1.0:
+            return optim, points
+
+        def scaled(epochs: int) -> int:
+            return max(1, int(epochs * scale + 0.5))
+        optim = replace(optim, total=scaled(optim.total), decay_start=scaled(optim.decay_start),
+                        decay_every=scaled(optim.decay_every))
+        return optim, tuple(sorted({min(scaled(p), optim.total) for p in points}))
+
 
 VARIANTS: dict[str, Variant] = {v.name: v for v in (
     Variant("A", True, None),

@@ -1,0 +1,248 @@
+"""The experiment grid: a TOML spec, its expansion into independent runs, and one run as a job.
+
+A spec names experiments (each a product of variants x weightings x annotation versions x
+directions), the LOUO folds, the seeds and a budget. Presets give the budget:
+
+* ``paper``: H=1024, the paper's schedules (120 epochs, 80 for Pr/Pc/Poc), seeds 0, 1, 2;
+* ``quick``: H=128 and every schedule compressed 4x (30 epochs, 20 for P), seed 0: the whole
+  default grid (22 configurations x 8 folds) takes about 1.5 h on 2 cores (docs/PERFORMANCE.md).
+
+Every run has its own directory ``runs/<annotations>/<direction>/<variant>-<weighting>/seed<k>/<user>``
+and is resumable on its own; ``finished.json`` marks it complete (``rnn_seg.rundir``).
+
+Example spec (every key optional)::
+
+    preset = "quick"
+    data = "synthetic"            # or a JIGSAWS Suturing folder; default $JIGSAWS_DIR
+    folds = ["B", "C"]            # default: every user of the release
+    seeds = [0]
+    hidden = 64                   # budget overrides
+    epochs = 10                   # length of the gesture variants' schedule; P scaled alike
+
+    [[experiments]]
+    variants = ["A", "APc"]
+    weightings = ["fixed"]
+    annotations = ["revised"]
+    directions = ["bidirectional"]
+"""
+from __future__ import annotations
+
+import json
+import tomllib
+import traceback
+from dataclasses import asdict, dataclass, fields, replace
+from pathlib import Path
+
+from baseline.config import RunConfig
+from jigsaws_tools.annotations import ANNOTATION_VERSIONS
+from jigsaws_tools.dataset import DataConfig, default_cache_dir, default_data_dir
+from jigsaws_tools.release import discover
+from jigsaws_tools.synth import SynthConfig, ensure_release
+from rnn_seg.lstm import EncoderConfig
+from rnn_seg.training import TrainConfig
+
+from .train import WEIGHTINGS
+from .variants import MULTITASK_EVAL, VARIANTS, get_variant
+
+DIRECTIONS = ("bidirectional", "forward")
+PAPER_EPOCHS = MULTITASK_EVAL[-1]
+
+
+@dataclass(frozen=True)
+class Budget:
+    """Model size, schedule length and seeds of a preset."""
+
+    hidden: int
+    schedule_scale: float           # multiplies every epoch count of the paper's schedules
+    seeds: tuple[int, ...]
+
+
+PRESETS = {"paper": Budget(hidden=1024, schedule_scale=1.0, seeds=(0, 1, 2)),
+           "quick": Budget(hidden=128, schedule_scale=0.25, seeds=(0,))}
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """A product of configurations; combinations that do not exist (GradNorm on one task) are
+    skipped."""
+
+    variants: tuple[str, ...]
+    weightings: tuple[str, ...] = ("fixed",)
+    annotations: tuple[str, ...] = ("revised",)
+    directions: tuple[str, ...] = ("bidirectional",)
+
+    def __post_init__(self):
+        for value, allowed, what in ((self.variants, VARIANTS, "variant"),
+                                     (self.weightings, WEIGHTINGS, "weighting"),
+                                     (self.annotations, ANNOTATION_VERSIONS, "annotation version"),
+                                     (self.directions, DIRECTIONS, "direction")):
+            for item in value:
+                if item not in allowed:
+                    raise ValueError(f"unknown {what} {item!r}; choose from {', '.join(allowed)}")
+
+
+ALL_VARIANTS = tuple(VARIANTS)
+#: The paper's evidence: Table I (revised labels), the same on the original labels (Table II and the
+#: annotation ablation) and the online models of Table III.
+PAPER_EXPERIMENTS = (
+    Experiment(ALL_VARIANTS, WEIGHTINGS, ("revised", "original")),
+    Experiment(("A", "APc"), ("fixed",), ("revised",), ("forward",)),
+)
+
+
+@dataclass(frozen=True)
+class GridSpec:
+    """A whole grid; ``None`` budget fields take the preset's value."""
+
+    preset: str = "quick"
+    data: str = ""                  # "" = $JIGSAWS_DIR or the default folder; "synthetic"
+    folds: tuple[str, ...] = ()     # () = every user of the release
+    seeds: tuple[int, ...] | None = None
+    hidden: int | None = None
+    epochs: int | None = None
+    experiments: tuple[Experiment, ...] = PAPER_EXPERIMENTS
+
+    def __post_init__(self):
+        if self.preset not in PRESETS:
+            raise ValueError(f"unknown preset {self.preset!r}; choose from {', '.join(PRESETS)}")
+
+    @property
+    def budget(self) -> Budget:
+        base = PRESETS[self.preset]
+        scale = self.epochs / PAPER_EPOCHS if self.epochs else base.schedule_scale
+        return Budget(hidden=self.hidden or base.hidden, schedule_scale=scale,
+                      seeds=self.seeds if self.seeds is not None else base.seeds)
+
+    def data_dir(self) -> Path:
+        if self.data == "synthetic":
+            return ensure_release(default_cache_dir(), SynthConfig())
+        return Path(self.data) if self.data else default_data_dir()
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def load_spec(path: Path | str) -> GridSpec:
+    """Parse a TOML spec; unknown keys are errors naming the file and the key."""
+    path = Path(path)
+    try:
+        raw = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as error:
+        raise ValueError(f"{path}: not valid TOML: {error}") from None
+    return spec_from_dict(raw, source=str(path))
+
+
+def spec_from_dict(raw: dict, source: str = "spec") -> GridSpec:
+    known = {f.name for f in fields(GridSpec)}
+    unknown = set(raw) - known
+    if unknown:
+        raise ValueError(f"{source}: unknown key(s) {', '.join(sorted(unknown))}; "
+                         f"known: {', '.join(sorted(known))}")
+    values = {k: v for k, v in raw.items() if v is not None}
+    if "experiments" in values:
+        values["experiments"] = tuple(_experiment(e, source) for e in values["experiments"])
+    for key in ("folds", "seeds"):
+        if key in values:
+            values[key] = tuple(values[key])
+    return GridSpec(**values)
+
+
+def _experiment(raw: dict, source: str) -> Experiment:
+    known = {f.name for f in fields(Experiment)}
+    unknown = set(raw) - known
+    if unknown:
+        raise ValueError(f"{source}: unknown experiment key(s) {', '.join(sorted(unknown))}")
+    return Experiment(**{k: tuple(v) for k, v in raw.items()})
+
+
+@dataclass(frozen=True, order=True)
+class RunKey:
+    """Identity of one run of the grid."""
+
+    annotations: str
+    direction: str
+    variant: str
+    weighting: str
+    seed: int
+    fold: str
+
+    @property
+    def config_name(self) -> str:
+        """The configuration, without fold and seed (a column of the tables)."""
+        return f"{self.variant}-{self.weighting}"
+
+    def path(self) -> Path:
+        return (Path("runs") / self.annotations / self.direction / self.config_name
+                / f"seed{self.seed}" / self.fold)
+
+
+def expand(spec: GridSpec, users: tuple[str, ...]) -> list[RunKey]:
+    """Every run of the grid, sorted, each once. ``users`` are the release's users."""
+    folds = spec.folds or users
+    missing = sorted(set(folds) - set(users))
+    if missing:
+        raise ValueError(f"fold(s) {', '.join(missing)} not among the release's users "
+                         f"{', '.join(users)}")
+    keys = {RunKey(a, d, v, w, s, f)
+            for e in spec.experiments
+            for v in e.variants for w in e.weightings for a in e.annotations for d in e.directions
+            for s in spec.budget.seeds for f in folds
+            if w == "fixed" or get_variant(v).multitask}
+    return sorted(keys)
+
+
+def release_users(spec: GridSpec) -> tuple[str, ...]:
+    """The LOUO folds of the spec's release: every user with at least one complete trial."""
+    return discover(spec.data_dir()).users
+
+
+def run_config(spec: GridSpec, key: RunKey) -> RunConfig:
+    """The ``RunConfig`` of one run: the variant's (scaled) paper schedule, the budget's size."""
+    budget = spec.budget
+    optim, points = get_variant(key.variant).schedule(budget.schedule_scale)
+    return RunConfig(
+        data=DataConfig(str(spec.data_dir()), annotations=key.annotations),
+        test_user=key.fold,
+        encoder=EncoderConfig(hidden=budget.hidden, bidirectional=key.direction == "bidirectional"),
+        optim=optim,
+        train=TrainConfig(seed=key.seed, eval_points=points))
+
+
+def run_job(spec: dict, key: dict, out: str, cores: int) -> dict:
+    """Train one run (resuming it if interrupted) and return its ``metrics.json`` content.
+
+    Takes and returns plain data so that process pools and Dask workers can ship it; the run's
+    log (and the traceback of a failure) goes to ``<run dir>/train.log``.
+    """
+    from rnn_seg.threads import configure_threads
+
+    from .train import train_variant
+
+    grid = spec_from_dict(spec) if isinstance(spec, dict) else spec
+    run = RunKey(**key)
+    configure_threads(cores, grid.budget.hidden)
+    run_dir = Path(out) / run.path()
+    run_dir.mkdir(parents=True, exist_ok=True)
+    with open(run_dir / "train.log", "a") as log:
+        def write(message: str) -> None:
+            log.write(message + "\n")
+            log.flush()
+        try:
+            return train_variant(get_variant(run.variant), run.weighting, run_config(grid, run),
+                                 run_dir, log=write)
+        except Exception:
+            write(traceback.format_exc())
+            raise
+
+
+def spec_payload(spec: GridSpec) -> dict:
+    """``spec`` as plain data that ``spec_from_dict`` reads back (for workers and grid.json)."""
+    data = spec.to_dict()
+    data["experiments"] = [dict(e) for e in data["experiments"]]
+    return json.loads(json.dumps(data))
+
+
+def with_overrides(spec: GridSpec, **overrides) -> GridSpec:
+    """``spec`` with the given non-None fields replaced (command-line overrides)."""
+    return replace(spec, **{k: v for k, v in overrides.items() if v is not None})
+

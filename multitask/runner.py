@@ -1,0 +1,95 @@
+"""Run a grid's jobs: a local pool of worker processes, or an existing Dask cluster.
+
+Each job is ``grid.run_job`` on one run directory; finished runs (``finished.json``) are skipped,
+interrupted ones resume from their checkpoints inside the job. Progress lines give done/total and
+an ETA from the durations of the runs finished in this invocation.
+"""
+from __future__ import annotations
+
+import multiprocessing
+import os
+import time
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import asdict
+from datetime import timedelta
+from pathlib import Path
+from typing import Callable
+
+from rnn_seg.rundir import is_finished
+
+from .grid import GridSpec, RunKey, run_job, spec_payload
+
+Log = Callable[[str], None]
+
+
+class Progress:
+    """Counts runs and prints one line per finished run; the ETA is the wall time per run
+    finished in this invocation (parallelism included) times the runs left."""
+
+    def __init__(self, total: int, already: int, log: Log):
+        self.total, self.done, self.log = total, already, log
+        self.started, self.finished_here = time.time(), 0
+        self.failed: list[tuple[RunKey, str]] = []
+
+    def finished(self, key: RunKey, error: BaseException | None = None) -> None:
+        self.done += 1
+        self.finished_here += 1
+        if error:
+            self.failed.append((key, f"{type(error).__name__}: {error}"))
+        per_run = (time.time() - self.started) / self.finished_here
+        eta = timedelta(seconds=round(per_run * (self.total - self.done)))
+        status = f"FAILED: {self.failed[-1][1]}" if error else "finished"
+        self.log(f"[grid] {self.done}/{self.total} done, ETA {eta} | {key.path()} {status}")
+
+
+def run_grid(spec: GridSpec, keys: list[RunKey], out: Path, workers: int = 1,
+             scheduler: str | None = None, cores_per_job: int = 0, log: Log = print
+             ) -> list[tuple[RunKey, str]]:
+    """Run every unfinished run of ``keys`` under ``out``; returns the failures (key, message).
+
+    ``scheduler``: address of a Dask scheduler (``tcp://host:8786``); ``out`` must then be a folder
+    every worker sees at the same path. ``cores_per_job`` 0 = this machine's cores / ``workers``
+    locally, 1 on Dask (start workers with one thread each).
+    """
+    out = Path(out).resolve()
+    pending = [k for k in keys if not is_finished(out / k.path())]
+    log(f"[grid] {len(keys)} runs, {len(keys) - len(pending)} already finished, "
+        f"{len(pending)} to run" + (f" on {scheduler}" if scheduler else f" with {workers} worker(s)"))
+    if not pending:
+        return []
+    payload = spec_payload(spec)
+    if scheduler:
+        return _run_dask(payload, pending, out, scheduler, cores_per_job or 1, len(keys), log)
+    cores = cores_per_job or max(1, (os.cpu_count() or 1) // workers)
+    return _run_local(payload, pending, out, workers, cores, len(keys), log)
+
+
+def _run_local(payload: dict, pending: list[RunKey], out: Path, workers: int, cores: int,
+               total: int, log: Log) -> list[tuple[RunKey, str]]:
+    """A pool of fresh processes (one per run, so no TensorFlow state carries over)."""
+    progress = Progress(total, total - len(pending), log)
+    context = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(workers, mp_context=context, max_tasks_per_child=1) as pool:
+        futures = {pool.submit(run_job, payload, asdict(key), str(out), cores): key
+                   for key in pending}
+        for future in as_completed(futures):
+            progress.finished(futures[future], future.exception())
+    return progress.failed
+
+
+def _run_dask(payload: dict, pending: list[RunKey], out: Path, address: str, cores: int,
+              total: int, log: Log) -> list[tuple[RunKey, str]]:
+    """Submit every run to an existing Dask cluster and collect them as they finish."""
+    try:
+        from dask.distributed import Client
+        from dask.distributed import as_completed as dask_completed
+    except ImportError:
+        raise RuntimeError("--scheduler needs Dask: pip install 'mtrnn-jigsaws[dask]'") from None
+    with Client(address) as client:
+        progress = Progress(total, total - len(pending), log)
+        futures = {client.submit(run_job, payload, asdict(key), str(out), cores, pure=False,
+                                 key=f"run-{'-'.join(map(str, asdict(key).values()))}"): key
+                   for key in pending}
+        for future in dask_completed(futures):
+            progress.finished(futures[future], future.exception())
+    return progress.failed
