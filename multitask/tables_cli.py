@@ -1,0 +1,79 @@
+"""``multitask-tables GRID_DIR``: the paper's tables (CSV + LaTeX) and figures from a grid's runs.
+
+Writes to ``--out`` (default ``GRID_DIR/tables``): ``runs.csv`` (one row per finished run),
+``per_fold.csv`` (mean over seeds per configuration and fold), ``summary.csv`` (mean and std over
+folds), ``table1|2|3.csv/.tex`` (ours against the paper), ``ablation_annotations.csv/.tex``
+(revised against original labels) and ``figures/*.png|pdf``. Unfinished runs are left out and
+listed.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from rnn_seg.rundir import write_atomic
+
+from .collect import per_fold, run_rows, summary
+from .figures import all_figures
+from .tables import PAPER_TABLES, annotation_ablation, paper_best, paper_comparison, to_latex
+
+
+def write_tables(grid_dir: Path, out: Path, figures: bool = True) -> list[Path]:
+    """Everything ``multitask-tables`` writes; returns the paths."""
+    runs, unfinished = run_rows(grid_dir)
+    for run_dir in unfinished:
+        print(f"not finished, left out: {run_dir}", file=sys.stderr)
+    folds = per_fold(runs)
+    stats = summary(folds)
+    written = [_csv(runs, out / "runs.csv"), _csv(folds, out / "per_fold.csv"),
+               _csv(stats, out / "summary.csv")]
+    for table in PAPER_TABLES:
+        frame = paper_comparison(stats, table)
+        if frame.empty:
+            continue
+        written.append(_csv(frame, out / f"{table.name}.csv"))
+        written.append(_tex(to_latex(frame, table.caption, table.name, ("Ours", "Paper"),
+                                     paper_best(table)), out / f"{table.name}.tex"))
+    ablation = annotation_ablation(stats)
+    if not ablation.empty:
+        caption = ("Annotation-version ablation: revised against original labels, mean (std) "
+                   "over folds; Delta = revised - original.")
+        written.append(_csv(ablation, out / "ablation_annotations.csv"))
+        written.append(_tex(to_latex(ablation, caption, "ablation_annotations",
+                                     ("Revised", "Original")), out / "ablation_annotations.tex"))
+    if figures:
+        written += all_figures(Path(grid_dir), stats, folds, out / "figures")
+    return written
+
+
+def _csv(frame, path: Path) -> Path:
+    write_atomic(path, frame.to_csv(index=False, float_format="%.4f"))
+    return path
+
+
+def _tex(text: str, path: Path) -> Path:
+    write_atomic(path, text)
+    return path
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="multitask-tables", description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("grid_dir", type=Path, help="output folder of multitask-grid")
+    parser.add_argument("--out", type=Path, help="where to write (default GRID_DIR/tables)")
+    parser.add_argument("--no-figures", action="store_true")
+    args = parser.parse_args(argv)
+    try:
+        paths = write_tables(args.grid_dir, args.out or args.grid_dir / "tables",
+                             figures=not args.no_figures)
+    except (ValueError, OSError) as error:
+        print(f"multitask-tables: error: {error}", file=sys.stderr)
+        return 2
+    for path in paths:
+        print(path)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,177 @@
+"""The experiment grid: spec parsing, end-to-end runs, resume after a kill, Dask, tables."""
+from __future__ import annotations
+
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from multitask.grid import Experiment, GridSpec, RunKey, expand, load_spec
+from multitask.grid_cli import main as grid_main
+from multitask.runner import run_grid
+from multitask.tables_cli import main as tables_main
+from multitask.variants import get_variant
+
+TINY = """
+preset = "quick"
+data = "{data}"
+folds = ["B", "C"]
+seeds = [0]
+hidden = 16
+epochs = 3
+
+[[experiments]]
+variants = ["A", "APc"]
+"""
+
+
+@pytest.fixture(scope="module")
+def tiny_spec(tmp_path_factory, synth_dir) -> Path:
+    path = tmp_path_factory.mktemp("spec") / "tiny.toml"
+    path.write_text(TINY.format(data=synth_dir))
+    return path
+
+
+@pytest.fixture(scope="module")
+def tiny_grid(tmp_path_factory, tiny_spec) -> Path:
+    out = tmp_path_factory.mktemp("grid")
+    assert grid_main(["--spec", str(tiny_spec), "--out", str(out), "--workers", "2"]) == 0
+    return out
+
+
+def _metrics(grid: Path) -> dict[str, dict]:
+    return {str(p.parent.relative_to(grid)): json.loads(p.read_text())["mean"]
+            for p in sorted(grid.glob("runs/*/*/*/*/*/metrics.json"))}
+
+
+def test_spec_errors_name_the_file_and_key(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('preset = "quick"\nhiden = 64\n')
+    with pytest.raises(ValueError, match=r"bad\.toml.*hiden"):
+        load_spec(bad)
+    bad.write_text('[[experiments]]\nvariants = ["APx"]\n')
+    with pytest.raises(ValueError, match="APx"):
+        load_spec(bad)
+
+
+def test_expand_skips_gradnorm_for_single_task_and_checks_folds():
+    spec = GridSpec(folds=("B",), seeds=(0, 1),
+                    experiments=(Experiment(("A", "APc", "Pc"), ("fixed", "gradnorm")),))
+    keys = expand(spec, ("B", "C"))
+    assert {k.config_name for k in keys} == {"A-fixed", "APc-fixed", "APc-gradnorm", "Pc-fixed"}
+    assert len(keys) == 4 * 2
+    with pytest.raises(ValueError, match="Z"):
+        expand(GridSpec(folds=("Z",)), ("B", "C"))
+
+
+def test_presets_and_schedule_scaling():
+    assert GridSpec(preset="paper").budget.hidden == 1024
+    assert GridSpec(preset="paper").budget.seeds == (0, 1, 2)
+    optim, points = get_variant("A").schedule(0.25)
+    assert (optim.total, optim.decay_start, optim.decay_every, points) == (30, 20, 10, (25, 28, 30))
+    optim, points = get_variant("Pc").schedule(0.25)
+    assert (optim.total, points) == (20, (15, 18, 20))
+
+
+def test_tiny_grid_end_to_end(tiny_grid):
+    metrics = _metrics(tiny_grid)
+    assert len(metrics) == 4
+    assert all(m["gesture"]["accuracy"] > 0 for m in metrics.values())
+    assert tables_main([str(tiny_grid)]) == 0
+    tables = tiny_grid / "tables"
+    for name in ("runs.csv", "per_fold.csv", "summary.csv", "table1.csv", "table1.tex"):
+        assert (tables / name).stat().st_size > 0
+    assert (tables / "figures" / "per_gesture_accuracy.pdf").exists()
+    assert (tables / "figures" / "fold_accuracy.png").exists()
+
+
+def test_table_csv_matches_the_per_fold_numbers(tiny_grid):
+    tables_main([str(tiny_grid), "--no-figures"])
+    folds = pd.read_csv(tiny_grid / "tables" / "per_fold.csv")
+    table = pd.read_csv(tiny_grid / "tables" / "table1.csv")
+    for row in table.itertuples():
+        variant, weighting = row.config.rsplit("-", 1)
+        values = folds[(folds.variant == variant) & (folds.weighting == weighting)][row.metric]
+        assert len(values) == row.folds == 2
+        assert row.left_mean == pytest.approx(values.mean(), abs=1e-3)
+        assert row.left_std == pytest.approx(values.std(ddof=1), abs=1e-3)
+        assert row.diff == pytest.approx(row.left_mean - row.right_mean, abs=1e-3)
+
+
+def test_latex_table_shape(tiny_grid):
+    tables_main([str(tiny_grid), "--no-figures"])
+    tex = (tiny_grid / "tables" / "table1.tex").read_text()
+    for env in ("table*", "tabular"):
+        assert tex.count(rf"\begin{{{env}}}") == tex.count(rf"\end{{{env}}}") == 1
+    assert tex.count("{") == tex.count("}")
+    body = tex.split(r"\midrule")[1].split(r"\bottomrule")[0].strip().splitlines()
+    assert [line.split(" & ")[0] for line in body] == ["A", "APc ($w_1{=}w_2{=}1$)"]
+    columns = len(re.search(r"\\begin\{tabular\}\{(\w+)\}", tex).group(1))
+    assert all(line.count(" & ") == columns - 1 for line in body)
+
+
+def test_killed_grid_resumes_without_redoing_finished_runs(tmp_path, tiny_spec):
+    out = tmp_path / "grid"
+    command = [sys.executable, "-m", "multitask.grid_cli", "--spec", str(tiny_spec),
+               "--out", str(out), "--workers", "1"]
+    process = subprocess.Popen(command, start_new_session=True, stdout=subprocess.DEVNULL,
+                               stderr=subprocess.DEVNULL)
+    deadline = time.time() + 300
+    while not list(out.glob("runs/**/finished.json")) and time.time() < deadline:
+        time.sleep(0.5)
+    os.killpg(process.pid, signal.SIGKILL)
+    process.wait()
+    finished = {p: p.stat().st_mtime_ns for p in out.glob("runs/**/finished.json")}
+    assert 1 <= len(finished) < 4
+    result = subprocess.run(command, capture_output=True, text=True, timeout=600)
+    assert result.returncode == 0, result.stderr
+    assert f"{len(finished)} already finished" in result.stdout
+    assert len(list(out.glob("runs/**/finished.json"))) == 4
+    assert all(p.stat().st_mtime_ns == t for p, t in finished.items())
+
+
+def test_dask_cluster_gives_the_local_pool_metrics(tmp_path, tiny_spec, tiny_grid):
+    distributed = pytest.importorskip("dask.distributed")
+    spec = load_spec(tiny_spec)
+    keys = expand(spec, ("B", "C"))
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  host="127.0.0.1", dashboard_address=None) as cluster:
+        failed = run_grid(spec, keys, tmp_path, scheduler=cluster.scheduler_address,
+                          log=lambda message: None)
+    assert failed == []
+    local, dask = _metrics(tiny_grid), _metrics(tmp_path)
+    assert local.keys() == dask.keys() and len(local) == 4
+    for run, values in local.items():
+        for task, scores in values.items():
+            for name, value in scores.items():
+                np.testing.assert_allclose(dask[run][task][name], value, rtol=1e-6,
+                                           err_msg=f"{run} {task} {name}")
+
+
+def test_run_key_paths_are_unique():
+    a = RunKey("revised", "bidirectional", "APc", "fixed", 0, "B")
+    b = RunKey("revised", "bidirectional", "APc", "gradnorm", 0, "B")
+    assert a.path() != b.path() and a.path().parts[-1] == "B"
+
+
+def test_annotation_ablation_reports_revised_minus_original():
+    from multitask.tables import annotation_ablation, to_latex
+
+    summary = pd.DataFrame([
+        {"annotations": a, "direction": "bidirectional", "variant": v, "weighting": "fixed",
+         "folds": 8, "gesture_accuracy_mean": acc, "gesture_accuracy_std": 1.0}
+        for a, v, acc in (("revised", "A", 85.0), ("original", "A", 83.0),
+                          ("revised", "APc", 86.0))])
+    table = annotation_ablation(summary)
+    assert list(table.config) == ["A-fixed"]            # APc ran on one version only
+    assert table.iloc[0].diff == pytest.approx(2.0)
+    tex = to_latex(table, "caption", "ablation", ("Revised", "Original"))
+    assert r"\textbf{85.0 (1.0)} & \textbf{83.0 (1.0)} & +2.0" in tex
