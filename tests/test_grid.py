@@ -172,6 +172,6 @@ def test_annotation_ablation_reports_revised_minus_original():
                           ("revised", "APc", 86.0))])
     table = annotation_ablation(summary)
     assert list(table.config) == ["A-fixed"]            # APc ran on one version only
-    assert table.iloc[0].diff == pytest.approx(2.0)
+    assert table.iloc[0]["diff"] == pytest.approx(2.0)
     tex = to_latex(table, "caption", "ablation", ("Revised", "Original"))
     assert r"\textbf{85.0 (1.0)} & \textbf{83.0 (1.0)} & +2.0" in tex
