@@ -35,7 +35,7 @@ def save(fig: plt.Figure, out_dir: Path, name: str) -> list[Path]:
     paths = [out_dir / f"{name}.{ext}" for ext in ("png", "pdf")]
     fig.tight_layout()
     for path in paths:
-        fig.savefig(path, dpi=150)
+        fig.savefig(path, dpi=150, bbox_inches="tight")
     plt.close(fig)
     return paths
 
@@ -67,7 +67,7 @@ def per_gesture_accuracy(summary: pd.DataFrame, out_dir: Path) -> list[Path]:
     ax.set_ylabel("accuracy [%]")
     ax.set_ylim(0, 100)
     ax.set_title("Recognition accuracy of individual gestures (mean over folds)", fontsize=9)
-    ax.legend(fontsize=7, ncol=len(rows))
+    ax.legend(fontsize=7, ncol=len(rows), loc="upper center", bbox_to_anchor=(0.5, -0.1))
     return save(fig, out_dir, "per_gesture_accuracy")
 
 
