@@ -39,9 +39,10 @@ from jigsaws_tools.dataset import DataConfig, default_cache_dir, default_data_di
 from jigsaws_tools.release import discover
 from jigsaws_tools.synth import SynthConfig, ensure_release
 from rnn_seg.lstm import EncoderConfig
+from rnn_seg.threads import configure_threads
 from rnn_seg.training import TrainConfig
 
-from .train import WEIGHTINGS
+from .train import WEIGHTINGS, train_variant
 from .variants import MULTITASK_EVAL, VARIANTS, get_variant
 
 DIRECTIONS = ("bidirectional", "forward")
@@ -117,9 +118,6 @@ class GridSpec:
         if self.data == "synthetic":
             return ensure_release(default_cache_dir(), SynthConfig())
         return Path(self.data) if self.data else default_data_dir()
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
 
 def load_spec(path: Path | str) -> GridSpec:
@@ -214,12 +212,7 @@ def run_job(spec: dict, key: dict, out: str, cores: int) -> dict:
     Takes and returns plain data so that process pools and Dask workers can ship it; the run's
     log (and the traceback of a failure) goes to ``<run dir>/train.log``.
     """
-    from rnn_seg.threads import configure_threads
-
-    from .train import train_variant
-
-    grid = spec_from_dict(spec) if isinstance(spec, dict) else spec
-    run = RunKey(**key)
+    grid, run = spec_from_dict(spec), RunKey(**key)
     configure_threads(cores, grid.budget.hidden)
     run_dir = Path(out) / run.path()
     run_dir.mkdir(parents=True, exist_ok=True)
@@ -237,7 +230,7 @@ def run_job(spec: dict, key: dict, out: str, cores: int) -> dict:
 
 def spec_payload(spec: GridSpec) -> dict:
     """``spec`` as plain data that ``spec_from_dict`` reads back (for workers and grid.json)."""
-    data = spec.to_dict()
+    data = asdict(spec)
     data["experiments"] = [dict(e) for e in data["experiments"]]
     return json.loads(json.dumps(data))
 
