@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from multitask.grid import Experiment, GridSpec, RunKey, expand, load_spec
+from multitask.grid import Experiment, GridSpec, RunKey, expand, load_spec, run_config
 from multitask.grid_cli import main as grid_main
 from multitask.runner import run_grid
 from multitask.tables_cli import main as tables_main
@@ -70,6 +70,18 @@ def test_expand_skips_gradnorm_for_single_task_and_checks_folds():
     assert len(keys) == 4 * 2
     with pytest.raises(ValueError, match="Z"):
         expand(GridSpec(folds=("Z",)), ("B", "C"))
+
+
+def test_paper_preset_run_configs(synth_dir):
+    spec = GridSpec(preset="paper", data=str(synth_dir))
+    keys = expand(spec, ("B", "C", "D", "E", "F", "G", "H", "I"))
+    assert len(keys) == 22 * 8 * 3
+    online_apc = run_config(spec, RunKey("revised", "forward", "APc", "fixed", 2, "G"))
+    assert online_apc.encoder.hidden == 1024 and not online_apc.encoder.bidirectional
+    assert (online_apc.optim.total, online_apc.optim.learning_rate) == (120, 1.0)
+    assert online_apc.train.eval_points == (100, 110, 120) and online_apc.train.seed == 2
+    pr = run_config(spec, RunKey("original", "bidirectional", "Pr", "fixed", 0, "B"))
+    assert (pr.optim.total, pr.optim.momentum, pr.data.annotations) == (80, 0.9, "original")
 
 
 def test_presets_and_schedule_scaling():
