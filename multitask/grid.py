@@ -5,7 +5,7 @@ directions), the LOUO folds, the seeds and a budget. Presets give the budget:
 
 * ``paper``: H=1024, the paper's schedules (120 epochs, 80 for Pr/Pc/Poc), seeds 0, 1, 2;
 * ``quick``: H=128 and every schedule compressed 4x (30 epochs, 20 for P), seed 0: the whole
-  default grid (22 configurations x 8 folds) takes about 1.5 h on 2 cores (docs/PERFORMANCE.md).
+  default grid (22 configurations x 8 folds) takes about 80 minutes on 2 cores (results/README.md).
 
 Every run has its own directory ``runs/<annotations>/<direction>/<variant>-<weighting>/seed<k>/<user>``
 and is resumable on its own; ``finished.json`` marks it complete (``rnn_seg.rundir``).
