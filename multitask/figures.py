@@ -22,6 +22,7 @@ import pandas as pd  # noqa: E402
 from jigsaws_tools.gestures import GESTURES  # noqa: E402
 from jigsaws_tools.plots import draw_ribbon, legend_handles  # noqa: E402
 
+from .collect import lookup  # noqa: E402
 from .grid import RunKey  # noqa: E402
 from .tables import CONFIG_LABELS  # noqa: E402
 
@@ -45,11 +46,7 @@ def _label(config: str) -> str:
 
 
 def _offline(summary: pd.DataFrame, config: str) -> pd.Series | None:
-    variant, weighting = config.rsplit("-", 1)
-    rows = summary[(summary.annotations == OFFLINE["annotations"])
-                   & (summary.direction == OFFLINE["direction"])
-                   & (summary.variant == variant) & (summary.weighting == weighting)]
-    return rows.iloc[0] if len(rows) else None
+    return lookup(summary, OFFLINE["annotations"], OFFLINE["direction"], config)
 
 
 def per_gesture_accuracy(summary: pd.DataFrame, out_dir: Path) -> list[Path]:
