@@ -75,10 +75,6 @@ def summary(folds: pd.DataFrame) -> pd.DataFrame:
     return table.reset_index()
 
 
-def config_name(variant: str, weighting: str) -> str:
-    return f"{variant}-{weighting}"
-
-
 def lookup(summary_table: pd.DataFrame, annotations: str, direction: str, config: str
            ) -> pd.Series | None:
     """The summary row of one configuration, or None if the grid did not run it."""

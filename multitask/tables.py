@@ -10,7 +10,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-import numpy as np
 import pandas as pd
 
 from .collect import LOWER_IS_BETTER, METRICS, finite, lookup
@@ -148,7 +147,7 @@ def to_latex(frame: pd.DataFrame, caption: str, label: str, sides: tuple[str, st
                 continue
             row += [_cell(cell.left_mean, cell.left_std, cell.left_mean == best[(m, "left")]),
                     _cell(cell.right_mean, cell.right_std, cell.right_mean == best[(m, "right")]),
-                    "--" if _missing(cell.diff) else f"{cell.diff:+.1f}"]
+                    "--" if finite(cell.diff) is None else f"{cell.diff:+.1f}"]
         lines.append(" & ".join(row) + r" \\")
     lines += [r"\bottomrule", r"\end{tabular}}", r"\end{table*}"]
     return "\n".join(lines) + "\n"
@@ -167,14 +166,10 @@ def _best(values: pd.Series, metric: str) -> float | None:
     return float(values.min() if metric in LOWER_IS_BETTER else values.max())
 
 
-def _missing(value) -> bool:
-    return value is None or (isinstance(value, float) and np.isnan(value))
-
-
 def _cell(mean, std, bold: bool) -> str:
-    if _missing(mean):
+    if finite(mean) is None:
         return "--"
-    text = f"{mean:.1f}" + ("" if _missing(std) else f" ({std:.1f})")
+    text = f"{mean:.1f}" + ("" if finite(std) is None else f" ({std:.1f})")
     return rf"\textbf{{{text}}}" if bold else text
 
 

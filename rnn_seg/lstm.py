@@ -93,8 +93,8 @@ def _lstm_bptt(x_proj, keep, W_h, peep):
     def grad(dh_out):
         h, c = state[0], state[1]
         hidden = tf.shape(W_h)[0]
-        dz = _backward(dh_out, keep, _backward_factors(state, keep, peep), W_h)   # [T, B, 4H]
-        h_prev, c_prev = keep * _shift(h), keep * _shift(c)
+        h_prev, c_prev = keep * _shift(h), keep * _shift(c)          # state entering each step
+        dz = _backward(dh_out, keep, _backward_factors(state, c_prev, keep, peep), W_h)  # [T,B,4H]
         dW_h = tf.matmul(tf.reshape(h_prev, [-1, hidden]), tf.reshape(dz, [-1, 4 * hidden]),
                          transpose_a=True)
         _, dz_i, dz_f, dz_o = tf.split(dz, 4, axis=2)
@@ -135,8 +135,9 @@ def _forward(x_proj, keep, W_h, peep):
     return [r.stack() for r in records]
 
 
-def _backward_factors(state, keep, peep):
-    """Per-step factors of the chain rule that do not depend on the incoming gradient.
+def _backward_factors(state, c_prev, keep, peep):
+    """Per-step factors of the chain rule that do not depend on the incoming gradient;
+    ``c_prev`` ``[T, B, H]`` is the cell state entering each step (after its reset).
 
     Returns ``(out_c, gates_dc, gates_dh, to_prev)``: ``dc = dc_next + dh * out_c``;
     ``dz = dc * gates_dc + dh * gates_dh`` (``[T, B, 4, H]``, gate order g, i, f, o);
@@ -144,7 +145,6 @@ def _backward_factors(state, keep, peep):
     """
     _, c, g, i, f, o = state
     w_ic, w_fc, w_oc = peep[0], peep[1], peep[2]
-    c_prev = keep * _shift(c)
     tc = tf.tanh(c)
     d_i, d_f = i * (1.0 - i), f * (1.0 - f)                          # sigmoid derivatives
     out_o = tc * o * (1.0 - o)                                       # dz_o / dh
