@@ -44,7 +44,7 @@ def _step_function(impl: str, hidden: int):
         model = SegmentationModel(F, EncoderConfig(hidden=hidden), [task], seed=0)
 
         def outputs(x, r):
-            return model(x, r, dropout_rng)["gesture"]
+            return model(x, r, tf.transpose(dropout_rng.make_seeds(model.dropout_calls)))["gesture"]
         variables = model.trainable_variables
     else:
         from per_gate_reference import PerGateLSTM

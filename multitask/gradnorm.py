@@ -11,8 +11,8 @@ Per training sweep, with task losses L_i and weights w_i:
   ``sign(G_i - target_i) * ||grad_W L_i||``, exact without second-order terms;
 * then the weights are clipped positive and renormalised to sum to the number of tasks.
 
-Two backward passes per sweep (one per task) give both the per-task norms and, by linearity, the
-weighted network gradient.
+Two backward passes per sweep (one per task, ``per_task_gradients``) give both the per-task norms
+and, by linearity, the weighted network gradient.
 """
 from __future__ import annotations
 
@@ -52,15 +52,10 @@ class GradNormTrainer(Trainer):
     def extra_state(self) -> dict:
         return {"task_weights": self.weights, "initial_losses": self.initial_losses}
 
-    @tf.function(reduce_retracing=True)
-    def _gradnorm_step(self, inputs, resets, targets, learning_rate):
+    per_task_gradients = True
+
+    def update(self, losses, grads, learning_rate):
         """Returns ``[4, n_tasks]``: losses, G_i, r_i, and the weights used for this sweep."""
-        with tf.GradientTape(persistent=True) as tape:
-            losses = self._task_losses(inputs, resets, targets)
-            per_task = [losses[i] for i in range(len(self.tasks))]
-        grads = [tape.gradient(loss, self.variables, unconnected_gradients="zero")
-                 for loss in per_task]
-        del tape
         weights = tf.identity(self.weights)
         network = [tf.add_n([weights[i] * g[k] for i, g in enumerate(grads)])
                    for k in range(len(self.variables))]
@@ -80,9 +75,7 @@ class GradNormTrainer(Trainer):
         self.weights.assign(new * len(self.tasks) / tf.reduce_sum(new))
         return tf.stack([losses, G, r, weights])
 
-    def _step(self, inputs, resets, targets, learning_rate):
-        out = self._gradnorm_step(inputs, resets, targets,
-                                  tf.constant(learning_rate, tf.float32)).numpy()
+    def record(self, out):
         self._stats.append(out[1:])
         return out[0]
 

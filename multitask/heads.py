@@ -11,7 +11,7 @@ import numpy as np
 import tensorflow as tf
 
 from jigsaws_tools.progress import NUM_STAGES, ordinal_decode, ordinal_encode
-from rnn_seg.tasks import SoftmaxClassification, Task
+from rnn_seg.tasks import SoftmaxClassification, Task, step_mean
 
 STAGE_NAMES = tuple(f"P{k}" for k in range(NUM_STAGES))
 
@@ -31,8 +31,8 @@ class ProgressRegression(Task):
     def encode(self, labels):
         return labels[..., None].astype(np.float32)
 
-    def loss(self, outputs, targets):
-        return tf.reduce_mean(tf.abs(outputs - targets))
+    def loss(self, outputs, targets, mask=None):
+        return step_mean(tf.abs(outputs - targets), mask)
 
     def scores(self, outputs):
         return outputs
@@ -75,8 +75,8 @@ class OrdinalProgress(Task):
     def encode(self, labels):
         return ordinal_encode(labels.reshape(-1), self.num_classes).reshape(labels.shape + (-1,))
 
-    def loss(self, outputs, targets):
-        return tf.reduce_mean(tf.nn.sigmoid_cross_entropy_with_logits(targets, outputs))
+    def loss(self, outputs, targets, mask=None):
+        return step_mean(tf.nn.sigmoid_cross_entropy_with_logits(targets, outputs), mask)
 
     def scores(self, outputs):
         return 1.0 / (1.0 + np.exp(-outputs))

@@ -1,7 +1,16 @@
 """Fully connected output layer applied at every time step."""
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import tensorflow as tf
+
+
+class DenseParams(NamedTuple):
+    """Weights of a dense layer, as variables or (stacked) tensors."""
+
+    W: tf.Tensor        # [D, K]
+    b: tf.Tensor        # [K]
 
 
 class Dense(tf.Module):
@@ -17,5 +26,12 @@ class Dense(tf.Module):
         self.W = tf.Variable(rng.uniform([input_size, output_size], -init_scale, init_scale), name="W")
         self.b = tf.Variable(rng.uniform([output_size], -init_scale, init_scale), name="b")
 
+    def params(self) -> DenseParams:
+        return DenseParams(self.W, self.b)
+
     def __call__(self, features: tf.Tensor) -> tf.Tensor:
-        return tf.tensordot(features, self.W, 1) + self.b
+        return self.apply(self.params(), features)
+
+    @staticmethod
+    def apply(params: DenseParams, features: tf.Tensor) -> tf.Tensor:
+        return tf.tensordot(features, params.W, 1) + params.b

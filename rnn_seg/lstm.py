@@ -19,7 +19,7 @@ Shapes: batch-major ``[B, T, ...]`` at the API, time-major inside the scan.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import Literal, NamedTuple
 
 import tensorflow as tf
 
@@ -47,6 +47,15 @@ class EncoderConfig:
         return self.hidden * (2 if self.bidirectional else 1)
 
 
+class LayerParams(NamedTuple):
+    """Weights of one LSTM layer in one direction, as variables or (stacked) tensors."""
+
+    W_x: tf.Tensor      # [F, 4H]
+    W_h: tf.Tensor      # [H, 4H]
+    peep: tf.Tensor     # [3, H], rows w_ic, w_fc, w_oc
+    b: tf.Tensor        # [4H]
+
+
 class LSTMCellWeights(tf.Module):
     """Trainable weights of one LSTM layer in one direction."""
 
@@ -61,6 +70,9 @@ class LSTMCellWeights(tf.Module):
         self.W_h = uniform([hidden, 4 * hidden], "W_h")
         self.peep = uniform([3, hidden], "peepholes")   # rows: w_ic, w_fc, w_oc
         self.b = tf.Variable(tf.zeros([4 * hidden]), name="b")
+
+    def params(self) -> LayerParams:
+        return LayerParams(self.W_x, self.W_h, self.peep, self.b)
 
 
 def lstm_scan(x_proj: tf.Tensor, resets: tf.Tensor, W_h: tf.Variable, peep: tf.Variable
@@ -193,22 +205,46 @@ def reverse_resets(resets: tf.Tensor, mode: ResetMode) -> tf.Tensor:
     return tf.concat([resets[:, 1:], ones], axis=1)
 
 
+EncoderParams = dict[str, list[LayerParams]]     # direction ("fw", "rv") -> one entry per layer
+
+
 class RecurrentEncoder(tf.Module):
     """Stacked (bi)directional LSTM: ``[B, T, F]`` -> ``[B, T, H]`` or ``[B, T, 2H]`` (fw, rv)."""
 
     def __init__(self, input_size: int, config: EncoderConfig, rng: tf.random.Generator):
         super().__init__(name="encoder")
         self.config = config
-        directions = ("fw", "rv") if config.bidirectional else ("fw",)
         self.cells = {
             d: [LSTMCellWeights(input_size if layer == 0 else config.hidden, config.hidden,
                                 config.init_scale, rng, name=f"{d}_layer{layer}")
                 for layer in range(config.layers)]
-            for d in directions}
+            for d in self.directions}
 
-    def __call__(self, inputs: tf.Tensor, resets: tf.Tensor, dropout_rng: tf.random.Generator | None
+    @property
+    def directions(self) -> tuple[str, ...]:
+        return ("fw", "rv") if self.config.bidirectional else ("fw",)
+
+    @property
+    def dropout_calls(self) -> int:
+        """Dropout masks drawn per call: each direction's input and every layer's output."""
+        return len(self.directions) * (self.config.layers + 1)
+
+    def params(self) -> EncoderParams:
+        return {d: [cell.params() for cell in cells] for d, cells in self.cells.items()}
+
+    def __call__(self, inputs: tf.Tensor, resets: tf.Tensor, dropout_seeds: tf.Tensor | None
                  ) -> tf.Tensor:
-        """``inputs`` ``[B, T, F]`` float32, ``resets`` ``[B, T]`` bool; ``dropout_rng`` None = no dropout.
+        return self.apply(self.params(), inputs, resets, dropout_seeds)
+
+    def apply(self, params: EncoderParams, inputs: tf.Tensor, resets: tf.Tensor,
+              dropout_seeds: tf.Tensor | None, valid: tf.Tensor | None = None) -> tf.Tensor:
+        """The encoder with weights ``params`` (this encoder's own, or any of the same shapes).
+
+        ``inputs`` ``[B, T, F]`` float32, ``resets`` ``[B, T]`` bool; ``dropout_seeds``
+        ``[dropout_calls, 2]`` int64 stateless seeds, used in the order fw input, rv input, then
+        per layer fw and rv output (None = no dropout). ``valid`` ``[B, T]`` bool marks the steps of
+        a sweep padded at the end (None = all valid): the reverse state then starts afresh at
+        each row's last valid step, so padding never reaches a valid step.
 
         Every direction keeps its own stack (layer l+1 of a direction reads layer l of the same
         direction) and draws its own dropout masks, as in the original. The directions' loops are
@@ -217,26 +253,34 @@ class RecurrentEncoder(tf.Module):
         """
         x = tf.transpose(inputs, [1, 0, 2])                               # [T, B, F]
         flags = {"fw": resets}
-        if "rv" in self.cells:
-            flags["rv"] = tf.reverse(reverse_resets(resets, self.config.reset_mode), [1])
+        if "rv" in params:
+            rv = reverse_resets(resets, self.config.reset_mode)
+            if valid is not None:
+                rv = rv | (valid & ~tf.concat([valid[:, 1:], tf.zeros_like(valid[:, :1])], 1))
+            flags["rv"] = tf.reverse(rv, [1])
         flags = {d: tf.transpose(tf.cast(f, tf.float32))[:, :, None] for d, f in flags.items()}
-        xs = {d: x if d == "fw" else tf.reverse(x, [0]) for d in self.cells}
-        xs = {d: dropout(v, self.config.keep_prob, dropout_rng) for d, v in xs.items()}
+        seeds = iter(range(self.dropout_calls))
+
+        def drop(v):
+            return dropout(v, self.config.keep_prob,
+                           None if dropout_seeds is None else dropout_seeds[next(seeds)])
+
+        xs = {d: drop(x if d == "fw" else tf.reverse(x, [0])) for d in params}
         for layer in range(self.config.layers):
-            xs = {d: dropout(self._layer(self.cells[d][layer], x, flags[d]), self.config.keep_prob,
-                             dropout_rng) for d, x in xs.items()}
+            xs = {d: drop(self._layer(params[d][layer], v, flags[d])) for d, v in xs.items()}
         outputs = [xs["fw"]] + ([tf.reverse(xs["rv"], [0])] if "rv" in xs else [])
         return tf.transpose(tf.concat(outputs, axis=2), [1, 0, 2])
 
     @staticmethod
-    def _layer(cell: LSTMCellWeights, x: tf.Tensor, resets: tf.Tensor) -> tf.Tensor:
+    def _layer(params: LayerParams, x: tf.Tensor, resets: tf.Tensor) -> tf.Tensor:
         """``[T, B, F]`` -> ``[T, B, H]``; the input product for all steps at once."""
-        return lstm_scan(tf.tensordot(x, cell.W_x, 1) + cell.b, resets, cell.W_h, cell.peep)
+        return lstm_scan(tf.tensordot(x, params.W_x, 1) + params.b, resets, params.W_h,
+                         params.peep)
 
 
-def dropout(x: tf.Tensor, keep_prob: float, rng: tf.random.Generator | None) -> tf.Tensor:
-    """Inverted dropout with an independent mask per element and time step (never across time)."""
-    if rng is None or keep_prob >= 1.0:
+def dropout(x: tf.Tensor, keep_prob: float, seed: tf.Tensor | None) -> tf.Tensor:
+    """Inverted dropout with an independent mask per element and time step (never across time);
+    ``seed`` ``[2]`` int64 stateless seed, None = no dropout."""
+    if seed is None or keep_prob >= 1.0:
         return x
-    return tf.nn.experimental.stateless_dropout(x, rate=1.0 - keep_prob,
-                                                seed=rng.make_seeds(1)[:, 0])
+    return tf.nn.experimental.stateless_dropout(x, rate=1.0 - keep_prob, seed=seed)

@@ -1,20 +1,29 @@
 """A recurrent encoder shared by one fully connected head per task."""
 from __future__ import annotations
 
-from typing import Sequence
+from typing import Sequence, TypedDict
 
 import tensorflow as tf
 
-from .dense import Dense
-from .lstm import EncoderConfig, RecurrentEncoder
+from .dense import Dense, DenseParams
+from .lstm import EncoderConfig, EncoderParams, RecurrentEncoder
 from .tasks import Task
+
+
+class ModelParams(TypedDict):
+    """Every weight of a ``SegmentationModel``; ``tf.nest`` flattens it in a fixed order."""
+
+    encoder: EncoderParams
+    heads: dict[str, DenseParams]
 
 
 class SegmentationModel(tf.Module):
     """``inputs [B, T, F]`` -> ``{task name: outputs [B, T, K_task]}``.
 
     Weights are drawn from one generator seeded with ``seed``: the encoder's first, then each head
-    in task order, so the same seed and tasks give the same initial model.
+    in task order, so the same seed and tasks give the same initial model. ``apply`` runs the model
+    with any weights of the same structure (``params()``), e.g. one slice of several models'
+    stacked weights.
     """
 
     def __init__(self, input_size: int, encoder: EncoderConfig, tasks: Sequence[Task], seed: int):
@@ -24,8 +33,23 @@ class SegmentationModel(tf.Module):
         self.heads = {t.name: Dense(encoder.output_size, t.num_outputs, encoder.init_scale, rng,
                                     name=f"head_{t.name}") for t in tasks}
 
+    @property
+    def dropout_calls(self) -> int:
+        """Rows of the ``dropout_seeds`` a training call takes."""
+        return self.encoder.dropout_calls
+
+    def params(self) -> ModelParams:
+        return {"encoder": self.encoder.params(),
+                "heads": {name: head.params() for name, head in self.heads.items()}}
+
     def __call__(self, inputs: tf.Tensor, resets: tf.Tensor,
-                 dropout_rng: tf.random.Generator | None = None) -> dict[str, tf.Tensor]:
-        """``resets`` ``[B, T]`` bool; ``dropout_rng`` None (evaluation) disables dropout."""
-        features = self.encoder(inputs, resets, dropout_rng)
-        return {name: head(features) for name, head in self.heads.items()}
+                 dropout_seeds: tf.Tensor | None = None) -> dict[str, tf.Tensor]:
+        return self.apply(self.params(), inputs, resets, dropout_seeds)
+
+    def apply(self, params: ModelParams, inputs: tf.Tensor, resets: tf.Tensor,
+              dropout_seeds: tf.Tensor | None = None, valid: tf.Tensor | None = None
+              ) -> dict[str, tf.Tensor]:
+        """``resets`` ``[B, T]`` bool; ``dropout_seeds`` ``[dropout_calls, 2]`` int64 or None
+        (evaluation: no dropout); ``valid`` ``[B, T]`` bool for sweeps padded at the end."""
+        features = self.encoder.apply(params["encoder"], inputs, resets, dropout_seeds, valid)
+        return {name: Dense.apply(params["heads"][name], features) for name in self.heads}

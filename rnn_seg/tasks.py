@@ -34,8 +34,10 @@ class Task:
         """Integer labels ``[..., T]`` -> float32 targets ``[..., T, num_outputs]``."""
         raise NotImplementedError
 
-    def loss(self, outputs: tf.Tensor, targets: tf.Tensor) -> tf.Tensor:
-        """Scalar mean loss over every step of ``outputs`` ``[B, T, K]``."""
+    def loss(self, outputs: tf.Tensor, targets: tf.Tensor, mask: tf.Tensor | None = None
+             ) -> tf.Tensor:
+        """Scalar mean loss over the steps of ``outputs`` ``[B, T, K]`` where ``mask`` ``[B, T]``
+        (bool) is set; None = every step."""
         raise NotImplementedError
 
     def scores(self, outputs: np.ndarray) -> np.ndarray:
@@ -61,8 +63,8 @@ class SoftmaxClassification(Task):
     def encode(self, labels):
         return np.eye(self.num_classes, dtype=np.float32)[labels]
 
-    def loss(self, outputs, targets):
-        return tf.reduce_mean(tf.nn.softmax_cross_entropy_with_logits(targets, outputs))
+    def loss(self, outputs, targets, mask=None):
+        return step_mean(tf.nn.softmax_cross_entropy_with_logits(targets, outputs), mask)
 
     def scores(self, outputs):
         e = np.exp(outputs - outputs.max(axis=-1, keepdims=True))
@@ -70,6 +72,17 @@ class SoftmaxClassification(Task):
 
     def decode(self, outputs):
         return np.argmax(outputs, axis=-1)
+
+
+def step_mean(values: tf.Tensor, mask: tf.Tensor | None) -> tf.Tensor:
+    """Mean of per-step values ``[B, T]`` or ``[B, T, K]`` over the steps where ``mask`` ``[B, T]``
+    (bool) is set, and over ``K``; None = the plain mean."""
+    if mask is None:
+        return tf.reduce_mean(values)
+    values = tf.reshape(values, tf.concat([tf.shape(mask), [-1]], axis=0))        # [B, T, K]
+    weight = tf.cast(mask, values.dtype)[..., None]
+    count = tf.reduce_sum(weight) * tf.cast(tf.shape(values)[-1], values.dtype)
+    return tf.reduce_sum(values * weight) / count
 
 
 def task_metrics(task: Task, outputs: Sequence[np.ndarray], labels: Sequence[np.ndarray]

@@ -23,7 +23,7 @@ import numpy as np
 import pandas as pd
 import tensorflow as tf
 
-from .model import SegmentationModel
+from .model import ModelParams, SegmentationModel
 from .optim import SGD, OptimConfig
 from .plots import plot_sequence
 from .rundir import is_finished, mark_finished, write_atomic, write_json
@@ -91,9 +91,12 @@ def _forward(model, x, r):
 class Trainer:
     """Trains ``model`` on ``train`` with a weighted sum of task losses; evaluates on ``test``.
 
-    Subclasses change how task weights are chosen by overriding ``_step``, may register further
-    checkpointed state in ``extra_state`` and write their own per-unit logs in ``_on_log``.
+    Subclasses change how task weights are chosen by overriding ``update`` (and ``record``; with
+    ``per_task_gradients`` they get each task's gradient instead of the sum's), may register
+    further checkpointed state in ``extra_state`` and write their own per-unit logs in ``_on_log``.
     """
+
+    per_task_gradients = False
 
     def __init__(self, model: SegmentationModel, tasks: Sequence[Task], optim: OptimConfig,
                  config: TrainConfig, train: SequenceSet, test: SequenceSet, run_dir: Path,
@@ -101,7 +104,7 @@ class Trainer:
         self.model, self.tasks, self.optim, self.config = model, list(tasks), optim, config
         self.train, self.test, self.run_dir, self.log = train, test, Path(run_dir), log
         self.sample_hz = sample_hz
-        self.variables = model.trainable_variables
+        self.variables = tf.nest.flatten(model.params())      # the order of every gradient list
         self.sgd = SGD(self.variables, optim.momentum, optim.clip_norm)
         self.dropout_rng = tf.random.Generator.from_seed(config.seed + 1_000_003)
         self.sweep = tf.Variable(0, dtype=tf.int64, trainable=False, name="sweep")
@@ -125,63 +128,101 @@ class Trainer:
                                          dropout_rng=self.dropout_rng, **self.extra_state())
         return tf.train.CheckpointManager(checkpoint, self.run_dir / "checkpoints", max_to_keep=2)
 
+    def checkpoint_sweeps(self) -> list[int]:
+        """Sweep counts of the checkpoints on disk, oldest first."""
+        return [int(path.rsplit("-", 1)[1]) for path in self._checkpoint_manager().checkpoints]
+
     # -- one step ------------------------------------------------------------------------------
-    def _task_losses(self, inputs, resets, targets):
-        outputs = self.model(inputs, resets, self.dropout_rng)
-        return tf.stack([t.loss(outputs[t.name], y) for t, y in zip(self.tasks, targets)])
+    def dropout_seeds(self) -> tf.Tensor:
+        """``[dropout_calls, 2]`` int64 seeds for one training call, drawn one at a time."""
+        return tf.stack([self.dropout_rng.make_seeds(1)[:, 0]
+                         for _ in range(self.model.dropout_calls)])
+
+    def update(self, losses: tf.Tensor, grads: list[list[tf.Tensor]], learning_rate: tf.Tensor
+               ) -> tf.Tensor:
+        """Apply one sweep's gradients (graph code). ``grads`` holds one gradient list (in
+        ``self.variables`` order) per objective of ``loss_gradients``. Returns what ``record``
+        reads back: here the task losses ``[n_tasks]``."""
+        self.sgd.apply(grads[0], self.variables, learning_rate)
+        return losses
+
+    def record(self, out: np.ndarray) -> np.ndarray:
+        """Read one sweep's ``update`` result; returns the task losses ``[n_tasks]``."""
+        return out
+
+    def step(self, sweep: int, learning_rate: float) -> np.ndarray:
+        """Train on sweep number ``sweep`` (no book-keeping); returns ``update``'s result."""
+        inputs, resets, targets = self.batch(sweep)
+        return self._train_step(tf.constant(inputs), tf.constant(resets),
+                                tuple(tf.constant(y) for y in targets),
+                                tf.constant(learning_rate, tf.float32)).numpy()
 
     @tf.function(reduce_retracing=True)
     def _train_step(self, inputs, resets, targets, learning_rate):
-        """One SGD step on the unweighted sum of task losses; returns the task losses ``[n_tasks]``."""
-        with tf.GradientTape() as tape:
-            losses = self._task_losses(inputs, resets, targets)
-            total = tf.reduce_sum(losses)
-        self.sgd.apply(tape.gradient(total, self.variables), self.variables, learning_rate)
-        return losses
-
-    def _step(self, inputs, resets, targets, learning_rate: float) -> np.ndarray:
-        """One training sweep; returns the task losses ``[n_tasks]``."""
-        return self._train_step(inputs, resets, targets, tf.constant(learning_rate, tf.float32)).numpy()
+        losses, grads = loss_gradients(self.model, self.tasks, self.per_task_gradients,
+                                       self.model.params(), inputs, resets, targets,
+                                       self.dropout_seeds())
+        return self.update(losses, grads, learning_rate)
 
     def _on_log(self, done: int) -> None:
         """Called at every progress line (after ``done`` sweeps); for subclasses' own logs."""
 
-    def _batch(self, sweep: int):
+    def batch(self, sweep: int) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
+        """Training sweep ``sweep``: inputs ``[B, T, F]``, resets ``[B, T]`` and one target array
+        ``[B, T, K_task]`` per task, ``T`` the longest member's length."""
         idx = sweep_indices(len(self.train), self.config.batch_size, self.config.seed, sweep)
         lengths = [len(self.train.inputs[i]) for i in idx]
         duration = max(lengths)
         inputs = make_sweep([self.train.inputs[i] for i in idx], duration)
-        targets = tuple(tf.constant(make_sweep([self._targets[t.name][i] for i in idx], duration))
+        targets = tuple(make_sweep([self._targets[t.name][i] for i in idx], duration)
                         for t in self.tasks)
-        return tf.constant(inputs), tf.constant(reset_flags(lengths, duration)), targets
+        return inputs, reset_flags(lengths, duration), targets
 
     # -- the loop ------------------------------------------------------------------------------
     def run(self) -> dict:
         """Train to the end (resuming from the last checkpoint) and return ``metrics.json``'s content."""
-        if is_finished(self.run_dir):
-            self.log(f"{self.run_dir}: already finished")
-            return json.loads((self.run_dir / "metrics.json").read_text())
-        manager = self._checkpoint_manager()
-        if manager.latest_checkpoint:
-            manager.checkpoint.restore(manager.latest_checkpoint).assert_existing_objects_matched()
-            self.log(f"resuming from sweep {int(self.sweep.numpy())} ({manager.latest_checkpoint})")
+        if self.finished():
+            return self.finish()
+        for sweep in range(self.resume(), self.total_sweeps):
+            lr = self.optim.learning_rate_at(sweep, self.spe)
+            self.after_sweep(sweep, lr, self.step(sweep, lr))
+        return self.finish()
+
+    def finished(self) -> bool:
+        return is_finished(self.run_dir)
+
+    def resume(self, at: int | None = None) -> int:
+        """Restore the latest checkpoint, or the one saved after sweep ``at`` (0 = start afresh);
+        returns the sweep to continue from."""
+        self._manager = self._checkpoint_manager()
+        path = self._manager.latest_checkpoint
+        if at is not None:
+            path = dict(zip(self.checkpoint_sweeps(), self._manager.checkpoints)).get(at)
+            if path is None and at:
+                raise ValueError(f"{self.run_dir}: no checkpoint after sweep {at} "
+                                 f"(have {self.checkpoint_sweeps()})")
+        if path:
+            self._manager.checkpoint.restore(path).assert_existing_objects_matched()
+            self.log(f"resuming from sweep {int(self.sweep.numpy())} ({path})")
         for log in self.run_dir.glob("*.csv"):      # rows past the checkpoint will be redone
             truncate_csv_log(log, int(self.sweep.numpy()))
+        self._losses, self._started = [], time.time()
+        return int(self.sweep.numpy())
+
+    def after_sweep(self, sweep: int, lr: float, out: np.ndarray) -> None:
+        """Book-keeping after 0-based sweep ``sweep`` (``out`` from ``update``): progress line,
+        evaluation point, checkpoint."""
+        self._losses.append(self.record(out))
+        done = sweep + 1
+        self.sweep.assign(done)
         unit_sweeps = self.optim.sweeps(1, self.spe)
-        losses, started = [], time.time()
-        for sweep in range(int(self.sweep.numpy()), self.total_sweeps):
-            lr = self.optim.learning_rate_at(sweep, self.spe)
-            losses.append(self._step(*self._batch(sweep), lr))
-            done = sweep + 1
-            self.sweep.assign(done)
-            if done % (unit_sweeps * self.config.log_every) == 0 or done == self.total_sweeps:
-                self._log_progress(done, lr, np.mean(losses, axis=0), time.time() - started)
-                losses = []
-            if done in self.eval_sweeps:
-                self._evaluate(self.eval_sweeps[done])
-            if done % (unit_sweeps * self.config.checkpoint_every) == 0 or done == self.total_sweeps:
-                manager.save(checkpoint_number=done)
-        return self._finish()
+        if done % (unit_sweeps * self.config.log_every) == 0 or done == self.total_sweeps:
+            self._log_progress(done, lr, np.mean(self._losses, axis=0), time.time() - self._started)
+            self._losses = []
+        if done in self.eval_sweeps:
+            self._evaluate(self.eval_sweeps[done])
+        if done % (unit_sweeps * self.config.checkpoint_every) == 0 or done == self.total_sweeps:
+            self._manager.save(checkpoint_number=done)
 
     def _log_progress(self, done: int, lr: float, losses: np.ndarray, elapsed: float) -> None:
         unit = done / self.optim.sweeps(1, self.spe)
@@ -248,7 +289,11 @@ class Trainer:
                             for t in self.tasks)
         self.log(f"[{self.run_dir.name}] evaluation at {self.optim.unit[:-1]} {point}: {summary}")
 
-    def _finish(self) -> dict:
+    def finish(self) -> dict:
+        """Write ``metrics.json`` and mark the run finished (once); returns the metrics."""
+        if self.finished():
+            self.log(f"{self.run_dir}: already finished")
+            return json.loads((self.run_dir / "metrics.json").read_text())
         points = sorted(self.eval_sweeps.values())
         per_point = {p: _read_point(self.run_dir, self.optim.unit, p) for p in points}
         mean = {task: {k: float(np.mean([per_point[p][task][k] for p in points]))
@@ -258,6 +303,24 @@ class Trainer:
         write_json(self.run_dir / "metrics.json", result)
         mark_finished(self.run_dir, {"sweeps": self.total_sweeps})
         return result
+
+
+def loss_gradients(model: SegmentationModel, tasks: Sequence[Task], per_task: bool,
+                   params: ModelParams, inputs: tf.Tensor, resets: tf.Tensor,
+                   targets: Sequence[tf.Tensor], dropout_seeds: tf.Tensor,
+                   valid: tf.Tensor | None = None) -> tuple[tf.Tensor, list[list[tf.Tensor]]]:
+    """Task losses ``[n_tasks]`` of ``model`` run with weights ``params`` on one sweep, and their
+    gradients with respect to ``tf.nest.flatten(params)``: one list for the sum of the losses, or
+    with ``per_task`` one per task. A pure function of its arguments, so ``tf.vectorized_map`` can
+    run it for several models' stacked weights at once. ``valid`` ``[B, T]`` bool masks padding.
+    """
+    flat = tf.nest.flatten(params)
+    with tf.GradientTape(persistent=per_task, watch_accessed_variables=False) as tape:
+        tape.watch(flat)
+        outputs = model.apply(params, inputs, resets, dropout_seeds, valid)
+        losses = tf.stack([t.loss(outputs[t.name], y, valid) for t, y in zip(tasks, targets)])
+        objectives = tf.unstack(losses) if per_task else [tf.reduce_sum(losses)]
+    return losses, [tape.gradient(y, flat, unconnected_gradients="zero") for y in objectives]
 
 
 def append_csv_row(path: Path, row: dict) -> None:

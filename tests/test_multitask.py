@@ -60,8 +60,8 @@ class _Scaled(SoftmaxClassification):
         super().__init__(name, ["a", "b", "c"])
         self.scale = scale
 
-    def loss(self, outputs, targets):
-        return self.scale * super().loss(outputs, targets)
+    def loss(self, outputs, targets, mask=None):
+        return self.scale * super().loss(outputs, targets, mask)
 
 
 def _two_task_trainer(tmp_path, alpha, seed=0, weight_lr=0.025):
@@ -81,7 +81,7 @@ def _two_task_trainer(tmp_path, alpha, seed=0, weight_lr=0.025):
 
 def _direct_norms(trainer, sweep):
     """||grad_W (w_i L_i)|| with one tape per task, no dropout differences (keep_prob 1)."""
-    inputs, resets, targets = trainer._batch(sweep)
+    inputs, resets, targets = trainer.batch(sweep)
     weights = trainer.weights.numpy()
     norms = []
     for i, task in enumerate(trainer.tasks):
@@ -96,11 +96,11 @@ def test_gradnorm_balances_a_task_scaled_100x(tmp_path):
     trainer = _two_task_trainer(tmp_path, alpha=1.5)
     assert {id(v) for v in trainer.shared} == {id(v) for v in shared_layer_variables(trainer.model)}
     G0 = _direct_norms(trainer, 0)
-    out = trainer._gradnorm_step(*trainer._batch(0), tf.constant(0.1)).numpy()
+    out = trainer.step(0, 0.1)
     np.testing.assert_allclose(out[1], G0, rtol=1e-3)          # G_i as with separate tapes
     assert G0[1] > 20 * G0[0]
     for sweep in range(1, 60):
-        trainer._step(*trainer._batch(sweep), 0.1)
+        trainer.record(trainer.step(sweep, 0.1))
         w = trainer.weights.numpy()
         assert np.all(w > 0) and w.sum() == pytest.approx(2.0, abs=1e-5)
     assert w[1] < 0.5 < 1.5 < w[0]                              # the 100x task is down-weighted
@@ -113,7 +113,7 @@ def test_gradnorm_alpha_zero_equalises_norms(tmp_path):
     weight that balances a 100x task lets the norms meet."""
     trainer = _two_task_trainer(tmp_path, alpha=0.0, weight_lr=0.001)
     for sweep in range(300):
-        trainer._step(*trainer._batch(sweep), 0.02)
+        trainer.record(trainer.step(sweep, 0.02))
     G = np.mean([g for g, _, _ in trainer._stats[-40:]], axis=0)
     assert abs(G[1] / G[0] - 1.0) < 0.3, G
 
