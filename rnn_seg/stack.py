@@ -1,0 +1,109 @@
+"""Several independent models trained together: one vectorised TensorFlow step for all of them.
+
+A ``TrainerStack`` drives ordinary ``Trainer`` members (each with its own run directory, data,
+seed, dropout stream, checkpoints, logs and evaluation points) sweep by sweep, and replaces only
+their training step: the members' weights are stacked and ``tf.vectorized_map`` runs
+``loss_gradients`` for all of them at once, so every recurrent step is one batched product for
+all members instead of one small product each. Each member then applies its own update
+(clipping, momentum, GradNorm) to its own variables.
+
+Members' sweeps have different durations; each is padded at the end to the longest one, the
+padded steps masked out of the losses and the reverse LSTM direction restarted at each row's last
+valid step, so a member's gradient is its own sweep's. (Dropout masks are drawn from each
+member's own seeds, but for the padded shape, so they are not the very masks a lone run draws.)
+A member's run directory is indistinguishable from a lone run's: either way can resume it.
+"""
+from __future__ import annotations
+
+import logging
+from functools import partial
+from typing import Sequence
+
+import numpy as np
+import tensorflow as tf
+
+from .training import Trainer, loss_gradients
+
+
+class _NoFallbackWarnings(logging.Filter):
+    """``vectorized_map`` warns that it loops over members for the stateless random ops of
+    dropout (no vectorised kernel): one small op per member and layer, expected here."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return "Using a while_loop for converting StatelessRandom" not in record.getMessage()
+
+
+tf.get_logger().addFilter(_NoFallbackWarnings())
+
+
+class TrainerStack:
+    """Train ``trainers`` (same model shapes, tasks, trainer class and number of sweeps) together."""
+
+    def __init__(self, trainers: Sequence[Trainer]):
+        self.trainers = list(trainers)
+        if not self.trainers:
+            raise ValueError("a stack needs at least one trainer")
+        first = self.trainers[0]
+        for t in self.trainers[1:]:
+            _require_same(first, t, "trainer class", lambda x: type(x).__name__)
+            _require_same(first, t, "tasks", lambda x: [task.name for task in x.tasks])
+            _require_same(first, t, "number of sweeps", lambda x: x.total_sweeps)
+            _require_same(first, t, "batch size", lambda x: x.config.batch_size)
+            _require_same(first, t, "weight shapes", lambda x: [v.shape.as_list()
+                                                                for v in x.variables])
+
+    def run(self) -> list[dict]:
+        """Train every unfinished member to the end (resuming from the last checkpoint they have
+        in common) and return each member's metrics, in order."""
+        active = [t for t in self.trainers if not t.finished()]
+        if active:
+            start = min(max(t.checkpoint_sweeps(), default=0) for t in active)
+            for t in active:
+                t.resume(start)
+            step = tf.function(partial(_vector_step, active), reduce_retracing=True)
+            for sweep in range(start, active[0].total_sweeps):
+                lrs = [t.optim.learning_rate_at(sweep, t.spe) for t in active]
+                outs = step(*padded_batches([t.batch(sweep) for t in active]),
+                            tf.constant(lrs, tf.float32))
+                for t, lr, out in zip(active, lrs, outs):
+                    t.after_sweep(sweep, lr, out.numpy())
+        return [t.finish() for t in self.trainers]
+
+
+def _require_same(a: Trainer, b: Trainer, what: str, key) -> None:
+    if key(a) != key(b):
+        raise ValueError(f"cannot stack {a.run_dir} and {b.run_dir}: different {what} "
+                         f"({key(a)} vs {key(b)})")
+
+
+def padded_batches(batches: Sequence[tuple]) -> tuple:
+    """Members' sweeps ``(inputs [B, T_k, F], resets [B, T_k], targets ([B, T_k, K_task], ...))``
+    -> ``(inputs [M, B, T, F], resets [M, B, T], targets (...), valid [M, B, T])`` tensors, every
+    sweep zero-padded at the end to the longest duration ``T``."""
+    duration = max(inputs.shape[1] for inputs, _, _ in batches)
+
+    def pad(arrays):
+        return tf.constant(np.stack([np.pad(a, [(0, 0), (0, duration - a.shape[1])]
+                                            + [(0, 0)] * (a.ndim - 2)) for a in arrays]))
+
+    inputs, resets, targets = zip(*batches)
+    valid = [np.ones(r.shape, bool) for r in resets]
+    return pad(inputs), pad(resets), tuple(pad(y) for y in zip(*targets)), pad(valid)
+
+
+def _vector_step(members: list[Trainer], inputs, resets, targets, valid, learning_rates):
+    """One training sweep of every member; returns each member's ``update`` result."""
+    template = members[0]
+    params = tf.nest.map_structure(lambda *v: tf.stack(v), *[t.model.params() for t in members])
+    seeds = tf.stack([t.dropout_seeds() for t in members])                # [M, calls, 2]
+
+    def member(args):
+        p, x, r, y, s, v = args
+        return loss_gradients(template.model, template.tasks, template.per_task_gradients,
+                              p, x, r, y, s, v)
+
+    losses, grads = tf.vectorized_map(member, (params, inputs, resets, targets, seeds, valid),
+                                      fallback_to_while_loop=True)
+    return [t.update(losses[k], [[g[k] for g in objective] for objective in grads],
+                     learning_rates[k])
+            for k, t in enumerate(members)]
