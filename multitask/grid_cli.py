@@ -1,6 +1,6 @@
 """``multitask-grid``: run the leave-one-user-out grid of a spec, resumably, locally or on Dask.
 
-    multitask-grid --spec results/quick.toml --out runs/quick --workers 2
+    multitask-grid --spec results/quick.toml --out runs/quick --workers 2 --stack 4
     multitask-grid --preset quick --out runs/quick                   # the default paper grid
     multitask-grid --spec S.toml --out /shared/grid --scheduler tcp://head:8786
 
@@ -32,6 +32,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--scheduler", help="Dask scheduler address: run the jobs on that cluster")
     parser.add_argument("--threads-per-job", type=int, default=0,
                         help="cores per run (default: cores / workers locally, 1 on Dask)")
+    parser.add_argument("--stack", type=int, default=1,
+                        help="train up to N runs of one configuration (folds, seeds) together in "
+                             "one vectorised step per job; pays for small models "
+                             "(docs/PERFORMANCE.md)")
     parser.add_argument("--dry-run", action="store_true", help="list the runs and stop")
     return parser
 
@@ -40,6 +44,9 @@ def main(argv: list[str] | None = None) -> int:
     os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "2")
     logging.basicConfig(format="%(levelname)s: %(message)s", level=logging.WARNING)
     args = build_parser().parse_args(argv)
+    if min(args.workers, args.stack) < 1:
+        print("multitask-grid: error: --workers and --stack must be >= 1", file=sys.stderr)
+        return 2
     try:
         spec = load_spec(args.spec) if args.spec else GridSpec()
         spec = with_overrides(spec, preset=args.preset)
@@ -60,7 +67,7 @@ def main(argv: list[str] | None = None) -> int:
     write_json(args.out / "grid.json", {"spec": spec_payload(spec),
                                        "runs": [str(k.path()) for k in keys]})
     failed = run_grid(spec, keys, args.out, args.workers, args.scheduler, args.threads_per_job,
-                      log=lambda m: print(m, flush=True))
+                      args.stack, log=lambda m: print(m, flush=True))
     if failed:
         print(f"multitask-grid: {len(failed)} run(s) failed (re-run to retry):", file=sys.stderr)
         for key, message in failed:

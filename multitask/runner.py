@@ -1,7 +1,8 @@
 """Run a grid's jobs: a local pool of worker processes, or an existing Dask cluster.
 
-Each job is ``grid.run_job`` on one run directory; finished runs (``finished.json``) are skipped,
-interrupted ones resume from their checkpoints inside the job. Progress lines give done/total and
+Each job is ``grid.run_job`` on a group of up to ``stack`` run directories of one configuration
+(trained together in one vectorised step, ``rnn_seg.stack``; 1 = each run alone); finished runs
+(``finished.json``) are skipped, interrupted ones resume from their checkpoints inside the job. Progress lines give done/total and
 an ETA from the durations of the runs finished in this invocation.
 """
 from __future__ import annotations
@@ -17,7 +18,7 @@ from typing import Callable
 
 from rnn_seg.rundir import is_finished
 
-from .grid import GridSpec, RunKey, run_job, spec_payload
+from .grid import GridSpec, RunKey, run_job, spec_payload, stack_groups
 
 Log = Callable[[str], None]
 
@@ -31,6 +32,10 @@ class Progress:
         self.started, self.finished_here = time.time(), 0
         self.failed: list[tuple[RunKey, str]] = []
 
+    def finished_group(self, keys: list[RunKey], error: BaseException | None = None) -> None:
+        for key in keys:
+            self.finished(key, error)
+
     def finished(self, key: RunKey, error: BaseException | None = None) -> None:
         self.done += 1
         self.finished_here += 1
@@ -43,13 +48,13 @@ class Progress:
 
 
 def run_grid(spec: GridSpec, keys: list[RunKey], out: Path, workers: int = 1,
-             scheduler: str | None = None, cores_per_job: int = 0, log: Log = print
-             ) -> list[tuple[RunKey, str]]:
+             scheduler: str | None = None, cores_per_job: int = 0, stack: int = 1,
+             log: Log = print) -> list[tuple[RunKey, str]]:
     """Run every unfinished run of ``keys`` under ``out``; returns the failures (key, message).
 
     ``scheduler``: address of a Dask scheduler (``tcp://host:8786``); ``out`` must then be a folder
     every worker sees at the same path. ``cores_per_job`` 0 = this machine's cores / ``workers``
-    locally, 1 on Dask (start workers with one thread each).
+    locally, 1 on Dask (start workers with one thread each). ``stack``: runs per job.
     """
     out = Path(out).resolve()
     pending = [k for k in keys if not is_finished(out / k.path())]
@@ -58,27 +63,33 @@ def run_grid(spec: GridSpec, keys: list[RunKey], out: Path, workers: int = 1,
     if not pending:
         return []
     payload = spec_payload(spec)
+    groups = stack_groups(pending, stack)
+    progress = Progress(len(keys), len(keys) - len(pending), log)
     if scheduler:
-        return _run_dask(payload, pending, out, scheduler, cores_per_job or 1, len(keys), log)
-    cores = cores_per_job or max(1, (os.cpu_count() or 1) // workers)
-    return _run_local(payload, pending, out, workers, cores, len(keys), log)
-
-
-def _run_local(payload: dict, pending: list[RunKey], out: Path, workers: int, cores: int,
-               total: int, log: Log) -> list[tuple[RunKey, str]]:
-    """A pool of fresh processes (one per run, so no TensorFlow state carries over)."""
-    progress = Progress(total, total - len(pending), log)
-    context = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(workers, mp_context=context, max_tasks_per_child=1) as pool:
-        futures = {pool.submit(run_job, payload, asdict(key), str(out), cores): key
-                   for key in pending}
-        for future in as_completed(futures):
-            progress.finished(futures[future], future.exception())
+        _run_dask(payload, groups, out, scheduler, cores_per_job or 1, progress)
+    else:
+        cores = cores_per_job or max(1, (os.cpu_count() or 1) // workers)
+        _run_local(payload, groups, out, workers, cores, progress)
     return progress.failed
 
 
-def _run_dask(payload: dict, pending: list[RunKey], out: Path, address: str, cores: int,
-              total: int, log: Log) -> list[tuple[RunKey, str]]:
+def _job_args(payload: dict, group: list[RunKey], out: Path, cores: int) -> tuple:
+    return payload, [asdict(key) for key in group], str(out), cores
+
+
+def _run_local(payload: dict, groups: list[list[RunKey]], out: Path, workers: int, cores: int,
+               progress: Progress) -> None:
+    """A pool of fresh processes (one per job, so no TensorFlow state carries over)."""
+    context = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(workers, mp_context=context, max_tasks_per_child=1) as pool:
+        futures = {pool.submit(run_job, *_job_args(payload, group, out, cores)): group
+                   for group in groups}
+        for future in as_completed(futures):
+            progress.finished_group(futures[future], future.exception())
+
+
+def _run_dask(payload: dict, groups: list[list[RunKey]], out: Path, address: str, cores: int,
+              progress: Progress) -> None:
     """Submit every run to an existing Dask cluster and collect them as they finish."""
     try:
         from dask.distributed import Client
@@ -86,10 +97,9 @@ def _run_dask(payload: dict, pending: list[RunKey], out: Path, address: str, cor
     except ImportError:
         raise RuntimeError("--scheduler needs Dask: pip install 'mtrnn-jigsaws[dask]'") from None
     with Client(address) as client:
-        progress = Progress(total, total - len(pending), log)
-        futures = {client.submit(run_job, payload, asdict(key), str(out), cores, pure=False,
-                                 key=f"run-{'-'.join(map(str, asdict(key).values()))}"): key
-                   for key in pending}
+        futures = {client.submit(run_job, *_job_args(payload, group, out, cores), pure=False,
+                                 key=f"runs-{'-'.join(map(str, asdict(group[0]).values()))}"
+                                     f"-x{len(group)}"): group
+                   for group in groups}
         for future in dask_completed(futures):
-            progress.finished(futures[future], future.exception())
-    return progress.failed
+            progress.finished_group(futures[future], future.exception())

@@ -8,6 +8,7 @@ from typing import Callable, Literal
 from baseline.config import RunConfig
 from baseline.model import build_trainer
 from jigsaws_tools.dataset import Dataset
+from rnn_seg.training import Trainer
 
 from .gradnorm import GradNormConfig, GradNormTrainer
 from .variants import Variant
@@ -16,21 +17,26 @@ Weighting = Literal["fixed", "gradnorm"]
 WEIGHTINGS = ("fixed", "gradnorm")
 
 
-def train_variant(variant: Variant, weighting: Weighting, config: RunConfig, run_dir: Path,
-                  gradnorm: GradNormConfig = GradNormConfig(), dataset: Dataset | None = None,
-                  log: Callable[[str], None] = print) -> dict:
-    """Train ``variant``; ``fixed`` uses w1 = w2 = 1 (the baseline's trainer, unchanged)."""
+def variant_trainer(variant: Variant, weighting: Weighting, config: RunConfig, run_dir: Path,
+                    gradnorm: GradNormConfig = GradNormConfig(), dataset: Dataset | None = None,
+                    log: Callable[[str], None] = print) -> Trainer:
+    """A ready trainer of ``variant`` on ``run_dir``'s fold; ``fixed`` uses w1 = w2 = 1 (the
+    baseline's trainer, unchanged), ``gradnorm`` the GradNorm trainer."""
     if weighting not in WEIGHTINGS:
         raise ValueError(f"weighting must be one of {WEIGHTINGS}, not {weighting!r}")
     if weighting == "gradnorm" and not variant.multitask:
         raise ValueError(f"GradNorm needs two tasks; variant {variant.name} has one")
     extra = {"variant": variant.name, "weighting": weighting}
+    trainer = Trainer
     if weighting == "gradnorm":
         extra["gradnorm"] = gradnorm
-        trainer = build_trainer(config, variant.tasks(), run_dir, dataset,
-                                trainer=partial(GradNormTrainer, gradnorm=gradnorm),
-                                extra_configs=extra, log=log)
-    else:
-        trainer = build_trainer(config, variant.tasks(), run_dir, dataset, extra_configs=extra,
-                                log=log)
-    return trainer.run()
+        trainer = partial(GradNormTrainer, gradnorm=gradnorm)
+    return build_trainer(config, variant.tasks(), run_dir, dataset, trainer=trainer,
+                         extra_configs=extra, log=log)
+
+
+def train_variant(variant: Variant, weighting: Weighting, config: RunConfig, run_dir: Path,
+                  gradnorm: GradNormConfig = GradNormConfig(), dataset: Dataset | None = None,
+                  log: Callable[[str], None] = print) -> dict:
+    """Train ``variant`` on one fold (see ``variant_trainer``); returns the run's metrics."""
+    return variant_trainer(variant, weighting, config, run_dir, gradnorm, dataset, log).run()

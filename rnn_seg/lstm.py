@@ -261,14 +261,16 @@ class RecurrentEncoder(tf.Module):
         flags = {d: tf.transpose(tf.cast(f, tf.float32))[:, :, None] for d, f in flags.items()}
         seeds = iter(range(self.dropout_calls))
 
-        def drop(v):
-            return dropout(v, self.config.keep_prob,
-                           None if dropout_seeds is None else dropout_seeds[next(seeds)])
+        def drop(v, direction):
+            """Dropout on ``v`` in ``direction``'s time order, masks drawn in forward time order:
+            a sweep padded at the end keeps every valid step's mask."""
+            seed = None if dropout_seeds is None else dropout_seeds[next(seeds)]
+            return _flip(direction, dropout(_flip(direction, v), self.config.keep_prob, seed))
 
-        xs = {d: drop(x if d == "fw" else tf.reverse(x, [0])) for d in params}
+        xs = {d: drop(_flip(d, x), d) for d in params}
         for layer in range(self.config.layers):
-            xs = {d: drop(self._layer(params[d][layer], v, flags[d])) for d, v in xs.items()}
-        outputs = [xs["fw"]] + ([tf.reverse(xs["rv"], [0])] if "rv" in xs else [])
+            xs = {d: drop(self._layer(params[d][layer], v, flags[d]), d) for d, v in xs.items()}
+        outputs = [_flip(d, v) for d, v in xs.items()]
         return tf.transpose(tf.concat(outputs, axis=2), [1, 0, 2])
 
     @staticmethod
@@ -276,6 +278,11 @@ class RecurrentEncoder(tf.Module):
         """``[T, B, F]`` -> ``[T, B, H]``; the input product for all steps at once."""
         return lstm_scan(tf.tensordot(x, params.W_x, 1) + params.b, resets, params.W_h,
                          params.peep)
+
+
+def _flip(direction: str, x: tf.Tensor) -> tf.Tensor:
+    """Time-major ``x`` between forward time and ``direction``'s own order (its own inverse)."""
+    return x if direction == "fw" else tf.reverse(x, [0])
 
 
 def dropout(x: tf.Tensor, keep_prob: float, seed: tf.Tensor | None) -> tf.Tensor:

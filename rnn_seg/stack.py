@@ -9,9 +9,10 @@ all members instead of one small product each. Each member then applies its own 
 
 Members' sweeps have different durations; each is padded at the end to the longest one, the
 padded steps masked out of the losses and the reverse LSTM direction restarted at each row's last
-valid step, so a member's gradient is its own sweep's. (Dropout masks are drawn from each
-member's own seeds, but for the padded shape, so they are not the very masks a lone run draws.)
-A member's run directory is indistinguishable from a lone run's: either way can resume it.
+valid step. Dropout seeds come from each member's own generator, and masks are drawn in forward
+time order, so the valid steps get the very masks a lone run draws: a member trains as it would
+alone, up to float rounding (tests/test_stack.py). A member's run directory is
+indistinguishable from a lone run's: either way can resume it.
 """
 from __future__ import annotations
 
@@ -56,7 +57,9 @@ class TrainerStack:
         """Train every unfinished member to the end (resuming from the last checkpoint they have
         in common) and return each member's metrics, in order."""
         active = [t for t in self.trainers if not t.finished()]
-        if active:
+        if len(active) == 1:
+            active[0].run()                  # the plain step is faster than a stack of one
+        elif active:
             start = min(max(t.checkpoint_sweeps(), default=0) for t in active)
             for t in active:
                 t.resume(start)
@@ -68,6 +71,18 @@ class TrainerStack:
                 for t, lr, out in zip(active, lrs, outs):
                     t.after_sweep(sweep, lr, out.numpy())
         return [t.finish() for t in self.trainers]
+
+
+def train_together(trainers: Sequence[Trainer]) -> list[dict]:
+    """Run ``trainers`` as stacks of those with equal numbers of sweeps (folds with different
+    numbers of training trials can differ); returns each one's metrics, in order."""
+    by_sweeps: dict[int, list[int]] = {}
+    for i, t in enumerate(trainers):
+        by_sweeps.setdefault(t.total_sweeps, []).append(i)
+    results: dict[int, dict] = {}
+    for members in by_sweeps.values():
+        results.update(zip(members, TrainerStack([trainers[i] for i in members]).run()))
+    return [results[i] for i in range(len(trainers))]
 
 
 def _require_same(a: Trainer, b: Trainer, what: str, key) -> None:

@@ -14,7 +14,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from multitask.grid import Experiment, GridSpec, RunKey, expand, load_spec, run_config
+from multitask.grid import (Experiment, GridSpec, RunKey, expand, load_spec, run_config,
+                            stack_groups)
 from multitask.grid_cli import main as grid_main
 from multitask.runner import run_grid
 from multitask.tables_cli import main as tables_main
@@ -166,6 +167,30 @@ def test_dask_cluster_gives_the_local_pool_metrics(tmp_path, tiny_spec, tiny_gri
             for name, value in scores.items():
                 np.testing.assert_allclose(dask[run][task][name], value, rtol=1e-6,
                                            err_msg=f"{run} {task} {name}")
+
+
+def test_stacked_grid_gives_the_lone_runs_metrics(tmp_path, tiny_spec, tiny_grid):
+    """``--stack 2`` trains folds B and C of each configuration in one vectorised step."""
+    assert grid_main(["--spec", str(tiny_spec), "--out", str(tmp_path), "--stack", "2"]) == 0
+    assert "resuming" not in (tmp_path / RunKey("revised", "bidirectional", "A", "fixed", 0, "B")
+                              .path() / "train.log").read_text()
+    lone, stacked = _metrics(tiny_grid), _metrics(tmp_path)
+    assert lone.keys() == stacked.keys() and len(lone) == 4
+    for run, values in lone.items():
+        for task, scores in values.items():
+            for name, value in scores.items():
+                np.testing.assert_allclose(stacked[run][task][name], value, rtol=1e-3, atol=0.05,
+                                           err_msg=f"{run} {task} {name}")
+
+
+def test_stack_groups_hold_one_configuration():
+    keys = [RunKey("revised", "bidirectional", v, "fixed", s, f)
+            for v in ("A", "APc") for s in (0, 1) for f in "BCD"]
+    groups = stack_groups(keys, 4)
+    assert [len(g) for g in groups] == [4, 2, 4, 2]
+    assert all(len({k.config_name for k in g}) == 1 for g in groups)
+    assert sorted(k for g in groups for k in g) == sorted(keys)
+    assert stack_groups(keys, 1) == [[k] for k in keys]
 
 
 def test_run_key_paths_are_unique():

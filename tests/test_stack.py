@@ -1,4 +1,4 @@
-"""Several models in one vectorised step train exactly as each would alone."""
+"""Several models in one vectorised step train as each would alone (dropout included)."""
 import json
 
 import numpy as np
@@ -28,7 +28,7 @@ def _data(seed: int) -> SequenceSet:
 
 def _trainer(run_dir, seed: int, gradnorm: bool, mode: str = "corrected") -> Trainer:
     tasks = [SoftmaxClassification("gesture", ["a", "b", "c"]), OrdinalProgress()]
-    model = SegmentationModel(F, EncoderConfig(hidden=8, keep_prob=1.0, reset_mode=mode), tasks,
+    model = SegmentationModel(F, EncoderConfig(hidden=8, keep_prob=0.5, reset_mode=mode), tasks,
                               seed)
     data = _data(seed)
     args = (model, tasks, OptimConfig(learning_rate=0.5, momentum=0.5, unit="sweeps",
