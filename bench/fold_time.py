@@ -1,14 +1,15 @@
 """End-to-end time of LOUO folds at the ``quick`` preset, and the throughput of running several at once.
 
-Runs ``multitask-grid`` on fresh folders (real data if present, else the synthetic release):
+Runs ``multitask-grid`` on fresh folders (real data if present, else the synthetic release) in
+several layouts, each repeated, medians printed with the time per fold and the throughput against
+the first layout (one fold alone on both cores), all measured in the same invocation:
 
-* ``1 x 2 cores``: one fold (APc, w1 = w2 = 1, user B) alone, both cores in the one run;
-* ``2 x 1 core``: two folds (users B and C) at once, one single-core worker each.
+* ``1 fold, 1 worker x 2 cores``: the reference (APc, w1 = w2 = 1, user B);
+* ``2 folds, 2 workers x 1 core``: two processes side by side;
+* ``N folds, 1 worker x 2 cores, --stack N``: N folds in one vectorised step;
+* ``N folds, 2 workers x 1 core, --stack N/2``: both.
 
-Each measurement is repeated and the median printed, with the time per fold and the throughput
-ratio (folds per hour, 2 x 1 against 1 x 2) measured in the same invocation.
-
-    python bench/fold_time.py [--repeats 3] [--variant APc] [--hidden 128] [--epochs 30]
+    python bench/fold_time.py [--repeats 3] [--variant APc] [--hidden 128] [--epochs 30] [--stack 8]
 """
 from __future__ import annotations
 
@@ -39,7 +40,10 @@ def data_source() -> str:
     return str(real) if (real / "transcriptions").is_dir() else "synthetic"
 
 
-def timed_grid(folds: list[str], workers: int, args) -> float:
+FOLDS = ["B", "C", "D", "E", "F", "G", "H", "I"]
+
+
+def timed_grid(folds: list[str], workers: int, stack: int, args) -> float:
     """Seconds for ``multitask-grid`` to finish ``folds`` with ``workers`` workers, from scratch."""
     with tempfile.TemporaryDirectory() as tmp:
         spec = Path(tmp) / "spec.toml"
@@ -47,8 +51,8 @@ def timed_grid(folds: list[str], workers: int, args) -> float:
                                     epochs=args.epochs, variant=args.variant))
         start = time.perf_counter()
         subprocess.run([sys.executable, "-m", "multitask.grid_cli", "--spec", str(spec),
-                        "--out", str(Path(tmp) / "out"), "--workers", str(workers)],
-                       check=True, capture_output=True)
+                        "--out", str(Path(tmp) / "out"), "--workers", str(workers),
+                        "--stack", str(stack)], check=True, capture_output=True)
         return time.perf_counter() - start
 
 
@@ -59,17 +63,21 @@ def main() -> None:
     parser.add_argument("--variant", default="APc")
     parser.add_argument("--hidden", type=int, default=128)
     parser.add_argument("--epochs", type=int, default=30)
+    parser.add_argument("--stack", type=int, default=8, help="folds trained together (<= 8)")
     args = parser.parse_args()
-    print(f"quick preset fold: {args.variant}, H={args.hidden}, {args.epochs} epochs, data "
+    n = args.stack
+    layouts = [(1, 1, 1), (2, 2, 1), (n, 1, n), (n, 2, n // 2)]      # folds, workers, stack
+    print(f"quick preset folds: {args.variant}, H={args.hidden}, {args.epochs} epochs, data "
           f"{data_source()}; median of {args.repeats}, process start and data loading included")
-    single = [timed_grid(["B"], 1, args) for _ in range(args.repeats)]
-    pair = [timed_grid(["B", "C"], 2, args) for _ in range(args.repeats)]
-    one, two = statistics.median(single), statistics.median(pair)
-    print(f"1 fold,  1 worker x 2 cores: median {one:6.1f} s  (min {min(single):.1f}, "
-          f"max {max(single):.1f})  -> {one:.1f} s per fold")
-    print(f"2 folds, 2 workers x 1 core: median {two:6.1f} s  (min {min(pair):.1f}, "
-          f"max {max(pair):.1f})  -> {two / 2:.1f} s per fold")
-    print(f"throughput of 2 x 1 core against 1 x 2 cores: {2 * one / two:.2f}x")
+    reference = None
+    for folds, workers, stack in layouts:
+        times = [timed_grid(FOLDS[:folds], workers, stack, args) for _ in range(args.repeats)]
+        per_fold = statistics.median(times) / folds
+        reference = reference or per_fold
+        print(f"{folds} fold(s), {workers} worker(s) x {2 // workers} core(s), stack {stack}: "
+              f"median {statistics.median(times):6.1f} s (min {min(times):.1f}, max "
+              f"{max(times):.1f}) -> {per_fold:5.1f} s per fold, throughput "
+              f"{reference / per_fold:.2f}x", flush=True)
 
 
 if __name__ == "__main__":
