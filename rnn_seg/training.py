@@ -118,6 +118,9 @@ class Trainer:
         write_json(self.run_dir / "config.json", configs)
         self._targets = {t.name: [t.encode(y) for y in train.labels[t.name]] for t in self.tasks}
         self._test_outputs_at: tuple[int, dict] | None = None   # (sweep, outputs) of the test set
+        self._manager: tf.train.CheckpointManager | None = None     # set by resume()
+        self._losses: list[np.ndarray] = []                         # since the last progress line
+        self._started = time.time()
 
     # -- state ---------------------------------------------------------------------------------
     def extra_state(self) -> dict:
@@ -130,7 +133,7 @@ class Trainer:
 
     def checkpoint_sweeps(self) -> list[int]:
         """Sweep counts of the checkpoints on disk, oldest first."""
-        return [int(path.rsplit("-", 1)[1]) for path in self._checkpoint_manager().checkpoints]
+        return [_checkpoint_sweep(path) for path in self._checkpoint_manager().checkpoints]
 
     # -- one step ------------------------------------------------------------------------------
     def dropout_seeds(self) -> tf.Tensor:
@@ -169,7 +172,7 @@ class Trainer:
 
     def batch(self, sweep: int) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
         """Training sweep ``sweep``: inputs ``[B, T, F]``, resets ``[B, T]`` and one target array
-        ``[B, T, K_task]`` per task, ``T`` the longest member's length."""
+        ``[B, T, K_task]`` per task, ``T`` the longest sequence's length (the others wrapped)."""
         idx = sweep_indices(len(self.train), self.config.batch_size, self.config.seed, sweep)
         lengths = [len(self.train.inputs[i]) for i in idx]
         duration = max(lengths)
@@ -195,12 +198,11 @@ class Trainer:
         """Restore the latest checkpoint, or the one saved after sweep ``at`` (0 = start afresh);
         returns the sweep to continue from."""
         self._manager = self._checkpoint_manager()
-        path = self._manager.latest_checkpoint
-        if at is not None:
-            path = dict(zip(self.checkpoint_sweeps(), self._manager.checkpoints)).get(at)
-            if path is None and at:
-                raise ValueError(f"{self.run_dir}: no checkpoint after sweep {at} "
-                                 f"(have {self.checkpoint_sweeps()})")
+        saved = {_checkpoint_sweep(path): path for path in self._manager.checkpoints}
+        path = self._manager.latest_checkpoint if at is None else saved.get(at)
+        if at and path is None:
+            raise ValueError(f"{self.run_dir}: no checkpoint after sweep {at} "
+                             f"(have {sorted(saved)})")
         if path:
             self._manager.checkpoint.restore(path).assert_existing_objects_matched()
             self.log(f"resuming from sweep {int(self.sweep.numpy())} ({path})")
@@ -338,6 +340,11 @@ def truncate_csv_log(path: Path, last_sweep: int) -> None:
     table = pd.read_csv(path)
     if (table["sweep"] > last_sweep).any():
         write_atomic(path, table[table["sweep"] <= last_sweep].to_csv(index=False))
+
+
+def _checkpoint_sweep(path: str) -> int:
+    """The sweep count a checkpoint was saved after (``.../ckpt-<sweeps>``)."""
+    return int(path.rsplit("-", 1)[1])
 
 
 def point_dir(run_dir: Path, unit: str, point: int) -> Path:
