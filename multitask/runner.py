@@ -2,8 +2,9 @@
 
 Each job is ``grid.run_job`` on a group of up to ``stack`` run directories of one configuration
 (trained together in one vectorised step, ``rnn_seg.stack``; 1 = each run alone); finished runs
-(``finished.json``) are skipped, interrupted ones resume from their checkpoints inside the job. Progress lines give done/total and
-an ETA from the durations of the runs finished in this invocation.
+(``finished.json``) are skipped, interrupted ones resume from their checkpoints inside the job.
+Progress lines give done/total and an ETA from the durations of the runs finished in this
+invocation.
 """
 from __future__ import annotations
 
