@@ -261,17 +261,17 @@ class RecurrentEncoder(tf.Module):
         flags = {d: tf.transpose(tf.cast(f, tf.float32))[:, :, None] for d, f in flags.items()}
         seeds = iter(range(self.dropout_calls))
 
-        def drop(v, direction):
-            """Dropout on ``v`` in ``direction``'s time order, masks drawn in forward time order:
-            a sweep padded at the end keeps every valid step's mask."""
+        def drop(v):
+            """Dropout on forward-time ``v``: a sweep padded at the end keeps every valid step's
+            mask."""
             seed = None if dropout_seeds is None else dropout_seeds[next(seeds)]
-            return _flip(direction, dropout(_flip(direction, v), self.config.keep_prob, seed))
+            return dropout(v, self.config.keep_prob, seed)
 
-        xs = {d: drop(_flip(d, x), d) for d in params}
+        xs = {d: drop(x) for d in params}                     # between layers: forward time
         for layer in range(self.config.layers):
-            xs = {d: drop(self._layer(params[d][layer], v, flags[d]), d) for d, v in xs.items()}
-        outputs = [_flip(d, v) for d, v in xs.items()]
-        return tf.transpose(tf.concat(outputs, axis=2), [1, 0, 2])
+            xs = {d: drop(_flip(d, self._layer(params[d][layer], _flip(d, v), flags[d])))
+                  for d, v in xs.items()}
+        return tf.transpose(tf.concat(list(xs.values()), axis=2), [1, 0, 2])
 
     @staticmethod
     def _layer(params: LayerParams, x: tf.Tensor, resets: tf.Tensor) -> tf.Tensor:
