@@ -27,7 +27,7 @@ setup(
         "console_scripts": [
             "jigsaws-tools=jigsaws_tools.cli:main",
             "baseline-train=baseline.cli:main",
-            "multitask-train=multitask.cli:main",
+            "multitask-train=multitask.train_cli:main",
             "multitask-grid=multitask.grid_cli:main",
             "multitask-tables=multitask.tables_cli:main",
         ],

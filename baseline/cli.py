@@ -5,97 +5,13 @@ import argparse
 import logging
 import os
 import sys
-from pathlib import Path
 
-from jigsaws_tools.annotations import ANNOTATION_VERSIONS
-from jigsaws_tools.dataset import DataConfig, default_cache_dir, default_data_dir
 from jigsaws_tools.errors import JigsawsError
-from jigsaws_tools.features import FEATURE_SETS
-from jigsaws_tools.synth import SynthConfig, ensure_release
-from rnn_seg.lstm import RESET_MODES, EncoderConfig
 from rnn_seg.optim import OptimConfig
 from rnn_seg.threads import configure_threads
-from rnn_seg.training import TrainConfig
 
-from .config import RunConfig
-from .model import train_baseline
-
-
-def add_run_arguments(parser: argparse.ArgumentParser, optim: OptimConfig) -> None:
-    """Options shared by every training CLI; ``optim`` supplies the defaults shown."""
-    data = parser.add_argument_group("data")
-    source = data.add_mutually_exclusive_group()
-    source.add_argument("--data-dir", type=Path, help="JIGSAWS Suturing folder "
-                        f"(default: $JIGSAWS_DIR or {default_data_dir()})")
-    source.add_argument("--synthetic", action="store_true",
-                        help="use the embedded synthetic release (written once to the cache)")
-    data.add_argument("--synthetic-seed", type=int, default=0)
-    data.add_argument("--test-user", default="B", help="user held out (LOUO fold)")
-    data.add_argument("--annotations", choices=ANNOTATION_VERSIONS, default="revised")
-    data.add_argument("--features", choices=list(FEATURE_SETS), default="psm_pos_vel_grip")
-    model = parser.add_argument_group("model")
-    model.add_argument("--hidden", type=int, default=1024)
-    model.add_argument("--layers", type=int, default=1)
-    model.add_argument("--direction", choices=("bidirectional", "forward"), default="bidirectional",
-                       help="forward = the online twin")
-    model.add_argument("--keep-prob", type=float, default=0.5)
-    model.add_argument("--init-scale", type=float, default=0.1)
-    model.add_argument("--reset-mode", choices=RESET_MODES, default="original")
-    opt = parser.add_argument_group("optimisation")
-    length = opt.add_mutually_exclusive_group()
-    length.add_argument("--epochs", type=int, help=f"train for N epochs (default {optim.total})")
-    length.add_argument("--sweeps", type=int, help="train for N sweeps instead")
-    opt.add_argument("--decay-start", type=int, default=None,
-                     help=f"units at the initial learning rate (default {optim.decay_start}, "
-                          "or 2/3 of --epochs/--sweeps when those are given)")
-    opt.add_argument("--decay-every", type=int, default=optim.decay_every)
-    opt.add_argument("--decay-factor", type=float, default=optim.decay_factor)
-    opt.add_argument("--lr", type=float, default=optim.learning_rate)
-    opt.add_argument("--momentum", type=float, default=optim.momentum)
-    opt.add_argument("--clip-norm", type=float, default=optim.clip_norm)
-    opt.add_argument("--batch-size", type=int, default=5)
-    run = parser.add_argument_group("run")
-    run.add_argument("--seed", type=int, default=0)
-    run.add_argument("--eval-at", default=None,
-                     help="comma-separated evaluation points in the schedule's unit "
-                          "(default: the paper's, e.g. 100,110,120 of 120 epochs; the final "
-                          "unit when --epochs/--sweeps change the length)")
-    run.add_argument("--prediction", choices=("sweep", "per_sequence"), default="sweep")
-    run.add_argument("--no-plots", action="store_true")
-    run.add_argument("--threads", type=int, default=0,
-                     help="cores for this run (0 = all), split between TensorFlow's thread pools "
-                          "as rnn_seg.threads measures best")
-    run.add_argument("--out", type=Path, required=True, help="run directory")
-
-
-def run_config_from_args(args: argparse.Namespace, optim: OptimConfig,
-                         eval_points: tuple[int, ...] = (100, 110, 120)) -> RunConfig:
-    """Build the run's configuration from parsed options over the defaults in ``optim``;
-    ``eval_points`` apply when the schedule keeps its default length, else the last unit."""
-    if args.synthetic:
-        data_dir = ensure_release(default_cache_dir(), SynthConfig(seed=args.synthetic_seed))
-    else:
-        data_dir = args.data_dir or default_data_dir()
-    unit, total = ("sweeps", args.sweeps) if args.sweeps else ("epochs", args.epochs or optim.total)
-    default_length = unit == "epochs" and total == optim.total
-    decay_start = args.decay_start if args.decay_start is not None else (
-        optim.decay_start if default_length else (2 * total) // 3)
-    if args.eval_at:
-        eval_points = tuple(int(p) for p in args.eval_at.split(","))
-    else:
-        eval_points = eval_points if default_length else (total,)
-    return RunConfig(
-        data=DataConfig(str(data_dir), feature_set=args.features, annotations=args.annotations),
-        test_user=args.test_user,
-        encoder=EncoderConfig(hidden=args.hidden, layers=args.layers,
-                              bidirectional=args.direction == "bidirectional",
-                              keep_prob=args.keep_prob, init_scale=args.init_scale,
-                              reset_mode=args.reset_mode),
-        optim=OptimConfig(learning_rate=args.lr, momentum=args.momentum, clip_norm=args.clip_norm,
-                          unit=unit, total=total, decay_start=decay_start,
-                          decay_every=args.decay_every, decay_factor=args.decay_factor),
-        train=TrainConfig(batch_size=args.batch_size, seed=args.seed, eval_points=eval_points,
-                          prediction=args.prediction, plots=not args.no_plots))
+from .builder import train_baseline
+from .options import add_run_arguments, run_config_from_args
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 from jigsaws_tools.dataset import DataConfig
 from rnn_seg.lstm import EncoderConfig
 from rnn_seg.optim import OptimConfig
-from rnn_seg.training import TrainConfig
+from rnn_seg.trainer import TrainConfig
 
 
 @dataclass(frozen=True)

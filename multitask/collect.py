@@ -17,7 +17,7 @@ import pandas as pd
 
 from rnn_seg.rundir import is_finished
 
-from .grid import RunKey
+from .grid_spec import RunKey
 
 KEY_COLUMNS = [f.name for f in fields(RunKey)]
 CONFIG_COLUMNS = ["annotations", "direction", "variant", "weighting"]

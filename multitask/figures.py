@@ -23,7 +23,7 @@ from jigsaws_tools.gestures import GESTURES  # noqa: E402
 from jigsaws_tools.plots import draw_ribbon, legend_handles  # noqa: E402
 
 from .collect import lookup  # noqa: E402
-from .grid import RunKey  # noqa: E402
+from .grid_spec import RunKey  # noqa: E402
 from .tables import CONFIG_LABELS  # noqa: E402
 
 OFFLINE = {"annotations": "revised", "direction": "bidirectional"}

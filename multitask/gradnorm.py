@@ -21,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import tensorflow as tf
 
-from rnn_seg.training import Trainer, append_csv_row
+from rnn_seg.trainer import Trainer, append_csv_row
 
 MIN_WEIGHT = 1e-3
 

@@ -18,14 +18,14 @@ from pathlib import Path
 from jigsaws_tools.errors import JigsawsError
 from rnn_seg.rundir import write_json
 
-from .grid import PRESETS, GridSpec, expand, load_spec, release_users, spec_payload, with_overrides
-from .runner import run_grid
+from .grid_spec import PRESETS, GridSpec, expand, load_spec, release_users, spec_payload, with_overrides
+from .grid_executors import run_grid
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="multitask-grid", description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--spec", type=Path, help="TOML grid spec (see multitask.grid)")
+    parser.add_argument("--spec", type=Path, help="TOML grid spec (see multitask.grid_spec)")
     parser.add_argument("--preset", choices=list(PRESETS), help="override the spec's preset")
     parser.add_argument("--out", type=Path, required=True, help="grid folder (shared on Dask)")
     parser.add_argument("--workers", type=int, default=1, help="local worker processes")

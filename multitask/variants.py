@@ -7,9 +7,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from baseline.model import gesture_task
+from baseline.builder import gesture_task
 from rnn_seg.optim import OptimConfig
 from rnn_seg.tasks import Task
+from rnn_seg.trainer import TrainConfig
 
 from .heads import OrdinalProgress, ProgressClassification, ProgressRegression
 
@@ -19,7 +20,7 @@ _PROGRESS_HEADS = {"r": ProgressRegression, "c": ProgressClassification, "oc": O
 #: decay 0.5 after 80 epochs, stop after 120, evaluate after 100, 110, 120.
 _MULTITASK = {"r": OptimConfig(learning_rate=0.1, momentum=0.9),
               "c": OptimConfig(learning_rate=1.0), "oc": OptimConfig(learning_rate=1.0)}
-MULTITASK_EVAL = (100, 110, 120)
+MULTITASK_EVAL = TrainConfig.eval_points
 #: Footnote: single-task P models "were trained ... with the same hyperparameters as their
 #: multi-task counterpart. Weight decay was however anticipated and training was stopped after 80
 #: iterations." We shift the whole schedule 40 epochs earlier (docs/REPRODUCTION.md).

@@ -1,1 +1,35 @@
-"""Placeholder until its issue lands."""
+"""A generic engine for recurrent sequence segmentation: any task, any label set.
+
+Read first: ``trainer.Trainer`` (its docstring lists what one training sweep calls, in order),
+then ``model.SegmentationModel`` (a recurrent encoder shared by one dense head per task).
+
+* ``lstm``: DiPietro et al.'s peephole LSTM with resets and its hand-written backward pass;
+* ``model``, ``dense``: the encoder plus one head per ``tasks.Task``;
+* ``tasks``: what a head predicts (targets, loss, decoding);
+* ``sweeps``: batches of sequences wrapped to the longest; ``optim``: SGD and its schedule;
+* ``trainer``: the training loop with checkpoints, resume and evaluation points;
+* ``stack``: several models trained in one vectorised step; ``threads``: the thread plan;
+* ``metrics``: accuracy, edit score and F1@k; ``rundir``, ``plots``: run folders and figures.
+"""
+from importlib import import_module
+
+#: Public name -> the submodule defining it.
+_PUBLIC = {
+    "EncoderConfig": "lstm",
+    "SegmentationModel": "model",
+    "OptimConfig": "optim",
+    "SoftmaxClassification": "tasks",
+    "Task": "tasks",
+    "SequenceSet": "trainer",
+    "TrainConfig": "trainer",
+    "Trainer": "trainer",
+}
+__all__ = sorted(_PUBLIC)
+
+
+def __getattr__(name: str):
+    """Import a public name's module on first use, so light submodules (``rundir, metrics``) do not
+    pull in TensorFlow."""
+    if name in _PUBLIC:
+        return getattr(import_module(f".{_PUBLIC[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

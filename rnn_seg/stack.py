@@ -23,7 +23,7 @@ from typing import Sequence
 import numpy as np
 import tensorflow as tf
 
-from .training import Trainer, loss_gradients
+from .trainer import Trainer, loss_gradients
 
 
 class _NoFallbackWarnings(logging.Filter):

@@ -7,12 +7,12 @@ import pytest
 
 from baseline.cli import main as baseline_main
 from baseline.config import RunConfig
-from baseline.model import train_baseline
+from baseline.builder import train_baseline
 from jigsaws_tools.dataset import DataConfig, load_dataset
 from rnn_seg.lstm import EncoderConfig
 from rnn_seg.optim import OptimConfig
 from rnn_seg.rundir import is_finished
-from rnn_seg.training import Trainer, TrainConfig
+from rnn_seg.trainer import Trainer, TrainConfig
 
 
 def _config(data_dir, epochs=12, hidden=32, eval_points=(), bidirectional=True, **train):

@@ -14,10 +14,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from multitask.grid import (Experiment, GridSpec, RunKey, expand, load_spec, run_config,
+from multitask.grid_spec import (Experiment, GridSpec, RunKey, expand, load_spec, run_config,
                             stack_groups)
 from multitask.grid_cli import main as grid_main
-from multitask.runner import run_grid
+from multitask.grid_executors import run_grid
 from multitask.tables_cli import main as tables_main
 from multitask.variants import get_variant
 

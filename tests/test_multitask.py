@@ -10,16 +10,16 @@ import tensorflow as tf
 from baseline.cli import main as baseline_main
 from baseline.config import RunConfig
 from jigsaws_tools.dataset import DataConfig, load_dataset
-from multitask.cli import main as multitask_main
+from multitask.train_cli import main as multitask_main
 from multitask.gradnorm import GradNormConfig, GradNormTrainer, shared_layer_variables
 from multitask.heads import OrdinalProgress, ProgressClassification, ProgressRegression
-from multitask.train import train_variant
+from multitask.fold_run import train_variant
 from multitask.variants import VARIANTS, get_variant
 from rnn_seg.lstm import EncoderConfig
 from rnn_seg.model import SegmentationModel
 from rnn_seg.optim import OptimConfig
 from rnn_seg.tasks import SoftmaxClassification
-from rnn_seg.training import SequenceSet, TrainConfig
+from rnn_seg.trainer import SequenceSet, TrainConfig
 
 
 # -- heads on hand-made sequences ------------------------------------------------------------------

@@ -12,7 +12,7 @@ from rnn_seg.model import SegmentationModel
 from rnn_seg.optim import OptimConfig
 from rnn_seg.stack import TrainerStack, padded_batches
 from rnn_seg.tasks import SoftmaxClassification
-from rnn_seg.training import SequenceSet, TrainConfig, Trainer
+from rnn_seg.trainer import SequenceSet, TrainConfig, Trainer
 
 F, SWEEPS = 4, 6
 

@@ -1,4 +1,4 @@
-"""The experiment grid: a TOML spec, its expansion into independent runs, and one run as a job.
+"""The experiment grid: a TOML spec, its presets, and its expansion into independent runs.
 
 A spec names experiments (each a product of variants x weightings x annotation versions x
 directions), the LOUO folds, the seeds and a budget. Presets give the budget:
@@ -29,23 +29,18 @@ from __future__ import annotations
 
 import json
 import tomllib
-import traceback
-from contextlib import ExitStack
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
-from typing import Callable, TextIO
 
 from baseline.config import RunConfig
 from jigsaws_tools.annotations import ANNOTATION_VERSIONS
-from jigsaws_tools.dataset import DataConfig, default_cache_dir, default_data_dir, load_dataset
+from jigsaws_tools.dataset import DataConfig, default_cache_dir, default_data_dir
 from jigsaws_tools.release import discover
 from jigsaws_tools.synth import SynthConfig, ensure_release
 from rnn_seg.lstm import EncoderConfig
-from rnn_seg.stack import train_together
-from rnn_seg.threads import configure_threads
-from rnn_seg.training import TrainConfig
+from rnn_seg.trainer import TrainConfig
 
-from .train import WEIGHTINGS, variant_trainer
+from .fold_run import WEIGHTINGS
 from .variants import MULTITASK_EVAL, VARIANTS, get_variant
 
 DIRECTIONS = ("bidirectional", "forward")
@@ -216,42 +211,6 @@ def stack_groups(keys: list[RunKey], size: int) -> list[list[RunKey]]:
     for key in keys:
         by_config.setdefault((key.annotations, key.direction, key.config_name), []).append(key)
     return [runs[i:i + size] for runs in by_config.values() for i in range(0, len(runs), size)]
-
-
-def run_job(spec: dict, keys: list[dict], out: str, cores: int) -> list[dict]:
-    """Train a group of runs of one configuration (resuming interrupted ones) and return each
-    one's ``metrics.json`` content; several runs train together in one vectorised step
-    (``rnn_seg.stack``).
-
-    Takes and returns plain data so that process pools and Dask workers can ship it; each run's
-    log (and the traceback of a failure) goes to ``<run dir>/train.log``.
-    """
-    grid, runs = spec_from_dict(spec), [RunKey(**key) for key in keys]
-    configure_threads(cores, grid.budget.hidden)
-    run_dirs = [Path(out) / run.path() for run in runs]
-    with ExitStack() as files:
-        logs = []
-        for run_dir in run_dirs:
-            run_dir.mkdir(parents=True, exist_ok=True)
-            logs.append(_line_writer(files.enter_context(open(run_dir / "train.log", "a"))))
-        try:
-            configs = [run_config(grid, run) for run in runs]
-            dataset = load_dataset(configs[0].data)          # one configuration: one release
-            return train_together([
-                variant_trainer(get_variant(run.variant), run.weighting, config, run_dir,
-                                dataset=dataset, log=log)
-                for run, config, run_dir, log in zip(runs, configs, run_dirs, logs)])
-        except Exception:
-            for log in logs:
-                log(traceback.format_exc())
-            raise
-
-
-def _line_writer(file: TextIO) -> Callable[[str], None]:
-    def write(message: str) -> None:
-        file.write(message + "\n")
-        file.flush()
-    return write
 
 
 def spec_payload(spec: GridSpec) -> dict:

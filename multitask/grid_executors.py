@@ -1,6 +1,6 @@
 """Run a grid's jobs: a local pool of worker processes, or an existing Dask cluster.
 
-Each job is ``grid.run_job`` on a group of up to ``stack`` run directories of one configuration
+Each job is ``grid_job.run_job`` on a group of up to ``stack`` run directories of one configuration
 (trained together in one vectorised step, ``rnn_seg.stack``; 1 = each run alone); finished runs
 (``finished.json``) are skipped, interrupted ones resume from their checkpoints inside the job.
 Progress lines give done/total and an ETA from the durations of the runs finished in this
@@ -19,7 +19,8 @@ from typing import Callable
 
 from rnn_seg.rundir import is_finished
 
-from .grid import GridSpec, RunKey, run_job, spec_payload, stack_groups
+from .grid_job import run_job
+from .grid_spec import GridSpec, RunKey, spec_payload, stack_groups
 
 Log = Callable[[str], None]
 

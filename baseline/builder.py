@@ -8,7 +8,7 @@ from jigsaws_tools.dataset import Dataset, Trial, load_dataset
 from jigsaws_tools.gestures import GESTURES
 from rnn_seg.model import SegmentationModel
 from rnn_seg.tasks import SoftmaxClassification, Task
-from rnn_seg.training import SequenceSet, Trainer
+from rnn_seg.trainer import SequenceSet, Trainer
 
 from .config import RunConfig
 
@@ -48,5 +48,5 @@ def build_trainer(config: RunConfig, tasks: Sequence[Task], run_dir: Path,
 
 def train_baseline(config: RunConfig, run_dir: Path, dataset: Dataset | None = None,
                    log: Callable[[str], None] = print) -> dict:
-    """Train model A on one fold; returns the run's metrics (see ``rnn_seg.training``)."""
+    """Train model A on one fold; returns the run's metrics (see ``rnn_seg.trainer``)."""
     return build_trainer(config, [gesture_task()], run_dir, dataset, log=log).run()

@@ -6,12 +6,12 @@ import logging
 import os
 import sys
 
-from baseline.cli import add_run_arguments, run_config_from_args
+from baseline.options import add_run_arguments, run_config_from_args
 from jigsaws_tools.errors import JigsawsError
 from rnn_seg.threads import configure_threads
 
 from .gradnorm import GradNormConfig
-from .train import WEIGHTINGS, train_variant
+from .fold_run import WEIGHTINGS, train_variant
 from .variants import VARIANTS, get_variant
 
 

@@ -31,6 +31,7 @@ from .sweeps import make_sweep, reset_flags, sweep_indices, sweeps_per_epoch
 from .tasks import Task, task_metrics
 
 PredictionMode = Literal["sweep", "per_sequence"]
+PREDICTION_MODES = ("sweep", "per_sequence")
 
 
 @dataclass(frozen=True)

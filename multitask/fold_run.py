@@ -6,9 +6,9 @@ from pathlib import Path
 from typing import Callable, Literal
 
 from baseline.config import RunConfig
-from baseline.model import build_trainer
+from baseline.builder import build_trainer
 from jigsaws_tools.dataset import Dataset
-from rnn_seg.training import Trainer
+from rnn_seg.trainer import Trainer
 
 from .gradnorm import GradNormConfig, GradNormTrainer
 from .variants import Variant

@@ -1,0 +1,55 @@
+"""One job of a grid, as a worker process runs it: a group of runs of one configuration.
+
+A job takes and returns plain data (so process pools and Dask can ship it), trains its runs
+together (``rnn_seg.stack``) and logs each run to ``<run dir>/train.log``.
+"""
+from __future__ import annotations
+
+import traceback
+from contextlib import ExitStack
+from pathlib import Path
+from typing import Callable, TextIO
+
+from jigsaws_tools.dataset import load_dataset
+from rnn_seg.stack import train_together
+from rnn_seg.threads import configure_threads
+
+from .fold_run import variant_trainer
+from .grid_spec import RunKey, run_config, spec_from_dict
+from .variants import get_variant
+
+
+def run_job(spec: dict, keys: list[dict], out: str, cores: int) -> list[dict]:
+    """Train a group of runs of one configuration (resuming interrupted ones) and return each
+    one's ``metrics.json`` content; several runs train together in one vectorised step
+    (``rnn_seg.stack``).
+
+    Takes and returns plain data so that process pools and Dask workers can ship it; each run's
+    log (and the traceback of a failure) goes to ``<run dir>/train.log``.
+    """
+    grid, runs = spec_from_dict(spec), [RunKey(**key) for key in keys]
+    configure_threads(cores, grid.budget.hidden)
+    run_dirs = [Path(out) / run.path() for run in runs]
+    with ExitStack() as files:
+        logs = []
+        for run_dir in run_dirs:
+            run_dir.mkdir(parents=True, exist_ok=True)
+            logs.append(_line_writer(files.enter_context(open(run_dir / "train.log", "a"))))
+        try:
+            configs = [run_config(grid, run) for run in runs]
+            dataset = load_dataset(configs[0].data)          # one configuration: one release
+            return train_together([
+                variant_trainer(get_variant(run.variant), run.weighting, config, run_dir,
+                                dataset=dataset, log=log)
+                for run, config, run_dir, log in zip(runs, configs, run_dirs, logs)])
+        except Exception:
+            for log in logs:
+                log(traceback.format_exc())
+            raise
+
+
+def _line_writer(file: TextIO) -> Callable[[str], None]:
+    def write(message: str) -> None:
+        file.write(message + "\n")
+        file.flush()
+    return write
