@@ -1,6 +1,7 @@
 """Model "A": DiPietro et al.'s BiLSTM gesture recogniser (and its forward-LSTM online twin)."""
 from __future__ import annotations
 
+import time
 from pathlib import Path
 from typing import Callable, Sequence
 
@@ -36,14 +37,19 @@ TrainerFactory = Callable[..., Trainer]
 def build_trainer(config: RunConfig, tasks: Sequence[Task], run_dir: Path,
                   dataset: Dataset | None = None, trainer: TrainerFactory = Trainer,
                   extra_configs: dict | None = None, log: Callable[[str], None] = print) -> Trainer:
-    """Load the fold's data, build the model and return a ready ``Trainer`` for ``run_dir``."""
+    """Load the fold's data (unless ``dataset`` is given), build the model and return a ready
+    ``Trainer`` for ``run_dir``; the loading time goes to the trainer's ``data`` phase."""
+    began = time.perf_counter()
     dataset = dataset or load_dataset(config.data)
+    loading = time.perf_counter() - began
     train, test = dataset.louo_split(config.test_user)
     model = SegmentationModel(dataset.num_features, config.encoder, tasks, config.train.seed)
     configs = {"run": config, "tasks": [t.name for t in tasks], **(extra_configs or {})}
-    return trainer(model, tasks, config.optim, config.train, to_sequences(train, tasks),
-                   to_sequences(test, tasks), run_dir, configs,
-                   config.data.preprocessing.sample_hz, log=log)
+    built = trainer(model, tasks, config.optim, config.train, to_sequences(train, tasks),
+                    to_sequences(test, tasks), run_dir, configs,
+                    config.data.preprocessing.sample_hz, log=log)
+    built.clock.add("data", loading)
+    return built
 
 
 def train_baseline(config: RunConfig, run_dir: Path, dataset: Dataset | None = None,

@@ -14,7 +14,7 @@ from jigsaws_tools.features import FEATURE_SETS
 from jigsaws_tools.synth import SynthConfig, ensure_release
 from rnn_seg.lstm import RESET_MODES, EncoderConfig
 from rnn_seg.optim import OptimConfig
-from rnn_seg.trainer import PREDICTION_MODES, TrainConfig
+from rnn_seg.trainer import PLOT_POINTS, PREDICTION_MODES, TrainConfig
 
 from .config import RunConfig
 
@@ -60,7 +60,17 @@ def add_run_arguments(parser: argparse.ArgumentParser, optim: OptimConfig) -> No
                           "(default: the paper's, e.g. 100,110,120 of 120 epochs; the final "
                           "unit when --epochs/--sweeps change the length)")
     run.add_argument("--prediction", choices=PREDICTION_MODES, default=train.prediction)
-    run.add_argument("--no-plots", action="store_true")
+    run.add_argument("--plots", choices=PLOT_POINTS, default=train.plots,
+                     help="evaluation points that draw a figure per test sequence")
+    run.add_argument("--no-plots", dest="plots", action="store_const", const="none",
+                     help="same as --plots none")
+    run.add_argument("--monitor-every", type=int, default=train.monitor_every,
+                     help="units (epochs) between test-set scores on the progress line; the "
+                          "last unit is always scored; evaluation points are unaffected")
+    run.add_argument("--monitor-train", action="store_true",
+                     help="also score the training set on those progress lines (slow)")
+    run.add_argument("--tensorboard", action="store_true",
+                     help="also write the progress scalars to RUN_DIR/tensorboard")
     run.add_argument("--threads", type=int, default=0,
                      help="cores for this run (0 = all), split between TensorFlow's thread pools "
                           "as rnn_seg.threads measures best")
@@ -94,4 +104,6 @@ def run_config_from_args(args: argparse.Namespace, optim: OptimConfig,
                           unit=unit, total=total, decay_start=decay_start,
                           decay_every=args.decay_every, decay_factor=args.decay_factor),
         train=TrainConfig(batch_size=args.batch_size, seed=args.seed, eval_points=eval_points,
-                          prediction=args.prediction, plots=not args.no_plots))
+                          prediction=args.prediction, plots=args.plots,
+                          monitor_every=args.monitor_every, monitor_train=args.monitor_train,
+                          tensorboard=args.tensorboard))

@@ -74,7 +74,7 @@ def _two_task_trainer(tmp_path, alpha, seed=0, weight_lr=0.025):
     model = SegmentationModel(4, EncoderConfig(hidden=8, keep_prob=1.0), tasks, seed)
     return GradNormTrainer(model, tasks, OptimConfig(learning_rate=0.1, unit="sweeps", total=60,
                                                      decay_start=60),
-                           TrainConfig(eval_points=(60,), plots=False), data, data, tmp_path, {},
+                           TrainConfig(eval_points=(60,), plots="none"), data, data, tmp_path, {},
                            5.0, log=lambda m: None, gradnorm=GradNormConfig(alpha=alpha,
                                                                             learning_rate=weight_lr))
 
@@ -135,7 +135,7 @@ def _run_config(synth_dir, optim, epochs=14, hidden=48):
     return RunConfig(data=DataConfig(str(synth_dir)), test_user="C",
                      encoder=EncoderConfig(hidden=hidden),
                      optim=replace(optim, total=epochs, decay_start=(2 * epochs) // 3),
-                     train=TrainConfig(eval_points=(epochs,), plots=False))
+                     train=TrainConfig(eval_points=(epochs,), plots="none"))
 
 
 def _chance(trials, field):
