@@ -42,7 +42,7 @@ def run_job(spec: dict, keys: list[dict], out: str, cores: int) -> list[dict]:
             dataset = load_dataset(configs[0].data)          # one configuration: one release
             loading = (time.perf_counter() - began) / len(runs)
             trainers = [variant_trainer(get_variant(run.variant), run.weighting, config, run_dir,
-                                        dataset=dataset, log=log)
+                                        grid.gradnorm, dataset, log, grid.heads)
                         for run, config, run_dir, log in zip(runs, configs, run_dirs, logs)]
             for trainer in trainers:
                 trainer.clock.add("data", loading)          # shared by the job's runs

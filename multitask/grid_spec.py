@@ -18,6 +18,8 @@ Example spec (every key optional)::
     seeds = [0]
     hidden = 64                   # budget overrides
     epochs = 10                   # length of the gesture variants' schedule; P scaled alike
+    ordinal_loss = "sum"          # the ordered progress head's loss: "sum" (paper) or "mean"
+    relative_rate = "chen"        # GradNorm's r_i: "chen" (ratio mean) or "paper" (loss mean)
 
     [[experiments]]
     variants = ["A", "APc"]
@@ -41,6 +43,8 @@ from rnn_seg.lstm import EncoderConfig
 from rnn_seg.trainer import TrainConfig
 
 from .fold_run import WEIGHTINGS
+from .gradnorm import GradNormConfig
+from .heads import HeadConfig
 from .variants import MULTITASK_EVAL, VARIANTS, get_variant
 
 DIRECTIONS = ("bidirectional", "forward")
@@ -99,11 +103,22 @@ class GridSpec:
     seeds: tuple[int, ...] | None = None
     hidden: int | None = None
     epochs: int | None = None
+    ordinal_loss: str = HeadConfig.ordinal_loss
+    relative_rate: str = GradNormConfig.relative_rate
     experiments: tuple[Experiment, ...] = PAPER_EXPERIMENTS
 
     def __post_init__(self):
         if self.preset not in PRESETS:
             raise ValueError(f"unknown preset {self.preset!r}; choose from {', '.join(PRESETS)}")
+        self.heads, self.gradnorm          # validate both
+
+    @property
+    def heads(self) -> HeadConfig:
+        return HeadConfig(ordinal_loss=self.ordinal_loss)
+
+    @property
+    def gradnorm(self) -> GradNormConfig:
+        return GradNormConfig(relative_rate=self.relative_rate)
 
     @property
     def budget(self) -> Budget:

@@ -5,7 +5,8 @@ Each reads the shared ``2H`` BiLSTM features through its own fully connected lay
 """
 from __future__ import annotations
 
-from typing import Sequence
+from dataclasses import dataclass
+from typing import Literal, Sequence
 
 import numpy as np
 import tensorflow as tf
@@ -14,6 +15,25 @@ from jigsaws_tools.progress import NUM_STAGES, ordinal_decode, ordinal_encode
 from rnn_seg.tasks import SoftmaxClassification, Task, step_mean
 
 STAGE_NAMES = tuple(f"P{k}" for k in range(NUM_STAGES))
+OrdinalLoss = Literal["sum", "mean"]
+ORDINAL_LOSSES = ("sum", "mean")
+
+
+@dataclass(frozen=True)
+class HeadConfig:
+    """How the progress heads score their outputs.
+
+    ``ordinal_loss``: the ordered head's binary cross-entropy ``sum``-med over its 5 outputs
+    (the paper's MCE, Eq. 2, with sigmoid outputs: "MBCE") or averaged over them (``mean``, our
+    earlier reading, a 5x smaller gradient); either way averaged over time steps.
+    """
+
+    ordinal_loss: OrdinalLoss = "sum"
+
+    def __post_init__(self):
+        if self.ordinal_loss not in ORDINAL_LOSSES:
+            raise ValueError(f"ordinal_loss must be one of {ORDINAL_LOSSES}, "
+                             f"not {self.ordinal_loss!r}")
 
 
 class ProgressRegression(Task):
@@ -64,19 +84,24 @@ class ProgressClassification(SoftmaxClassification):
 
 
 class OrdinalProgress(Task):
-    """Five sigmoid outputs on Cheng et al.'s cumulative targets, mean binary cross-entropy over
-    outputs and steps; decoded by the first output below 0.5 (see jigsaws_tools.progress)."""
+    """Five sigmoid outputs on Cheng et al.'s cumulative targets; loss = binary cross-entropy
+    summed (or averaged, ``reduction="mean"``) over the outputs, averaged over steps; decoded by
+    the first output below 0.5 (see jigsaws_tools.progress)."""
 
     ordered = True
 
-    def __init__(self):
+    def __init__(self, reduction: OrdinalLoss = "sum"):
         super().__init__("progress", STAGE_NAMES)
+        self.reduction = reduction
 
     def encode(self, labels):
         return ordinal_encode(labels.reshape(-1), self.num_classes).reshape(labels.shape + (-1,))
 
     def loss(self, outputs, targets, mask=None):
-        return step_mean(tf.nn.sigmoid_cross_entropy_with_logits(targets, outputs), mask)
+        per_output = tf.nn.sigmoid_cross_entropy_with_logits(targets, outputs)     # [B, T, 5]
+        if self.reduction == "sum":
+            return step_mean(tf.reduce_sum(per_output, axis=-1), mask)
+        return step_mean(per_output, mask)
 
     def scores(self, outputs):
         return 1.0 / (1.0 + np.exp(-outputs))

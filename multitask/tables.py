@@ -17,6 +17,7 @@ from .paper_results import TABLE_1, TABLE_2, TABLE_2_RELATED, TABLE_3, Number
 
 METRIC_LABELS = {"gesture_accuracy": "A Accuracy", "gesture_edit": "A Edit",
                  "gesture_f1@10": "A F1@10", "progress_mae": "P MAE",
+                 "progress_mae_raw": "P MAE (raw)",
                  "progress_accuracy": "P Accuracy", "progress_edit": "P Edit",
                  "progress_f1@10": "P F1@10"}
 CONFIG_LABELS = {"A-fixed": "A", "APr-fixed": "APr (w1=w2=1)", "APr-gradnorm": "APr (alpha=1.5)",

@@ -10,8 +10,9 @@ from baseline.options import add_run_arguments, run_config_from_args
 from jigsaws_tools.errors import JigsawsError
 from rnn_seg.threads import configure_threads
 
-from .gradnorm import GradNormConfig
 from .fold_run import WEIGHTINGS, train_variant
+from .gradnorm import RELATIVE_RATES, GradNormConfig
+from .heads import ORDINAL_LOSSES, HeadConfig
 from .variants import VARIANTS, get_variant
 
 
@@ -23,6 +24,13 @@ def build_parser(variant_name: str) -> argparse.ArgumentParser:
     parser.add_argument("--alpha", type=float, default=GradNormConfig.alpha)
     parser.add_argument("--weight-lr", type=float, default=GradNormConfig.learning_rate,
                         help="learning rate of the GradNorm task weights")
+    parser.add_argument("--relative-rate", choices=RELATIVE_RATES,
+                        default=GradNormConfig.relative_rate,
+                        help="GradNorm's r_i divides the loss ratios by their mean (chen) or by "
+                             "the mean loss (paper's literal text)")
+    parser.add_argument("--ordinal-loss", choices=ORDINAL_LOSSES, default=HeadConfig.ordinal_loss,
+                        help="the ordered progress head's cross-entropy over its 5 outputs: "
+                             "summed (the paper's MBCE) or averaged")
     add_run_arguments(parser, variant.optim())
     return parser
 
@@ -40,14 +48,16 @@ def main(argv: list[str] | None = None) -> int:
         config = run_config_from_args(args, variant.optim(), variant.eval_points())
         print(f"variant: {variant.name} ({args.weighting})\n{config.describe()}", flush=True)
         result = train_variant(variant, args.weighting, config, args.out,
-                               GradNormConfig(alpha=args.alpha, learning_rate=args.weight_lr),
-                               log=lambda m: print(m, flush=True))
+                               GradNormConfig(alpha=args.alpha, learning_rate=args.weight_lr,
+                                              relative_rate=args.relative_rate),
+                               log=lambda m: print(m, flush=True),
+                               heads=HeadConfig(ordinal_loss=args.ordinal_loss))
     except (JigsawsError, ValueError) as error:
         print(f"multitask-train: error: {error}", file=sys.stderr)
         return 2
     summary = "; ".join(f"{task}: accuracy {m['accuracy']:.1f}, edit {m['edit']:.1f}, "
-                        f"F1@10 {m['f1@10']:.1f}" + (f", MAE {m['mae_normalised']:.1f}"
-                                                     if "mae_normalised" in m else "")
+                        f"F1@10 {m['f1@10']:.1f}" + (f", MAE {m['mae_normalised_rounded']:.1f}"
+                                                     if "mae_normalised_rounded" in m else "")
                         for task, m in result["mean"].items())
     print(f"done: {summary} (mean over evaluation points); outputs in {args.out}")
     return 0

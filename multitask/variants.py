@@ -12,9 +12,7 @@ from rnn_seg.optim import OptimConfig
 from rnn_seg.tasks import Task
 from rnn_seg.trainer import TrainConfig
 
-from .heads import OrdinalProgress, ProgressClassification, ProgressRegression
-
-_PROGRESS_HEADS = {"r": ProgressRegression, "c": ProgressClassification, "oc": OrdinalProgress}
+from .heads import HeadConfig, OrdinalProgress, ProgressClassification, ProgressRegression
 
 #: Paper: APr "GD with Momentum 0.9 ... initial learning rate 0.1"; APc/APoc "GD ... 1.0";
 #: decay 0.5 after 80 epochs, stop after 120, evaluate after 100, 110, 120.
@@ -33,10 +31,14 @@ class Variant:
     gestures: bool
     progress: str | None        # "r", "c", "oc" or None
 
-    def tasks(self) -> list[Task]:
+    def tasks(self, heads: HeadConfig = HeadConfig()) -> list[Task]:
         tasks = [gesture_task()] if self.gestures else []
-        if self.progress:
-            tasks.append(_PROGRESS_HEADS[self.progress]())
+        if self.progress == "r":
+            tasks.append(ProgressRegression())
+        elif self.progress == "c":
+            tasks.append(ProgressClassification())
+        elif self.progress == "oc":
+            tasks.append(OrdinalProgress(heads.ordinal_loss))
         return tasks
 
     @property

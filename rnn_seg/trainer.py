@@ -12,7 +12,8 @@ A run directory holds::
     eval/<unit><N>/metrics.json  test metrics at evaluation point N
     eval/<unit><N>/predictions/<sequence>.csv, plots/<sequence>.png (figures: last point only,
                                  unless ``plots="all"``)
-    metrics.json                 every evaluation point and their mean
+    metrics.json                 every evaluation point, their mean, and whether the training
+                                 loss had stopped falling (``rnn_seg.convergence``)
     finished.json                written last; a run without it is incomplete and will resume
 """
 from __future__ import annotations
@@ -30,6 +31,7 @@ import pandas as pd
 import tensorflow as tf
 from tensorflow.core.framework import summary_pb2
 
+from .convergence import history_convergence
 from .model import ModelParams, SegmentationModel
 from .optim import SGD, OptimConfig
 from .plots import plot_sequence
@@ -393,7 +395,10 @@ class Trainer:
         mean = {task: {k: float(np.mean([per_point[p][task][k] for p in points]))
                        for k in per_point[points[0]][task]}
                 for task in per_point[points[0]]}
-        result = {"points": per_point, "mean": mean, "unit": self.optim.unit}
+        result = {"points": per_point, "mean": mean, "unit": self.optim.unit,
+                  "convergence": history_convergence(pd.read_csv(self.run_dir / "history.csv"),
+                                                     [t.name for t in self.tasks],
+                                                     self.optim.total)}
         write_json(self.run_dir / "metrics.json", result)
         write_json(self.run_dir / "timing.json", self.clock.report())
         mark_finished(self.run_dir, {"sweeps": self.total_sweeps})
