@@ -12,7 +12,7 @@ from jigsaws_tools.annotations import ANNOTATION_VERSIONS
 from jigsaws_tools.dataset import DataConfig, default_cache_dir, default_data_dir
 from jigsaws_tools.features import FEATURE_SETS
 from jigsaws_tools.synth import SynthConfig, ensure_release
-from rnn_seg.lstm import RESET_MODES, EncoderConfig
+from rnn_seg.lstm import PRECISIONS, RESET_MODES, EncoderConfig
 from rnn_seg.optim import OptimConfig
 from rnn_seg.trainer import PLOT_POINTS, PREDICTION_MODES, TrainConfig
 
@@ -40,6 +40,9 @@ def add_run_arguments(parser: argparse.ArgumentParser, optim: OptimConfig) -> No
     model.add_argument("--keep-prob", type=float, default=encoder.keep_prob)
     model.add_argument("--init-scale", type=float, default=encoder.init_scale)
     model.add_argument("--reset-mode", choices=RESET_MODES, default=encoder.reset_mode)
+    model.add_argument("--precision", choices=PRECISIONS, default=encoder.precision,
+                       help="of the LSTM's matrix products: bf16 needs a CPU with native "
+                            "bfloat16 (docs/PERFORMANCE.md)")
     opt = parser.add_argument_group("optimisation")
     length = opt.add_mutually_exclusive_group()
     length.add_argument("--epochs", type=int, help=f"train for N epochs (default {optim.total})")
@@ -99,7 +102,7 @@ def run_config_from_args(args: argparse.Namespace, optim: OptimConfig,
         encoder=EncoderConfig(hidden=args.hidden, layers=args.layers,
                               bidirectional=args.direction == "bidirectional",
                               keep_prob=args.keep_prob, init_scale=args.init_scale,
-                              reset_mode=args.reset_mode),
+                              reset_mode=args.reset_mode, precision=args.precision),
         optim=OptimConfig(learning_rate=args.lr, momentum=args.momentum, clip_norm=args.clip_norm,
                           unit=unit, total=total, decay_start=decay_start,
                           decay_every=args.decay_every, decay_factor=args.decay_factor),

@@ -18,6 +18,7 @@ Example spec (every key optional)::
     seeds = [0]
     hidden = 64                   # budget overrides
     epochs = 10                   # length of the gesture variants' schedule; P scaled alike
+    precision = "fp32"            # or "bf16": the LSTM's matrix products in bfloat16
     ordinal_loss = "sum"          # the ordered progress head's loss: "sum" (paper) or "mean"
     relative_rate = "chen"        # GradNorm's r_i: "chen" (ratio mean) or "paper" (loss mean)
 
@@ -39,7 +40,7 @@ from jigsaws_tools.annotations import ANNOTATION_VERSIONS
 from jigsaws_tools.dataset import DataConfig, default_cache_dir, default_data_dir
 from jigsaws_tools.release import discover
 from jigsaws_tools.synth import SynthConfig, ensure_release
-from rnn_seg.lstm import EncoderConfig
+from rnn_seg.lstm import PRECISIONS, EncoderConfig
 from rnn_seg.trainer import TrainConfig
 
 from .fold_run import WEIGHTINGS
@@ -103,6 +104,7 @@ class GridSpec:
     seeds: tuple[int, ...] | None = None
     hidden: int | None = None
     epochs: int | None = None
+    precision: str = EncoderConfig.precision
     ordinal_loss: str = HeadConfig.ordinal_loss
     relative_rate: str = GradNormConfig.relative_rate
     experiments: tuple[Experiment, ...] = PAPER_EXPERIMENTS
@@ -111,6 +113,8 @@ class GridSpec:
         if self.preset not in PRESETS:
             raise ValueError(f"unknown preset {self.preset!r}; choose from {', '.join(PRESETS)}")
         self.heads, self.gradnorm          # validate both
+        if self.precision not in PRECISIONS:
+            raise ValueError(f"precision must be one of {PRECISIONS}, not {self.precision!r}")
 
     @property
     def heads(self) -> HeadConfig:
@@ -214,7 +218,8 @@ def run_config(spec: GridSpec, key: RunKey) -> RunConfig:
     return RunConfig(
         data=DataConfig(str(spec.data_dir()), annotations=key.annotations),
         test_user=key.fold,
-        encoder=EncoderConfig(hidden=budget.hidden, bidirectional=key.direction == "bidirectional"),
+        encoder=EncoderConfig(hidden=budget.hidden, bidirectional=key.direction == "bidirectional",
+                              precision=spec.precision),
         optim=optim,
         train=TrainConfig(seed=key.seed, eval_points=points))
 

@@ -32,6 +32,7 @@ import tensorflow as tf
 from tensorflow.core.framework import summary_pb2
 
 from .convergence import history_convergence
+from .lstm import require_native_precision
 from .model import ModelParams, SegmentationModel
 from .optim import SGD, OptimConfig
 from .plots import plot_sequence
@@ -120,6 +121,7 @@ class Trainer:
         self.model, self.tasks, self.optim, self.config = model, list(tasks), optim, config
         self.train, self.test, self.run_dir, self.log = train, test, Path(run_dir), log
         self.sample_hz = sample_hz
+        require_native_precision(model.encoder.config.precision)
         self.variables = tf.nest.flatten(model.params())      # the order of every gradient list
         self.sgd = SGD(self.variables, optim.momentum, optim.clip_norm)
         self.dropout_rng = tf.random.Generator.from_seed(config.seed + 1_000_003)
