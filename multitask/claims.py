@@ -44,7 +44,8 @@ COLUMNS = ["claim", "paper_diff", "ours_diff", "ci_low", "ci_high", "p_value", "
 class BestOf:
     """``x`` against the strongest of ``rivals`` on the metric: chosen on our runs for our test,
     in the paper's table for the paper's difference. Beating the strongest rival is the binding
-    test of "best"; choosing it on the same runs can only make the test harder."""
+    test of "best". Choosing it on the same runs biases the difference against the claim: a
+    *reproduced* verdict is conservative, a *contradicted* one is not."""
 
     x: ConfigId
     rivals: tuple[ConfigId, ...]
@@ -141,7 +142,8 @@ def _contrasts(claim: Claim, runs: pd.DataFrame, notes: list[str]
     theirs = _strongest(rivals, claim.metric, lambda c: paper_value(c, claim.metric))
     notes.append(f"against the strongest other of {', '.join(r.label for r in rivals)}: ours "
                  f"{ours.label if ours else 'none run'}, the paper's "
-                 f"{theirs.label if theirs else 'none published'}")
+                 f"{theirs.label if theirs else 'none published'} (chosen on the same runs: "
+                 "biased against the claim)")
     return Contrast(x, ours or rivals[0]), Contrast(x, theirs) if theirs else None
 
 
