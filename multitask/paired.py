@@ -165,7 +165,7 @@ class PairedResult:
     mean: float
     ci_low: float                       # NaN with fewer than 2 pairs
     ci_high: float
-    p_value: float                      # two-sided Wilcoxon signed-rank, NaN with no pairs
+    p_value: float                      # two-sided Wilcoxon signed-rank over the folds
     zero_differences: int               # discarded by the Wilcoxon test
     bootstrap: BootstrapConfig
     unit: str = UNIT_OF_PAIRING
@@ -181,14 +181,15 @@ class PairedResult:
         per_fold = "  ".join(f"{f} {d:+.2f}" for f, d in zip(self.folds, self.differences))
         dropped = ", ".join(f"{f} (no {sides})" for f, sides in self.dropped.items()) or "none"
         level = f"{self.bootstrap.confidence:.0%}"
+        ci = (f"{level} CI [{self.ci_low:+.2f}, {self.ci_high:+.2f}] ({self.bootstrap.method}; "
+              f"{self.bootstrap.resamples} resamples, seed {self.bootstrap.seed})"
+              if self.pairs > 1 else "no CI from one fold")
         return "\n".join([
             f"{self.contrast} on {self.metric}",
             f"unit of pairing: {self.unit}",
             f"pairs: {self.pairs} folds, {seeds} seed(s) per side and fold; dropped: {dropped}",
             f"per-fold differences: {per_fold}",
-            (f"mean difference: {self.mean:+.2f}, {level} CI [{self.ci_low:+.2f}, "
-             f"{self.ci_high:+.2f}] ({self.bootstrap.method}; {self.bootstrap.resamples} "
-             f"resamples, seed {self.bootstrap.seed})"),
+            f"mean difference: {self.mean:+.2f}, {ci}",
             (f"Wilcoxon signed-rank, two-sided: p = {self.p_value:.3g} "
              f"({self.zero_differences} zero difference(s) discarded)")])
 
@@ -263,8 +264,8 @@ def _fold_means(values: np.ndarray, counts: np.ndarray) -> np.ndarray:
 
 def _bootstrap_ci(padded: dict[ConfigId, tuple[np.ndarray, np.ndarray]],
                   terms: dict[ConfigId, int], config: BootstrapConfig) -> tuple[float, float]:
-    """Expanded percentile interval of the mean per-fold contrast; folds resampled, then each
-    side's seeds within every drawn fold."""
+    """Expanded percentile interval of the mean per-fold contrast; folds resampled, then (unless
+    ``config.resample_seeds`` is off) each side's seeds within every drawn fold."""
     n = next(iter(padded.values()))[1].size
     if n < 2:
         return float("nan"), float("nan")
