@@ -120,7 +120,7 @@ def _evaluate(claim: Claim, runs: pd.DataFrame, config: BootstrapConfig) -> dict
     except ValueError as error:             # not run (NotPaired) or metric absent from the grid
         notes.append(f"not tested: {error}")
         return row | {"note": "; ".join(notes)}
-    notes += _result_notes(result)
+    notes += _result_notes(result) + _convergence_notes(runs, contrast)
     row |= {"ours_diff": result.mean, "ci_low": result.ci_low, "ci_high": result.ci_high,
             "p_value": result.p_value, "folds": result.pairs, "seeds": result.seeds[0]}
     if result.pairs >= MIN_PAIRS:
@@ -174,6 +174,20 @@ def _result_notes(result: PairedResult) -> list[str]:
     if result.zero_differences:
         notes.append(f"{result.zero_differences} zero difference(s) left out of the Wilcoxon test")
     return notes
+
+
+def _convergence_notes(runs: pd.DataFrame, contrast: Contrast) -> list[str]:
+    """Which sides have runs whose training loss was still falling (``collect``'s ``converged``
+    column, where the grid records it)."""
+    if "converged" not in runs.columns:
+        return []
+    still = []
+    for side in contrast.configs:
+        flags = side.select(runs).converged
+        falling = int(flags.eq(False).sum())
+        if falling:
+            still.append(f"{side.label} {falling}/{len(flags)}")
+    return [f"runs still converging: {', '.join(still)}"] if still else []
 
 
 _PAPER = {(table.annotations, table.direction): table.paper for table in PAPER_TABLES}

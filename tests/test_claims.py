@@ -222,6 +222,13 @@ def test_best_of_compares_with_our_strongest_other_model():
     assert "ours APc-fixed, the paper's APoc-fixed" in row.note
 
 
+def test_claims_name_runs_that_had_not_converged():
+    runs = _runs({APC: 1.0, A: 0.0}, np.random.default_rng(16))
+    runs["converged"] = ~((runs.variant == "A") & runs.fold.isin(["B", "C"]))
+    claim = Claim("c", "APc improves", Contrast(APC, A), "gesture_edit", +1)
+    assert "runs still converging: A-fixed 2/8" in evaluate(runs, (claim,), FAST).iloc[0].note
+
+
 def test_claims_latex_is_a_well_formed_booktabs_table():
     table = evaluate(_full_grid(np.random.default_rng(12), seeds=1), config=FAST)
     tex = claims_latex(table, FAST)
