@@ -7,7 +7,9 @@ Read first: ``variants.VARIANTS`` (A, APr, APc, APoc, Pr, Pc, Poc), then ``fold_
 * ``grid_spec``: TOML specs, presets, the runs they expand to; ``grid_job``: one worker's job;
   ``grid_executors``: the local process pool and Dask;
 * ``collect``, ``tables``, ``figures``: results of a grid as the paper's tables and figures;
-  ``paper_results``: the published numbers.
+  ``paper_results``: the published numbers;
+* ``paired``: paired statistics of two configurations over folds and seeds; ``claims``: the
+  paper's claims as data, tested with them; ``claims_table``: ``claims.csv`` and ``claims.tex``.
 """
 from importlib import import_module
 

@@ -3,8 +3,15 @@
 Writes to ``--out`` (default ``GRID_DIR/tables``): ``runs.csv`` (one row per finished run),
 ``per_fold.csv`` (mean over seeds per configuration and fold), ``summary.csv`` (mean and std over
 folds), ``table1|2|3.csv/.tex`` (ours against the paper), ``ablation_annotations.csv/.tex``
-(revised against original labels) and ``figures/*.png|pdf``. Unfinished runs are left out and
-listed.
+(revised against original labels), ``claims.csv/.tex`` (the paper's claims tested with paired
+statistics over folds and seeds, settings in ``claims_config.json``) and ``figures/*.png|pdf``.
+Unfinished runs are left out and listed.
+
+``--compare X Y --metric M`` prints the paired statistics of one comparison instead, e.g.
+``multitask-tables GRID --compare APc-fixed A-fixed --metric gesture_edit``; a configuration is
+``[annotations/][direction/]<variant>-<weighting>`` as in the grid's run folders
+(``original/APoc-gradnorm``, ``forward/A-fixed``), and ``--minus X2 Y2`` makes it a difference of
+differences, ``(X - Y) - (X2 - Y2)``.
 """
 from __future__ import annotations
 
@@ -14,8 +21,10 @@ from pathlib import Path
 
 from rnn_seg.rundir import write_atomic
 
-from .collect import per_fold, run_rows, summary
+from .claims_table import write_claims
+from .collect import METRICS, per_fold, run_rows, summary
 from .figures import all_figures
+from .paired import ConfigId, Contrast, NotPaired, config_labels, paired
 from .tables import PAPER_TABLES, annotation_ablation, paper_best, paper_comparison, to_latex
 
 
@@ -42,9 +51,21 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True) -> list[Path]:
         written.append(_csv(ablation, out / "ablation_annotations.csv"))
         written.append(_tex(to_latex(ablation, caption, "ablation_annotations",
                                      ("Revised", "Original")), out / "ablation_annotations.tex"))
+    written += write_claims(runs, out)
     if figures:
         written += all_figures(Path(grid_dir), stats, folds, out / "figures")
     return written
+
+
+def _compare(grid_dir: Path, compare: list[str], minus: list[str] | None, metric: str) -> str:
+    """The paired statistics of one comparison, as text."""
+    x, y = map(ConfigId.parse, compare)
+    contrast = Contrast(x, y, tuple(map(ConfigId.parse, minus)) if minus else None)
+    runs, _ = run_rows(grid_dir)
+    try:
+        return paired(runs, contrast, metric).describe()
+    except NotPaired as error:
+        raise NotPaired(f"{error}; {grid_dir} holds {', '.join(config_labels(runs))}") from None
 
 
 def _csv(frame, path: Path) -> Path:
@@ -63,8 +84,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("grid_dir", type=Path, help="output folder of multitask-grid")
     parser.add_argument("--out", type=Path, help="where to write (default GRID_DIR/tables)")
     parser.add_argument("--no-figures", action="store_true")
+    parser.add_argument("--compare", nargs=2, metavar=("X", "Y"),
+                        help="print the paired statistics of X - Y instead of writing tables")
+    parser.add_argument("--minus", nargs=2, metavar=("X2", "Y2"),
+                        help="with --compare: (X - Y) - (X2 - Y2), paired per fold")
+    parser.add_argument("--metric", help=f"with --compare: {', '.join(METRICS)}, ...")
     args = parser.parse_args(argv)
+    if bool(args.compare) != bool(args.metric) or (args.minus and not args.compare):
+        parser.error("--compare needs --metric, and --metric and --minus need --compare")
     try:
+        if args.compare:
+            print(_compare(args.grid_dir, args.compare, args.minus, args.metric))
+            return 0
         paths = write_tables(args.grid_dir, args.out or args.grid_dir / "tables",
                              figures=not args.no_figures)
     except (ValueError, OSError) as error:
