@@ -288,10 +288,10 @@ def _number(value: Any, key: str) -> float:
 
 
 def _int_pair(value: Any, key: str) -> tuple[int, int]:
-    pair = _list(value, key)
-    if len(pair) != 2 or not all(isinstance(v, int) and not isinstance(v, bool) for v in pair):
+    if not (isinstance(value, list) and len(value) == 2
+            and all(isinstance(v, int) and not isinstance(v, bool) for v in value)):
         raise DefinitionError("", key, value, "expected [min, max], two integers")
-    return pair[0], pair[1]
+    return value[0], value[1]
 
 
 # -- invariants -------------------------------------------------------------------------------------

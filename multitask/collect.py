@@ -4,7 +4,8 @@ Only runs with ``finished.json`` count; half-written runs are ignored (and repor
 Metric columns are ``<task>_<metric>``: ``gesture_accuracy``, ``gesture_edit``,
 ``gesture_f1@10``, ``gesture_accuracy_G1`` ..., ``progress_accuracy``, ``progress_edit``,
 ``progress_f1@10`` and ``progress_mae`` (normalised MAE of the raw regression output, in % of the
-4-stage range, as in the paper). Each run's value is the mean over its evaluation points.
+stage range: 4 stages' span for Suturing, as in the paper). Each run's value is the mean over its
+evaluation points.
 """
 from __future__ import annotations
 

@@ -31,7 +31,7 @@ def variant_trainer(variant: Variant, weighting: Weighting, config: RunConfig, r
     if weighting == "gradnorm":
         extra["gradnorm"] = gradnorm
         trainer = partial(GradNormTrainer, gradnorm=gradnorm)
-    return build_trainer(config, variant.tasks(), run_dir, dataset, trainer=trainer,
+    return build_trainer(config, variant.tasks(config.data.task), run_dir, dataset, trainer=trainer,
                          extra_configs=extra, log=log)
 
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 from baseline.builder import gesture_task
+from jigsaws_tools.task_definition import TaskDefinition
 from rnn_seg.optim import OptimConfig
 from rnn_seg.tasks import Task
 from rnn_seg.trainer import TrainConfig
@@ -33,15 +34,16 @@ class Variant:
     gestures: bool
     progress: str | None        # "r", "c", "oc" or None
 
-    def tasks(self) -> list[Task]:
-        tasks = [gesture_task()] if self.gestures else []
+    def tasks(self, task: TaskDefinition) -> list[Task]:
+        """The heads this variant trains on ``task``: its gestures and / or its progress stages."""
+        tasks = [gesture_task(task)] if self.gestures else []
         if self.progress:
-            tasks.append(_PROGRESS_HEADS[self.progress]())
+            tasks.append(_PROGRESS_HEADS[self.progress](task.num_stages))
         return tasks
 
     @property
     def multitask(self) -> bool:
-        return len(self.tasks()) > 1
+        return self.gestures and self.progress is not None
 
     def optim(self) -> OptimConfig:
         """The paper's optimiser and schedule for this variant."""
