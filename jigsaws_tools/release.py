@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import FormatError, ReleaseNotFoundError
+from .errors import FormatError, JigsawsError, ReleaseNotFoundError
 from .gestures import UNLABELLED
 from .task_definition import SUTURING, TaskDefinition
 
@@ -131,8 +131,12 @@ def discover(root: Path | str, task: TaskDefinition = SUTURING) -> ReleaseIndex:
         user, number = name.removeprefix(f"{task.name}_")[0], name[-3:]
         trials.append(TrialFiles(name, user, int(number), kin[name], trans[name]))
     if not trials:
+        others = _other_tasks(kin_dir, task)
+        if others:
+            raise JigsawsError(f"{root}: no {task.name} trial found; it holds {', '.join(others)} "
+                               f"trials (choose the task with --task or --task-file)")
         raise ReleaseNotFoundError(root, f"a {task.name} trial with both kinematics and a "
-                                         f"transcription{_other_tasks_hint(kin_dir, task)}")
+                                         f"transcription")
     return ReleaseIndex(root, tuple(trials), missing_kin, missing_tr, task,
                         tuple(reason for _, reason in sorted(unusable.items())))
 
@@ -176,14 +180,10 @@ def _unusable(path: Path) -> str | None:
     return None
 
 
-def _other_tasks_hint(folder: Path, task: TaskDefinition) -> str:
-    """``"; it holds Knot_Tying trials (choose the task with --task)"`` when the folder holds
-    trial files of other tasks, else ``""``."""
-    others = sorted({m.group(1) for p in folder.iterdir()
-                     if (m := _ANY_TRIAL_FILE.match(p.name)) and m.group(1) != task.name})
-    if not others:
-        return ""
-    return f"; it holds {', '.join(others)} trials (choose the task with --task or --task-file)"
+def _other_tasks(folder: Path, task: TaskDefinition) -> list[str]:
+    """Names of the other tasks whose trial files ``folder`` holds."""
+    return sorted({m.group(1) for p in folder.iterdir()
+                   if (m := _ANY_TRIAL_FILE.match(p.name)) and m.group(1) != task.name})
 
 
 def _check_readable(path: Path, what: str) -> None:
