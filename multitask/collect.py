@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from jigsaws_tools.task_definition import PAPER_TASK
 from rnn_seg.rundir import is_finished
 
 from .grid_spec import RunKey
@@ -53,6 +54,15 @@ def run_rows(grid_dir: Path | str) -> tuple[pd.DataFrame, list[Path]]:
     if not rows:
         raise ValueError(f"{root}: no finished runs under {root / 'runs'}")
     return pd.DataFrame(rows), unfinished
+
+
+def grid_task_name(grid_dir: Path | str) -> str:
+    """The task a grid's runs were trained on (their ``config.json``); runs written before tasks
+    existed are Suturing's."""
+    for config in sorted(Path(grid_dir).glob("runs/*/*/*/seed*/*/config.json")):
+        data = json.loads(config.read_text())["run"]["data"]
+        return data.get("task", {}).get("name", PAPER_TASK)
+    return PAPER_TASK
 
 
 def per_fold(runs: pd.DataFrame) -> pd.DataFrame:

@@ -4,7 +4,8 @@ Writes to ``--out`` (default ``GRID_DIR/tables``): ``runs.csv`` (one row per fin
 ``per_fold.csv`` (mean over seeds per configuration and fold), ``summary.csv`` (mean and std over
 folds), ``table1|2|3.csv/.tex`` (ours against the paper), ``ablation_annotations.csv/.tex``
 (revised against original labels) and ``figures/*.png|pdf``. Unfinished runs are left out and
-listed.
+listed. The paper's tables and the annotation ablation are Suturing's: a grid of another task
+gets neither.
 """
 from __future__ import annotations
 
@@ -12,9 +13,13 @@ import argparse
 import sys
 from pathlib import Path
 
+import pandas as pd
+
 from rnn_seg.rundir import write_atomic
 
-from .collect import per_fold, run_rows, summary
+from jigsaws_tools.task_definition import PAPER_TASK
+
+from .collect import grid_task_name, per_fold, run_rows, summary
 from .figures import all_figures
 from .tables import PAPER_TABLES, annotation_ablation, paper_best, paper_comparison, to_latex
 
@@ -28,6 +33,16 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True) -> list[Path]:
     stats = summary(folds)
     written = [_csv(runs, out / "runs.csv"), _csv(folds, out / "per_fold.csv"),
                _csv(stats, out / "summary.csv")]
+    if grid_task_name(grid_dir) == PAPER_TASK:
+        written += _paper_tables(stats, out)
+    if figures:
+        written += all_figures(Path(grid_dir), stats, folds, out / "figures")
+    return written
+
+
+def _paper_tables(stats: pd.DataFrame, out: Path) -> list[Path]:
+    """Tables I-III against the paper and the annotation ablation (Suturing grids only)."""
+    written = []
     for table in PAPER_TABLES:
         frame = paper_comparison(stats, table)
         if frame.empty:
@@ -42,8 +57,6 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True) -> list[Path]:
         written.append(_csv(ablation, out / "ablation_annotations.csv"))
         written.append(_tex(to_latex(ablation, caption, "ablation_annotations",
                                      ("Revised", "Original")), out / "ablation_annotations.tex"))
-    if figures:
-        written += all_figures(Path(grid_dir), stats, folds, out / "figures")
     return written
 
 

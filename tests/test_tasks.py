@@ -278,6 +278,30 @@ def test_made_up_task_drives_synth_inspect_and_training(tmp_path, capsys):
     assert len(list((run / "eval/epoch0002/plots").glob("*.png"))) == 5
 
 
+def test_knot_tying_grid_tables_and_figures(tmp_path, capsys):
+    """A grid spec with ``task``: runs on the task's synthetic release, tables without the paper's
+    (Suturing) comparisons, figures with the task's gestures and stages."""
+    from multitask.grid_cli import main as grid_main
+    from multitask.tables_cli import main as tables_main
+
+    release = write_release(tmp_path / "Knot_Tying", SynthConfig(users=("B", "C", "D"),
+                                                                 trials_per_user=2),
+                            load_task("Knot_Tying"))
+    spec = _write(tmp_path, f'task = "Knot_Tying"\ndata = "{release}"\nfolds = ["B"]\n'
+                            'seeds = [0]\nhidden = 8\nepochs = 1\n'
+                            '[[experiments]]\nvariants = ["A", "APc"]\n', "knot.toml")
+    grid = tmp_path / "grid"
+    assert grid_main(["--spec", str(spec), "--out", str(grid)]) == 0
+    assert "task Knot_Tying" in capsys.readouterr().out
+    assert tables_main([str(grid)]) == 0
+    tables = grid / "tables"
+    assert (tables / "summary.csv").is_file() and not list(tables.glob("table*.csv"))
+    summary = pd.read_csv(tables / "summary.csv")
+    assert "gesture_accuracy_G15_mean" in summary and "progress_accuracy_P3_mean" in summary
+    assert "progress_accuracy_P4_mean" not in summary
+    assert (tables / "figures/per_gesture_accuracy.png").is_file()
+
+
 def test_grid_spec_takes_a_task(tmp_path):
     spec = GridSpec(task="Knot_Tying", data="synthetic", folds=("B",), seeds=(0,))
     assert spec.data_dir().name == "Knot_Tying"
