@@ -10,7 +10,7 @@ setup(
     ),
     python_requires=">=3.11",
     packages=find_packages(include=["jigsaws_tools*", "rnn_seg*", "baseline*", "multitask*"]),
-    package_data={"jigsaws_tools": ["data/*.csv"]},
+    package_data={"jigsaws_tools": ["data/*.csv", "data/tasks/*.toml"]},
     install_requires=[
         "tensorflow-cpu>=2.15",
         "numpy>=1.24",

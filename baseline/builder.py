@@ -6,7 +6,7 @@ from pathlib import Path
 from typing import Callable, Sequence
 
 from jigsaws_tools.dataset import Dataset, Trial, load_dataset
-from jigsaws_tools.gestures import GESTURES
+from jigsaws_tools.task_definition import TaskDefinition
 from rnn_seg.model import SegmentationModel
 from rnn_seg.tasks import SoftmaxClassification, Task
 from rnn_seg.trainer import SequenceSet, Trainer
@@ -17,9 +17,9 @@ from .config import RunConfig
 LABEL_FIELDS = {"gesture": "gestures", "progress": "progress"}
 
 
-def gesture_task() -> Task:
-    """10-way softmax over G1-G6, G8-G11 with mean cross-entropy."""
-    return SoftmaxClassification("gesture", GESTURES)
+def gesture_task(task: TaskDefinition) -> Task:
+    """Softmax over ``task``'s gestures (Suturing: 10-way, G1-G6, G8-G11), mean cross-entropy."""
+    return SoftmaxClassification("gesture", task.gestures)
 
 
 def to_sequences(trials: Sequence[Trial], tasks: Sequence[Task]) -> SequenceSet:
@@ -55,4 +55,4 @@ def build_trainer(config: RunConfig, tasks: Sequence[Task], run_dir: Path,
 def train_baseline(config: RunConfig, run_dir: Path, dataset: Dataset | None = None,
                    log: Callable[[str], None] = print) -> dict:
     """Train model A on one fold; returns the run's metrics (see ``rnn_seg.trainer``)."""
-    return build_trainer(config, [gesture_task()], run_dir, dataset, log=log).run()
+    return build_trainer(config, [gesture_task(config.data.task)], run_dir, dataset, log=log).run()

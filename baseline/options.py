@@ -12,6 +12,7 @@ from jigsaws_tools.annotations import ANNOTATION_VERSIONS
 from jigsaws_tools.dataset import DataConfig, default_cache_dir, default_data_dir
 from jigsaws_tools.features import FEATURE_SETS
 from jigsaws_tools.synth import SynthConfig, ensure_release
+from jigsaws_tools.task_options import add_task_options, task_from_options
 from rnn_seg.lstm import PRECISIONS, RESET_MODES, EncoderConfig
 from rnn_seg.optim import OptimConfig
 from rnn_seg.trainer import PLOT_POINTS, PREDICTION_MODES, TrainConfig
@@ -32,6 +33,7 @@ def add_run_arguments(parser: argparse.ArgumentParser, optim: OptimConfig) -> No
     data.add_argument("--test-user", default=RunConfig.test_user, help="user held out (LOUO fold)")
     data.add_argument("--annotations", choices=ANNOTATION_VERSIONS, default=DataConfig.annotations)
     data.add_argument("--features", choices=list(FEATURE_SETS), default=DataConfig.feature_set)
+    add_task_options(data)
     model = parser.add_argument_group("model")
     model.add_argument("--hidden", type=int, default=encoder.hidden)
     model.add_argument("--layers", type=int, default=encoder.layers)
@@ -84,10 +86,11 @@ def run_config_from_args(args: argparse.Namespace, optim: OptimConfig,
                          eval_points: tuple[int, ...] = TrainConfig.eval_points) -> RunConfig:
     """Build the run's configuration from parsed options over the defaults in ``optim``;
     ``eval_points`` apply when the schedule keeps its default length, else the last unit."""
+    task = task_from_options(args)
     if args.synthetic:
-        data_dir = ensure_release(default_cache_dir(), SynthConfig(seed=args.synthetic_seed))
+        data_dir = ensure_release(default_cache_dir(), SynthConfig(seed=args.synthetic_seed), task)
     else:
-        data_dir = args.data_dir or default_data_dir()
+        data_dir = args.data_dir or default_data_dir(task.name)
     unit, total = ("sweeps", args.sweeps) if args.sweeps else ("epochs", args.epochs or optim.total)
     default_length = unit == "epochs" and total == optim.total
     decay_start = args.decay_start if args.decay_start is not None else (
@@ -97,7 +100,8 @@ def run_config_from_args(args: argparse.Namespace, optim: OptimConfig,
     else:
         eval_points = eval_points if default_length else (total,)
     return RunConfig(
-        data=DataConfig(str(data_dir), feature_set=args.features, annotations=args.annotations),
+        data=DataConfig(str(data_dir), feature_set=args.features, annotations=args.annotations,
+                        task=task),
         test_user=args.test_user,
         encoder=EncoderConfig(hidden=args.hidden, layers=args.layers,
                               bidirectional=args.direction == "bidirectional",

@@ -11,8 +11,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.patches import Patch  # noqa: E402
 
-from .gestures import GESTURES  # noqa: E402
-from .progress import NUM_STAGES  # noqa: E402
+from .task_definition import TaskDefinition  # noqa: E402
 
 GESTURE_CMAP = "tab10"
 PROGRESS_CMAP = "viridis"
@@ -37,8 +36,17 @@ def legend_handles(names: Sequence[str], cmap: str) -> list[Patch]:
 
 
 def plot_ribbon_rows(rows: Sequence[tuple[str, np.ndarray, int, str]], path: Path | str,
-                     title: str = "", sample_hz: float | None = None) -> Path:
-    """Save a figure of stacked ribbons; each row is ``(name, labels [T], num_classes, cmap)``."""
+                     legends: Sequence[tuple[Sequence[str], str]], title: str = "",
+                     sample_hz: float | None = None) -> Path:
+    """Save a figure of stacked ribbons.
+
+    Args:
+        rows: ``(name, labels [T], num_classes, cmap)`` per ribbon, top to bottom.
+        path: the image file to write.
+        legends: ``(class names, cmap)`` per legend group, e.g. a task's gestures and stages.
+        title: figure title.
+        sample_hz: sampling rate of the labels, for the x-axis label.
+    """
     fig, axes = plt.subplots(len(rows), 1, figsize=(10, 0.45 * len(rows) + 1.2), sharex=True,
                              squeeze=False)
     for ax, (name, labels, num_classes, cmap) in zip(axes[:, 0], rows):
@@ -47,9 +55,7 @@ def plot_ribbon_rows(rows: Sequence[tuple[str, np.ndarray, int, str]], path: Pat
     axes[-1, 0].set_xlabel(f"sample ({sample_hz:g} Hz)" if sample_hz else "sample")
     if title:
         axes[0, 0].set_title(title, fontsize=9)
-    handles = legend_handles(GESTURES, GESTURE_CMAP)
-    if any(cmap == PROGRESS_CMAP for *_, cmap in rows):
-        handles += legend_handles([f"P{k}" for k in range(NUM_STAGES)], PROGRESS_CMAP)
+    handles = [h for names, cmap in legends for h in legend_handles(names, cmap)]
     fig.legend(handles=handles, loc="lower center", ncol=15, fontsize=7, frameon=False,
                bbox_to_anchor=(0.5, 0.0))
     fig.tight_layout(rect=(0, 0.08, 1, 1))
@@ -64,10 +70,11 @@ def _save(fig: plt.Figure, path: Path | str) -> Path:
     return path
 
 
-def plot_dataset(trials, path: Path | str, sample_hz: float) -> Path:
-    """Gesture and progress ribbons of every trial (two rows per trial) in one PNG."""
+def plot_dataset(trials, path: Path | str, sample_hz: float, task: TaskDefinition) -> Path:
+    """Gesture and progress ribbons of every trial of ``task`` (two rows per trial) in one PNG."""
     rows = []
     for t in trials:
-        rows.append((f"{t.name} gesture", t.gestures, len(GESTURES), GESTURE_CMAP))
-        rows.append(("progress", t.progress, NUM_STAGES, PROGRESS_CMAP))
-    return plot_ribbon_rows(rows, path, sample_hz=sample_hz)
+        rows.append((f"{t.name} gesture", t.gestures, task.num_gestures, GESTURE_CMAP))
+        rows.append(("progress", t.progress, task.num_stages, PROGRESS_CMAP))
+    legends = [(task.gestures, GESTURE_CMAP), (task.stage_labels, PROGRESS_CMAP)]
+    return plot_ribbon_rows(rows, path, legends, sample_hz=sample_hz)

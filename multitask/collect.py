@@ -4,10 +4,11 @@ Only runs with ``finished.json`` count; half-written runs are ignored (and repor
 Metric columns are ``<task>_<metric>``: ``gesture_accuracy``, ``gesture_edit``,
 ``gesture_f1@10``, ``gesture_accuracy_G1`` ..., ``progress_accuracy``, ``progress_edit``,
 ``progress_f1@10``, ``progress_mae`` (normalised MAE of the regression output rounded to the
-nearest stage and clipped, in % of the 4-stage range: the paper's metric) and
-``progress_mae_raw`` (the same of the raw output). Each run's value is the mean over its
-evaluation points. Each run also has ``converged`` and ``loss_drop`` (``rnn_seg.convergence``:
-the relative fall of its training loss over the last 10 % of its schedule).
+nearest stage and clipped, in % of the stage range: the 4-stage span for Suturing, the paper's
+metric) and ``progress_mae_raw`` (the same of the raw output). Each run's value is the mean over
+its evaluation points. Each run also has ``converged`` and ``loss_drop``
+(``rnn_seg.convergence``: the relative fall of its training loss over the last 10 % of its
+schedule).
 """
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from jigsaws_tools.task_definition import PAPER_TASK
 from rnn_seg.rundir import is_finished
 
 from .grid_spec import RunKey
@@ -60,6 +62,15 @@ def run_rows(grid_dir: Path | str) -> tuple[pd.DataFrame, list[Path]]:
     if not rows:
         raise ValueError(f"{root}: no finished runs under {root / 'runs'}")
     return pd.DataFrame(rows), unfinished
+
+
+def grid_task_name(grid_dir: Path | str) -> str:
+    """The task a grid's runs were trained on (their ``config.json``); runs written before tasks
+    existed are Suturing's."""
+    for config in sorted(Path(grid_dir).glob("runs/*/*/*/seed*/*/config.json")):
+        data = json.loads(config.read_text())["run"]["data"]
+        return data.get("task", {}).get("name", PAPER_TASK)
+    return PAPER_TASK
 
 
 def per_fold(runs: pd.DataFrame) -> pd.DataFrame:

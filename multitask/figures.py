@@ -6,7 +6,9 @@
 * ``fold_accuracy``: gesture vs progress accuracy per fold (Fig. 7);
 * ``gradnorm_weights``: task weights over training for the GradNorm runs.
 
-Figures read the revised-annotation, bidirectional runs of seed 0 where one run is needed.
+Figures read the revised-annotation, bidirectional runs of seed 0 where one run is needed. The
+gesture classes and progress stages are the grid's task's, read from the runs' own metric columns
+(``gesture_accuracy_<gesture>``, ``progress_accuracy_P<k>``), so any task's grid draws correctly.
 """
 from __future__ import annotations
 
@@ -19,7 +21,6 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from jigsaws_tools.gestures import GESTURES  # noqa: E402
 from jigsaws_tools.plots import draw_ribbon, legend_handles  # noqa: E402
 
 from .collect import lookup  # noqa: E402
@@ -28,7 +29,6 @@ from .tables import CONFIG_LABELS  # noqa: E402
 
 OFFLINE = {"annotations": "revised", "direction": "bidirectional"}
 COMPARED = ("A-fixed", "APoc-fixed", "APoc-gradnorm")
-STAGES = 5
 
 
 def save(fig: plt.Figure, out_dir: Path, name: str) -> list[Path]:
@@ -49,18 +49,28 @@ def _offline(summary: pd.DataFrame, config: str) -> pd.Series | None:
     return lookup(summary, OFFLINE["annotations"], OFFLINE["direction"], config)
 
 
+def class_names(table: pd.DataFrame, task: str) -> list[str]:
+    """The classes of ``task`` (``"gesture"`` or ``"progress"``) in the order of the runs' metric
+    columns ``<task>_accuracy_<class>[_mean]`` of ``table`` (a summary or per-fold table)."""
+    prefix = f"{task}_accuracy_"
+    names = [c.removeprefix(prefix).removesuffix("_mean") for c in table.columns
+             if c.startswith(prefix) and not c.endswith("_std")]
+    return list(dict.fromkeys(names))
+
+
 def per_gesture_accuracy(summary: pd.DataFrame, out_dir: Path) -> list[Path]:
     """Grouped bars: mean over folds of each gesture's accuracy, one bar per compared model."""
     rows = {c: r for c in COMPARED if (r := _offline(summary, c)) is not None}
-    if not rows:
+    gestures = class_names(summary, "gesture")
+    if not rows or not gestures:
         return []
     fig, ax = plt.subplots(figsize=(8, 3.2))
     width = 0.8 / len(rows)
-    x = np.arange(len(GESTURES))
+    x = np.arange(len(gestures))
     for k, (config, row) in enumerate(rows.items()):
-        values = [row.get(f"gesture_accuracy_{g}_mean", np.nan) for g in GESTURES]
+        values = [row.get(f"gesture_accuracy_{g}_mean", np.nan) for g in gestures]
         ax.bar(x + (k - (len(rows) - 1) / 2) * width, values, width, label=_label(config))
-    ax.set_xticks(x, GESTURES)
+    ax.set_xticks(x, gestures)
     ax.set_ylabel("accuracy [%]")
     ax.set_ylim(0, 100)
     ax.set_title("Recognition accuracy of individual gestures (mean over folds)", fontsize=9)
@@ -79,8 +89,16 @@ def _predictions(grid_dir: Path, config: str, fold: str) -> dict[str, pd.DataFra
     return {p.stem: pd.read_csv(p) for p in sorted(points[-1].glob("*.csv"))}
 
 
-def segmentation_example(grid_dir: Path, fold: str, out_dir: Path) -> list[Path]:
-    """Ribbons of ground truth, A and APoc for the first test trial of ``fold`` in both runs."""
+def segmentation_example(grid_dir: Path, fold: str, gestures: list[str], out_dir: Path
+                         ) -> list[Path]:
+    """Ribbons of ground truth, A and APoc for the first test trial of ``fold`` in both runs.
+
+    Args:
+        grid_dir: the grid's output folder.
+        fold: the test user whose trial is shown.
+        gestures: the task's gesture classes, in class order.
+        out_dir: where the figure goes.
+    """
     runs = {c: _predictions(grid_dir, c, fold) for c in ("A-fixed", "APoc-fixed")}
     common = sorted(set.intersection(*(set(r) for r in runs.values())))
     if not common:
@@ -91,16 +109,17 @@ def segmentation_example(grid_dir: Path, fold: str, out_dir: Path) -> list[Path]
     rows += [(_label(c), r[trial].gesture_pred.to_numpy()) for c, r in runs.items()]
     fig, axes = plt.subplots(len(rows), 1, figsize=(10, 2.2), sharex=True)
     for ax, (name, labels) in zip(axes, rows):
-        draw_ribbon(ax, labels, len(GESTURES), "tab10", name)
+        draw_ribbon(ax, labels, len(gestures), "tab10", name)
     _time_axis(axes[-1], first.frame.to_numpy())
     axes[0].set_title(f"{trial}: gesture segmentation", fontsize=9)
-    fig.legend(handles=legend_handles(GESTURES, "tab10"), loc="lower center", ncol=10, fontsize=6,
+    fig.legend(handles=legend_handles(gestures, "tab10"), loc="lower center", ncol=10, fontsize=6,
                bbox_to_anchor=(0.5, -0.08))
     return save(fig, out_dir, "segmentation_example")
 
 
-def progress_example(grid_dir: Path, fold: str, out_dir: Path) -> list[Path]:
-    """True and predicted progress stage over time, APc and APoc, first common test trial."""
+def progress_example(grid_dir: Path, fold: str, num_stages: int, out_dir: Path) -> list[Path]:
+    """True and predicted progress stage (``0..num_stages-1``) over time, APc and APoc, first
+    common test trial."""
     runs = {c: r for c in ("APc-fixed", "APoc-fixed") if (r := _predictions(grid_dir, c, fold))}
     if not runs:
         return []
@@ -111,7 +130,7 @@ def progress_example(grid_dir: Path, fold: str, out_dir: Path) -> list[Path]:
     ax.step(seconds, first.progress_true, where="post", color="k", lw=2, label="truth")
     for config, preds in runs.items():
         ax.step(seconds, preds[trial].progress_pred, where="post", alpha=0.8, label=_label(config))
-    ax.set_yticks(range(STAGES))
+    ax.set_yticks(range(num_stages))
     ax.set_ylabel("progress stage")
     ax.set_xlabel("time [s]")
     ax.set_title(f"{trial}: progress prediction", fontsize=9)
@@ -176,7 +195,8 @@ def all_figures(grid_dir: Path, summary: pd.DataFrame, folds: pd.DataFrame, out_
     """Every figure the grid has the runs for; the example trial is from the first fold."""
     first_fold = sorted(folds.fold.unique())[0]
     return [*per_gesture_accuracy(summary, out_dir),
-            *segmentation_example(grid_dir, first_fold, out_dir),
-            *progress_example(grid_dir, first_fold, out_dir),
+            *segmentation_example(grid_dir, first_fold, class_names(summary, "gesture"), out_dir),
+            *progress_example(grid_dir, first_fold, len(class_names(summary, "progress")),
+                              out_dir),
             *fold_accuracy(folds, out_dir),
             *gradnorm_weights(grid_dir, out_dir)]

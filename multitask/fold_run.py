@@ -34,7 +34,8 @@ def variant_trainer(variant: Variant, weighting: Weighting, config: RunConfig, r
     if weighting == "gradnorm":
         extra["gradnorm"] = gradnorm
         trainer = partial(GradNormTrainer, gradnorm=gradnorm)
-    return build_trainer(config, variant.tasks(heads), run_dir, dataset, trainer=trainer,
+    return build_trainer(config, variant.tasks(config.data.task, heads), run_dir, dataset,
+                         trainer=trainer,
                          extra_configs=extra, log=log)
 
 

@@ -50,14 +50,15 @@ def main(argv: list[str] | None = None) -> int:
     try:
         spec = load_spec(args.spec) if args.spec else GridSpec()
         spec = with_overrides(spec, preset=args.preset)
-        spec = with_overrides(spec, data=str(spec.data_dir().resolve()))   # workers see one path
+        spec = spec.with_absolute_paths()                                   # workers see one path
         keys = expand(spec, release_users(spec))
     except (JigsawsError, ValueError, OSError) as error:
         print(f"multitask-grid: error: {error}", file=sys.stderr)
         return 2
     budget = spec.budget
-    print(f"grid: preset {spec.preset}, H={budget.hidden}, schedule x{budget.schedule_scale:g}, "
-          f"seeds {list(budget.seeds)}, data {spec.data}", flush=True)
+    print(f"grid: task {spec.task}, preset {spec.preset}, H={budget.hidden}, "
+          f"schedule x{budget.schedule_scale:g}, seeds {list(budget.seeds)}, data {spec.data}",
+          flush=True)
     if args.dry_run:
         for key in keys:
             print(key.path())

@@ -13,7 +13,8 @@ and is resumable on its own; ``finished.json`` marks it complete (``rnn_seg.rund
 Example spec (every key optional)::
 
     preset = "quick"
-    data = "synthetic"            # or a JIGSAWS Suturing folder; default $JIGSAWS_DIR
+    task = "Suturing"             # a built-in task (Knot_Tying, ...) or a definition file (*.toml)
+    data = "synthetic"            # or the task's JIGSAWS folder; default $JIGSAWS_DIR
     folds = ["B", "C"]            # default: every user of the release
     seeds = [0]
     hidden = 64                   # budget overrides
@@ -40,6 +41,7 @@ from jigsaws_tools.annotations import ANNOTATION_VERSIONS
 from jigsaws_tools.dataset import DataConfig, default_cache_dir, default_data_dir
 from jigsaws_tools.release import discover
 from jigsaws_tools.synth import SynthConfig, ensure_release
+from jigsaws_tools.task_definition import PAPER_TASK, TaskDefinition, load_task
 from rnn_seg.lstm import PRECISIONS, EncoderConfig
 from rnn_seg.trainer import TrainConfig
 
@@ -99,6 +101,7 @@ class GridSpec:
     """A whole grid; ``None`` budget fields take the preset's value."""
 
     preset: str = "quick"
+    task: str = PAPER_TASK          # a built-in task's name or a definition file's path
     data: str = ""                  # "" = $JIGSAWS_DIR or the default folder; "synthetic"
     folds: tuple[str, ...] = ()     # () = every user of the release
     seeds: tuple[int, ...] | None = None
@@ -115,6 +118,7 @@ class GridSpec:
         self.heads, self.gradnorm          # validate both
         if self.precision not in PRECISIONS:
             raise ValueError(f"precision must be one of {PRECISIONS}, not {self.precision!r}")
+        self.task_definition()          # a bad task fails here, not in every worker
 
     @property
     def heads(self) -> HeadConfig:
@@ -131,10 +135,19 @@ class GridSpec:
         return Budget(hidden=self.hidden or base.hidden, schedule_scale=scale,
                       seeds=self.seeds if self.seeds is not None else base.seeds)
 
+    def task_definition(self) -> TaskDefinition:
+        return load_task(self.task)
+
     def data_dir(self) -> Path:
         if self.data == "synthetic":
-            return ensure_release(default_cache_dir(), SynthConfig())
-        return Path(self.data) if self.data else default_data_dir()
+            return ensure_release(default_cache_dir(), SynthConfig(), self.task_definition())
+        return Path(self.data) if self.data else default_data_dir(self.task_definition().name)
+
+    def with_absolute_paths(self) -> GridSpec:
+        """This spec with its data folder and task file as absolute paths, so that every worker
+        (and grid.json) sees the same ones."""
+        task = str(Path(self.task).resolve()) if self.task.endswith(".toml") else self.task
+        return replace(self, data=str(self.data_dir().resolve()), task=task)
 
 
 def load_spec(path: Path | str) -> GridSpec:
@@ -207,8 +220,13 @@ def expand(spec: GridSpec, users: tuple[str, ...]) -> list[RunKey]:
 
 
 def release_users(spec: GridSpec) -> tuple[str, ...]:
-    """The LOUO folds of the spec's release: every user with at least one complete trial."""
-    return discover(spec.data_dir()).users
+    """The LOUO folds of the spec's release: every user with at least one complete trial of the
+    spec's task (at least two, or there is no fold to train)."""
+    index = discover(spec.data_dir(), spec.task_definition())
+    if len(index.users) < 2:
+        raise ValueError(f"{index.root}: only user {index.users[0]} has complete "
+                         f"{index.task.name} trials; leave-one-user-out needs at least two users")
+    return index.users
 
 
 def run_config(spec: GridSpec, key: RunKey) -> RunConfig:
@@ -216,7 +234,8 @@ def run_config(spec: GridSpec, key: RunKey) -> RunConfig:
     budget = spec.budget
     optim, points = get_variant(key.variant).schedule(budget.schedule_scale)
     return RunConfig(
-        data=DataConfig(str(spec.data_dir()), annotations=key.annotations),
+        data=DataConfig(str(spec.data_dir()), annotations=key.annotations,
+                        task=spec.task_definition()),
         test_user=key.fold,
         encoder=EncoderConfig(hidden=budget.hidden, bidirectional=key.direction == "bidirectional",
                               precision=spec.precision),

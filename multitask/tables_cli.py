@@ -5,7 +5,8 @@ Writes to ``--out`` (default ``GRID_DIR/tables``): ``runs.csv`` (one row per fin
 folds), ``table1|2|3.csv/.tex`` (ours against the paper), ``ablation_annotations.csv/.tex``
 (revised against original labels), ``claims.csv/.tex`` (the paper's claims tested with paired
 statistics over folds and seeds, settings in ``claims_config.json``) and ``figures/*.png|pdf``.
-Unfinished runs are left out and listed.
+Unfinished runs are left out and listed. The paper's tables, the annotation ablation and its
+claims are Suturing's: a grid of another task gets none of them.
 
 ``--compare X Y --metric M`` prints the paired statistics of one comparison instead, e.g.
 ``multitask-tables GRID --compare APc-fixed A-fixed --metric gesture_edit``; a configuration is
@@ -19,10 +20,14 @@ import argparse
 import sys
 from pathlib import Path
 
+import pandas as pd
+
 from rnn_seg.rundir import write_atomic
 
+from jigsaws_tools.task_definition import PAPER_TASK
+
 from .claims_table import write_claims
-from .collect import METRICS, per_fold, run_rows, summary
+from .collect import METRICS, grid_task_name, per_fold, run_rows, summary
 from .figures import all_figures
 from .paired import ConfigId, Contrast, NotPaired, config_labels, paired
 from .tables import PAPER_TABLES, annotation_ablation, paper_best, paper_comparison, to_latex
@@ -37,6 +42,17 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True) -> list[Path]:
     stats = summary(folds)
     written = [_csv(runs, out / "runs.csv"), _csv(folds, out / "per_fold.csv"),
                _csv(stats, out / "summary.csv")]
+    if grid_task_name(grid_dir) == PAPER_TASK:
+        written += _paper_tables(stats, out)
+        written += write_claims(runs, out)
+    if figures:
+        written += all_figures(Path(grid_dir), stats, folds, out / "figures")
+    return written
+
+
+def _paper_tables(stats: pd.DataFrame, out: Path) -> list[Path]:
+    """Tables I-III against the paper and the annotation ablation (Suturing grids only)."""
+    written = []
     for table in PAPER_TABLES:
         frame = paper_comparison(stats, table)
         if frame.empty:
@@ -51,9 +67,6 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True) -> list[Path]:
         written.append(_csv(ablation, out / "ablation_annotations.csv"))
         written.append(_tex(to_latex(ablation, caption, "ablation_annotations",
                                      ("Revised", "Original")), out / "ablation_annotations.tex"))
-    written += write_claims(runs, out)
-    if figures:
-        written += all_figures(Path(grid_dir), stats, folds, out / "figures")
     return written
 
 

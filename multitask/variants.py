@@ -8,6 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 from baseline.builder import gesture_task
+from jigsaws_tools.task_definition import TaskDefinition
 from rnn_seg.optim import OptimConfig
 from rnn_seg.tasks import Task
 from rnn_seg.trainer import TrainConfig
@@ -31,19 +32,21 @@ class Variant:
     gestures: bool
     progress: str | None        # "r", "c", "oc" or None
 
-    def tasks(self, heads: HeadConfig = HeadConfig()) -> list[Task]:
-        tasks = [gesture_task()] if self.gestures else []
+    def tasks(self, task: TaskDefinition, heads: HeadConfig = HeadConfig()) -> list[Task]:
+        """The heads this variant trains on ``task``: its gestures and / or its progress stages,
+        the progress loss configured by ``heads``."""
+        tasks = [gesture_task(task)] if self.gestures else []
         if self.progress == "r":
-            tasks.append(ProgressRegression())
+            tasks.append(ProgressRegression(task.num_stages))
         elif self.progress == "c":
-            tasks.append(ProgressClassification())
+            tasks.append(ProgressClassification(task.num_stages))
         elif self.progress == "oc":
-            tasks.append(OrdinalProgress(heads.ordinal_loss))
+            tasks.append(OrdinalProgress(task.num_stages, heads.ordinal_loss))
         return tasks
 
     @property
     def multitask(self) -> bool:
-        return len(self.tasks()) > 1
+        return self.gestures and self.progress is not None
 
     def optim(self) -> OptimConfig:
         """The paper's optimiser and schedule for this variant."""

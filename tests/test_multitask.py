@@ -36,7 +36,7 @@ def test_regression_rounding_clipping_and_normalised_mae():
 
 
 def test_ordinal_head_targets_loss_and_decoding():
-    head = OrdinalProgress("mean")
+    head = OrdinalProgress(reduction="mean")
     stages = np.array([0, 3, 4])
     targets = head.encode(stages)
     assert targets.shape == (3, 5) and targets[1].tolist() == [1, 1, 1, 1, 0]
@@ -55,9 +55,9 @@ def test_summed_ordinal_loss_is_the_paper_mbce():
     p = 1 / (1 + np.exp(-logits))
     bce = -(targets * np.log(p) + (1 - targets) * np.log(1 - p))
     by_hand = bce.sum(axis=-1).mean()
-    summed = OrdinalProgress("sum").loss(tf.constant(logits, tf.float32), tf.constant(targets))
+    summed = OrdinalProgress(reduction="sum").loss(tf.constant(logits, tf.float32), tf.constant(targets))
     assert float(summed) == pytest.approx(by_hand, rel=1e-5)
-    averaged = OrdinalProgress("mean").loss(tf.constant(logits, tf.float32), tf.constant(targets))
+    averaged = OrdinalProgress(reduction="mean").loss(tf.constant(logits, tf.float32), tf.constant(targets))
     assert float(averaged) == pytest.approx(by_hand / 5, rel=1e-5)
     mask = tf.constant([[True, False]])
     assert float(OrdinalProgress().loss(tf.constant(logits, tf.float32), tf.constant(targets),
