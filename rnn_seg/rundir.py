@@ -38,8 +38,8 @@ class ConfigError(ValueError):
 
 def from_jsonable(cls: type[T], data: Any, where: str = "config") -> T:
     """Rebuild a (nested) dataclass from ``to_jsonable``'s output: the inverse for the field types
-    configurations use (dataclasses, ``int``, ``float``, ``bool``, ``str``, ``Literal``, ``X | None``,
-    ``tuple``, ``list``, ``dict``, ``Path``).
+    configurations use (dataclasses, ``int``, ``float``, ``bool``, ``str``, ``Literal``,
+    ``X | None``, ``tuple``, ``list``, ``dict``, ``Path``).
 
     Strict: an unknown key, a value of the wrong type or a missing field without a default is a
     ``ConfigError`` naming its place (``where`` then the field path, e.g. ``config.json:
