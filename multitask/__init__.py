@@ -13,6 +13,11 @@ from importlib import import_module
 
 #: Public name -> the submodule defining it.
 _PUBLIC = {
+    "load_run": "trained_run",
+    "TrainedRun": "trained_run",
+    "RecordingPrediction": "predictions",
+    "StreamingPredictor": "streaming",
+    "evaluate_run": "run_evaluation",
     "train_variant": "fold_run",
     "variant_trainer": "fold_run",
     "GradNormConfig": "gradnorm",

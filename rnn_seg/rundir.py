@@ -5,11 +5,13 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+import shutil
 import tempfile
 import types
 import typing
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Literal, TypeVar, Union
+from typing import Any, Iterator, Literal, TypeVar, Union
 
 FINISHED = "finished.json"
 T = TypeVar("T")
@@ -132,6 +134,29 @@ def write_atomic(path: Path, text: str) -> None:
     except BaseException:
         os.unlink(tmp)
         raise
+
+
+@contextmanager
+def staged_folder(target: Path, overwrite: bool = False) -> Iterator[Path]:
+    """A fresh hidden sibling folder to write into; it becomes ``target`` when the block ends
+    normally and is removed when it fails, so ``target`` is never left half-written.
+
+    An existing non-empty ``target`` is an error (``FileExistsError``) unless ``overwrite``; it is
+    then replaced only once the new folder is complete.
+    """
+    target = Path(target)
+    if target.exists() and any(target.iterdir()) and not overwrite:
+        raise FileExistsError(f"{target} exists and is not empty; choose another output folder, "
+                              "or overwrite it (--overwrite)")
+    target.parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp"))
+    try:
+        yield staging
+        if target.exists():
+            shutil.rmtree(target)
+        os.replace(staging, target)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
 
 
 def write_json(path: Path, obj: Any) -> None:

@@ -1,0 +1,119 @@
+"""``multitask-predict``: label new recordings with a trained run.
+
+INPUT is a JIGSAWS-layout kinematics file (76 columns, one line per 30 Hz frame; no transcription
+needed) or a folder of them. For each recording NAME the output folder gets NAME.csv (one row per
+30 Hz frame: the predicted gesture name, its class probabilities, the progress stage and scores
+when the model has a progress head) and NAME.png (ribbons at 5 Hz), then prediction.json, written
+last, records the run, the checkpoint and the inputs. See docs/REPRODUCTION.md for how prediction
+treats every frame.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from jigsaws_tools.release import kinematics_dir
+
+from .run_options import run_command, trained_run_parser
+
+PROG = "multitask-predict"
+RECORD_FILE = "prediction.json"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = trained_run_parser(PROG, __doc__)
+    parser.add_argument("inputs", metavar="INPUT", nargs="+", type=Path,
+                        help="kinematics files, or folders of them (their *.txt files; a release "
+                             "folder's kinematics/AllGestures)")
+    parser.add_argument("--out", type=Path, required=True, help="output folder (required)")
+    parser.add_argument("--stream", action="store_true",
+                        help="forward models only: feed the frames one at a time with causal "
+                             "preprocessing and the LSTM state carried over, as online use "
+                             "would (default: the run's offline preprocessing)")
+    parser.add_argument("--data-dir", type=Path, default=None,
+                        help="with --stream, when the run folder holds no "
+                             "stream_normalisation.json yet: the release with the run's training "
+                             "trials, whose statistics normalise the stream (default: the run's "
+                             "data folder)")
+    parser.add_argument("--no-plots", action="store_true", help="write the CSVs only")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace outputs of an earlier prediction in --out (default: refuse)")
+    return parser
+
+
+def kinematics_files(inputs: list[Path]) -> list[Path]:
+    """The kinematics files named by INPUT arguments, in order; folders expand to their sorted
+    ``*.txt`` files (or a release folder's ``kinematics/AllGestures``)."""
+    files: list[Path] = []
+    for path in inputs:
+        if path.is_file():
+            files.append(path)
+        elif path.is_dir():
+            folder = kinematics_dir(path) if kinematics_dir(path).is_dir() else path
+            found = sorted(p for p in folder.glob("*.txt") if p.is_file())
+            if not found:
+                raise ValueError(f"{folder}: no kinematics files (*.txt)")
+            files.extend(found)
+        else:
+            raise ValueError(f"{path}: no such file or folder")
+    names: dict[str, Path] = {}
+    for f in files:
+        if f.stem in names:
+            raise ValueError(f"two inputs would write {f.stem}.csv: {names[f.stem]} and {f}")
+        names[f.stem] = f
+    return files
+
+
+def _predict(args: argparse.Namespace) -> None:
+    import numpy as np
+
+    from jigsaws_tools.release import read_kinematics
+    from rnn_seg.rundir import write_json
+
+    from .streaming import StreamingPredictor, stream_recording
+    from .trained_run import load_run
+
+    files = kinematics_files(args.inputs)
+    outputs = [args.out / f"{f.stem}{ext}" for f in files
+               for ext in (".csv",) + (() if args.no_plots else (".png",))]
+    existing = [p for p in outputs + [args.out / RECORD_FILE] if p.exists()]
+    if existing and not args.overwrite:
+        raise ValueError(f"{existing[0]} exists (from an earlier prediction?); use --overwrite "
+                         "to replace it, or another --out")
+    run = load_run(args.run_dir, args.checkpoint)
+    recordings = {f: read_kinematics(f) for f in files}        # every input checked first
+    for f, kinematics in recordings.items():
+        run.features(kinematics, str(f))
+    streamer = None
+    if args.stream:
+        run.require_online("--stream")
+        streamer = StreamingPredictor(run, run.stream_normalisation(args.data_dir))
+    mode = "stream" if args.stream else "offline"
+    record = {"run_dir": str(args.run_dir.resolve()), "variant": run.variant,
+              "checkpoint": run.checkpoint, "finished": run.finished, "mode": mode,
+              "recordings": {}}
+    for f, kinematics in recordings.items():
+        prediction = (stream_recording(streamer, kinematics, str(f)) if streamer
+                      else run.predict(kinematics))
+        prediction.write(args.out, f.stem, f"{f.stem} - {run.variant} ({args.run_dir.name}, "
+                                           f"sweep {run.checkpoint}, {mode})",
+                         plot=not args.no_plots)
+        counts = np.bincount(prediction.labels(run.tasks[0].name))
+        record["recordings"][f.stem] = {"input": str(f.resolve()), "frames": prediction.n_frames,
+                                        "samples": len(prediction.sample_frames)}
+        print(f"{f.stem}: {prediction.n_frames} frames, most frequent {run.tasks[0].name} "
+              f"{run.tasks[0].class_names[int(np.argmax(counts))]}", flush=True)
+    if streamer:
+        record["normalisation"] = streamer.normalisation
+    write_json(args.out / RECORD_FILE, record)
+    print(f"done: {len(files)} recording(s) predicted ({mode}) with {args.run_dir}, checkpoint "
+          f"after sweep {run.checkpoint}; outputs in {args.out}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    return run_command(PROG, _predict, build_parser().parse_args(argv))
+
+
+if __name__ == "__main__":
+    sys.exit(main())
