@@ -1,10 +1,14 @@
-"""Using a trained run: predict new recordings, evaluate saved weights, stream, the Python API."""
+"""Using a trained run: predict new recordings, evaluate saved weights, stream, export, the API."""
 import json
+import os
 import shutil
+import subprocess
+import sys
 
 import numpy as np
 import pandas as pd
 import pytest
+import tensorflow as tf
 
 import multitask
 from baseline.builder import train_baseline
@@ -14,6 +18,7 @@ from jigsaws_tools.gestures import GESTURES
 from jigsaws_tools.release import frame_labels, kinematics_dir, read_kinematics, read_transcription
 from jigsaws_tools.release import transcriptions_dir
 from multitask.evaluate_cli import main as evaluate_main
+from multitask.export_cli import main as export_main
 from multitask.fold_run import train_variant
 from multitask.predict_cli import main as predict_main
 from multitask.streaming import StreamingPredictor, stream_recording
@@ -187,3 +192,53 @@ def test_load_run_from_the_package(bi_run, synth_dir):
     assert from_path.table().equals(from_array.table()) and len(from_path.table()) == len(truth)
     with pytest.raises(ValueError, match=r"expected \[frames, 76\]"):
         run.predict(np.zeros((100, 14)))
+
+
+# -- multitask-export ------------------------------------------------------------------------------
+_FRESH_PROCESS = """
+import sys
+import numpy as np
+import tensorflow as tf
+model = tf.saved_model.load(sys.argv[1])
+kinematics = np.loadtxt(sys.argv[2], ndmin=2)
+out = model.signatures["serving_default"](kinematics=tf.constant(kinematics))
+ours = {"jigsaws_tools", "rnn_seg", "baseline", "multitask"}
+assert not ours & {name.split(".")[0] for name in sys.modules}, "imported this project"
+np.savez(sys.argv[3], **{name: value.numpy() for name, value in out.items()})
+"""
+
+
+def test_exported_model_alone_reproduces_multitask_predict(bi_run, synth_dir, tmp_path):
+    kinematics, _ = _held_out(synth_dir)
+    assert predict_main([str(bi_run), str(kinematics), "--out", str(tmp_path / "pred"),
+                         "--no-plots"]) == 0
+    assert export_main([str(bi_run), "--out", str(tmp_path / "saved")]) == 0
+    subprocess.run([sys.executable, "-c", _FRESH_PROCESS, str(tmp_path / "saved"),
+                    str(kinematics), str(tmp_path / "out.npz")],
+                   check=True, cwd=tmp_path, env={k: v for k, v in os.environ.items()
+                                                  if k != "PYTHONPATH"})
+    exported = np.load(tmp_path / "out.npz")
+    table = pd.read_csv(tmp_path / "pred" / f"{kinematics.stem}.csv")
+    np.testing.assert_array_equal(exported["frame"], table["frame"])
+    np.testing.assert_array_equal(exported["sample"], table["sample"])
+    np.testing.assert_array_equal(np.asarray(GESTURES)[exported["gesture"]], table["gesture"])
+    np.testing.assert_array_equal(exported["progress"], table["progress"])
+    for task, prefix in (("gesture", "gesture_p_"), ("progress", "progress_y")):
+        np.testing.assert_allclose(exported[f"{task}_scores"], table.filter(like=prefix),
+                                   atol=1e-5)              # the CSV's 5 decimals, float32 outputs
+    description = json.loads((tmp_path / "saved" / "assets.extra" / "model.json").read_text())
+    assert description["tasks"][0]["classes"] == list(GESTURES)
+    assert description["preprocessing"]["feature_columns_1based"][:3] == [39, 40, 41]
+    assert export_main([str(bi_run), "--out", str(tmp_path / "saved")]) == 2
+
+
+def test_graph_scores_and_decoding_agree_with_numpy():
+    rng = np.random.default_rng(0)
+    for task in [*get_variant("APr").tasks(), *get_variant("APc").tasks(),
+                 *get_variant("APoc").tasks()]:
+        outputs = rng.normal(0, 3, (200, task.num_outputs)).astype(np.float32)
+        outputs[:5] = 0.0                                           # ties and the 0.5 boundary
+        np.testing.assert_allclose(task.scores_tf(tf.constant(outputs)).numpy(),
+                                   task.scores(outputs), rtol=1e-5, atol=1e-6)
+        np.testing.assert_array_equal(task.decode_tf(tf.constant(outputs)).numpy(),
+                                      task.decode(outputs))
