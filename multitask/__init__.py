@@ -1,13 +1,19 @@
-"""The paper's multi-task models, their experiment grid, tables and figures.
+"""The paper's multi-task models, their experiment grid, tables and figures, and their use.
 
 Read first: ``variants.VARIANTS`` (A, APr, APc, APoc, Pr, Pc, Poc), then ``fold_run.train_variant``
-(one variant on one LOUO fold, fixed weights or ``gradnorm.GradNormTrainer``).
+(one variant on one LOUO fold, fixed weights or ``gradnorm.GradNormTrainer``). To use a trained
+run: ``trained_run.load_run`` (its ``predict`` labels a recording's kinematics).
 
 * ``heads``: the progress heads (regression, classification, ordered classification);
 * ``grid_spec``: TOML specs, presets, the runs they expand to; ``grid_job``: one worker's job;
   ``grid_executors``: the local process pool and Dask;
 * ``collect``, ``tables``, ``figures``: results of a grid as the paper's tables and figures;
-  ``paper_results``: the published numbers.
+  ``paper_results``: the published numbers;
+* ``trained_run``, ``predictions``: a run folder loaded for use, its predictions per frame;
+  ``streaming``: frame-by-frame prediction of forward models; ``run_evaluation``: saved weights
+  scored like an evaluation point; ``export``: a run as a TensorFlow SavedModel;
+* ``predict_cli``, ``evaluate_cli``, ``export_cli``: their commands (``run_options``: what the
+  three share).
 """
 from importlib import import_module
 
@@ -18,6 +24,7 @@ _PUBLIC = {
     "RecordingPrediction": "predictions",
     "StreamingPredictor": "streaming",
     "evaluate_run": "run_evaluation",
+    "export_run": "export",
     "train_variant": "fold_run",
     "variant_trainer": "fold_run",
     "GradNormConfig": "gradnorm",

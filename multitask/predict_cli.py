@@ -36,7 +36,7 @@ def build_parser() -> argparse.ArgumentParser:
                              "stream_normalisation.json yet: the release with the run's training "
                              "trials, whose statistics normalise the stream (default: the run's "
                              "data folder)")
-    parser.add_argument("--no-plots", action="store_true", help="write the CSVs only")
+    parser.add_argument("--no-plots", action="store_true", help="write the CSVs only (default: CSVs and plots)")
     parser.add_argument("--overwrite", action="store_true",
                         help="replace outputs of an earlier prediction in --out (default: refuse)")
     return parser
@@ -74,6 +74,9 @@ def _predict(args: argparse.Namespace) -> None:
     from .streaming import StreamingPredictor, stream_recording
     from .trained_run import load_run
 
+    if args.data_dir and not args.stream:
+        raise ValueError("--data-dir only applies with --stream (offline prediction normalises "
+                         "each recording by itself)")
     files = kinematics_files(args.inputs)
     outputs = [args.out / f"{f.stem}{ext}" for f in files
                for ext in (".csv",) + (() if args.no_plots else (".png",))]

@@ -242,3 +242,13 @@ def test_graph_scores_and_decoding_agree_with_numpy():
                                    task.scores(outputs), rtol=1e-5, atol=1e-6)
         np.testing.assert_array_equal(task.decode_tf(tf.constant(outputs)).numpy(),
                                       task.decode(outputs))
+
+
+@pytest.mark.parametrize("main", [predict_main, evaluate_main, export_main])
+def test_commands_have_version_and_help(main, capsys):
+    for flag in ("--version", "--help"):
+        with pytest.raises(SystemExit) as done:
+            main([flag])
+        assert done.value.code == 0
+    out = capsys.readouterr().out
+    assert out.startswith("multitask-") and "--checkpoint N" in out and "default" in out
