@@ -28,7 +28,8 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--stream", action="store_true",
                         help="forward models only: causal (streaming) preprocessing instead of "
                              "the offline one (default: offline, as training evaluated)")
-    parser.add_argument("--no-plots", action="store_true", help="skip the per-trial plots (default: draw them)")
+    parser.add_argument("--no-plots", action="store_true",
+                        help="skip the per-trial plots (default: draw them)")
     parser.add_argument("--overwrite", action="store_true",
                         help="replace an existing output folder (default: refuse)")
     return parser

@@ -36,7 +36,8 @@ def build_parser() -> argparse.ArgumentParser:
                              "stream_normalisation.json yet: the release with the run's training "
                              "trials, whose statistics normalise the stream (default: the run's "
                              "data folder)")
-    parser.add_argument("--no-plots", action="store_true", help="write the CSVs only (default: CSVs and plots)")
+    parser.add_argument("--no-plots", action="store_true",
+                        help="write the CSVs only (default: CSVs and plots)")
     parser.add_argument("--overwrite", action="store_true",
                         help="replace outputs of an earlier prediction in --out (default: refuse)")
     return parser
