@@ -11,7 +11,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from .run_options import run_command, trained_run_parser
+from .run_options import load_for_command, run_command, trained_run_parser
 
 PROG = "multitask-evaluate"
 
@@ -30,8 +30,6 @@ def build_parser() -> argparse.ArgumentParser:
                              "the offline one (default: offline, as training evaluated)")
     parser.add_argument("--no-plots", action="store_true",
                         help="skip the per-trial plots (default: draw them)")
-    parser.add_argument("--overwrite", action="store_true",
-                        help="replace an existing output folder (default: refuse)")
     return parser
 
 
@@ -39,9 +37,8 @@ def _evaluate(args: argparse.Namespace) -> None:
     from rnn_seg.trainer import metrics_summary
 
     from .run_evaluation import default_evaluation_dir, evaluate_run
-    from .trained_run import load_run
 
-    run = load_run(args.run_dir, args.checkpoint)
+    run = load_for_command(args)
     user = args.test_user or run.config.test_user
     out = args.out or default_evaluation_dir(run, user, args.stream)
     metrics = evaluate_run(run, out, args.data_dir, user, args.stream, not args.no_plots,

@@ -12,7 +12,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from .run_options import run_command, trained_run_parser
+from .run_options import load_for_command, run_command, trained_run_parser
 
 PROG = "multitask-export"
 
@@ -21,16 +21,13 @@ def build_parser() -> argparse.ArgumentParser:
     parser = trained_run_parser(PROG, __doc__)
     parser.add_argument("--out", type=Path, required=True,
                         help="SavedModel folder to create (required; written whole at the end)")
-    parser.add_argument("--overwrite", action="store_true",
-                        help="replace an existing --out folder (default: refuse)")
     return parser
 
 
 def _export(args: argparse.Namespace) -> None:
     from .export import export_run
-    from .trained_run import load_run
 
-    run = load_run(args.run_dir, args.checkpoint)
+    run = load_for_command(args)
     export_run(run, args.out, args.overwrite)
     print(f"done: {run.variant} ({args.run_dir}, checkpoint after sweep {run.checkpoint}) "
           f"exported to {args.out}; signatures serving_default(kinematics), features(features)")

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from jigsaws_tools.release import kinematics_dir
 
-from .run_options import run_command, trained_run_parser
+from .run_options import load_for_command, run_command, trained_run_parser
 
 PROG = "multitask-predict"
 RECORD_FILE = "prediction.json"
@@ -38,8 +38,6 @@ def build_parser() -> argparse.ArgumentParser:
                              "data folder)")
     parser.add_argument("--no-plots", action="store_true",
                         help="write the CSVs only (default: CSVs and plots)")
-    parser.add_argument("--overwrite", action="store_true",
-                        help="replace outputs of an earlier prediction in --out (default: refuse)")
     return parser
 
 
@@ -73,7 +71,6 @@ def _predict(args: argparse.Namespace) -> None:
     from rnn_seg.rundir import write_json
 
     from .streaming import StreamingPredictor, stream_recording
-    from .trained_run import load_run
 
     if args.data_dir and not args.stream:
         raise ValueError("--data-dir only applies with --stream (offline prediction normalises "
@@ -85,7 +82,7 @@ def _predict(args: argparse.Namespace) -> None:
     if existing and not args.overwrite:
         raise ValueError(f"{existing[0]} exists (from an earlier prediction?); use --overwrite "
                          "to replace it, or another --out")
-    run = load_run(args.run_dir, args.checkpoint)
+    run = load_for_command(args)
     recordings = {f: read_kinematics(f) for f in files}        # every input checked first
     for f, kinematics in recordings.items():
         run.features(kinematics, str(f))

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 import pandas as pd
@@ -64,7 +63,11 @@ class RecordingPrediction:
         return hold(self.sample_frames, self.frames)
 
     def task(self, name: str) -> Task:
-        return next(t for t in self.tasks if t.name == name)
+        for t in self.tasks:
+            if t.name == name:
+                return t
+        raise KeyError(f"no task {name!r}; the model predicts "
+                       f"{', '.join(t.name for t in self.tasks)}")
 
     def sample_labels(self, name: str) -> np.ndarray:
         """``[T]`` decoded class indices of task ``name`` at the samples."""
@@ -107,8 +110,3 @@ def plot_predictions(prediction: RecordingPrediction, path: Path, title: str) ->
              RIBBON_CMAPS.get(t.name, GESTURE_CMAP)) for t in prediction.tasks]
     return plot_ribbon_rows(rows, path, title, prediction.sample_hz)
 
-
-def stack_outputs(tasks: Sequence[Task], samples: Sequence[dict[str, np.ndarray]]
-                  ) -> dict[str, np.ndarray]:
-    """Per-sample outputs ``{task: [K]}`` -> ``{task: [T, K]}``."""
-    return {t.name: np.stack([s[t.name] for s in samples]) for t in tasks}

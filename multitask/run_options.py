@@ -8,9 +8,12 @@ import os
 import sys
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
-from typing import Callable
+from typing import TYPE_CHECKING, Callable
 
 from jigsaws_tools.errors import JigsawsError
+
+if TYPE_CHECKING:
+    from .trained_run import TrainedRun
 
 DISTRIBUTION = "mtrnn-jigsaws"
 
@@ -23,7 +26,7 @@ def package_version() -> str:
 
 
 def trained_run_parser(prog: str, description: str) -> argparse.ArgumentParser:
-    """A parser with ``RUN_DIR``, ``--checkpoint`` and ``--version``."""
+    """A parser with ``RUN_DIR``, ``--checkpoint``, ``--overwrite`` and ``--version``."""
     parser = argparse.ArgumentParser(prog=prog, description=description,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("run_dir", metavar="RUN_DIR", type=Path,
@@ -32,8 +35,23 @@ def trained_run_parser(prog: str, description: str) -> argparse.ArgumentParser:
     parser.add_argument("--checkpoint", metavar="N", type=int, default=None,
                         help="use the weights saved after sweep N (checkpoints/ckpt-N) "
                              "(default: the latest, the final weights of a finished run)")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace the outputs of an earlier command (default: refuse)")
+    parser.add_argument("--threads", type=int, default=0,
+                        help="cores to use, split between TensorFlow's thread pools as "
+                             "rnn_seg.threads measures best (default: 0 = all)")
     parser.add_argument("--version", action="version", version=f"%(prog)s {package_version()}")
     return parser
+
+
+def load_for_command(args: argparse.Namespace) -> TrainedRun:
+    """The ``TrainedRun`` of ``RUN_DIR`` at ``--checkpoint``, TensorFlow's threads set first."""
+    from rnn_seg.threads import configure_threads
+
+    from .trained_run import load_run, read_run_config
+
+    configure_threads(args.threads, read_run_config(args.run_dir)[0].encoder.hidden)
+    return load_run(args.run_dir, args.checkpoint)
 
 
 def run_command(prog: str, body: Callable[[argparse.Namespace], None],

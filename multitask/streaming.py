@@ -17,7 +17,7 @@ from jigsaws_tools.features import feature_columns
 from jigsaws_tools.preprocessing import Normalisation, StreamingPreprocessor
 from jigsaws_tools.release import NUM_KINEMATIC_COLUMNS
 
-from .predictions import RecordingPrediction, stack_outputs
+from .predictions import RecordingPrediction
 from .trained_run import TrainedRun
 
 
@@ -47,7 +47,8 @@ class StreamingPredictor:
     def __init__(self, run: TrainedRun, normalisation: Normalisation | None = None):
         run.require_online("streaming")
         self.run = run
-        self.normalisation = normalisation or run.stream_normalisation()
+        self.normalisation = (run.stream_normalisation() if normalisation is None
+                              else normalisation)
         self._columns = list(feature_columns(run.config.data.feature_set))
         self.reset()
 
@@ -93,6 +94,7 @@ def stream_recording(predictor: StreamingPredictor, kinematics: np.ndarray,
     predictor.reset()
     samples = [s for s in map(predictor.push, kinematics) if s is not None]
     run = predictor.run
-    return RecordingPrediction(run.tasks, stack_outputs(run.tasks, [s.outputs for s in samples]),
+    outputs = {t.name: np.stack([s.outputs[t.name] for s in samples]) for t in run.tasks}
+    return RecordingPrediction(run.tasks, outputs,
                                np.array([s.frame for s in samples], dtype=np.int64),
                                len(kinematics), run.sample_hz)

@@ -71,6 +71,8 @@ def restore_weights(model: SegmentationModel, run_dir: Path, checkpoint: int | N
 # -- configuration ------------------------------------------------------------------------------
 def read_run_config(run_dir: Path) -> tuple[RunConfig, dict]:
     """``(RunConfig, the whole config.json)`` of a run folder."""
+    if not Path(run_dir).is_dir():
+        raise RunFolderError(f"{run_dir}: no such run folder")
     path = Path(run_dir) / CONFIG_FILE
     if not path.is_file():
         raise RunFolderError(f"{path}: not found; a run folder is what multitask-train, "
@@ -158,7 +160,8 @@ class TrainedRun:
         features = self.features(kinematics, where)
         if causal:
             self.require_online("causal (streaming) preprocessing")
-            normalisation = normalisation or self.stream_normalisation()
+            if normalisation is None:
+                normalisation = self.stream_normalisation()
         try:
             inputs, frames = preprocess_recording(features, self.config.data.preprocessing,
                                                   causal, normalisation)
@@ -215,8 +218,6 @@ def load_run(path: Path | str, checkpoint: int | None = None) -> TrainedRun:
     """Load a run folder with the weights of its latest checkpoint (normally the final one) or of
     the checkpoint saved after sweep ``checkpoint``."""
     run_dir = Path(path)
-    if not run_dir.is_dir():
-        raise RunFolderError(f"{run_dir}: no such run folder")
     config, saved = read_run_config(run_dir)
     variant, tasks = run_tasks(saved, str(run_dir / CONFIG_FILE))
     model = SegmentationModel(len(feature_columns(config.data.feature_set)), config.encoder,

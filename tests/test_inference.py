@@ -20,9 +20,10 @@ from jigsaws_tools.release import transcriptions_dir
 from multitask.evaluate_cli import main as evaluate_main
 from multitask.export_cli import main as export_main
 from multitask.fold_run import train_variant
+from multitask.predict_cli import kinematics_files
 from multitask.predict_cli import main as predict_main
 from multitask.streaming import StreamingPredictor, stream_recording
-from multitask.trained_run import STREAM_NORMALISATION_FILE, load_run
+from multitask.trained_run import STREAM_NORMALISATION_FILE, checkpoints, load_run
 from multitask.variants import get_variant
 from rnn_seg.lstm import EncoderConfig
 from rnn_seg.optim import OptimConfig
@@ -252,3 +253,26 @@ def test_commands_have_version_and_help(main, capsys):
         assert done.value.code == 0
     out = capsys.readouterr().out
     assert out.startswith("multitask-") and "--checkpoint N" in out and "default" in out
+
+
+def test_inputs_expand_folders_and_refuse_name_clashes(synth_dir, tmp_path):
+    release = kinematics_files([synth_dir])
+    assert len(release) == 40 and release[0].parent == kinematics_dir(synth_dir)
+    (tmp_path / "a").mkdir()
+    (tmp_path / "a" / "x.txt").write_text("0\n")
+    (tmp_path / "x.txt").write_text("0\n")
+    assert kinematics_files([tmp_path / "a"]) == [tmp_path / "a" / "x.txt"]
+    with pytest.raises(ValueError, match="two inputs would write x.csv"):
+        kinematics_files([tmp_path / "a", tmp_path / "x.txt"])
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(ValueError, match=r"no kinematics files \(\*\.txt\)"):
+        kinematics_files([tmp_path / "empty"])
+
+
+def test_an_unfinished_run_loads_with_a_warning(bi_run, tmp_path, caplog):
+    run_dir = tmp_path / "run"
+    shutil.copytree(bi_run, run_dir)
+    (run_dir / "finished.json").unlink()
+    run = load_run(run_dir, checkpoint=min(checkpoints(run_dir)))
+    assert not run.finished and run.checkpoint == min(checkpoints(run_dir))
+    assert "unfinished" in caplog.text
