@@ -156,7 +156,16 @@ def _task_outputs(run: TrainedRun, length: str) -> dict[str, str]:
 
 
 def export_run(run: TrainedRun, out: Path, overwrite: bool = False) -> Path:
-    """Write ``run`` as a SavedModel folder ``out`` (whole or not at all); returns ``out``."""
+    """Write ``run`` as a SavedModel folder (whole or not at all).
+
+    Args:
+        run: the loaded run and checkpoint.
+        out: the folder to create.
+        overwrite: replace an existing ``out``.
+
+    Returns:
+        ``out``.
+    """
     module = ExportedRun(run)
     with staged_folder(out, overwrite) as folder:
         tf.saved_model.save(module, str(folder),

@@ -95,8 +95,14 @@ class RecordingPrediction:
         return pd.DataFrame(columns)
 
     def write(self, folder: Path, name: str, title: str, plot: bool = True) -> list[Path]:
-        """Write ``<name>.csv`` (``table``) and, with ``plot``, ``<name>.png`` (one ribbon per
-        task at the samples) into ``folder``; returns the paths written."""
+        """Write the predictions of this recording; returns the paths written.
+
+        Args:
+            folder: output folder.
+            name: file name stem: ``<name>.csv`` (``table``) and ``<name>.png``.
+            title: the plot's title.
+            plot: also draw ``<name>.png`` (one ribbon per task at the samples).
+        """
         csv = Path(folder) / f"{name}.csv"
         write_atomic(csv, self.table().to_csv(index=False, float_format="%.5f"))
         if not plot:

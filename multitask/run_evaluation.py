@@ -80,8 +80,17 @@ def evaluate_run(run: TrainedRun, out: Path, data_dir: Path | str | None = None,
 
 def causal_outputs(run: TrainedRun, trials: list[Trial], data_dir: str,
                    normalisation: Normalisation) -> dict[str, list]:
-    """Raw outputs ``[T_i, K]`` per task at each trial's labelled samples (``Trial.frames``) of the
-    causal pass over all of the trial's frames."""
+    """Raw outputs of the causal pass over all of each trial's frames, at its labelled samples.
+
+    Args:
+        run: a forward run.
+        trials: labelled trials (their ``frames`` are the samples scored).
+        data_dir: the release holding the trials' kinematics files.
+        normalisation: the fixed input statistics.
+
+    Returns:
+        Per task, one ``[T_i, K]`` array per trial, aligned with ``Trial.frames``.
+    """
     files = {t.name: t.kinematics for t in discover(data_dir).trials}
     outputs: dict[str, list] = {t.name: [] for t in run.tasks}
     for trial in trials:

@@ -56,8 +56,17 @@ def load_for_command(args: argparse.Namespace) -> TrainedRun:
 
 def run_command(prog: str, body: Callable[[argparse.Namespace], None],
                 args: argparse.Namespace) -> int:
-    """Run ``body(args)``; a known error ends as ``prog: error: ...`` with exit status 2 and no
-    traceback, an interruption with one line and status 130."""
+    """Run a command's body with the project's error convention.
+
+    Args:
+        prog: the command's name, prefixed to messages.
+        body: does the work.
+        args: the parsed command line, passed to ``body``.
+
+    Returns:
+        The exit status: 0; 2 after a known error (``prog: error: ...``, no traceback); 130 when
+        interrupted.
+    """
     os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "2")
     logging.basicConfig(format=f"{prog}: %(levelname)s: %(message)s", level=logging.WARNING)
     try:

@@ -49,8 +49,16 @@ def checkpoints(run_dir: Path) -> dict[int, str]:
 
 def restore_weights(model: SegmentationModel, run_dir: Path, checkpoint: int | None = None
                     ) -> int:
-    """Load ``model``'s weights from the run's checkpoint saved after sweep ``checkpoint`` (None =
-    the latest); returns that sweep count. Optimiser and other training state are not read."""
+    """Load a run's saved weights into ``model`` (optimiser and other training state are not read).
+
+    Args:
+        model: built from the run's configuration and tasks.
+        run_dir: the run folder.
+        checkpoint: the sweep count after which the weights were saved (None = the latest).
+
+    Returns:
+        The sweep count of the checkpoint read.
+    """
     saved = checkpoints(run_dir)
     if not saved:
         raise RunFolderError(f"{Path(run_dir) / 'checkpoints'}: no checkpoint (has the run "

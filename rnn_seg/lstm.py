@@ -261,11 +261,17 @@ class RecurrentEncoder(tf.Module):
 
     def step(self, params: EncoderParams, x: tf.Tensor, state: tf.Tensor
              ) -> tuple[tf.Tensor, tf.Tensor]:
-        """One time step of a forward-only encoder, without dropout, for online use.
+        """One time step of a forward-only encoder, without dropout, for online use. Stepping
+        through a sequence gives ``apply``'s outputs for it (a sequence starting with a reset).
 
-        ``x`` ``[B, F]`` and ``state`` ``[layers, 2, B, H]`` (``initial_state`` before a sequence's
-        first step) -> ``(features [B, H], state after the step)``. Stepping through a sequence
-        gives ``apply``'s outputs for it (a sequence starting with a reset).
+        Args:
+            params: the encoder's weights (``params()``).
+            x: ``[B, F]`` inputs of this step.
+            state: ``[layers, 2, B, H]`` state after the previous step (``initial_state`` before
+                a sequence's first).
+
+        Returns:
+            ``(features [B, H], state after the step)``.
         """
         if "rv" in params:
             raise ValueError("only a forward (online) encoder runs one step at a time; a "

@@ -44,9 +44,15 @@ def from_jsonable(cls: type[T], data: Any, where: str = "config") -> T:
     ``X | None``, ``tuple``, ``list``, ``dict``, ``Path``).
 
     Strict: an unknown key, a value of the wrong type or a missing field without a default is a
-    ``ConfigError`` naming its place (``where`` then the field path, e.g. ``config.json:
-    run.encoder.hidden``). A field added to a dataclass later with a default may be absent, so
-    older files still load. The dataclass's own validation (``__post_init__``) runs as usual.
+    ``ConfigError`` naming its place. A field added to a dataclass later with a default may be
+    absent, so older files still load. The dataclass's own validation (``__post_init__``) runs
+    as usual.
+
+    Args:
+        cls: the dataclass to build.
+        data: its saved form (parsed JSON).
+        where: the place named in errors, followed by the field path (e.g. ``config.json: run``
+            gives ``config.json: run.encoder.hidden``).
     """
     return _from_jsonable(cls, data, where)
 
