@@ -12,10 +12,19 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
 
 from jigsaws_tools.release import kinematics_dir
 
 from .run_options import load_for_command, run_command, trained_run_parser
+
+if TYPE_CHECKING:
+    from jigsaws_tools.preprocessing import Normalisation
+
+    from .predictions import RecordingPrediction
+    from .trained_run import TrainedRun
 
 PROG = "multitask-predict"
 RECORD_FILE = "prediction.json"
@@ -65,51 +74,59 @@ def kinematics_files(inputs: list[Path]) -> list[Path]:
 
 
 def _predict(args: argparse.Namespace) -> None:
-    import numpy as np
-
     from jigsaws_tools.release import read_kinematics
     from rnn_seg.rundir import write_json
-
-    from .streaming import StreamingPredictor, stream_recording
 
     if args.data_dir and not args.stream:
         raise ValueError("--data-dir only applies with --stream (offline prediction normalises "
                          "each recording by itself)")
     files = kinematics_files(args.inputs)
+    _check_outputs(args, files)
+    run = load_for_command(args)
+    recordings = {f: read_kinematics(f) for f in files}
+    predictions, normalisation = _predict_all(run, recordings, args)   # every input checked first
+    (args.out / RECORD_FILE).unlink(missing_ok=True)       # an older record would vouch for us
+    mode = "stream" if args.stream else "offline"
+    record = {"run_dir": str(args.run_dir.resolve()), "variant": run.variant,
+              "checkpoint": run.checkpoint, "finished": run.finished, "mode": mode,
+              "normalisation": normalisation, "recordings": {}}
+    first = run.tasks[0]
+    for f, prediction in predictions.items():
+        prediction.write(args.out, f.stem, f"{f.stem} - {run.variant} ({args.run_dir.name}, "
+                                           f"sweep {run.checkpoint}, {mode})",
+                         plot=not args.no_plots)
+        record["recordings"][f.stem] = {"input": str(f.resolve()), "frames": prediction.n_frames,
+                                        "samples": len(prediction.sample_frames)}
+        labels = prediction.labels(first.name)
+        print(f"{f.stem}: {prediction.n_frames} frames, most frequent {first.name} "
+              f"{first.class_names[np.bincount(labels).argmax()]}", flush=True)
+    write_json(args.out / RECORD_FILE, record)              # last: the folder is complete
+    print(f"done: {len(files)} recording(s) predicted ({mode}) with {args.run_dir}, checkpoint "
+          f"after sweep {run.checkpoint}; outputs in {args.out}")
+
+
+def _check_outputs(args: argparse.Namespace, files: list[Path]) -> None:
+    """Refuse to replace an earlier prediction's files unless ``--overwrite``."""
     outputs = [args.out / f"{f.stem}{ext}" for f in files
                for ext in (".csv",) + (() if args.no_plots else (".png",))]
     existing = [p for p in outputs + [args.out / RECORD_FILE] if p.exists()]
     if existing and not args.overwrite:
         raise ValueError(f"{existing[0]} exists (from an earlier prediction?); use --overwrite "
                          "to replace it, or another --out")
-    run = load_for_command(args)
-    recordings = {f: read_kinematics(f) for f in files}        # every input checked first
-    for f, kinematics in recordings.items():
-        run.features(kinematics, str(f))
-    streamer = None
-    if args.stream:
-        run.require_online("--stream")
-        streamer = StreamingPredictor(run, run.stream_normalisation(args.data_dir))
-    mode = "stream" if args.stream else "offline"
-    record = {"run_dir": str(args.run_dir.resolve()), "variant": run.variant,
-              "checkpoint": run.checkpoint, "finished": run.finished, "mode": mode,
-              "recordings": {}}
-    for f, kinematics in recordings.items():
-        prediction = (stream_recording(streamer, kinematics, str(f)) if streamer
-                      else run.predict(kinematics))
-        prediction.write(args.out, f.stem, f"{f.stem} - {run.variant} ({args.run_dir.name}, "
-                                           f"sweep {run.checkpoint}, {mode})",
-                         plot=not args.no_plots)
-        counts = np.bincount(prediction.labels(run.tasks[0].name))
-        record["recordings"][f.stem] = {"input": str(f.resolve()), "frames": prediction.n_frames,
-                                        "samples": len(prediction.sample_frames)}
-        print(f"{f.stem}: {prediction.n_frames} frames, most frequent {run.tasks[0].name} "
-              f"{run.tasks[0].class_names[int(np.argmax(counts))]}", flush=True)
-    if streamer:
-        record["normalisation"] = streamer.normalisation
-    write_json(args.out / RECORD_FILE, record)
-    print(f"done: {len(files)} recording(s) predicted ({mode}) with {args.run_dir}, checkpoint "
-          f"after sweep {run.checkpoint}; outputs in {args.out}")
+
+
+def _predict_all(run: TrainedRun, recordings: dict[Path, np.ndarray], args: argparse.Namespace
+                 ) -> tuple[dict[Path, RecordingPrediction], Normalisation | None]:
+    """Every recording's predictions (offline, or frame by frame with ``--stream``) and the fixed
+    statistics a stream used."""
+    from .streaming import StreamingPredictor, stream_recording
+
+    if not args.stream:
+        return {f: run.predict(k, where=str(f)) for f, k in recordings.items()}, None
+    run.require_online("--stream")
+    streamer = StreamingPredictor(run, run.stream_normalisation(args.data_dir))
+    return ({f: stream_recording(streamer, k, str(f)) for f, k in recordings.items()},
+            streamer.normalisation)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -149,7 +149,8 @@ class TrainedRun:
         return predict(self.model, inputs, "per_sequence")
 
     def predict(self, kinematics: np.ndarray | str | Path, causal: bool = False,
-                normalisation: Normalisation | None = None) -> RecordingPrediction:
+                normalisation: Normalisation | None = None, where: str = "kinematics"
+                ) -> RecordingPrediction:
         """Predict every task for one recording.
 
         Args:
@@ -158,13 +159,13 @@ class TrainedRun:
             causal: preprocess as a stream would (causal filter, fixed statistics); forward
                 models only. Default: the run's offline preprocessing.
             normalisation: the fixed statistics for ``causal`` (None = ``stream_normalisation()``).
+            where: the recording's name in error messages (default: the path, if one is given).
 
         Returns:
             The predictions per 5 Hz sample and per 30 Hz frame.
         """
-        where = str(kinematics) if isinstance(kinematics, (str, Path)) else "kinematics"
         if isinstance(kinematics, (str, Path)):
-            kinematics = read_kinematics(kinematics)
+            where, kinematics = str(kinematics), read_kinematics(kinematics)
         features = self.features(kinematics, where)
         if causal:
             self.require_online("causal (streaming) preprocessing")
