@@ -30,6 +30,9 @@ setup(
             "multitask-train=multitask.train_cli:main",
             "multitask-grid=multitask.grid_cli:main",
             "multitask-tables=multitask.tables_cli:main",
+            "multitask-predict=multitask.predict_cli:main",
+            "multitask-evaluate=multitask.evaluate_cli:main",
+            "multitask-export=multitask.export_cli:main",
         ],
     },
 )

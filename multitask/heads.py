@@ -75,6 +75,12 @@ class ProgressRegression(Task):
     def decode(self, outputs):
         return np.clip(np.rint(outputs[..., 0]), 0, self.num_classes - 1).astype(np.int64)
 
+    def scores_tf(self, outputs):
+        return outputs
+
+    def decode_tf(self, outputs):
+        return tf.cast(tf.clip_by_value(tf.round(outputs[..., 0]), 0, NUM_STAGES - 1), tf.int64)
+
     def extra_metrics(self, outputs: Sequence[np.ndarray], labels: Sequence[np.ndarray]
                       ) -> dict[str, float]:
         """``mae_normalised`` = 100 * MAE / (num_stages - 1) of the raw output (mean over
@@ -124,3 +130,14 @@ class OrdinalProgress(Task):
 
     def decode(self, outputs):
         return ordinal_decode(self.scores(outputs))
+
+    def scores_tf(self, outputs):
+        return tf.sigmoid(outputs)
+
+    def decode_tf(self, outputs):
+        """``ordinal_decode`` of the sigmoid outputs."""
+        below = self.scores_tf(outputs) < 0.5
+        first_below = tf.where(tf.reduce_any(below, axis=-1),
+                               tf.argmax(tf.cast(below, tf.int32), axis=-1),
+                               tf.cast(tf.shape(outputs)[-1], tf.int64))
+        return tf.maximum(first_below - 1, 0)

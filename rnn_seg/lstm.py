@@ -14,7 +14,8 @@ before the step. The four gate matrices are stored fused, in gate order (g, i, f
 ``[F, 4H]``, ``W_h`` ``[H, 4H]``, ``b`` ``[4H]``; peepholes ``w_ic, w_fc, w_oc`` ``[H]`` each. All weights
 start uniform in ``[-init_scale, init_scale]``, biases at zero, as in the original code.
 
-Shapes: batch-major ``[B, T, ...]`` at the API, time-major inside the scan.
+Shapes: batch-major ``[B, T, ...]`` at the API, time-major inside the scan. A forward-only encoder
+also runs one step at a time with its state carried between calls (``RecurrentEncoder.step``).
 
 Precision: ``fp32`` computes everything in float32. ``bf16`` runs the layer's matrix products
 (input product ``x W_x``, recurrent ``h W_h`` forward, ``dz W_h^T`` backward, and the weight
@@ -173,23 +174,41 @@ def _shift(x: tf.Tensor) -> tf.Tensor:
     return tf.concat([tf.zeros_like(x[:1]), x[:-1]], axis=0)
 
 
+def lstm_cell(z_x: tf.Tensor, c_prev: tf.Tensor, h_prev: tf.Tensor, W_h: tf.Tensor,
+              peepholes: tuple[tf.Tensor, tf.Tensor, tf.Tensor]) -> tuple[tf.Tensor, ...]:
+    """One step of the cell (the module docstring's equations) for a batch.
+
+    Args:
+        z_x: ``[B, 4H]`` the input's share of the gate inputs, ``x W_x + b``.
+        c_prev: ``[B, H]`` cell state entering the step (after any reset).
+        h_prev: ``[B, H]`` hidden state entering the step (after any reset).
+        W_h: ``[H, 4H]`` recurrent weights, in the products' dtype.
+        peepholes: ``(w_ic, w_fc, w_oc)``, ``[H]`` each.
+
+    Returns:
+        ``(c, h, g, i, f, o)``, each ``[B, H]``.
+    """
+    w_ic, w_fc, w_oc = peepholes
+    z = z_x + product(h_prev, W_h, W_h.dtype)
+    z_g, z_i, z_f, z_o = tf.split(z, 4, axis=1)
+    g = tf.tanh(z_g)
+    i = tf.sigmoid(z_i + w_ic * c_prev)
+    f = tf.sigmoid(z_f + w_fc * c_prev)
+    c = g * i + c_prev * f
+    o = tf.sigmoid(z_o + w_oc * c)
+    h = o * tf.tanh(c)
+    return c, h, g, i, f, o
+
+
 def _forward(x_proj, keep, W_h, peep):
     """The cell over time; returns ``(h, c, g, i, f, o)``, each ``[T, B, H]`` float32. ``W_h``
     is in the products' dtype."""
     steps = tf.shape(x_proj)[0]
-    w_ic, w_fc, w_oc = peep[0], peep[1], peep[2]
+    peepholes = (peep[0], peep[1], peep[2])
 
     def body(t, c_prev, h_prev, records):
         k = keep[t]
-        c_prev = c_prev * k
-        z = x_proj[t] + product(h_prev * k, W_h, W_h.dtype)
-        z_g, z_i, z_f, z_o = tf.split(z, 4, axis=1)
-        g = tf.tanh(z_g)
-        i = tf.sigmoid(z_i + w_ic * c_prev)
-        f = tf.sigmoid(z_f + w_fc * c_prev)
-        c = g * i + c_prev * f
-        o = tf.sigmoid(z_o + w_oc * c)
-        h = o * tf.tanh(c)
+        c, h, g, i, f, o = lstm_cell(x_proj[t], c_prev * k, h_prev * k, W_h, peepholes)
         return t + 1, c, h, [r.write(t, v) for r, v in zip(records, (h, c, g, i, f, o))]
 
     zeros = tf.zeros(tf.stack([tf.shape(x_proj)[1], tf.shape(W_h)[0]]))
@@ -287,6 +306,35 @@ class RecurrentEncoder(tf.Module):
     def __call__(self, inputs: tf.Tensor, resets: tf.Tensor, dropout_seeds: tf.Tensor | None
                  ) -> tf.Tensor:
         return self.apply(self.params(), inputs, resets, dropout_seeds)
+
+    def initial_state(self, batch: int = 1) -> tf.Tensor:
+        """The zero state ``[layers, 2, batch, H]`` (per layer ``c``, ``h``) before a first step."""
+        return tf.zeros([self.config.layers, 2, batch, self.config.hidden])
+
+    def step(self, params: EncoderParams, x: tf.Tensor, state: tf.Tensor
+             ) -> tuple[tf.Tensor, tf.Tensor]:
+        """One time step of a forward-only encoder, without dropout, for online use. Stepping
+        through a sequence gives ``apply``'s outputs for it (a sequence starting with a reset).
+
+        Args:
+            params: the encoder's weights (``params()``).
+            x: ``[B, F]`` inputs of this step.
+            state: ``[layers, 2, B, H]`` state after the previous step (``initial_state`` before
+                a sequence's first).
+
+        Returns:
+            ``(features [B, H], state after the step)``.
+        """
+        if "rv" in params:
+            raise ValueError("only a forward (online) encoder runs one step at a time; a "
+                             "bidirectional one needs the whole sequence")
+        states = []
+        for layer, p in enumerate(params["fw"]):
+            c, h, *_ = lstm_cell(tf.matmul(x, p.W_x) + p.b, state[layer, 0], state[layer, 1],
+                                 p.W_h, (p.peep[0], p.peep[1], p.peep[2]))
+            states.append(tf.stack([c, h]))
+            x = h
+        return x, tf.stack(states)
 
     def apply(self, params: EncoderParams, inputs: tf.Tensor, resets: tf.Tensor,
               dropout_seeds: tf.Tensor | None, valid: tf.Tensor | None = None) -> tf.Tensor:

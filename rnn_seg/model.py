@@ -53,6 +53,17 @@ class SegmentationModel(tf.Module):
         """``infer``: the model without dropout, as one graph traced once for every ``[B, T]``."""
         return self(inputs, resets, None)
 
+    def initial_state(self, batch: int = 1) -> tf.Tensor:
+        """Recurrent state before a sequence's first ``step`` (see ``RecurrentEncoder.step``)."""
+        return self.encoder.initial_state(batch)
+
+    def step(self, inputs: tf.Tensor, state: tf.Tensor) -> tuple[dict[str, tf.Tensor], tf.Tensor]:
+        """One time step of a forward-only model without dropout: ``inputs`` ``[B, F]`` and the
+        recurrent state -> ``({task name: outputs [B, K_task]}, state after the step)``."""
+        params = self.params()
+        features, state = self.encoder.step(params["encoder"], inputs, state)
+        return {name: Dense.apply(params["heads"][name], features) for name in self.heads}, state
+
     def apply(self, params: ModelParams, inputs: tf.Tensor, resets: tf.Tensor,
               dropout_seeds: tf.Tensor | None = None, valid: tf.Tensor | None = None
               ) -> dict[str, tf.Tensor]:

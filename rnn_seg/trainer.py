@@ -356,31 +356,13 @@ class Trainer:
 
     def _evaluate(self, point: int) -> None:
         """Write predictions, plots and metrics of the test set at evaluation point ``point``."""
-        folder = point_dir(self.run_dir, self.optim.unit, point)
-        outputs = self._test_outputs()
-        metrics = {t.name: task_metrics(t, outputs[t.name], self.test.labels[t.name])
-                   for t in self.tasks}
-        for i, name in enumerate(self.test.names):
-            true = {t.name: self.test.labels[t.name][i] for t in self.tasks}
-            pred = {t.name: t.decode(outputs[t.name][i]) for t in self.tasks}
-            columns = {"frame": self.test.frames[i] if self.test.frames else np.arange(len(
-                self.test.inputs[i]))}
-            for t in self.tasks:
-                columns[f"{t.name}_true"] = true[t.name]
-                columns[f"{t.name}_pred"] = pred[t.name]
-                columns.update(zip([f"{t.name}_{c}" for c in t.score_columns()],
-                                   t.scores(outputs[t.name][i]).T))
-            write_atomic(folder / "predictions" / f"{name}.csv",
-                         pd.DataFrame(columns).to_csv(index=False, float_format="%.5f"))
-            if self._plotted(point):
-                plot_sequence(f"{name} - {self.optim.unit[:-1]} {point}", self.tasks, true, pred,
-                              folder / "plots" / f"{name}.png", self.sample_hz)
-        write_json(folder / "metrics.json", {"point": point, "unit": self.optim.unit,
-                                             "metrics": metrics})
-        summary = ", ".join(f"{t.name} acc {metrics[t.name]['accuracy']:.1f} edit "
-                            f"{metrics[t.name]['edit']:.1f} F1@10 {metrics[t.name]['f1@10']:.1f}"
-                            for t in self.tasks)
-        self.log(f"[{self.run_dir.name}] evaluation at {self.optim.unit[:-1]} {point}: {summary}")
+        label = f"{self.optim.unit[:-1]} {point}"
+        metrics = write_evaluation(point_dir(self.run_dir, self.optim.unit, point), self.tasks,
+                                   self.test, self._test_outputs(),
+                                   {"point": point, "unit": self.optim.unit}, label,
+                                   self.sample_hz, self._plotted(point))
+        self.log(f"[{self.run_dir.name}] evaluation at {label}: "
+                 f"{metrics_summary(self.tasks, metrics)}")
 
     def _plotted(self, point: int) -> bool:
         """Whether evaluation point ``point`` draws per-sequence figures (``config.plots``)."""
@@ -405,6 +387,51 @@ class Trainer:
         write_json(self.run_dir / "timing.json", self.clock.report())
         mark_finished(self.run_dir, {"sweeps": self.total_sweeps})
         return result
+
+
+def write_evaluation(folder: Path, tasks: Sequence[Task], data: SequenceSet,
+                     outputs: dict[str, list[np.ndarray]], header: dict, label: str,
+                     sample_hz: float, plots: bool = True) -> dict[str, dict[str, float]]:
+    """Score ``outputs`` against ``data``'s labels and write an evaluation folder: one predictions
+    CSV (and plot) per sequence and ``metrics.json`` (``header``'s keys, then ``metrics``).
+
+    Args:
+        folder: where to write (``predictions/``, ``plots/``, ``metrics.json``).
+        tasks: the tasks of the model's heads.
+        data: the labelled sequences scored.
+        outputs: raw head outputs ``[T_i, K]`` per task and sequence of ``data``.
+        header: leading entries of ``metrics.json`` (e.g. the evaluation point and its unit).
+        label: what is evaluated, for the plot titles (e.g. ``"epoch 120"``).
+        sample_hz: the sequences' sampling rate (plot axes).
+        plots: whether to draw the per-sequence plots.
+
+    Returns:
+        The metrics per task (``task_metrics``).
+    """
+    metrics = {t.name: task_metrics(t, outputs[t.name], data.labels[t.name]) for t in tasks}
+    for i, name in enumerate(data.names):
+        true = {t.name: data.labels[t.name][i] for t in tasks}
+        pred = {t.name: t.decode(outputs[t.name][i]) for t in tasks}
+        columns = {"frame": data.frames[i] if data.frames else np.arange(len(data.inputs[i]))}
+        for t in tasks:
+            columns[f"{t.name}_true"] = true[t.name]
+            columns[f"{t.name}_pred"] = pred[t.name]
+            columns.update(zip([f"{t.name}_{c}" for c in t.score_columns()],
+                               t.scores(outputs[t.name][i]).T))
+        write_atomic(folder / "predictions" / f"{name}.csv",
+                     pd.DataFrame(columns).to_csv(index=False, float_format="%.5f"))
+        if plots:
+            plot_sequence(f"{name} - {label}", tasks, true, pred, folder / "plots" / f"{name}.png",
+                          sample_hz)
+    write_json(folder / "metrics.json", {**header, "metrics": metrics})
+    return metrics
+
+
+def metrics_summary(tasks: Sequence[Task], metrics: dict[str, dict[str, float]]) -> str:
+    """One line of each task's accuracy, edit score and F1@10."""
+    return ", ".join(f"{t.name} acc {metrics[t.name]['accuracy']:.1f} edit "
+                     f"{metrics[t.name]['edit']:.1f} F1@10 {metrics[t.name]['f1@10']:.1f}"
+                     for t in tasks)
 
 
 def loss_gradients(model: SegmentationModel, tasks: Sequence[Task], per_task: bool,
