@@ -18,7 +18,6 @@ preprocessing parameters (filter sections, columns, rate) and the run's configur
 """
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np

@@ -79,7 +79,8 @@ class ProgressRegression(Task):
         return outputs
 
     def decode_tf(self, outputs):
-        return tf.cast(tf.clip_by_value(tf.round(outputs[..., 0]), 0, NUM_STAGES - 1), tf.int64)
+        return tf.cast(tf.clip_by_value(tf.round(outputs[..., 0]), 0.0,
+                                        float(self.num_classes - 1)), tf.int64)
 
     def extra_metrics(self, outputs: Sequence[np.ndarray], labels: Sequence[np.ndarray]
                       ) -> dict[str, float]:
