@@ -112,7 +112,9 @@ class RecordingPrediction:
 
 def plot_predictions(prediction: RecordingPrediction, path: Path, title: str) -> Path:
     """Ribbons of every task's predicted labels at the samples."""
-    rows = [(t.name, prediction.sample_labels(t.name), t.num_classes,
-             RIBBON_CMAPS.get(t.name, GESTURE_CMAP)) for t in prediction.tasks]
-    return plot_ribbon_rows(rows, path, title, prediction.sample_hz)
+    cmaps = {t.name: RIBBON_CMAPS.get(t.name, GESTURE_CMAP) for t in prediction.tasks}
+    rows = [(t.name, prediction.sample_labels(t.name), t.num_classes, cmaps[t.name])
+            for t in prediction.tasks]
+    legends = [(t.class_names, cmaps[t.name]) for t in prediction.tasks]
+    return plot_ribbon_rows(rows, path, legends, title, prediction.sample_hz)
 

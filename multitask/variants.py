@@ -8,7 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 from baseline.builder import gesture_task
-from jigsaws_tools.task_definition import TaskDefinition
+from jigsaws_tools.task_definition import SUTURING, TaskDefinition
 from rnn_seg.optim import OptimConfig
 from rnn_seg.tasks import Task
 from rnn_seg.trainer import TrainConfig
@@ -32,7 +32,8 @@ class Variant:
     gestures: bool
     progress: str | None        # "r", "c", "oc" or None
 
-    def tasks(self, task: TaskDefinition, heads: HeadConfig = HeadConfig()) -> list[Task]:
+    def tasks(self, task: TaskDefinition = SUTURING, heads: HeadConfig = HeadConfig()
+              ) -> list[Task]:
         """The heads this variant trains on ``task``: its gestures and / or its progress stages,
         the progress loss configured by ``heads``."""
         tasks = [gesture_task(task)] if self.gestures else []
