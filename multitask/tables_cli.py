@@ -6,7 +6,8 @@ folds), ``table1|2|3.csv/.tex`` (ours against the paper), ``ablation_annotations
 (revised against original labels), ``claims.csv/.tex`` (the paper's claims tested with paired
 statistics over folds and seeds, settings in ``claims_config.json``) and ``figures/*.png|pdf``.
 Unfinished runs are left out and listed. The paper's tables, the annotation ablation and its
-claims are Suturing's: a grid of another task gets none of them.
+claims are Suturing's: a grid of another task gets instead the claims of the paper's conjecture
+(multi-task against model A on that task, ``claims.CONJECTURE_CLAIMS``).
 
 ``--compare X Y --metric M`` prints the paired statistics of one comparison instead, e.g.
 ``multitask-tables GRID --compare APc-fixed A-fixed --metric gesture_edit``; a configuration is
@@ -26,6 +27,7 @@ from rnn_seg.rundir import write_atomic
 
 from jigsaws_tools.task_definition import PAPER_TASK
 
+from .claims import CONJECTURE_CLAIMS
 from .claims_table import write_claims
 from .collect import METRICS, grid_task_name, per_fold, run_rows, summary
 from .figures import all_figures
@@ -45,6 +47,8 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True) -> list[Path]:
     if grid_task_name(grid_dir) == PAPER_TASK:
         written += _paper_tables(stats, out)
         written += write_claims(runs, out)
+    else:
+        written += write_claims(runs, out, claims=CONJECTURE_CLAIMS)
     if figures:
         written += all_figures(Path(grid_dir), stats, folds, out / "figures")
     return written
