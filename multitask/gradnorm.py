@@ -22,14 +22,21 @@ import numpy as np
 import tensorflow as tf
 
 from rnn_seg.trainer import Trainer, append_csv_row
+from rnn_seg.validation import require_number
 
 MIN_WEIGHT = 1e-3
 
 
 @dataclass(frozen=True)
 class GradNormConfig:
+    """GradNorm's asymmetry ``alpha`` (0 = equal gradient norms) and task-weight learning rate."""
+
     alpha: float = 1.5
     learning_rate: float = 0.025
+
+    def __post_init__(self):
+        require_number("GradNormConfig.alpha", self.alpha, low=0)
+        require_number("GradNormConfig.learning_rate", self.learning_rate, low=0, open_low=True)
 
 
 def shared_layer_variables(model) -> list[tf.Variable]:

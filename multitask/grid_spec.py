@@ -39,6 +39,7 @@ from jigsaws_tools.release import discover
 from jigsaws_tools.synth import SynthConfig, ensure_release
 from rnn_seg.lstm import EncoderConfig
 from rnn_seg.trainer import TrainConfig
+from rnn_seg.validation import require_choice, require_number
 
 from .fold_run import WEIGHTINGS
 from .variants import MULTITASK_EVAL, VARIANTS, get_variant
@@ -47,108 +48,16 @@ DIRECTIONS = ("bidirectional", "forward")
 PAPER_EPOCHS = MULTITASK_EVAL[-1]
 
 
-@dataclass(frozen=True)
-class Budget:
-    """Model size, schedule length and seeds of a preset."""
-
-    hidden: int
-    schedule_scale: float           # multiplies every epoch count of the paper's schedules
-    seeds: tuple[int, ...]
+def _tuple(value):
+    """A list (TOML array) as a tuple; anything else unchanged, for the dataclasses to check."""
+    return tuple(value) if isinstance(value, list) else value
 
 
-PRESETS = {"paper": Budget(hidden=1024, schedule_scale=1.0, seeds=(0, 1, 2)),
-           "quick": Budget(hidden=128, schedule_scale=0.25, seeds=(0,))}
-
-
-@dataclass(frozen=True)
-class Experiment:
-    """A product of configurations; combinations that do not exist (GradNorm on one task) are
-    skipped."""
-
-    variants: tuple[str, ...]
-    weightings: tuple[str, ...] = ("fixed",)
-    annotations: tuple[str, ...] = ("revised",)
-    directions: tuple[str, ...] = ("bidirectional",)
-
-    def __post_init__(self):
-        for value, allowed, what in ((self.variants, VARIANTS, "variant"),
-                                     (self.weightings, WEIGHTINGS, "weighting"),
-                                     (self.annotations, ANNOTATION_VERSIONS, "annotation version"),
-                                     (self.directions, DIRECTIONS, "direction")):
-            for item in value:
-                if item not in allowed:
-                    raise ValueError(f"unknown {what} {item!r}; choose from {', '.join(allowed)}")
-
-
-ALL_VARIANTS = tuple(VARIANTS)
-#: The paper's evidence: Table I (revised labels), the same on the original labels (Table II and the
-#: annotation ablation) and the online models of Table III.
-PAPER_EXPERIMENTS = (
-    Experiment(ALL_VARIANTS, WEIGHTINGS, ("revised", "original")),
-    Experiment(("A", "APc"), ("fixed",), ("revised",), ("forward",)),
-)
-
-
-@dataclass(frozen=True)
-class GridSpec:
-    """A whole grid; ``None`` budget fields take the preset's value."""
-
-    preset: str = "quick"
-    data: str = ""                  # "" = $JIGSAWS_DIR or the default folder; "synthetic"
-    folds: tuple[str, ...] = ()     # () = every user of the release
-    seeds: tuple[int, ...] | None = None
-    hidden: int | None = None
-    epochs: int | None = None
-    experiments: tuple[Experiment, ...] = PAPER_EXPERIMENTS
-
-    def __post_init__(self):
-        if self.preset not in PRESETS:
-            raise ValueError(f"unknown preset {self.preset!r}; choose from {', '.join(PRESETS)}")
-
-    @property
-    def budget(self) -> Budget:
-        base = PRESETS[self.preset]
-        scale = self.epochs / PAPER_EPOCHS if self.epochs else base.schedule_scale
-        return Budget(hidden=self.hidden or base.hidden, schedule_scale=scale,
-                      seeds=self.seeds if self.seeds is not None else base.seeds)
-
-    def data_dir(self) -> Path:
-        if self.data == "synthetic":
-            return ensure_release(default_cache_dir(), SynthConfig())
-        return Path(self.data) if self.data else default_data_dir()
-
-
-def load_spec(path: Path | str) -> GridSpec:
-    """Parse a TOML spec; unknown keys are errors naming the file and the key."""
-    path = Path(path)
-    try:
-        raw = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as error:
-        raise ValueError(f"{path}: not valid TOML: {error}") from None
-    return spec_from_dict(raw, source=str(path))
-
-
-def spec_from_dict(raw: dict, source: str = "spec") -> GridSpec:
-    known = {f.name for f in fields(GridSpec)}
-    unknown = set(raw) - known
-    if unknown:
-        raise ValueError(f"{source}: unknown key(s) {', '.join(sorted(unknown))}; "
-                         f"known: {', '.join(sorted(known))}")
-    values = {k: v for k, v in raw.items() if v is not None}
-    if "experiments" in values:
-        values["experiments"] = tuple(_experiment(e, source) for e in values["experiments"])
-    for key in ("folds", "seeds"):
-        if key in values:
-            values[key] = tuple(values[key])
-    return GridSpec(**values)
-
-
-def _experiment(raw: dict, source: str) -> Experiment:
-    known = {f.name for f in fields(Experiment)}
-    unknown = set(raw) - known
-    if unknown:
-        raise ValueError(f"{source}: unknown experiment key(s) {', '.join(sorted(unknown))}")
-    return Experiment(**{k: tuple(v) for k, v in raw.items()})
+def _require_tuple(name: str, value, what: str) -> None:
+    """Raise unless ``value`` is a non-empty tuple (a TOML array, see ``_tuple``)."""
+    if not isinstance(value, tuple) or not value:
+        shown = list(value) if isinstance(value, tuple) else value
+        raise ValueError(f"{name} must be {what} (got {shown!r})")
 
 
 @dataclass(frozen=True, order=True)
@@ -220,7 +129,148 @@ def spec_payload(spec: GridSpec) -> dict:
     return json.loads(json.dumps(data))
 
 
+def with_budget(spec: GridSpec) -> GridSpec:
+    """``spec`` with its preset's budget written out (``hidden``, ``epochs``, ``seeds``), as
+    grid.json records it: two specs of the same runs then read the same."""
+    budget = spec.budget
+    return replace(spec, hidden=budget.hidden, seeds=budget.seeds,
+                   epochs=round(budget.schedule_scale * PAPER_EPOCHS))
+
+
 def with_overrides(spec: GridSpec, **overrides) -> GridSpec:
     """``spec`` with the given non-None fields replaced (command-line overrides)."""
     return replace(spec, **{k: v for k, v in overrides.items() if v is not None})
 
+
+@dataclass(frozen=True)
+class Budget:
+    """Model size, schedule length and seeds of a preset."""
+
+    hidden: int
+    schedule_scale: float           # multiplies every epoch count of the paper's schedules
+    seeds: tuple[int, ...]
+
+
+PRESETS = {"paper": Budget(hidden=1024, schedule_scale=1.0, seeds=(0, 1, 2)),
+           "quick": Budget(hidden=128, schedule_scale=0.25, seeds=(0,))}
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """A product of configurations; combinations that do not exist (GradNorm on one task) are
+    skipped."""
+
+    variants: tuple[str, ...]
+    weightings: tuple[str, ...] = ("fixed",)
+    annotations: tuple[str, ...] = ("revised",)
+    directions: tuple[str, ...] = ("bidirectional",)
+
+    def __post_init__(self):
+        for name, allowed, what in (("variants", VARIANTS, "variant"),
+                                    ("weightings", WEIGHTINGS, "weighting"),
+                                    ("annotations", ANNOTATION_VERSIONS, "annotation version"),
+                                    ("directions", DIRECTIONS, "direction")):
+            value = getattr(self, name)
+            _require_tuple(f"experiments.{name}", value, f"a non-empty list of {what}s")
+            for item in value:
+                if not isinstance(item, str) or item not in allowed:
+                    raise ValueError(f"unknown {what} {item!r} in experiments.{name}; choose from "
+                                     f"{', '.join(allowed)}")
+
+
+ALL_VARIANTS = tuple(VARIANTS)
+#: The paper's evidence: Table I (revised labels), the same on the original labels (Table II and the
+#: annotation ablation) and the online models of Table III.
+PAPER_EXPERIMENTS = (
+    Experiment(ALL_VARIANTS, WEIGHTINGS, ("revised", "original")),
+    Experiment(("A", "APc"), ("fixed",), ("revised",), ("forward",)),
+)
+
+
+@dataclass(frozen=True)
+class GridSpec:
+    """A whole grid; ``None`` budget fields take the preset's value."""
+
+    preset: str = "quick"
+    data: str = ""                  # "" = $JIGSAWS_DIR or the default folder; "synthetic"
+    folds: tuple[str, ...] = ()     # () = every user of the release
+    seeds: tuple[int, ...] | None = None
+    hidden: int | None = None
+    epochs: int | None = None
+    experiments: tuple[Experiment, ...] = PAPER_EXPERIMENTS
+
+    def __post_init__(self):
+        require_choice("preset", self.preset, PRESETS)
+        if not isinstance(self.data, str):
+            raise ValueError(f"data must be a folder or \"synthetic\" (got {self.data!r})")
+        if self.folds:
+            _require_tuple("folds", self.folds, "a list of user letters")
+        for fold in self.folds:
+            if not isinstance(fold, str) or not fold:
+                raise ValueError(f"folds must be a list of user letters (got {fold!r})")
+        if self.seeds is not None:
+            _require_tuple("seeds", self.seeds, "a non-empty list of integers >= 0")
+            for seed in self.seeds:
+                if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+                    raise ValueError(f"seeds must be a list of integers >= 0 (got {seed!r})")
+            if len(set(self.seeds)) < len(self.seeds):
+                raise ValueError(f"seeds must not repeat (got {list(self.seeds)})")
+        for name in ("hidden", "epochs"):
+            if getattr(self, name) is not None:
+                require_number(name, getattr(self, name), integer=True, low=1)
+        _require_tuple("experiments", self.experiments, "a non-empty list of [[experiments]]")
+        for experiment in self.experiments:
+            if not isinstance(experiment, Experiment):
+                raise ValueError(f"experiments must be tables of variants, weightings, "
+                                 f"annotations, directions (got {experiment!r})")
+
+    @property
+    def budget(self) -> Budget:
+        base = PRESETS[self.preset]
+        scale = base.schedule_scale if self.epochs is None else self.epochs / PAPER_EPOCHS
+        return Budget(hidden=base.hidden if self.hidden is None else self.hidden,
+                      schedule_scale=scale,
+                      seeds=base.seeds if self.seeds is None else self.seeds)
+
+    def data_dir(self) -> Path:
+        if self.data == "synthetic":
+            return ensure_release(default_cache_dir(), SynthConfig())
+        return Path(self.data) if self.data else default_data_dir()
+
+
+def load_spec(path: Path | str) -> GridSpec:
+    """Parse a TOML spec; unknown keys are errors naming the file and the key."""
+    path = Path(path)
+    try:
+        raw = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as error:
+        raise ValueError(f"{path}: not valid TOML: {error}") from None
+    return spec_from_dict(raw, source=str(path))
+
+
+def spec_from_dict(raw: dict, source: str = "spec") -> GridSpec:
+    """A ``GridSpec`` from plain data (a parsed TOML file, grid.json's ``spec``); every key's type
+    and range is checked here, errors naming ``source`` and the key."""
+    known = {f.name for f in fields(GridSpec)}
+    unknown = set(raw) - known
+    if unknown:
+        raise ValueError(f"{source}: unknown key(s) {', '.join(sorted(unknown))}; "
+                         f"known: {', '.join(sorted(known))}")
+    values = {k: _tuple(v) for k, v in raw.items() if v is not None}
+    try:
+        if isinstance(values.get("experiments"), tuple):
+            values["experiments"] = tuple(_experiment(e) for e in values["experiments"])
+        return GridSpec(**values)
+    except ValueError as error:
+        raise ValueError(f"{source}: {error}") from None
+
+
+def _experiment(raw: dict) -> Experiment:
+    if not isinstance(raw, dict):
+        return raw                          # GridSpec names what is wrong with it
+    known = {f.name for f in fields(Experiment)}
+    unknown = set(raw) - known
+    if unknown:
+        raise ValueError(f"unknown experiment key(s) {', '.join(sorted(unknown))}; "
+                         f"known: {', '.join(sorted(known))}")
+    return Experiment(**{k: _tuple(v) for k, v in raw.items()})
