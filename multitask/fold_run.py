@@ -5,8 +5,8 @@ from functools import partial
 from pathlib import Path
 from typing import Callable, Literal
 
+from baseline.builder import build_trainer, run_configs
 from baseline.config import RunConfig
-from baseline.builder import build_trainer
 from jigsaws_tools.dataset import Dataset
 from rnn_seg.trainer import Trainer
 
@@ -17,26 +17,47 @@ Weighting = Literal["fixed", "gradnorm"]
 WEIGHTINGS = ("fixed", "gradnorm")
 
 
+def check_weighting(variant: Variant, weighting: Weighting) -> None:
+    """Raise ``ValueError`` unless ``weighting`` exists for ``variant`` (GradNorm needs two tasks)."""
+    if weighting not in WEIGHTINGS:
+        raise ValueError(f"weighting must be one of {WEIGHTINGS}, not {weighting!r}")
+    if weighting == "gradnorm" and not variant.multitask:
+        raise ValueError(f"GradNorm needs two tasks; variant {variant.name} has one")
+
+
+def variant_extra(variant: Variant, weighting: Weighting, gradnorm: GradNormConfig) -> dict:
+    """What config.json records of a variant beyond its ``RunConfig`` and tasks."""
+    check_weighting(variant, weighting)
+    extra = {"variant": variant.name, "weighting": weighting}
+    if weighting == "gradnorm":
+        extra["gradnorm"] = gradnorm
+    return extra
+
+
+def variant_configs(variant: Variant, weighting: Weighting, config: RunConfig,
+                    gradnorm: GradNormConfig = GradNormConfig(),
+                    fingerprint: str | None = None) -> dict:
+    """The record (and settings) of a run of ``variant``, as ``variant_trainer`` writes it to
+    config.json; ``fingerprint``: the data's, computed unless given."""
+    return run_configs(config, variant.tasks(), variant_extra(variant, weighting, gradnorm),
+                       fingerprint)
+
+
 def variant_trainer(variant: Variant, weighting: Weighting, config: RunConfig, run_dir: Path,
                     gradnorm: GradNormConfig = GradNormConfig(), dataset: Dataset | None = None,
                     log: Callable[[str], None] = print) -> Trainer:
     """A ready trainer of ``variant`` on ``run_dir``'s fold; ``fixed`` uses w1 = w2 = 1 (the
     baseline's trainer, unchanged), ``gradnorm`` the GradNorm trainer."""
-    if weighting not in WEIGHTINGS:
-        raise ValueError(f"weighting must be one of {WEIGHTINGS}, not {weighting!r}")
-    if weighting == "gradnorm" and not variant.multitask:
-        raise ValueError(f"GradNorm needs two tasks; variant {variant.name} has one")
-    extra = {"variant": variant.name, "weighting": weighting}
-    trainer = Trainer
-    if weighting == "gradnorm":
-        extra["gradnorm"] = gradnorm
-        trainer = partial(GradNormTrainer, gradnorm=gradnorm)
+    extra = variant_extra(variant, weighting, gradnorm)
+    trainer = partial(GradNormTrainer, gradnorm=gradnorm) if weighting == "gradnorm" else Trainer
     return build_trainer(config, variant.tasks(), run_dir, dataset, trainer=trainer,
                          extra_configs=extra, log=log)
 
 
 def train_variant(variant: Variant, weighting: Weighting, config: RunConfig, run_dir: Path,
                   gradnorm: GradNormConfig = GradNormConfig(), dataset: Dataset | None = None,
-                  log: Callable[[str], None] = print) -> dict:
-    """Train ``variant`` on one fold (see ``variant_trainer``); returns the run's metrics."""
-    return variant_trainer(variant, weighting, config, run_dir, gradnorm, dataset, log).run()
+                  log: Callable[[str], None] = print, restart: bool = False) -> dict:
+    """Train ``variant`` on one fold (see ``variant_trainer``); returns the run's metrics.
+    ``restart``: delete a previous run's config and results in ``run_dir`` first."""
+    return variant_trainer(variant, weighting, config, run_dir, gradnorm, dataset, log
+                           ).run(restart)

@@ -6,12 +6,14 @@ import logging
 import os
 import sys
 
+from baseline.config import RunConfig
+from baseline.launch import run_training
 from baseline.options import add_run_arguments, run_config_from_args
-from jigsaws_tools.errors import JigsawsError
+from rnn_seg.provenance import set_command
 from rnn_seg.threads import configure_threads
 
 from .gradnorm import GradNormConfig
-from .fold_run import WEIGHTINGS, train_variant
+from .fold_run import WEIGHTINGS, check_weighting, train_variant
 from .variants import VARIANTS, get_variant
 
 
@@ -35,16 +37,23 @@ def main(argv: list[str] | None = None) -> int:
     known, _ = pre.parse_known_args(argv)
     variant = get_variant(known.variant)
     args = build_parser(variant.name).parse_args(argv)
-    try:
-        configure_threads(args.threads, args.hidden)
+    set_command(["multitask-train", *(sys.argv[1:] if argv is None else argv)])
+
+    def configure() -> tuple[RunConfig, GradNormConfig]:
         config = run_config_from_args(args, variant.optim(), variant.eval_points())
+        gradnorm = GradNormConfig(alpha=args.alpha, learning_rate=args.weight_lr)
+        check_weighting(variant, args.weighting)
+        configure_threads(args.threads, args.hidden)
         print(f"variant: {variant.name} ({args.weighting})\n{config.describe()}", flush=True)
-        result = train_variant(variant, args.weighting, config, args.out,
-                               GradNormConfig(alpha=args.alpha, learning_rate=args.weight_lr),
-                               log=lambda m: print(m, flush=True))
-    except (JigsawsError, ValueError) as error:
-        print(f"multitask-train: error: {error}", file=sys.stderr)
-        return 2
+        return config, gradnorm
+
+    def train(configs: tuple[RunConfig, GradNormConfig]) -> dict:
+        return train_variant(variant, args.weighting, configs[0], args.out, configs[1],
+                             log=lambda m: print(m, flush=True), restart=args.restart)
+
+    code, result = run_training("multitask-train", args.out, configure, train)
+    if result is None:
+        return code
     summary = "; ".join(f"{task}: accuracy {m['accuracy']:.1f}, edit {m['edit']:.1f}, "
                         f"F1@10 {m['f1@10']:.1f}" + (f", MAE {m['mae_normalised']:.1f}"
                                                      if "mae_normalised" in m else "")
