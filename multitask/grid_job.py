@@ -1,7 +1,8 @@
 """One job of a grid, as a worker process runs it: a group of runs of one configuration.
 
 A job takes and returns plain data (so process pools and Dask can ship it), trains its runs
-together (``rnn_seg.stack``) and logs each run to ``<run dir>/train.log``.
+together (``rnn_seg.stack``, which holds each run folder's lock) and logs each run to
+``<run dir>/train.log``.
 """
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from pathlib import Path
 from typing import Callable, TextIO
 
 from jigsaws_tools.dataset import load_dataset
+from rnn_seg.provenance import set_command
 from rnn_seg.stack import train_together
 from rnn_seg.threads import configure_threads
 
@@ -19,14 +21,17 @@ from .grid_spec import RunKey, run_config, spec_from_dict
 from .variants import get_variant
 
 
-def run_job(spec: dict, keys: list[dict], out: str, cores: int) -> list[dict]:
+def run_job(spec: dict, keys: list[dict], out: str, cores: int, command: list[str] | None = None
+            ) -> list[dict]:
     """Train a group of runs of one configuration (resuming interrupted ones) and return each
     one's ``metrics.json`` content; several runs train together in one vectorised step
-    (``rnn_seg.stack``).
+    (``rnn_seg.stack``). ``command``: the grid's command line, recorded in each run's provenance.
 
     Takes and returns plain data so that process pools and Dask workers can ship it; each run's
     log (and the traceback of a failure) goes to ``<run dir>/train.log``.
     """
+    if command:
+        set_command(command)
     grid, runs = spec_from_dict(spec), [RunKey(**key) for key in keys]
     configure_threads(cores, grid.budget.hidden)
     run_dirs = [Path(out) / run.path() for run in runs]
