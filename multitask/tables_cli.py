@@ -3,8 +3,12 @@
 Writes to ``--out`` (default ``GRID_DIR/tables``): ``runs.csv`` (one row per finished run),
 ``per_fold.csv`` (mean over seeds per configuration and fold), ``summary.csv`` (mean and std over
 folds), ``table1|2|3.csv/.tex`` (ours against the paper), ``ablation_annotations.csv/.tex``
-(revised against original labels) and ``figures/*.png|pdf``. Unfinished runs are left out and
-listed.
+(revised against original labels) and ``figures/*.png|pdf``.
+
+A grid with missing or unfinished runs, NaN metrics, unreadable metrics or stray folders is an
+error naming them (``multitask.collect``); with ``--allow-incomplete`` they are listed, and the
+configurations concerned are marked incomplete in the tables (``runs``, ``runs_expected`` and
+``complete`` columns of summary.csv; "(incomplete: n/m runs)" after the model's name).
 """
 from __future__ import annotations
 
@@ -12,20 +16,24 @@ import argparse
 import sys
 from pathlib import Path
 
-from rnn_seg.rundir import write_atomic
+from rnn_seg.rundir import RunFolderError, write_atomic
 
-from .collect import per_fold, run_rows, summary
+from .collect import (CONFIG_COLUMNS, completeness, expected_runs, per_fold, recorded_runs,
+                      run_rows, summary)
 from .figures import all_figures
 from .tables import PAPER_TABLES, annotation_ablation, paper_best, paper_comparison, to_latex
 
 
-def write_tables(grid_dir: Path, out: Path, figures: bool = True) -> list[Path]:
-    """Everything ``multitask-tables`` writes; returns the paths."""
-    runs, unfinished = run_rows(grid_dir)
-    for run_dir in unfinished:
-        print(f"not finished, left out: {run_dir}", file=sys.stderr)
+def write_tables(grid_dir: Path, out: Path, figures: bool = True,
+                 allow_incomplete: bool = False) -> list[Path]:
+    """Everything ``multitask-tables`` writes; returns the paths. ``allow_incomplete``: mark
+    configurations with missing runs instead of refusing (``collect.run_rows``)."""
+    runs, problems = run_rows(grid_dir, allow_incomplete)
+    for problem in problems:
+        print(f"incomplete: {problem}", file=sys.stderr)
     folds = per_fold(runs)
-    stats = summary(folds)
+    expected = expected_runs(grid_dir, recorded_runs(Path(grid_dir))[0])
+    stats = summary(folds).merge(completeness(runs, expected), on=CONFIG_COLUMNS, how="left")
     written = [_csv(runs, out / "runs.csv"), _csv(folds, out / "per_fold.csv"),
                _csv(stats, out / "summary.csv")]
     for table in PAPER_TABLES:
@@ -63,11 +71,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("grid_dir", type=Path, help="output folder of multitask-grid")
     parser.add_argument("--out", type=Path, help="where to write (default GRID_DIR/tables)")
     parser.add_argument("--no-figures", action="store_true")
+    parser.add_argument("--allow-incomplete", action="store_true",
+                        help="write tables although runs are missing, unfinished or unreadable, "
+                             "marking the configurations concerned incomplete")
     args = parser.parse_args(argv)
     try:
         paths = write_tables(args.grid_dir, args.out or args.grid_dir / "tables",
-                             figures=not args.no_figures)
-    except (ValueError, OSError) as error:
+                             figures=not args.no_figures, allow_incomplete=args.allow_incomplete)
+    except (ValueError, OSError, RunFolderError) as error:
         print(f"multitask-tables: error: {error}", file=sys.stderr)
         return 2
     for path in paths:
