@@ -86,9 +86,10 @@ class CheckpointStore:
             try:
                 self.checkpoint.read(str(prefix)).assert_existing_objects_matched()
             except Exception as error:          # truncated, corrupt, another model's
-                failures.append(f"{prefix}: {type(error).__name__}: {error}".splitlines()[0])
-                self.log(f"warning: cannot read checkpoint {prefix} ({failures[-1]}); "
-                         "trying the one before")
+                problem = f"{type(error).__name__}: {error}".splitlines()[0]
+                failures.append(f"{prefix}: {problem}")
+                self.log(f"warning: cannot read checkpoint {prefix} ({problem}); trying the one "
+                         "before")
                 continue
             finally:
                 gc.collect()       # drop a failed read's restore state while TensorFlow is alive

@@ -4,11 +4,12 @@
 holder exits, however it exits: the lock of a dead process is simply taken by the next one. The
 file holds the holder's pid, host and start time for the message of a second writer. A process may
 take a lock it already holds (nested ``hold_folder`` calls count). On network file systems flock
-works where the server supports it (NFSv4 and most cluster file systems); on systems without
-``fcntl`` (Windows) folders are not locked.
+works where the server supports it (NFSv4 and most cluster file systems); where it does not, a
+warning says so and the folder is used unlocked, as on systems without ``fcntl`` (Windows).
 """
 from __future__ import annotations
 
+import logging
 import os
 import socket
 from contextlib import contextmanager
@@ -24,6 +25,7 @@ except ImportError:              # pragma: no cover - Windows
     fcntl = None
 
 LOCK_FILE = ".lock"
+log = logging.getLogger(__name__)
 
 #: Folders locked by this process: resolved path -> [file descriptor, nesting depth].
 _held: dict[Path, list[int]] = {}
@@ -58,13 +60,17 @@ def _acquire(folder: Path, what: str) -> int:
         return fd
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except OSError:
-        holder = os.read(fd, 200).decode(errors="replace").split()
+    except BlockingIOError:
+        fields = os.read(fd, 200).decode(errors="replace").split()     # pid host time
         os.close(fd)
-        pid = f"pid {holder[0]} on {holder[1]} since {holder[2]}" if len(holder) == 3 else \
-            "another process"
-        raise FolderLockedError(f"{what} {folder} is in use by {pid}; wait for it to finish or "
-                                "stop it first") from None
+        holder = "another process"
+        if len(fields) == 3:
+            holder = f"pid {fields[0]} on {fields[1]} since {fields[2]}"
+        raise FolderLockedError(f"{what} {folder} is in use by {holder}; wait for it to finish "
+                                "or stop it first") from None
+    except OSError as error:              # e.g. ENOLCK: a file system without flock
+        log.warning("cannot lock %s (%s); continuing without a lock", folder, error)
+        return fd
     os.ftruncate(fd, 0)
     os.write(fd, f"{os.getpid()} {socket.gethostname()} {now()}\n".encode())
     return fd
