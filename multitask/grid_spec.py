@@ -8,7 +8,9 @@ directions), the LOUO folds, the seeds and a budget. Presets give the budget:
   default grid (22 configurations x 8 folds) takes about 80 minutes on 2 cores (results/README.md).
 
 Every run has its own directory ``runs/<annotations>/<direction>/<variant>-<weighting>/seed<k>/<user>``
-and is resumable on its own; ``finished.json`` marks it complete (``rnn_seg.rundir``).
+and is resumable on its own; ``finished.json`` marks it complete (``rnn_seg.rundir``). The path
+does not name the budget: the grid's record (``grid_record``) and each run's config.json do.
+Every key's type and range is checked when the spec is read (``GridSpec.__post_init__``).
 
 Example spec (every key optional)::
 

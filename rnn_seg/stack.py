@@ -72,7 +72,8 @@ class TrainerStack:
             active = [t for t in self.trainers if not t.finished()]
             starts = [t.resume() for t in active]
             steps: dict[tuple[int, ...], object] = {}     # one compiled step per set of members
-            for sweep in range(min(starts, default=0), self.trainers[0].total_sweeps):
+            total = self.trainers[0].total_sweeps
+            for sweep in range(min(starts, default=total), total):
                 members = tuple(k for k, start in enumerate(starts) if start <= sweep)
                 lrs = [active[k].optim.learning_rate_at(sweep, active[k].spe) for k in members]
                 if len(members) == 1:         # the plain step is faster than a stack of one

@@ -444,10 +444,12 @@ def test_stack_members_at_far_apart_checkpoints_resume_and_catch_up(tmp_path):
         _train_until(t, reached)
     assert [t.checkpoint_sweeps() for t in first] == [[4, 5], [1, 2]]   # 2 is not common
     again = [_trainer(tmp_path / f"m{s}", s, False) for s in (0, 1)]
-    TrainerStack(again).run()
+    metrics = TrainerStack(again).run()
     for a, b in zip(lone, again):
         for wa, wb in zip(_weights(a), _weights(b)):
             np.testing.assert_allclose(wb, wa, atol=2e-5)
+    done = [_trainer(tmp_path / f"m{s}", s, False) for s in (0, 1)]
+    assert TrainerStack(done).run() == metrics                 # finished: nothing to train
 
 
 def test_truncated_checkpoint_falls_back_and_leftovers_are_removed(tmp_path):
