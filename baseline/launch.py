@@ -34,7 +34,7 @@ def run_training(prog: str, out: Path, configure: Callable[[], Config],
         config = configure()
         with hold_folder(out):
             return 0, train(config)
-    except (JigsawsError, ValueError, RunFolderError) as error:
+    except (JigsawsError, ValueError, RunFolderError, OSError) as error:
         print(f"{prog}: error: {error}", file=sys.stderr)
         return EXIT_ERROR, None
     except TrainingDiverged as error:

@@ -20,6 +20,7 @@ from importlib import import_module
 _PUBLIC = {
     "EncoderConfig": "lstm",
     "SegmentationModel": "model",
+    "restore_weights": "checkpoints",
     "OptimConfig": "optim",
     "SoftmaxClassification": "tasks",
     "Task": "tasks",
