@@ -17,8 +17,7 @@ from rnn_seg.stack import train_together
 from rnn_seg.threads import configure_threads
 
 from .fold_run import variant_trainer
-from .grid_spec import RunKey, run_config, spec_from_dict
-from .variants import get_variant
+from .grid_spec import RunKey, run_arguments, spec_from_dict
 
 
 def run_job(spec: dict, keys: list[dict], out: str, cores: int, command: list[str] | None = None
@@ -41,12 +40,11 @@ def run_job(spec: dict, keys: list[dict], out: str, cores: int, command: list[st
             run_dir.mkdir(parents=True, exist_ok=True)
             logs.append(_line_writer(files.enter_context(open(run_dir / "train.log", "a"))))
         try:
-            configs = [run_config(grid, run) for run in runs]
-            dataset = load_dataset(configs[0].data)          # one configuration: one release
+            arguments = [run_arguments(grid, run) for run in runs]
+            dataset = load_dataset(arguments[0]["config"].data)   # one configuration: one release
             return train_together([
-                variant_trainer(get_variant(run.variant), run.weighting, config, run_dir,
-                                dataset=dataset, log=log)
-                for run, config, run_dir, log in zip(runs, configs, run_dirs, logs)])
+                variant_trainer(**args, run_dir=run_dir, dataset=dataset, log=log)
+                for args, run_dir, log in zip(arguments, run_dirs, logs)])
         except Exception:
             for log in logs:
                 log(traceback.format_exc())

@@ -20,8 +20,7 @@ from rnn_seg.rundir import clear_run_dir, read_json, write_json
 from rnn_seg.settings import SettingsMismatchError, check_run_dir, differences
 
 from .fold_run import variant_configs
-from .grid_spec import GridSpec, RunKey, run_config, spec_payload
-from .variants import get_variant
+from .grid_spec import GridSpec, RunKey, run_arguments, spec_payload
 
 GRID_RECORD = "grid.json"
 SHOWN = 5           # mismatching runs named in full in an error
@@ -84,10 +83,10 @@ def _mismatched_runs(out: Path, spec: GridSpec, keys: list[RunKey]
     fingerprints: dict = {}       # one data fingerprint per data configuration
     mismatched = []
     for key in keys:
-        config = run_config(spec, key)
-        configs = variant_configs(get_variant(key.variant), key.weighting, config,
-                                  fingerprint=fingerprints.get(config.data))
-        fingerprints[config.data] = configs["data_fingerprint"]
+        args = run_arguments(spec, key)
+        data = args["config"].data
+        configs = variant_configs(**args, fingerprint=fingerprints.get(data))
+        fingerprints[data] = configs["data_fingerprint"]
         try:
             check_run_dir(out / key.path(), configs)
         except SettingsMismatchError as error:

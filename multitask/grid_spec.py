@@ -44,6 +44,7 @@ from rnn_seg.trainer import TrainConfig
 from rnn_seg.validation import require_choice, require_number
 
 from .fold_run import WEIGHTINGS
+from .gradnorm import GradNormConfig
 from .variants import MULTITASK_EVAL, VARIANTS, get_variant
 
 DIRECTIONS = ("bidirectional", "forward")
@@ -113,6 +114,14 @@ def run_config(spec: GridSpec, key: RunKey) -> RunConfig:
         encoder=EncoderConfig(hidden=budget.hidden, bidirectional=key.direction == "bidirectional"),
         optim=optim,
         train=TrainConfig(seed=key.seed, eval_points=points))
+
+
+def run_arguments(spec: GridSpec, key: RunKey) -> dict:
+    """Keyword arguments of ``fold_run.variant_trainer`` (and ``variant_configs``) for one run:
+    the one place a grid run's configuration is decided. Workers train with it and
+    ``grid_record`` checks run folders against it, so the two never disagree."""
+    return {"variant": get_variant(key.variant), "weighting": key.weighting,
+            "config": run_config(spec, key), "gradnorm": GradNormConfig()}
 
 
 def stack_groups(keys: list[RunKey], size: int) -> list[list[RunKey]]:

@@ -54,7 +54,7 @@ class TrainConfig:
     #: folder is checked against (``rnn_seg.settings``), so a run may resume with other values.
     output_fields: ClassVar[tuple[str, ...]] = (
         "log_every", "checkpoint_every", "plots", "keep_checkpoints", "monitor_every",
-        "monitor_train")
+        "monitor_train", "tensorboard")
 
     batch_size: int = 5
     seed: int = 0
