@@ -18,7 +18,7 @@ WEIGHTINGS = ("fixed", "gradnorm")
 
 
 def check_weighting(variant: Variant, weighting: Weighting) -> None:
-    """Raise ``ValueError`` unless ``weighting`` exists for ``variant`` (GradNorm needs two tasks)."""
+    """Raise ``ValueError`` unless ``variant`` has ``weighting`` (GradNorm needs two tasks)."""
     if weighting not in WEIGHTINGS:
         raise ValueError(f"weighting must be one of {WEIGHTINGS}, not {weighting!r}")
     if weighting == "gradnorm" and not variant.multitask:

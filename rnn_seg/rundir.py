@@ -1,4 +1,4 @@
-"""Run directories: strict-JSON atomic writes, the files a run owns, and the marker of a finished run.
+"""Run directories: strict-JSON atomic writes, the files a run owns, the finished-run marker.
 
 Every JSON file is strict JSON (``null`` for a missing or non-finite number, never ``NaN``) and
 every file is written through a temporary file and a rename, with the user's umask.

@@ -63,7 +63,7 @@ class TrainConfig:
     log_every: int = 1                               # units between progress lines
     checkpoint_every: int = 1                        # units between checkpoints
     plots: bool = True
-    keep_checkpoints: KeepCheckpoints = "final"      # what a finished run keeps (rnn_seg.checkpoints)
+    keep_checkpoints: KeepCheckpoints = "final"      # kept by a finished run (rnn_seg.checkpoints)
 
     def __post_init__(self):
         require_number("TrainConfig.batch_size", self.batch_size, integer=True, low=1)

@@ -143,7 +143,8 @@ def test_changed_data_is_a_changed_setting(small_dir, tmp_path, capsys):
 
 
 def test_settings_hash_in_config_checkpoints_and_finished(finished_run):
-    config, finished = _strict(finished_run / "config.json"), _strict(finished_run / "finished.json")
+    config = _strict(finished_run / "config.json")
+    finished = _strict(finished_run / "finished.json")
     assert {"run", "tasks", "variant", "weighting"} <= set(config)        # existing layout kept
     assert config["settings_hash"] == finished["settings_hash"]
     sweeps = finished["sweeps"]
@@ -426,7 +427,7 @@ def test_cli_reports_divergence_without_done(small_dir, tmp_path, capsys, monkey
     assert code == 1 and "done" not in stdout
 
 
-# -- 4. checkpoints and --stack resume --------------------------------------------------------------
+# -- 4. checkpoints and --stack resume ----------------------------------------------------------
 def _train_until(trainer: Trainer, sweeps: int) -> None:
     """Train ``sweeps`` sweeps and stop, as if killed right after the checkpoint."""
     start = trainer.resume()
@@ -518,7 +519,7 @@ def test_restore_weights_of_the_final_and_an_evaluation_point(finished_run, tmp_
         restore_weights(final_only.model, final_only.run_dir, point=3)
 
 
-# -- 6. provenance, strict JSON, umask ---------------------------------------------------------------
+# -- 6. provenance, strict JSON, umask ----------------------------------------------------------
 def test_every_json_of_a_finished_run_is_strict_with_provenance(finished_run):
     files = sorted(finished_run.rglob("*.json"))
     assert len(files) >= 5
@@ -545,7 +546,7 @@ def test_json_is_strict_and_files_follow_the_umask(tmp_path):
         assert (tmp_path / f"f{umask}").stat().st_mode & 0o777 == 0o666 & ~umask
 
 
-# -- 6 (issue). tables refuse incomplete evidence ---------------------------------------------------
+# -- 6 (issue). tables refuse incomplete evidence ----------------------------------------------
 def _fake_grid(root: Path) -> Path:
     """A finished two-fold grid of A-fixed, written by hand (no training)."""
     runs = [f"runs/revised/bidirectional/A-fixed/seed0/{fold}" for fold in "BC"]
