@@ -2,7 +2,8 @@
 
 Read first: ``builder.train_baseline`` (one LOUO fold from a ``config.RunConfig``), then
 ``builder.build_trainer``, which the multi-task variants reuse. ``options`` holds the command-line
-options every training CLI shares; ``cli`` is ``baseline-train``.
+options every training CLI shares, ``launch`` how they run (lock, errors, Ctrl-C); ``cli`` is
+``baseline-train``.
 """
 from importlib import import_module
 

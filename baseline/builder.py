@@ -1,11 +1,13 @@
 """Model "A": DiPietro et al.'s BiLSTM gesture recogniser (and its forward-LSTM online twin)."""
 from __future__ import annotations
 
+import logging
 import time
 from pathlib import Path
 from typing import Callable, Sequence
 
-from jigsaws_tools.dataset import Dataset, Trial, load_dataset
+from jigsaws_tools.dataset import DataConfig, Dataset, Trial, cache_key, load_dataset
+from jigsaws_tools.release import discover
 from jigsaws_tools.task_definition import TaskDefinition
 from rnn_seg.model import SegmentationModel
 from rnn_seg.tasks import SoftmaxClassification, Task
@@ -34,6 +36,27 @@ def to_sequences(trials: Sequence[Trial], tasks: Sequence[Task]) -> SequenceSet:
 TrainerFactory = Callable[..., Trainer]
 
 
+def data_fingerprint(data: DataConfig) -> str:
+    """Hash of the data options and the content of the release files a run reads (the dataset
+    cache's key): part of every run's settings, so changed data never resumes old weights."""
+    release_log = logging.getLogger("jigsaws_tools.release")
+    level = release_log.level
+    release_log.setLevel(logging.ERROR)      # loading the data reports incomplete trials already
+    try:
+        return cache_key(data, discover(data.data_dir, data.task))
+    finally:
+        release_log.setLevel(level)
+
+
+def run_configs(config: RunConfig, tasks: Sequence[Task], extra_configs: dict | None = None,
+                fingerprint: str | None = None) -> dict:
+    """What a run's config.json records and its folder is checked against: the run
+    configuration, the task names, ``extra_configs`` (variant, weighting, ...) and the data
+    fingerprint (computed unless given)."""
+    return {"run": config, "tasks": [t.name for t in tasks], **(extra_configs or {}),
+            "data_fingerprint": fingerprint or data_fingerprint(config.data)}
+
+
 def build_trainer(config: RunConfig, tasks: Sequence[Task], run_dir: Path,
                   dataset: Dataset | None = None, trainer: TrainerFactory = Trainer,
                   extra_configs: dict | None = None, log: Callable[[str], None] = print) -> Trainer:
@@ -44,15 +67,16 @@ def build_trainer(config: RunConfig, tasks: Sequence[Task], run_dir: Path,
     loading = time.perf_counter() - began
     train, test = dataset.louo_split(config.test_user)
     model = SegmentationModel(dataset.num_features, config.encoder, tasks, config.train.seed)
-    configs = {"run": config, "tasks": [t.name for t in tasks], **(extra_configs or {})}
     built = trainer(model, tasks, config.optim, config.train, to_sequences(train, tasks),
-                    to_sequences(test, tasks), run_dir, configs,
+                    to_sequences(test, tasks), run_dir, run_configs(config, tasks, extra_configs),
                     config.data.preprocessing.sample_hz, log=log)
     built.clock.add("data", loading)
     return built
 
 
 def train_baseline(config: RunConfig, run_dir: Path, dataset: Dataset | None = None,
-                   log: Callable[[str], None] = print) -> dict:
-    """Train model A on one fold; returns the run's metrics (see ``rnn_seg.trainer``)."""
-    return build_trainer(config, [gesture_task(config.data.task)], run_dir, dataset, log=log).run()
+                   log: Callable[[str], None] = print, restart: bool = False) -> dict:
+    """Train model A on one fold; returns the run's metrics (see ``rnn_seg.trainer``).
+    ``restart``: delete a previous run's config and results in ``run_dir`` first."""
+    return build_trainer(config, [gesture_task(config.data.task)], run_dir, dataset,
+                         log=log).run(restart)

@@ -6,11 +6,13 @@ import logging
 import os
 import sys
 
-from jigsaws_tools.errors import JigsawsError
 from rnn_seg.optim import OptimConfig
+from rnn_seg.provenance import set_command
 from rnn_seg.threads import configure_threads
 
 from .builder import train_baseline
+from .config import RunConfig
+from .launch import run_training
 from .options import add_run_arguments, run_config_from_args
 
 
@@ -20,14 +22,21 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="baseline-train", description=__doc__)
     add_run_arguments(parser, OptimConfig())
     args = parser.parse_args(argv)
-    try:
-        configure_threads(args.threads, args.hidden)
+    set_command(["baseline-train", *(sys.argv[1:] if argv is None else argv)])
+
+    def configure() -> RunConfig:
         config = run_config_from_args(args, OptimConfig())
+        configure_threads(args.threads, args.hidden)
         print(config.describe(), flush=True)
-        result = train_baseline(config, args.out, log=lambda m: print(m, flush=True))
-    except (JigsawsError, ValueError) as error:
-        print(f"baseline-train: error: {error}", file=sys.stderr)
-        return 2
+        return config
+
+    def train(config: RunConfig) -> dict:
+        return train_baseline(config, args.out, log=lambda m: print(m, flush=True),
+                              restart=args.restart)
+
+    code, result = run_training("baseline-train", args.out, configure, train)
+    if result is None:
+        return code
     mean = result["mean"]["gesture"]
     print(f"done: gesture accuracy {mean['accuracy']:.1f}, edit {mean['edit']:.1f}, "
           f"F1@10 {mean['f1@10']:.1f} (mean over evaluation points); outputs in {args.out}")

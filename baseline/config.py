@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 from jigsaws_tools.dataset import DataConfig
 from rnn_seg.lstm import EncoderConfig
 from rnn_seg.optim import OptimConfig
-from rnn_seg.trainer import TrainConfig
+from rnn_seg.trainer import TrainConfig, check_eval_points
 
 
 @dataclass(frozen=True)
@@ -18,6 +18,11 @@ class RunConfig:
     encoder: EncoderConfig = field(default_factory=EncoderConfig)
     optim: OptimConfig = field(default_factory=OptimConfig)
     train: TrainConfig = field(default_factory=TrainConfig)
+
+    def __post_init__(self):
+        if not isinstance(self.test_user, str) or not self.test_user:
+            raise ValueError(f"RunConfig.test_user must be a user letter (got {self.test_user!r})")
+        check_eval_points(self.train.eval_points, self.optim)
 
     def describe(self) -> str:
         """Printable multi-line summary of every field."""

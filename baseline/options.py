@@ -13,9 +13,10 @@ from jigsaws_tools.dataset import DataConfig, default_cache_dir, default_data_di
 from jigsaws_tools.features import FEATURE_SETS
 from jigsaws_tools.synth import SynthConfig, ensure_release
 from jigsaws_tools.task_options import add_task_options, task_from_options
+from rnn_seg.checkpoints import KEEP_CHECKPOINTS
 from rnn_seg.lstm import PRECISIONS, RESET_MODES, EncoderConfig
 from rnn_seg.optim import OptimConfig
-from rnn_seg.trainer import PLOT_POINTS, PREDICTION_MODES, TrainConfig
+from rnn_seg.trainer import PLOT_POINTS, PREDICTION_MODES, TrainConfig, check_eval_points
 
 from .config import RunConfig
 
@@ -80,37 +81,58 @@ def add_run_arguments(parser: argparse.ArgumentParser, optim: OptimConfig) -> No
                      help="cores for this run (0 = all), split between TensorFlow's thread pools "
                           "as rnn_seg.threads measures best")
     run.add_argument("--out", type=Path, required=True, help="run directory")
+    run.add_argument("--restart", action="store_true",
+                     help="delete the run directory's previous config and results and train "
+                          "afresh (needed when it holds a run with other settings)")
+    run.add_argument("--keep-checkpoints", choices=KEEP_CHECKPOINTS, default=train.keep_checkpoints,
+                     help="what a finished run keeps: its final weights, also the weights of "
+                          "every evaluation point, or every checkpoint")
 
 
 def run_config_from_args(args: argparse.Namespace, optim: OptimConfig,
                          eval_points: tuple[int, ...] = TrainConfig.eval_points) -> RunConfig:
     """Build the run's configuration from parsed options over the defaults in ``optim``;
-    ``eval_points`` apply when the schedule keeps its default length, else the last unit."""
+    ``eval_points`` apply when the schedule keeps its default length, else the last unit. Every
+    value is checked by the configuration dataclasses (``ValueError`` naming field, range and
+    value) before the data is read."""
     task = task_from_options(args)
+    if args.sweeps is not None:
+        unit, total = "sweeps", args.sweeps
+    else:
+        unit, total = "epochs", optim.total if args.epochs is None else args.epochs
+    default_length = unit == "epochs" and total == optim.total
+    decay_start = args.decay_start if args.decay_start is not None else (
+        optim.decay_start if default_length else (2 * total) // 3)
+    if args.eval_at is not None:
+        eval_points = _parse_points(args.eval_at)
+    else:
+        eval_points = eval_points if default_length else (total,)
+    encoder = EncoderConfig(hidden=args.hidden, layers=args.layers,
+                            bidirectional=args.direction == "bidirectional",
+                            keep_prob=args.keep_prob, init_scale=args.init_scale,
+                            reset_mode=args.reset_mode, precision=args.precision)
+    optim = OptimConfig(learning_rate=args.lr, momentum=args.momentum, clip_norm=args.clip_norm,
+                        unit=unit, total=total, decay_start=decay_start,
+                        decay_every=args.decay_every, decay_factor=args.decay_factor)
+    train = TrainConfig(batch_size=args.batch_size, seed=args.seed, eval_points=eval_points,
+                        prediction=args.prediction, plots=args.plots,
+                        monitor_every=args.monitor_every, monitor_train=args.monitor_train,
+                        tensorboard=args.tensorboard, keep_checkpoints=args.keep_checkpoints)
+    check_eval_points(eval_points, optim)
     if args.synthetic:
         data_dir = ensure_release(default_cache_dir(), SynthConfig(seed=args.synthetic_seed), task)
     else:
         data_dir = args.data_dir or default_data_dir(task.name)
-    unit, total = ("sweeps", args.sweeps) if args.sweeps else ("epochs", args.epochs or optim.total)
-    default_length = unit == "epochs" and total == optim.total
-    decay_start = args.decay_start if args.decay_start is not None else (
-        optim.decay_start if default_length else (2 * total) // 3)
-    if args.eval_at:
-        eval_points = tuple(int(p) for p in args.eval_at.split(","))
-    else:
-        eval_points = eval_points if default_length else (total,)
-    return RunConfig(
-        data=DataConfig(str(data_dir), feature_set=args.features, annotations=args.annotations,
-                        task=task),
-        test_user=args.test_user,
-        encoder=EncoderConfig(hidden=args.hidden, layers=args.layers,
-                              bidirectional=args.direction == "bidirectional",
-                              keep_prob=args.keep_prob, init_scale=args.init_scale,
-                              reset_mode=args.reset_mode, precision=args.precision),
-        optim=OptimConfig(learning_rate=args.lr, momentum=args.momentum, clip_norm=args.clip_norm,
-                          unit=unit, total=total, decay_start=decay_start,
-                          decay_every=args.decay_every, decay_factor=args.decay_factor),
-        train=TrainConfig(batch_size=args.batch_size, seed=args.seed, eval_points=eval_points,
-                          prediction=args.prediction, plots=args.plots,
-                          monitor_every=args.monitor_every, monitor_train=args.monitor_train,
-                          tensorboard=args.tensorboard))
+    data = DataConfig(str(data_dir), feature_set=args.features, annotations=args.annotations,
+                      task=task)
+    return RunConfig(data=data, test_user=args.test_user, encoder=encoder, optim=optim,
+                     train=train)
+
+
+def _parse_points(text: str) -> tuple[int, ...]:
+    """``"100,110,120"`` -> ``(100, 110, 120)``; anything else is a ``ValueError`` naming it."""
+    try:
+        return tuple(int(p) for p in text.split(","))
+    except ValueError:
+        raise ValueError(f"--eval-at must be comma-separated integers, e.g. 100,110,120 "
+                         f"(got {text!r})") from None

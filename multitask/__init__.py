@@ -5,8 +5,9 @@ Read first: ``variants.VARIANTS`` (A, APr, APc, APoc, Pr, Pc, Poc), then ``fold_
 run: ``trained_run.load_run`` (its ``predict`` labels a recording's kinematics).
 
 * ``heads``: the progress heads (regression, classification, ordered classification);
-* ``grid_spec``: TOML specs, presets, the runs they expand to; ``grid_job``: one worker's job;
-  ``grid_executors``: the local process pool and Dask;
+* ``grid_spec``: TOML specs, presets, the runs they expand to; ``grid_record``: grid.json and
+  the check of a grid folder; ``grid_job``: one worker's job; ``grid_executors``: the local process
+  pool and Dask;
 * ``collect``, ``tables``, ``figures``: results of a grid as the paper's tables and figures;
   ``paper_results``: the published numbers;
 * ``paired``: paired statistics of two configurations over folds and seeds; ``claims``: the

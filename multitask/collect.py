@@ -1,6 +1,13 @@
 """Gather a grid's finished runs into tables: one row per run, per fold, per configuration.
 
-Only runs with ``finished.json`` count; half-written runs are ignored (and reported).
+Tables refuse incomplete evidence. Against the grid's own record of its runs (grid.json), every
+recorded run must be finished with a readable ``metrics.json`` whose metrics are finite (NaN is
+allowed only for a per-class accuracy, ``<task>_accuracy_<class>``: the class is absent from that
+fold's test trials), and every folder under ``runs/`` must be a recorded run (a stray copy such as
+``C.old`` is not a fold). Otherwise ``IncompleteEvidence`` names every problem; with
+``allow_incomplete`` the problems are returned instead and the configurations they touch are
+marked incomplete (``completeness``), never silently averaged over fewer runs.
+
 Metric columns are ``<task>_<metric>``: ``gesture_accuracy``, ``gesture_edit``,
 ``gesture_f1@10``, ``gesture_accuracy_G1`` ..., ``progress_accuracy``, ``progress_edit``,
 ``progress_f1@10``, ``progress_mae`` (normalised MAE of the regression output rounded to the
@@ -13,6 +20,7 @@ schedule).
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import asdict, fields
 from pathlib import Path
 
@@ -20,7 +28,7 @@ import numpy as np
 import pandas as pd
 
 from jigsaws_tools.task_definition import PAPER_TASK
-from rnn_seg.rundir import is_finished
+from rnn_seg.rundir import RunFolderError, is_finished, read_json
 
 from .grid_spec import RunKey
 
@@ -42,26 +50,104 @@ def key_from_path(run_dir: Path, root: Path) -> RunKey:
     return RunKey(annotations, direction, variant, weighting, int(seed.removeprefix("seed")), fold)
 
 
-def run_rows(grid_dir: Path | str) -> tuple[pd.DataFrame, list[Path]]:
-    """One row per finished run (key columns + metrics); also the unfinished run folders."""
+class IncompleteEvidence(ValueError):
+    """A grid's runs do not support complete tables; the message names every problem."""
+
+
+def run_rows(grid_dir: Path | str, allow_incomplete: bool = False
+             ) -> tuple[pd.DataFrame, list[str]]:
+    """One row per usable run (key columns + metrics), and the problems found (see the module
+    docstring): ``IncompleteEvidence`` unless ``allow_incomplete``."""
     root = Path(grid_dir)
-    rows, unfinished = [], []
-    for metrics_dir in sorted((root / "runs").glob("*/*/*/seed*/*")):
-        if not is_finished(metrics_dir):
-            unfinished.append(metrics_dir)
-            continue
-        key = key_from_path(metrics_dir, root)
-        metrics = json.loads((metrics_dir / "metrics.json").read_text())
-        row = asdict(key)
-        convergence = metrics.get("convergence", {})
-        row.update(converged=convergence.get("converged"),
-                   loss_drop=convergence.get("max_loss_drop"))
-        for task, values in metrics["mean"].items():
-            row.update({f"{task}_{_RENAME.get(k, k)}": v for k, v in values.items()})
-        rows.append(row)
+    recorded, problems = recorded_runs(root)
+    problems += [f"stray folder, not a run of this grid: {path}"
+                 for path in _stray_folders(root, recorded)]
+    rows = []
+    for run in recorded:
+        row = _run_row(root, run, problems)
+        if row is not None:
+            rows.append(row)
+    if problems and not allow_incomplete:
+        raise IncompleteEvidence(
+            f"{root}: incomplete evidence, no tables written:\n  " + "\n  ".join(problems)
+            + "\nFinish the runs (re-run multitask-grid), remove stray folders, or pass "
+              "--allow-incomplete to mark the configurations concerned incomplete.")
     if not rows:
-        raise ValueError(f"{root}: no finished runs under {root / 'runs'}")
-    return pd.DataFrame(rows), unfinished
+        raise IncompleteEvidence(f"{root}: no finished runs under {root / 'runs'}")
+    return pd.DataFrame(rows), problems
+
+
+def recorded_runs(root: Path) -> tuple[list[Path], list[str]]:
+    """The run folders (relative to ``root``) grid.json records, and problems: without a record,
+    the folders found that look like runs, and a problem saying so."""
+    record = root / "grid.json"
+    if record.is_file():
+        return [Path(run) for run in read_json(record)["runs"]], []
+    found = [p.relative_to(root) for p in sorted((root / "runs").glob("*/*/*/seed*/*"))
+             if p.is_dir()]
+    return found, [f"{record} missing: which runs the grid should have is unknown"]
+
+
+def expected_runs(root: Path | str, recorded: list[Path]) -> pd.DataFrame:
+    """Key columns of the runs ``recorded`` (the grid's record), for ``completeness``."""
+    return pd.DataFrame([asdict(key_from_path(Path(root) / run, Path(root))) for run in recorded],
+                        columns=KEY_COLUMNS)
+
+
+def completeness(runs: pd.DataFrame, expected: pd.DataFrame) -> pd.DataFrame:
+    """Per configuration: ``runs`` usable, ``runs_expected`` by the record, and ``complete``."""
+    usable = runs.groupby(CONFIG_COLUMNS).size().rename("runs")
+    wanted = expected.groupby(CONFIG_COLUMNS).size().rename("runs_expected")
+    table = pd.concat([usable, wanted], axis=1).fillna(0).astype(int).reset_index()
+    table["complete"] = table["runs"] == table["runs_expected"]
+    return table
+
+
+def _run_row(root: Path, run: Path, problems: list[str]) -> dict | None:
+    """Key columns and mean metrics of the finished run ``root / run``; None (and a problem)
+    when it is missing, unfinished, unreadable or has a NaN metric."""
+    run_dir = root / run
+    if not is_finished(run_dir):
+        problems.append(f"not finished: {run_dir}")
+        return None
+    try:
+        metrics = read_json(run_dir / "metrics.json")
+        mean = metrics["mean"]
+    except (RunFolderError, KeyError, TypeError) as error:
+        problems.append(f"unreadable metrics: {error}")
+        return None
+    row = asdict(key_from_path(run_dir, root))
+    convergence = metrics.get("convergence") or {}
+    row.update(converged=convergence.get("converged"), loss_drop=convergence.get("max_loss_drop"))
+    for task, values in mean.items():
+        for name, value in values.items():
+            value = math.nan if value is None else value
+            if not isinstance(value, (int, float)) or (math.isnan(value) and not _per_class(name)):
+                problems.append(f"{task}_{name} is {value!r}, not a number: "
+                                f"{run_dir / 'metrics.json'}")
+                return None
+            row[f"{task}_{_RENAME.get(name, name)}"] = value
+    return row
+
+
+def _per_class(metric: str) -> bool:
+    """Whether ``metric`` is a per-class accuracy (NaN when the class is absent)."""
+    return metric.startswith("accuracy_") and metric != "accuracy_pooled"
+
+
+def _stray_folders(root: Path, recorded: list[Path]) -> list[Path]:
+    """Folders under ``root/runs`` that are neither a recorded run nor on the way to one."""
+    runs = set(recorded)
+    ancestors = {parent for run in recorded for parent in run.parents}
+    stray, todo = [], [root / "runs"] if (root / "runs").is_dir() else []
+    while todo:
+        for child in sorted(p for p in todo.pop().iterdir() if p.is_dir()):
+            relative = child.relative_to(root)
+            if relative in ancestors:
+                todo.append(child)
+            elif relative not in runs:
+                stray.append(child)
+    return sorted(stray)
 
 
 def grid_task_name(grid_dir: Path | str) -> str:

@@ -5,8 +5,8 @@ from functools import partial
 from pathlib import Path
 from typing import Callable, Literal
 
+from baseline.builder import build_trainer, run_configs
 from baseline.config import RunConfig
-from baseline.builder import build_trainer
 from jigsaws_tools.dataset import Dataset
 from rnn_seg.trainer import Trainer
 
@@ -18,6 +18,36 @@ Weighting = Literal["fixed", "gradnorm"]
 WEIGHTINGS = ("fixed", "gradnorm")
 
 
+def check_weighting(variant: Variant, weighting: Weighting) -> None:
+    """Raise ``ValueError`` unless ``variant`` has ``weighting`` (GradNorm needs two tasks)."""
+    if weighting not in WEIGHTINGS:
+        raise ValueError(f"weighting must be one of {WEIGHTINGS}, not {weighting!r}")
+    if weighting == "gradnorm" and not variant.multitask:
+        raise ValueError(f"GradNorm needs two tasks; variant {variant.name} has one")
+
+
+def variant_extra(variant: Variant, weighting: Weighting, gradnorm: GradNormConfig,
+                  heads: HeadConfig) -> dict:
+    """What config.json records of a variant beyond its ``RunConfig`` and tasks: the GradNorm
+    settings of a GradNorm run, the head settings of an ordered progress head."""
+    check_weighting(variant, weighting)
+    extra = {"variant": variant.name, "weighting": weighting}
+    if weighting == "gradnorm":
+        extra["gradnorm"] = gradnorm
+    if variant.progress == "oc":
+        extra["heads"] = heads
+    return extra
+
+
+def variant_configs(variant: Variant, weighting: Weighting, config: RunConfig,
+                    gradnorm: GradNormConfig = GradNormConfig(),
+                    fingerprint: str | None = None, heads: HeadConfig = HeadConfig()) -> dict:
+    """The record (and settings) of a run of ``variant``, as ``variant_trainer`` writes it to
+    config.json; ``fingerprint``: the data's, computed unless given."""
+    return run_configs(config, variant.tasks(config.data.task, heads),
+                       variant_extra(variant, weighting, gradnorm, heads), fingerprint)
+
+
 def variant_trainer(variant: Variant, weighting: Weighting, config: RunConfig, run_dir: Path,
                     gradnorm: GradNormConfig = GradNormConfig(), dataset: Dataset | None = None,
                     log: Callable[[str], None] = print, heads: HeadConfig = HeadConfig()
@@ -25,23 +55,17 @@ def variant_trainer(variant: Variant, weighting: Weighting, config: RunConfig, r
     """A ready trainer of ``variant`` on ``run_dir``'s fold; ``fixed`` uses w1 = w2 = 1 (the
     baseline's trainer, unchanged), ``gradnorm`` the GradNorm trainer; ``heads`` configures the
     progress head's loss."""
-    if weighting not in WEIGHTINGS:
-        raise ValueError(f"weighting must be one of {WEIGHTINGS}, not {weighting!r}")
-    if weighting == "gradnorm" and not variant.multitask:
-        raise ValueError(f"GradNorm needs two tasks; variant {variant.name} has one")
-    extra = {"variant": variant.name, "weighting": weighting, "heads": heads}
-    trainer = Trainer
-    if weighting == "gradnorm":
-        extra["gradnorm"] = gradnorm
-        trainer = partial(GradNormTrainer, gradnorm=gradnorm)
+    extra = variant_extra(variant, weighting, gradnorm, heads)
+    trainer = partial(GradNormTrainer, gradnorm=gradnorm) if weighting == "gradnorm" else Trainer
     return build_trainer(config, variant.tasks(config.data.task, heads), run_dir, dataset,
-                         trainer=trainer,
-                         extra_configs=extra, log=log)
+                         trainer=trainer, extra_configs=extra, log=log)
 
 
 def train_variant(variant: Variant, weighting: Weighting, config: RunConfig, run_dir: Path,
                   gradnorm: GradNormConfig = GradNormConfig(), dataset: Dataset | None = None,
-                  log: Callable[[str], None] = print, heads: HeadConfig = HeadConfig()) -> dict:
-    """Train ``variant`` on one fold (see ``variant_trainer``); returns the run's metrics."""
+                  log: Callable[[str], None] = print, heads: HeadConfig = HeadConfig(),
+                  restart: bool = False) -> dict:
+    """Train ``variant`` on one fold (see ``variant_trainer``); returns the run's metrics.
+    ``restart``: delete a previous run's config and results in ``run_dir`` first."""
     return variant_trainer(variant, weighting, config, run_dir, gradnorm, dataset, log,
-                           heads).run()
+                           heads).run(restart)

@@ -5,11 +5,20 @@ Each job is ``grid_job.run_job`` on a group of up to ``stack`` run directories o
 (``finished.json``) are skipped, interrupted ones resume from their checkpoints inside the job.
 Progress lines give done/total and an ETA from the durations of the runs finished in this
 invocation.
+
+Local workers die with the grid process (``PR_SET_PDEATHSIG`` on Linux, a watchdog thread
+elsewhere) and ignore Ctrl-C: on Ctrl-C the grid cancels the queued jobs, stops the running ones
+at once and re-raises ``KeyboardInterrupt``; every interrupted run resumes from its last
+checkpoint next time. On Dask, queued jobs are cancelled; running ones end on their workers.
 """
 from __future__ import annotations
 
+import ctypes
 import multiprocessing
 import os
+import signal
+import sys
+import threading
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import asdict
@@ -17,6 +26,7 @@ from datetime import timedelta
 from pathlib import Path
 from typing import Callable
 
+from rnn_seg.provenance import command
 from rnn_seg.rundir import is_finished
 
 from .grid_job import run_job
@@ -53,6 +63,7 @@ def run_grid(spec: GridSpec, keys: list[RunKey], out: Path, workers: int = 1,
              scheduler: str | None = None, cores_per_job: int = 0, stack: int = 1,
              log: Log = print) -> list[tuple[RunKey, str]]:
     """Run every unfinished run of ``keys`` under ``out``; returns the failures (key, message).
+    Check the folders first (``grid_record.prepare_grid``): a finished run counts as done here.
 
     ``scheduler``: address of a Dask scheduler (``tcp://host:8786``); ``out`` must then be a folder
     every worker sees at the same path. ``cores_per_job`` 0 = this machine's cores / ``workers``
@@ -76,18 +87,53 @@ def run_grid(spec: GridSpec, keys: list[RunKey], out: Path, workers: int = 1,
 
 
 def _job_args(payload: dict, group: list[RunKey], out: Path, cores: int) -> tuple:
-    return payload, [asdict(key) for key in group], str(out), cores
+    return payload, [asdict(key) for key in group], str(out), cores, command()
 
 
 def _run_local(payload: dict, groups: list[list[RunKey]], out: Path, workers: int, cores: int,
                progress: Progress) -> None:
     """A pool of fresh processes (one per job, so no TensorFlow state carries over)."""
-    context = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(workers, mp_context=context, max_tasks_per_child=1) as pool:
+    pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
+                               max_tasks_per_child=1, initializer=_init_worker,
+                               initargs=(os.getpid(),))
+    try:
         futures = {pool.submit(run_job, *_job_args(payload, group, out, cores)): group
                    for group in groups}
         for future in as_completed(futures):
             progress.finished_group(futures[future], future.exception())
+    except BaseException:
+        _stop_pool(pool)
+        raise
+    pool.shutdown()
+
+
+def _stop_pool(pool: ProcessPoolExecutor) -> None:
+    """Cancel the queued jobs and end the running ones now (their runs resume later)."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())   # no public API < 3.14
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        process.terminate()
+    for process in processes:
+        process.join(timeout=10)
+
+
+def _init_worker(parent: int) -> None:
+    """In each local worker: leave Ctrl-C to the grid process, and die with it."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    if sys.platform.startswith("linux"):
+        pr_set_pdeathsig = 1
+        if ctypes.CDLL(None, use_errno=True).prctl(pr_set_pdeathsig, signal.SIGTERM) == 0:
+            if os.getppid() != parent:           # the parent died before prctl
+                os.kill(os.getpid(), signal.SIGTERM)
+            return
+    threading.Thread(target=_watch_parent, args=(parent,), daemon=True).start()
+
+
+def _watch_parent(parent: int) -> None:
+    """Portable fallback of ``PR_SET_PDEATHSIG``: end this process once it is orphaned."""
+    while os.getppid() == parent:
+        time.sleep(1.0)
+    os.kill(os.getpid(), signal.SIGTERM)
 
 
 def _run_dask(payload: dict, groups: list[list[RunKey]], out: Path, address: str, cores: int,
@@ -103,5 +149,9 @@ def _run_dask(payload: dict, groups: list[list[RunKey]], out: Path, address: str
                                  key=f"runs-{'-'.join(map(str, asdict(group[0]).values()))}"
                                      f"-x{len(group)}"): group
                    for group in groups}
-        for future in dask_completed(futures):
-            progress.finished_group(futures[future], future.exception())
+        try:
+            for future in dask_completed(futures):
+                progress.finished_group(futures[future], future.exception())
+        except BaseException:
+            client.cancel(list(futures))
+            raise

@@ -8,7 +8,9 @@ directions), the LOUO folds, the seeds and a budget. Presets give the budget:
   default grid (22 configurations x 8 folds) takes about 80 minutes on 2 cores (results/README.md).
 
 Every run has its own directory ``runs/<annotations>/<direction>/<variant>-<weighting>/seed<k>/<user>``
-and is resumable on its own; ``finished.json`` marks it complete (``rnn_seg.rundir``).
+and is resumable on its own; ``finished.json`` marks it complete (``rnn_seg.rundir``). The path
+does not name the budget: the grid's record (``grid_record``) and each run's config.json do.
+Every key's type and range is checked when the spec is read (``GridSpec.__post_init__``).
 
 Example spec (every key optional)::
 
@@ -44,143 +46,27 @@ from jigsaws_tools.synth import SynthConfig, ensure_release
 from jigsaws_tools.task_definition import PAPER_TASK, TaskDefinition, load_task
 from rnn_seg.lstm import PRECISIONS, EncoderConfig
 from rnn_seg.trainer import TrainConfig
+from rnn_seg.validation import require_choice, require_number
 
 from .fold_run import WEIGHTINGS
-from .gradnorm import GradNormConfig
-from .heads import HeadConfig
+from .gradnorm import RELATIVE_RATES, GradNormConfig
+from .heads import ORDINAL_LOSSES, HeadConfig
 from .variants import MULTITASK_EVAL, VARIANTS, get_variant
 
 DIRECTIONS = ("bidirectional", "forward")
 PAPER_EPOCHS = MULTITASK_EVAL[-1]
 
 
-@dataclass(frozen=True)
-class Budget:
-    """Model size, schedule length and seeds of a preset."""
-
-    hidden: int
-    schedule_scale: float           # multiplies every epoch count of the paper's schedules
-    seeds: tuple[int, ...]
+def _tuple(value):
+    """A list (TOML array) as a tuple; anything else unchanged, for the dataclasses to check."""
+    return tuple(value) if isinstance(value, list) else value
 
 
-PRESETS = {"paper": Budget(hidden=1024, schedule_scale=1.0, seeds=(0, 1, 2)),
-           "quick": Budget(hidden=128, schedule_scale=0.25, seeds=(0,))}
-
-
-@dataclass(frozen=True)
-class Experiment:
-    """A product of configurations; combinations that do not exist (GradNorm on one task) are
-    skipped."""
-
-    variants: tuple[str, ...]
-    weightings: tuple[str, ...] = ("fixed",)
-    annotations: tuple[str, ...] = ("revised",)
-    directions: tuple[str, ...] = ("bidirectional",)
-
-    def __post_init__(self):
-        for value, allowed, what in ((self.variants, VARIANTS, "variant"),
-                                     (self.weightings, WEIGHTINGS, "weighting"),
-                                     (self.annotations, ANNOTATION_VERSIONS, "annotation version"),
-                                     (self.directions, DIRECTIONS, "direction")):
-            for item in value:
-                if item not in allowed:
-                    raise ValueError(f"unknown {what} {item!r}; choose from {', '.join(allowed)}")
-
-
-ALL_VARIANTS = tuple(VARIANTS)
-#: The paper's evidence: Table I (revised labels), the same on the original labels (Table II and the
-#: annotation ablation) and the online models of Table III.
-PAPER_EXPERIMENTS = (
-    Experiment(ALL_VARIANTS, WEIGHTINGS, ("revised", "original")),
-    Experiment(("A", "APc"), ("fixed",), ("revised",), ("forward",)),
-)
-
-
-@dataclass(frozen=True)
-class GridSpec:
-    """A whole grid; ``None`` budget fields take the preset's value."""
-
-    preset: str = "quick"
-    task: str = PAPER_TASK          # a built-in task's name or a definition file's path
-    data: str = ""                  # "" = $JIGSAWS_DIR or the default folder; "synthetic"
-    folds: tuple[str, ...] = ()     # () = every user of the release
-    seeds: tuple[int, ...] | None = None
-    hidden: int | None = None
-    epochs: int | None = None
-    precision: str = EncoderConfig.precision
-    ordinal_loss: str = HeadConfig.ordinal_loss
-    relative_rate: str = GradNormConfig.relative_rate
-    experiments: tuple[Experiment, ...] = PAPER_EXPERIMENTS
-
-    def __post_init__(self):
-        if self.preset not in PRESETS:
-            raise ValueError(f"unknown preset {self.preset!r}; choose from {', '.join(PRESETS)}")
-        self.heads, self.gradnorm          # validate both
-        if self.precision not in PRECISIONS:
-            raise ValueError(f"precision must be one of {PRECISIONS}, not {self.precision!r}")
-        self.task_definition()          # a bad task fails here, not in every worker
-
-    @property
-    def heads(self) -> HeadConfig:
-        return HeadConfig(ordinal_loss=self.ordinal_loss)
-
-    @property
-    def gradnorm(self) -> GradNormConfig:
-        return GradNormConfig(relative_rate=self.relative_rate)
-
-    @property
-    def budget(self) -> Budget:
-        base = PRESETS[self.preset]
-        scale = self.epochs / PAPER_EPOCHS if self.epochs else base.schedule_scale
-        return Budget(hidden=self.hidden or base.hidden, schedule_scale=scale,
-                      seeds=self.seeds if self.seeds is not None else base.seeds)
-
-    def task_definition(self) -> TaskDefinition:
-        return load_task(self.task)
-
-    def data_dir(self) -> Path:
-        if self.data == "synthetic":
-            return ensure_release(default_cache_dir(), SynthConfig(), self.task_definition())
-        return Path(self.data) if self.data else default_data_dir(self.task_definition().name)
-
-    def with_absolute_paths(self) -> GridSpec:
-        """This spec with its data folder and task file as absolute paths, so that every worker
-        (and grid.json) sees the same ones."""
-        task = str(Path(self.task).resolve()) if self.task.endswith(".toml") else self.task
-        return replace(self, data=str(self.data_dir().resolve()), task=task)
-
-
-def load_spec(path: Path | str) -> GridSpec:
-    """Parse a TOML spec; unknown keys are errors naming the file and the key."""
-    path = Path(path)
-    try:
-        raw = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as error:
-        raise ValueError(f"{path}: not valid TOML: {error}") from None
-    return spec_from_dict(raw, source=str(path))
-
-
-def spec_from_dict(raw: dict, source: str = "spec") -> GridSpec:
-    known = {f.name for f in fields(GridSpec)}
-    unknown = set(raw) - known
-    if unknown:
-        raise ValueError(f"{source}: unknown key(s) {', '.join(sorted(unknown))}; "
-                         f"known: {', '.join(sorted(known))}")
-    values = {k: v for k, v in raw.items() if v is not None}
-    if "experiments" in values:
-        values["experiments"] = tuple(_experiment(e, source) for e in values["experiments"])
-    for key in ("folds", "seeds"):
-        if key in values:
-            values[key] = tuple(values[key])
-    return GridSpec(**values)
-
-
-def _experiment(raw: dict, source: str) -> Experiment:
-    known = {f.name for f in fields(Experiment)}
-    unknown = set(raw) - known
-    if unknown:
-        raise ValueError(f"{source}: unknown experiment key(s) {', '.join(sorted(unknown))}")
-    return Experiment(**{k: tuple(v) for k, v in raw.items()})
+def _require_tuple(name: str, value, what: str) -> None:
+    """Raise unless ``value`` is a non-empty tuple (a TOML array, see ``_tuple``)."""
+    if not isinstance(value, tuple) or not value:
+        shown = list(value) if isinstance(value, tuple) else value
+        raise ValueError(f"{name} must be {what} (got {shown!r})")
 
 
 @dataclass(frozen=True, order=True)
@@ -243,6 +129,14 @@ def run_config(spec: GridSpec, key: RunKey) -> RunConfig:
         train=TrainConfig(seed=key.seed, eval_points=points))
 
 
+def run_arguments(spec: GridSpec, key: RunKey) -> dict:
+    """Keyword arguments of ``fold_run.variant_trainer`` (and ``variant_configs``) for one run:
+    the one place a grid run's configuration is decided. Workers train with it and
+    ``grid_record`` checks run folders against it, so the two never disagree."""
+    return {"variant": get_variant(key.variant), "weighting": key.weighting,
+            "config": run_config(spec, key), "gradnorm": spec.gradnorm, "heads": spec.heads}
+
+
 def stack_groups(keys: list[RunKey], size: int) -> list[list[RunKey]]:
     """``keys`` in groups of at most ``size`` runs of one configuration (differing only in fold
     and seed), in order; ``size`` 1 = every run alone."""
@@ -259,7 +153,175 @@ def spec_payload(spec: GridSpec) -> dict:
     return json.loads(json.dumps(data))
 
 
+def with_budget(spec: GridSpec) -> GridSpec:
+    """``spec`` with its preset's budget written out (``hidden``, ``epochs``, ``seeds``), as
+    grid.json records it: two specs of the same runs then read the same."""
+    budget = spec.budget
+    return replace(spec, hidden=budget.hidden, seeds=budget.seeds,
+                   epochs=round(budget.schedule_scale * PAPER_EPOCHS))
+
+
 def with_overrides(spec: GridSpec, **overrides) -> GridSpec:
     """``spec`` with the given non-None fields replaced (command-line overrides)."""
     return replace(spec, **{k: v for k, v in overrides.items() if v is not None})
 
+
+@dataclass(frozen=True)
+class Budget:
+    """Model size, schedule length and seeds of a preset."""
+
+    hidden: int
+    schedule_scale: float           # multiplies every epoch count of the paper's schedules
+    seeds: tuple[int, ...]
+
+
+PRESETS = {"paper": Budget(hidden=1024, schedule_scale=1.0, seeds=(0, 1, 2)),
+           "quick": Budget(hidden=128, schedule_scale=0.25, seeds=(0,))}
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """A product of configurations; combinations that do not exist (GradNorm on one task) are
+    skipped."""
+
+    variants: tuple[str, ...]
+    weightings: tuple[str, ...] = ("fixed",)
+    annotations: tuple[str, ...] = ("revised",)
+    directions: tuple[str, ...] = ("bidirectional",)
+
+    def __post_init__(self):
+        for name, allowed, what in (("variants", VARIANTS, "variant"),
+                                    ("weightings", WEIGHTINGS, "weighting"),
+                                    ("annotations", ANNOTATION_VERSIONS, "annotation version"),
+                                    ("directions", DIRECTIONS, "direction")):
+            value = getattr(self, name)
+            _require_tuple(f"experiments.{name}", value, f"a non-empty list of {what}s")
+            for item in value:
+                if not isinstance(item, str) or item not in allowed:
+                    raise ValueError(f"unknown {what} {item!r} in experiments.{name}; choose from "
+                                     f"{', '.join(allowed)}")
+
+
+ALL_VARIANTS = tuple(VARIANTS)
+#: The paper's evidence: Table I (revised labels), the same on the original labels (Table II and the
+#: annotation ablation) and the online models of Table III.
+PAPER_EXPERIMENTS = (
+    Experiment(ALL_VARIANTS, WEIGHTINGS, ("revised", "original")),
+    Experiment(("A", "APc"), ("fixed",), ("revised",), ("forward",)),
+)
+
+
+@dataclass(frozen=True)
+class GridSpec:
+    """A whole grid; ``None`` budget fields take the preset's value."""
+
+    preset: str = "quick"
+    task: str = PAPER_TASK          # a built-in task's name or a definition file's path
+    data: str = ""                  # "" = $JIGSAWS_DIR or the default folder; "synthetic"
+    folds: tuple[str, ...] = ()     # () = every user of the release
+    seeds: tuple[int, ...] | None = None
+    hidden: int | None = None
+    epochs: int | None = None
+    precision: str = EncoderConfig.precision
+    ordinal_loss: str = HeadConfig.ordinal_loss
+    relative_rate: str = GradNormConfig.relative_rate
+    experiments: tuple[Experiment, ...] = PAPER_EXPERIMENTS
+
+    def __post_init__(self):
+        require_choice("preset", self.preset, PRESETS)
+        require_choice("precision", self.precision, PRECISIONS)
+        require_choice("ordinal_loss", self.ordinal_loss, ORDINAL_LOSSES)
+        require_choice("relative_rate", self.relative_rate, RELATIVE_RATES)
+        if not isinstance(self.task, str):
+            raise ValueError(f"task must be a task's name or a definition file (got {self.task!r})")
+        self.task_definition()          # a bad task fails here, not in every worker
+        if not isinstance(self.data, str):
+            raise ValueError(f"data must be a folder or \"synthetic\" (got {self.data!r})")
+        if self.folds:
+            _require_tuple("folds", self.folds, "a list of user letters")
+        for fold in self.folds:
+            if not isinstance(fold, str) or not fold:
+                raise ValueError(f"folds must be a list of user letters (got {fold!r})")
+        if self.seeds is not None:
+            _require_tuple("seeds", self.seeds, "a non-empty list of integers >= 0")
+            for seed in self.seeds:
+                if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+                    raise ValueError(f"seeds must be a list of integers >= 0 (got {seed!r})")
+            if len(set(self.seeds)) < len(self.seeds):
+                raise ValueError(f"seeds must not repeat (got {list(self.seeds)})")
+        for name in ("hidden", "epochs"):
+            if getattr(self, name) is not None:
+                require_number(name, getattr(self, name), integer=True, low=1)
+        _require_tuple("experiments", self.experiments, "a non-empty list of [[experiments]]")
+        for experiment in self.experiments:
+            if not isinstance(experiment, Experiment):
+                raise ValueError(f"experiments must be tables of variants, weightings, "
+                                 f"annotations, directions (got {experiment!r})")
+
+    @property
+    def budget(self) -> Budget:
+        base = PRESETS[self.preset]
+        scale = base.schedule_scale if self.epochs is None else self.epochs / PAPER_EPOCHS
+        return Budget(hidden=base.hidden if self.hidden is None else self.hidden,
+                      schedule_scale=scale,
+                      seeds=base.seeds if self.seeds is None else self.seeds)
+
+    @property
+    def heads(self) -> HeadConfig:
+        return HeadConfig(ordinal_loss=self.ordinal_loss)
+
+    @property
+    def gradnorm(self) -> GradNormConfig:
+        return GradNormConfig(relative_rate=self.relative_rate)
+
+    def task_definition(self) -> TaskDefinition:
+        return load_task(self.task)
+
+    def data_dir(self) -> Path:
+        if self.data == "synthetic":
+            return ensure_release(default_cache_dir(), SynthConfig(), self.task_definition())
+        return Path(self.data) if self.data else default_data_dir(self.task_definition().name)
+
+    def with_absolute_paths(self) -> GridSpec:
+        """This spec with its data folder and task file as absolute paths, so that every worker
+        (and grid.json) sees the same ones."""
+        task = str(Path(self.task).resolve()) if self.task.endswith(".toml") else self.task
+        return replace(self, data=str(self.data_dir().resolve()), task=task)
+
+
+def load_spec(path: Path | str) -> GridSpec:
+    """Parse a TOML spec; unknown keys are errors naming the file and the key."""
+    path = Path(path)
+    try:
+        raw = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as error:
+        raise ValueError(f"{path}: not valid TOML: {error}") from None
+    return spec_from_dict(raw, source=str(path))
+
+
+def spec_from_dict(raw: dict, source: str = "spec") -> GridSpec:
+    """A ``GridSpec`` from plain data (a parsed TOML file, grid.json's ``spec``); every key's type
+    and range is checked here, errors naming ``source`` and the key."""
+    known = {f.name for f in fields(GridSpec)}
+    unknown = set(raw) - known
+    if unknown:
+        raise ValueError(f"{source}: unknown key(s) {', '.join(sorted(unknown))}; "
+                         f"known: {', '.join(sorted(known))}")
+    values = {k: _tuple(v) for k, v in raw.items() if v is not None}
+    try:
+        if isinstance(values.get("experiments"), tuple):
+            values["experiments"] = tuple(_experiment(e) for e in values["experiments"])
+        return GridSpec(**values)
+    except ValueError as error:
+        raise ValueError(f"{source}: {error}") from None
+
+
+def _experiment(raw: dict) -> Experiment:
+    if not isinstance(raw, dict):
+        return raw                          # GridSpec names what is wrong with it
+    known = {f.name for f in fields(Experiment)}
+    unknown = set(raw) - known
+    if unknown:
+        raise ValueError(f"unknown experiment key(s) {', '.join(sorted(unknown))}; "
+                         f"known: {', '.join(sorted(known))}")
+    return Experiment(**{k: _tuple(v) for k, v in raw.items()})

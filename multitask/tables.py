@@ -65,7 +65,7 @@ def paper_comparison(summary: pd.DataFrame, table: PaperTable) -> pd.DataFrame:
         ours = lookup(summary, table.annotations, table.direction, config)
         if ours is None:
             continue
-        label = table.labels.get(config, CONFIG_LABELS[config])
+        label = _marked(table.labels.get(config, CONFIG_LABELS[config]), ours)
         for metric in table.metrics:
             mean = finite(ours.get(f"{metric}_mean"))
             paper = published.get(metric)
@@ -94,7 +94,8 @@ def annotation_ablation(summary: pd.DataFrame, direction: str = "bidirectional")
             right = finite(original.get(f"{metric}_mean"))
             if left is None and right is None:
                 continue
-            rows.append(_row(CONFIG_LABELS.get(config, config), config, metric,
+            rows.append(_row(_marked(CONFIG_LABELS.get(config, config), revised, original),
+                             config, metric,
                              (left, finite(revised.get(f"{metric}_std"))),
                              (right, finite(original.get(f"{metric}_std"))),
                              int(min(revised["folds"], original["folds"]))))
@@ -111,6 +112,16 @@ def _row(label: str, config: str, metric: str, left: Number, right: Number, fold
     diff = None if left[0] is None or right[0] is None else left[0] - right[0]
     return dict(zip(_COLUMNS, (label, config, metric, left[0], left[1], right[0], right[1], diff,
                                folds)))
+
+
+def _marked(label: str, *summary_rows: pd.Series) -> str:
+    """``label``, followed by "(incomplete: n/m runs)" when a configuration's summary row says it
+    lacks runs (``multitask-tables --allow-incomplete``)."""
+    if all(row.get("complete", True) for row in summary_rows):
+        return label
+    runs = sum(int(row["runs"]) for row in summary_rows)
+    expected = sum(int(row["runs_expected"]) for row in summary_rows)
+    return f"{label} (incomplete: {runs}/{expected} runs)"
 
 
 def paper_best(table: PaperTable) -> dict[str, float]:

@@ -9,6 +9,11 @@ Unfinished runs are left out and listed. The paper's tables, the annotation abla
 claims are Suturing's: a grid of another task gets instead the claims of the paper's conjecture
 (multi-task against model A on that task, ``claims.CONJECTURE_CLAIMS``).
 
+A grid with missing or unfinished runs, NaN metrics, unreadable metrics or stray folders is an
+error naming them (``multitask.collect``); with ``--allow-incomplete`` they are listed, and the
+configurations concerned are marked incomplete in the tables (``runs``, ``runs_expected`` and
+``complete`` columns of summary.csv; "(incomplete: n/m runs)" after the model's name).
+
 ``--compare X Y --metric M`` prints the paired statistics of one comparison instead, e.g.
 ``multitask-tables GRID --compare APc-fixed A-fixed --metric gesture_edit``; a configuration is
 ``[annotations/][direction/]<variant>-<weighting>`` as in the grid's run folders
@@ -23,25 +28,29 @@ from pathlib import Path
 
 import pandas as pd
 
-from rnn_seg.rundir import write_atomic
+from rnn_seg.rundir import RunFolderError, write_atomic
 
 from jigsaws_tools.task_definition import PAPER_TASK
 
 from .claims import CONJECTURE_CLAIMS
 from .claims_table import write_claims
-from .collect import METRICS, grid_task_name, per_fold, run_rows, summary
+from .collect import (CONFIG_COLUMNS, METRICS, completeness, expected_runs, grid_task_name,
+                      per_fold, recorded_runs, run_rows, summary)
 from .figures import all_figures
 from .paired import ConfigId, Contrast, NotPaired, config_labels, paired
 from .tables import PAPER_TABLES, annotation_ablation, paper_best, paper_comparison, to_latex
 
 
-def write_tables(grid_dir: Path, out: Path, figures: bool = True) -> list[Path]:
-    """Everything ``multitask-tables`` writes; returns the paths."""
-    runs, unfinished = run_rows(grid_dir)
-    for run_dir in unfinished:
-        print(f"not finished, left out: {run_dir}", file=sys.stderr)
+def write_tables(grid_dir: Path, out: Path, figures: bool = True,
+                 allow_incomplete: bool = False) -> list[Path]:
+    """Everything ``multitask-tables`` writes; returns the paths. ``allow_incomplete``: mark
+    configurations with missing runs instead of refusing (``collect.run_rows``)."""
+    runs, problems = run_rows(grid_dir, allow_incomplete)
+    for problem in problems:
+        print(f"incomplete: {problem}", file=sys.stderr)
     folds = per_fold(runs)
-    stats = summary(folds)
+    expected = expected_runs(grid_dir, recorded_runs(Path(grid_dir))[0])
+    stats = summary(folds).merge(completeness(runs, expected), on=CONFIG_COLUMNS, how="left")
     written = [_csv(runs, out / "runs.csv"), _csv(folds, out / "per_fold.csv"),
                _csv(stats, out / "summary.csv")]
     if grid_task_name(grid_dir) == PAPER_TASK:
@@ -74,11 +83,12 @@ def _paper_tables(stats: pd.DataFrame, out: Path) -> list[Path]:
     return written
 
 
-def _compare(grid_dir: Path, compare: list[str], minus: list[str] | None, metric: str) -> str:
+def _compare(grid_dir: Path, compare: list[str], minus: list[str] | None, metric: str,
+             allow_incomplete: bool) -> str:
     """The paired statistics of one comparison, as text."""
     x, y = map(ConfigId.parse, compare)
     contrast = Contrast(x, y, tuple(map(ConfigId.parse, minus)) if minus else None)
-    runs, _ = run_rows(grid_dir)
+    runs, _ = run_rows(grid_dir, allow_incomplete)
     try:
         return paired(runs, contrast, metric).describe()
     except NotPaired as error:
@@ -106,16 +116,20 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--minus", nargs=2, metavar=("X2", "Y2"),
                         help="with --compare: (X - Y) - (X2 - Y2), paired per fold")
     parser.add_argument("--metric", help=f"with --compare: {', '.join(METRICS)}, ...")
+    parser.add_argument("--allow-incomplete", action="store_true",
+                        help="write tables although runs are missing, unfinished or unreadable, "
+                             "marking the configurations concerned incomplete")
     args = parser.parse_args(argv)
     if bool(args.compare) != bool(args.metric) or (args.minus and not args.compare):
         parser.error("--compare needs --metric, and --metric and --minus need --compare")
     try:
         if args.compare:
-            print(_compare(args.grid_dir, args.compare, args.minus, args.metric))
+            print(_compare(args.grid_dir, args.compare, args.minus, args.metric,
+                           args.allow_incomplete))
             return 0
         paths = write_tables(args.grid_dir, args.out or args.grid_dir / "tables",
-                             figures=not args.no_figures)
-    except (ValueError, OSError) as error:
+                             figures=not args.no_figures, allow_incomplete=args.allow_incomplete)
+    except (ValueError, OSError, RunFolderError) as error:
         print(f"multitask-tables: error: {error}", file=sys.stderr)
         return 2
     for path in paths:

@@ -6,11 +6,13 @@ import logging
 import os
 import sys
 
+from baseline.config import RunConfig
+from baseline.launch import run_training
 from baseline.options import add_run_arguments, run_config_from_args
-from jigsaws_tools.errors import JigsawsError
+from rnn_seg.provenance import set_command
 from rnn_seg.threads import configure_threads
 
-from .fold_run import WEIGHTINGS, train_variant
+from .fold_run import WEIGHTINGS, check_weighting, train_variant
 from .gradnorm import RELATIVE_RATES, GradNormConfig
 from .heads import ORDINAL_LOSSES, HeadConfig
 from .variants import VARIANTS, get_variant
@@ -29,7 +31,7 @@ def build_parser(variant_name: str) -> argparse.ArgumentParser:
                         help="GradNorm's r_i divides the loss ratios by their mean (chen) or by "
                              "the mean loss (paper's literal text)")
     parser.add_argument("--ordinal-loss", choices=ORDINAL_LOSSES, default=HeadConfig.ordinal_loss,
-                        help="the ordered progress head's cross-entropy over its 5 outputs: "
+                        help="the ordered progress head's cross-entropy over its outputs: "
                              "summed (the paper's MBCE) or averaged")
     add_run_arguments(parser, variant.optim())
     return parser
@@ -43,18 +45,27 @@ def main(argv: list[str] | None = None) -> int:
     known, _ = pre.parse_known_args(argv)
     variant = get_variant(known.variant)
     args = build_parser(variant.name).parse_args(argv)
-    try:
-        configure_threads(args.threads, args.hidden)
+    set_command(["multitask-train", *(sys.argv[1:] if argv is None else argv)])
+
+    def configure() -> tuple[RunConfig, GradNormConfig, HeadConfig]:
         config = run_config_from_args(args, variant.optim(), variant.eval_points())
+        gradnorm = GradNormConfig(alpha=args.alpha, learning_rate=args.weight_lr,
+                                  relative_rate=args.relative_rate)
+        heads = HeadConfig(ordinal_loss=args.ordinal_loss)
+        check_weighting(variant, args.weighting)
+        configure_threads(args.threads, args.hidden)
         print(f"variant: {variant.name} ({args.weighting})\n{config.describe()}", flush=True)
-        result = train_variant(variant, args.weighting, config, args.out,
-                               GradNormConfig(alpha=args.alpha, learning_rate=args.weight_lr,
-                                              relative_rate=args.relative_rate),
-                               log=lambda m: print(m, flush=True),
-                               heads=HeadConfig(ordinal_loss=args.ordinal_loss))
-    except (JigsawsError, ValueError) as error:
-        print(f"multitask-train: error: {error}", file=sys.stderr)
-        return 2
+        return config, gradnorm, heads
+
+    def train(configs: tuple[RunConfig, GradNormConfig, HeadConfig]) -> dict:
+        config, gradnorm, heads = configs
+        return train_variant(variant, args.weighting, config, args.out, gradnorm,
+                             log=lambda m: print(m, flush=True), heads=heads,
+                             restart=args.restart)
+
+    code, result = run_training("multitask-train", args.out, configure, train)
+    if result is None:
+        return code
     summary = "; ".join(f"{task}: accuracy {m['accuracy']:.1f}, edit {m['edit']:.1f}, "
                         f"F1@10 {m['f1@10']:.1f}" + (f", MAE {m['mae_normalised_rounded']:.1f}"
                                                      if "mae_normalised_rounded" in m else "")

@@ -226,7 +226,7 @@ def training_normalisation(config: RunConfig, data_dir: Path | str | None = None
 
     ``data_dir``: the release holding them (default: the run's ``data.data_dir``).
     """
-    index = discover(data_dir or config.data.data_dir)
+    index = discover(data_dir or config.data.data_dir, config.data.task)
     trials = [t for t in index.trials if t.user != config.test_user]
     columns = feature_columns(config.data.feature_set)
     steps = replace(config.data.preprocessing, normalise=False)

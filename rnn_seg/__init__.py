@@ -9,7 +9,10 @@ then ``model.SegmentationModel`` (a recurrent encoder shared by one dense head p
 * ``sweeps``: batches of sequences wrapped to the longest; ``optim``: SGD and its schedule;
 * ``trainer``: the training loop with checkpoints, resume and evaluation points;
 * ``stack``: several models trained in one vectorised step; ``threads``: the thread plan;
-* ``metrics``: accuracy, edit score and F1@k; ``rundir``, ``plots``: run folders and figures.
+* ``metrics``: accuracy, edit score and F1@k; ``plots``: per-sequence figures;
+* run folders: ``rundir`` (strict JSON, atomic writes, what a run owns), ``settings`` (what a
+  folder is checked against), ``checkpoints`` (save, fall back, prune, ``restore_weights``),
+  ``folder_lock`` (one writer per folder), ``provenance``; ``validation``: configuration checks.
 """
 from importlib import import_module
 
@@ -17,6 +20,7 @@ from importlib import import_module
 _PUBLIC = {
     "EncoderConfig": "lstm",
     "SegmentationModel": "model",
+    "restore_weights": "checkpoints",
     "OptimConfig": "optim",
     "SoftmaxClassification": "tasks",
     "Task": "tasks",

@@ -33,6 +33,8 @@ from typing import Literal, NamedTuple
 
 import tensorflow as tf
 
+from .validation import require_bool, require_choice, require_number
+
 ResetMode = Literal["original", "corrected"]
 RESET_MODES = ("original", "corrected")
 Precision = Literal["fp32", "bf16"]
@@ -53,10 +55,13 @@ class EncoderConfig:
     precision: Precision = "fp32"   # of the LSTM's matrix products (see the module docstring)
 
     def __post_init__(self):
-        if self.reset_mode not in RESET_MODES:
-            raise ValueError(f"reset_mode must be one of {RESET_MODES}, not {self.reset_mode!r}")
-        if self.precision not in PRECISIONS:
-            raise ValueError(f"precision must be one of {PRECISIONS}, not {self.precision!r}")
+        require_number("EncoderConfig.hidden", self.hidden, integer=True, low=1)
+        require_number("EncoderConfig.layers", self.layers, integer=True, low=1)
+        require_bool("EncoderConfig.bidirectional", self.bidirectional)
+        require_number("EncoderConfig.keep_prob", self.keep_prob, low=0, high=1, open_low=True)
+        require_number("EncoderConfig.init_scale", self.init_scale, low=0, open_low=True)
+        require_choice("EncoderConfig.reset_mode", self.reset_mode, RESET_MODES)
+        require_choice("EncoderConfig.precision", self.precision, PRECISIONS)
 
     @property
     def output_size(self) -> int:

@@ -10,6 +10,8 @@ from typing import Literal, Sequence
 
 import tensorflow as tf
 
+from .validation import require_choice, require_number
+
 Unit = Literal["epochs", "sweeps"]
 UNITS = ("epochs", "sweeps")
 
@@ -29,10 +31,15 @@ class OptimConfig:
     decay_factor: float = 0.5
 
     def __post_init__(self):
-        if self.unit not in UNITS:
-            raise ValueError(f"unit must be one of {UNITS}, not {self.unit!r}")
-        if min(self.total, self.decay_every) < 1 or self.decay_start < 0:
-            raise ValueError("total and decay_every must be >= 1, decay_start >= 0")
+        require_number("OptimConfig.learning_rate", self.learning_rate, low=0, open_low=True)
+        require_number("OptimConfig.momentum", self.momentum, low=0, high=1, open_high=True)
+        require_number("OptimConfig.clip_norm", self.clip_norm, low=0, open_low=True)
+        require_choice("OptimConfig.unit", self.unit, UNITS)
+        require_number("OptimConfig.total", self.total, integer=True, low=1)
+        require_number("OptimConfig.decay_start", self.decay_start, integer=True, low=0)
+        require_number("OptimConfig.decay_every", self.decay_every, integer=True, low=1)
+        require_number("OptimConfig.decay_factor", self.decay_factor, low=0, high=1,
+                       open_low=True)
 
     def sweeps(self, units: int, sweeps_per_epoch: int) -> int:
         """Convert a count in this schedule's unit to sweeps."""

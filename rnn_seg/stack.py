@@ -12,18 +12,22 @@ padded steps masked out of the losses and the reverse LSTM direction restarted a
 valid step. Dropout seeds come from each member's own generator, and masks are drawn in forward
 time order, so the valid steps get the very masks a lone run draws: a member trains as it would
 alone, up to float rounding (tests/test_stack.py). A member's run directory is
-indistinguishable from a lone run's: either way can resume it.
+indistinguishable from a lone run's: either way can resume it. Members interrupted at different
+checkpoints each resume from their own; the ones behind train until they catch up with the others,
+then join their step.
 """
 from __future__ import annotations
 
 import logging
 import time
+from contextlib import ExitStack
 from functools import partial
 from typing import Sequence
 
 import numpy as np
 import tensorflow as tf
 
+from .folder_lock import hold_folder
 from .trainer import Trainer, loss_gradients
 
 
@@ -43,9 +47,12 @@ class TrainerStack:
 
     def __init__(self, trainers: Sequence[Trainer]):
         self.trainers = list(trainers)
-        self.compiled_step = None            # the vectorised step, once ``run`` has traced it
+        self.compiled_steps: dict[tuple[int, ...], object] = {}   # vectorised step per member set
         if not self.trainers:
             raise ValueError("a stack needs at least one trainer")
+        folders = [t.run_dir.resolve() for t in self.trainers]
+        if len(set(folders)) < len(folders):
+            raise ValueError(f"cannot stack runs sharing a folder: {[str(f) for f in folders]}")
         first = self.trainers[0]
         for t in self.trainers[1:]:
             _require_same(first, t, "trainer class", lambda x: type(x).__name__)
@@ -55,27 +62,41 @@ class TrainerStack:
             _require_same(first, t, "weight shapes", lambda x: [v.shape.as_list()
                                                                 for v in x.variables])
 
-    def run(self) -> list[dict]:
-        """Train every unfinished member to the end (resuming from the last checkpoint they have
-        in common) and return each member's metrics, in order."""
-        active = [t for t in self.trainers if not t.finished()]
-        if len(active) == 1:
-            active[0].run()                  # the plain step is faster than a stack of one
-        elif active:
-            start = min(max(t.checkpoint_sweeps(), default=0) for t in active)
+    def run(self, restart: bool = False) -> list[dict]:
+        """Train every unfinished member to the end, each resuming from its newest checkpoint,
+        and return each member's metrics, in order. Holds every member's folder lock; checks
+        (or with ``restart`` clears) every folder before any work, as ``Trainer.run`` does.
+        Members that resume behind the others train alone (or stacked among themselves) until
+        the others' sweep, then all together."""
+        with ExitStack() as locks:
+            for t in self.trainers:
+                locks.enter_context(hold_folder(t.run_dir))
+            for t in self.trainers:
+                t.prepare(restart)
+            active = [t for t in self.trainers if not t.finished()]
+            starts = [t.resume() for t in active]
             for t in active:
-                t.resume(start)
-            step = self.compiled_step = _compiled_step(active)
-            for sweep in range(start, active[0].total_sweeps):
-                lrs = [t.optim.learning_rate_at(sweep, t.spe) for t in active]
+                with t.clock.phase("trace"):
+                    t.model.infer.get_concrete_function()
+            total = self.trainers[0].total_sweeps
+            for sweep in range(min(starts, default=total), total):
+                members = tuple(k for k, start in enumerate(starts) if start <= sweep)
+                lrs = [active[k].optim.learning_rate_at(sweep, active[k].spe) for k in members]
                 began = time.perf_counter()
-                outs = [out.numpy() for out in step(*padded_batches([t.batch(sweep) for t in active]),
-                                                    tf.constant(lrs, tf.float32))]
-                shared = (time.perf_counter() - began) / len(active)
-                for t, lr, out in zip(active, lrs, outs):
-                    t.clock.add("train", shared)
-                    t.after_sweep(sweep, lr, out)
-        return [t.finish() for t in self.trainers]
+                if len(members) == 1:         # the plain step is faster than a stack of one
+                    outs = [active[members[0]].step(sweep, lrs[0])]
+                else:
+                    if members not in self.compiled_steps:
+                        self.compiled_steps[members] = _compiled_step([active[k] for k in members])
+                        began = time.perf_counter()
+                    outs = [out.numpy() for out in self.compiled_steps[members](
+                        *padded_batches([active[k].batch(sweep) for k in members]),
+                        tf.constant(lrs, tf.float32))]
+                shared = (time.perf_counter() - began) / len(members)
+                for k, lr, out in zip(members, lrs, outs):
+                    active[k].clock.add("train", shared)
+                    active[k].after_sweep(sweep, lr, out)
+            return [t.finish() for t in self.trainers]
 
 
 def train_together(trainers: Sequence[Trainer]) -> list[dict]:
@@ -91,8 +112,8 @@ def train_together(trainers: Sequence[Trainer]) -> list[dict]:
 
 
 def _compiled_step(members: list[Trainer]):
-    """The members' vectorised training step, traced once (with their evaluation passes) for
-    sweeps of any duration; the tracing time is shared among the members' clocks."""
+    """The members' vectorised training step, traced once for sweeps of any duration; the
+    tracing time is shared among the members' clocks."""
     template = members[0]
     features = template.train.inputs[0].shape[1]
     m, b = len(members), template.config.batch_size
@@ -105,8 +126,6 @@ def _compiled_step(members: list[Trainer]):
     began = time.perf_counter()
     step = tf.function(partial(_vector_step, members), input_signature=signature)
     step.get_concrete_function()
-    for t in members:
-        t.model.infer.get_concrete_function()
     for t in members:
         t.clock.add("trace", (time.perf_counter() - began) / m)
     return step

@@ -2,8 +2,10 @@
 
 A run directory holds::
 
-    config.json                  every configuration dataclass of the run
-    checkpoints/                 TF checkpoints (model, optimiser state, dropout RNG, sweep count)
+    config.json                  every configuration of the run, its settings hash and provenance;
+                                 written when the run starts, never rewritten
+    checkpoints/ckpt-<N>.*       TF checkpoints after N sweeps (model, optimiser state, dropout RNG,
+                                 sweep count, settings hash); see rnn_seg.checkpoints
     history.csv                  one line per logged epoch / unit: training losses, time; test
                                  (and with ``monitor_train`` training) scores every
                                  ``monitor_every`` units
@@ -14,32 +16,42 @@ A run directory holds::
                                  unless ``plots="all"``)
     metrics.json                 every evaluation point, their mean, and whether the training
                                  loss had stopped falling (``rnn_seg.convergence``)
-    finished.json                written last; a run without it is incomplete and will resume
+    finished.json                written last (settings hash, start and end time, provenance); a
+                                 run without it is incomplete and resumes
+    .lock                        held by the process training the run (rnn_seg.folder_lock)
+
+A run folder always matches its weights: launching a run into a folder that records other settings
+stops before any work (``rnn_seg.settings``) unless asked to restart.
 """
 from __future__ import annotations
 
 import csv
-import json
 import time
 from dataclasses import dataclass, field
 from datetime import timedelta
 from pathlib import Path
-from typing import Callable, Literal, Sequence
+from typing import Callable, ClassVar, Literal, Sequence
 
 import numpy as np
 import pandas as pd
 import tensorflow as tf
 from tensorflow.core.framework import summary_pb2
 
+from .checkpoints import KEEP_CHECKPOINTS, CheckpointStore, KeepCheckpoints, checkpoint_sweeps
 from .convergence import history_convergence
+from .folder_lock import hold_folder
 from .lstm import require_native_precision
 from .model import ModelParams, SegmentationModel
 from .optim import SGD, OptimConfig
 from .plots import plot_sequence
-from .rundir import is_finished, mark_finished, write_atomic, write_json
+from .rundir import (CONFIG, clear_run_dir, is_finished, mark_finished, point_dir, read_json,
+                     remove_temporary_files, write_atomic, write_json)
 from .sweeps import make_sweep, reset_flags, sweep_indices, sweeps_per_epoch
 from .tasks import Task, task_metrics
+from .provenance import now, provenance
+from .settings import SettingsMismatchError, check_run_dir, settings_hash
 from .timing import PhaseClock
+from .validation import require_bool, require_choice, require_number
 
 #: What TensorBoard's scalar plugin reads (written without the tensorboard package).
 _SCALAR_METADATA = summary_pb2.SummaryMetadata(
@@ -56,6 +68,12 @@ PLOT_POINTS = ("last", "all", "none")
 class TrainConfig:
     """Batching, seeding and what a run writes."""
 
+    #: Fields that change what a run writes, not what it computes: left out of the settings its
+    #: folder is checked against (``rnn_seg.settings``), so a run may resume with other values.
+    output_fields: ClassVar[tuple[str, ...]] = (
+        "log_every", "checkpoint_every", "plots", "keep_checkpoints", "monitor_every",
+        "monitor_train", "tensorboard")
+
     batch_size: int = 5
     seed: int = 0
     eval_points: tuple[int, ...] = (100, 110, 120)   # in the schedule's unit; () = at the end
@@ -66,6 +84,39 @@ class TrainConfig:
     checkpoint_every: int = 1                        # units between checkpoints
     plots: PlotPoints = "last"                       # evaluation points with per-sequence figures
     tensorboard: bool = False                        # also write progress scalars there
+    keep_checkpoints: KeepCheckpoints = "final"      # kept by a finished run (rnn_seg.checkpoints)
+
+    def __post_init__(self):
+        require_number("TrainConfig.batch_size", self.batch_size, integer=True, low=1)
+        require_number("TrainConfig.seed", self.seed, integer=True, low=0)
+        if not isinstance(self.eval_points, tuple):
+            raise ValueError(f"TrainConfig.eval_points must be a tuple of integers >= 1 "
+                             f"(got {self.eval_points!r})")
+        for point in self.eval_points:
+            require_number("TrainConfig.eval_points", point, integer=True, low=1)
+        if list(self.eval_points) != sorted(set(self.eval_points)):
+            raise ValueError(f"TrainConfig.eval_points must increase (got {self.eval_points!r})")
+        require_choice("TrainConfig.prediction", self.prediction, PREDICTION_MODES)
+        require_number("TrainConfig.log_every", self.log_every, integer=True, low=1)
+        require_number("TrainConfig.monitor_every", self.monitor_every, integer=True, low=0)
+        require_bool("TrainConfig.monitor_train", self.monitor_train)
+        require_number("TrainConfig.checkpoint_every", self.checkpoint_every, integer=True, low=1)
+        require_choice("TrainConfig.plots", self.plots, PLOT_POINTS)
+        require_bool("TrainConfig.tensorboard", self.tensorboard)
+        require_choice("TrainConfig.keep_checkpoints", self.keep_checkpoints, KEEP_CHECKPOINTS)
+
+
+def check_eval_points(points: Sequence[int], optim: OptimConfig) -> None:
+    """Raise unless every evaluation point lies within the schedule (1..``optim.total``)."""
+    beyond = [p for p in points if p > optim.total]
+    if beyond:
+        raise ValueError(f"evaluation point(s) {', '.join(map(str, beyond))} beyond the "
+                         f"{optim.total} {optim.unit} of training (TrainConfig.eval_points must "
+                         f"lie in 1..OptimConfig.total)")
+
+
+class TrainingDiverged(RuntimeError):
+    """A training loss became NaN or infinite; nothing after the last checkpoint was saved."""
 
 
 @dataclass
@@ -108,6 +159,11 @@ def predict(model: SegmentationModel, inputs: Sequence[np.ndarray], mode: Predic
 class Trainer:
     """Trains ``model`` on ``train`` with a weighted sum of task losses; evaluates on ``test``.
 
+    ``configs`` is what ``config.json`` records (configuration dataclasses and plain values): its
+    settings (``rnn_seg.settings``) are checked against a folder already in use. ``run`` holds the
+    folder's lock, prepares it (``prepare``), resumes from the newest checkpoint (``resume``),
+    trains sweep by sweep (``step`` then ``after_sweep``) and writes the results (``finish``).
+
     Subclasses change how task weights are chosen by overriding ``update`` (and ``record``; with
     ``per_task_gradients`` they get each task's gradient instead of the sum's), may register
     further checkpointed state in ``extra_state`` and write their own per-unit logs in ``_on_log``.
@@ -129,17 +185,18 @@ class Trainer:
         self.spe = sweeps_per_epoch(len(train), config.batch_size)
         self.total_sweeps = optim.sweeps(optim.total, self.spe)
         points = config.eval_points or (optim.total,)
-        if max(points) > optim.total:
-            raise ValueError(f"evaluation point {max(points)} is beyond the {optim.total} "
-                             f"{optim.unit} of training")
+        check_eval_points(points, optim)
         self.eval_sweeps = {optim.sweeps(p, self.spe): p for p in points}
-        write_json(self.run_dir / "config.json", configs)
+        self.configs = configs
+        self.settings_hash = settings_hash(configs)     # config.json's, once ``prepare`` ran
+        self._saved_hash = tf.Variable("", dtype=tf.string, trainable=False, name="settings")
         self._targets = {t.name: [t.encode(y) for y in train.labels[t.name]] for t in self.tasks}
         self._train_step = tf.function(self._train_step_graph,
                                        input_signature=self._step_signature(train))
         self.clock = PhaseClock()
         self._test_outputs_at: tuple[int, dict] | None = None   # (sweep, outputs) of the test set
-        self._manager: tf.train.CheckpointManager | None = None     # set by resume()
+        self._store: CheckpointStore | None = None                  # set by prepare()
+        self._record: dict = {}                                     # config.json, by prepare()
         self._losses: list[np.ndarray] = []                         # since the last progress line
         self._summaries: tf.summary.SummaryWriter | None = None     # with config.tensorboard
         self._started = time.time()
@@ -149,14 +206,9 @@ class Trainer:
     def extra_state(self) -> dict:
         return {}
 
-    def _checkpoint_manager(self) -> tf.train.CheckpointManager:
-        checkpoint = tf.train.Checkpoint(model=self.model, sgd=self.sgd, sweep=self.sweep,
-                                         dropout_rng=self.dropout_rng, **self.extra_state())
-        return tf.train.CheckpointManager(checkpoint, self.run_dir / "checkpoints", max_to_keep=2)
-
     def checkpoint_sweeps(self) -> list[int]:
         """Sweep counts of the checkpoints on disk, oldest first."""
-        return [_checkpoint_sweep(path) for path in self._checkpoint_manager().checkpoints]
+        return checkpoint_sweeps(self.run_dir)
 
     # -- one step ------------------------------------------------------------------------------
     def dropout_seeds(self) -> tf.Tensor:
@@ -218,47 +270,80 @@ class Trainer:
         return inputs, reset_flags(lengths, duration), targets
 
     # -- the loop ------------------------------------------------------------------------------
-    def run(self) -> dict:
-        """Train to the end (resuming from the last checkpoint) and return ``metrics.json``'s content."""
-        if self.finished():
+    def run(self, restart: bool = False) -> dict:
+        """Train to the end (resuming from the newest checkpoint) and return ``metrics.json``'s
+        content. ``restart``: delete the folder's previous config and results first, whatever
+        settings they record. Holds the folder's lock throughout (``rnn_seg.folder_lock``)."""
+        with hold_folder(self.run_dir):
+            self.prepare(restart)
+            if not self.finished():
+                start = self.resume()
+                with self.clock.phase("trace"):
+                    self.compile()
+                for sweep in range(start, self.total_sweeps):
+                    lr = self.optim.learning_rate_at(sweep, self.spe)
+                    with self.clock.phase("train"):
+                        out = self.step(sweep, lr)
+                    self.after_sweep(sweep, lr, out)
             return self.finish()
-        start = self.resume()
-        with self.clock.phase("trace"):
-            self.compile()
-        for sweep in range(start, self.total_sweeps):
-            lr = self.optim.learning_rate_at(sweep, self.spe)
-            with self.clock.phase("train"):
-                out = self.step(sweep, lr)
-            self.after_sweep(sweep, lr, out)
-        return self.finish()
 
     def finished(self) -> bool:
         return is_finished(self.run_dir)
 
-    def resume(self, at: int | None = None) -> int:
-        """Restore the latest checkpoint, or the one saved after sweep ``at`` (0 = start afresh);
-        returns the sweep to continue from."""
-        self._manager = self._checkpoint_manager()
-        saved = {_checkpoint_sweep(path): path for path in self._manager.checkpoints}
-        path = self._manager.latest_checkpoint if at is None else saved.get(at)
-        if at and path is None:
-            raise ValueError(f"{self.run_dir}: no checkpoint after sweep {at} "
-                             f"(have {sorted(saved)})")
-        if path:
-            self._manager.checkpoint.restore(path).assert_existing_objects_matched()
-            self.log(f"resuming from sweep {int(self.sweep.numpy())} ({path})")
+    def prepare(self, restart: bool = False) -> None:
+        """Make ``run_dir`` this run's, before any work: check that a folder in use records the
+        same settings (else ``SettingsMismatchError`` naming each difference) or, with
+        ``restart``, delete its config and results; write config.json if new; remove temporary
+        files an interrupted run left. Call it holding the folder's lock (``run`` does)."""
+        if restart:
+            clear_run_dir(self.run_dir)
+        else:
+            check_run_dir(self.run_dir, self.configs)
+        config_path = self.run_dir / CONFIG
+        if not config_path.is_file():
+            write_json(config_path, {**self.configs, "settings_hash": self.settings_hash,
+                                     "provenance": {**provenance(), "started": now()}})
+        self._record = read_json(config_path)
+        self.settings_hash = self._record.get("settings_hash", self.settings_hash)
+        self._saved_hash.assign(self.settings_hash)
+        checkpoint = tf.train.Checkpoint(model=self.model, sgd=self.sgd, sweep=self.sweep,
+                                         dropout_rng=self.dropout_rng, settings=self._saved_hash,
+                                         **self.extra_state())
+        self._store = CheckpointStore(self.run_dir, checkpoint, self.config.keep_checkpoints,
+                                      self.eval_sweeps, self.log)
+        removed = remove_temporary_files(self.run_dir) + self._store.remove_leftovers()
+        if removed:
+            self.log(f"{self.run_dir}: removed {len(removed)} temporary file(s) of an "
+                     "interrupted run")
+
+    def resume(self) -> int:
+        """Restore the newest readable checkpoint (``prepare``-ing the folder first if needed);
+        returns the sweep to continue from (0 = the start)."""
+        if self._store is None:
+            self.prepare()
+        done = self._store.restore()
+        if done:
+            saved = self._saved_hash.numpy().decode()
+            if saved != self.settings_hash:
+                raise SettingsMismatchError(
+                    f"{self.run_dir}: checkpoint ckpt-{done} was saved with settings {saved}, "
+                    f"not those of its config.json ({self.settings_hash})")
+            self._saved_hash.assign(self.settings_hash)
+            self.log(f"resuming from sweep {done} ({self.run_dir / 'checkpoints'}/ckpt-{done})")
         for log in self.run_dir.glob("*.csv"):      # rows past the checkpoint will be redone
-            truncate_csv_log(log, int(self.sweep.numpy()))
-        done = int(self.sweep.numpy())
+            truncate_csv_log(log, done)
         self._losses, self._started = [], time.time()
         self._last_line = (done, self._started)
         return done
 
     def after_sweep(self, sweep: int, lr: float, out: np.ndarray) -> None:
-        """Book-keeping after 0-based sweep ``sweep`` (``out`` from ``update``): progress line,
-        evaluation point, checkpoint."""
-        self._losses.append(self.record(out))
+        """Book-keeping after 0-based sweep ``sweep`` (``out`` from ``update``): loss check,
+        progress line, evaluation point, checkpoint."""
+        losses = self.record(out)
         done = sweep + 1
+        if not np.all(np.isfinite(losses)):
+            self._diverged(done, losses)
+        self._losses.append(losses)
         self.sweep.assign(done)
         unit_sweeps = self.optim.sweeps(1, self.spe)
         if done % (unit_sweeps * self.config.log_every) == 0 or done == self.total_sweeps:
@@ -268,9 +353,19 @@ class Trainer:
         if done in self.eval_sweeps:
             with self.clock.phase("evaluate"):
                 self._evaluate(self.eval_sweeps[done])
-        if done % (unit_sweeps * self.config.checkpoint_every) == 0 or done == self.total_sweeps:
+        if (done in self.eval_sweeps or done == self.total_sweeps
+                or done % (unit_sweeps * self.config.checkpoint_every) == 0):
             with self.clock.phase("checkpoint"):
-                self._manager.save(checkpoint_number=done)
+                self._store.save(done)
+
+    def _diverged(self, done: int, losses: np.ndarray) -> None:
+        bad = ", ".join(f"{t.name} {v}" for t, v in zip(self.tasks, losses) if not np.isfinite(v))
+        unit = done / self.optim.sweeps(1, self.spe)
+        last = max(self.checkpoint_sweeps(), default=0)
+        raise TrainingDiverged(
+            f"{self.run_dir}: training diverged at sweep {done} ({self.optim.unit[:-1]} {unit:g}): "
+            f"loss {bad}. Nothing after the last checkpoint (sweep {last}) was saved; lower the "
+            f"learning rate and restart the run (e.g. --restart).")
 
     def _monitored(self, done: int) -> bool:
         """Whether the progress line after ``done`` sweeps scores the model: every
@@ -359,7 +454,8 @@ class Trainer:
         label = f"{self.optim.unit[:-1]} {point}"
         metrics = write_evaluation(point_dir(self.run_dir, self.optim.unit, point), self.tasks,
                                    self.test, self._test_outputs(),
-                                   {"point": point, "unit": self.optim.unit}, label,
+                                   {"point": point, "unit": self.optim.unit,
+                                    "sweep": int(self.sweep.numpy())}, label,
                                    self.sample_hz, self._plotted(point))
         self.log(f"[{self.run_dir.name}] evaluation at {label}: "
                  f"{metrics_summary(self.tasks, metrics)}")
@@ -370,13 +466,17 @@ class Trainer:
             self.config.plots == "last" and point == max(self.eval_sweeps.values()))
 
     def finish(self) -> dict:
-        """Write ``metrics.json`` and mark the run finished (once); returns the metrics."""
+        """Write ``metrics.json`` (every evaluation point, their mean, the convergence
+        diagnostic) and ``timing.json``, prune the checkpoints (``TrainConfig.keep_checkpoints``)
+        and mark the run finished (once); returns the metrics. A metric that is NaN at every
+        point (e.g. the accuracy of a class absent from the test set) is ``null``."""
         if self.finished():
             self.log(f"{self.run_dir}: already finished")
-            return json.loads((self.run_dir / "metrics.json").read_text())
+            return read_json(self.run_dir / "metrics.json")
         points = sorted(self.eval_sweeps.values())
-        per_point = {p: _read_point(self.run_dir, self.optim.unit, p) for p in points}
-        mean = {task: {k: float(np.mean([per_point[p][task][k] for p in points]))
+        per_point = {p: read_json(point_dir(self.run_dir, self.optim.unit, p) / "metrics.json")
+                     ["metrics"] for p in points}
+        mean = {task: {k: _mean([per_point[p][task][k] for p in points])
                        for k in per_point[points[0]][task]}
                 for task in per_point[points[0]]}
         result = {"points": per_point, "mean": mean, "unit": self.optim.unit,
@@ -385,8 +485,12 @@ class Trainer:
                                                      self.optim.total)}
         write_json(self.run_dir / "metrics.json", result)
         write_json(self.run_dir / "timing.json", self.clock.report())
-        mark_finished(self.run_dir, {"sweeps": self.total_sweeps})
-        return result
+        self._store.finalize()
+        mark_finished(self.run_dir, {
+            "sweeps": self.total_sweeps, "settings_hash": self.settings_hash,
+            "started": self._record.get("provenance", {}).get("started"), "finished": now(),
+            "provenance": provenance()})
+        return read_json(self.run_dir / "metrics.json")
 
 
 def write_evaluation(folder: Path, tasks: Sequence[Task], data: SequenceSet,
@@ -469,15 +573,6 @@ def truncate_csv_log(path: Path, last_sweep: int) -> None:
         write_atomic(path, table[table["sweep"] <= last_sweep].to_csv(index=False))
 
 
-def _checkpoint_sweep(path: str) -> int:
-    """The sweep count a checkpoint was saved after (``.../ckpt-<sweeps>``)."""
-    return int(path.rsplit("-", 1)[1])
-
-
-def point_dir(run_dir: Path, unit: str, point: int) -> Path:
-    """``eval/<unit><N>`` folder of evaluation point N, e.g. ``eval/epoch0100``."""
-    return run_dir / "eval" / f"{unit[:-1]}{point:04d}"
-
-
-def _read_point(run_dir: Path, unit: str, point: int) -> dict:
-    return json.loads((point_dir(run_dir, unit, point) / "metrics.json").read_text())["metrics"]
+def _mean(values: Sequence[float | None]) -> float:
+    """Mean of metric values read from JSON (``None`` = NaN)."""
+    return float(np.mean([np.nan if v is None else v for v in values]))

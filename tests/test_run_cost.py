@@ -46,7 +46,8 @@ def test_a_stack_traces_its_step_once(tmp_path):
     members = [_trainer(tmp_path / f"m{s}", seed=s, monitor_every=1) for s in (0, 1)]
     stack = TrainerStack(members)
     stack.run()
-    assert stack.compiled_step.experimental_get_tracing_count() == 1
+    assert len(stack.compiled_steps) == 1
+    assert all(step.experimental_get_tracing_count() == 1 for step in stack.compiled_steps.values())
     assert all(m.model.infer.experimental_get_tracing_count() == 1 for m in members)
 
 

@@ -1,0 +1,94 @@
+"""A grid folder's own record, ``grid.json``, and the check of its run folders against a spec.
+
+``grid.json`` holds the spec (budget, data, folds, seeds, experiments), the path of every run and
+the provenance of the launch that wrote it. It is written once and never rewritten with another
+spec: launching a spec whose values or runs differ stops before any work, naming each difference,
+unless the launch restarts (``--restart``). Run paths do not encode the budget; the record does,
+and every run's config.json records that run's settings (``rnn_seg.settings``): a spec with another
+width or length never finds runs "already finished".
+
+``multitask-tables`` reads the record's run list to tell missing runs and stray folders.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Callable
+
+from rnn_seg.folder_lock import hold_folder
+from rnn_seg.provenance import now, provenance
+from rnn_seg.rundir import clear_run_dir, read_json, write_json
+from rnn_seg.settings import SettingsMismatchError, check_run_dir, differences
+
+from .fold_run import variant_configs
+from .grid_spec import GridSpec, RunKey, run_arguments, spec_payload
+
+GRID_RECORD = "grid.json"
+SHOWN = 5           # mismatching runs named in full in an error
+
+
+def record_runs(out: Path) -> list[str] | None:
+    """The run paths (``runs/...``) of the grid in ``out``, None when it has no record."""
+    path = Path(out) / GRID_RECORD
+    return read_json(path)["runs"] if path.is_file() else None
+
+
+def prepare_grid(out: Path, spec: GridSpec, keys: list[RunKey], restart: bool = False,
+                 log: Callable[[str], None] = print) -> None:
+    """Check (or with ``restart``, replace) ``out``'s record and run folders for ``spec``'s runs
+    ``keys``, before any work; raise ``SettingsMismatchError`` naming every difference."""
+    out = Path(out)
+    runs = [str(key.path()) for key in keys]
+    path = out / GRID_RECORD
+    if path.is_file() and not restart:
+        _check_record(path, spec, runs)
+    mismatched = _mismatched_runs(out, spec, keys)
+    if mismatched and not restart:
+        shown = "\n".join(details for _, details in mismatched[:SHOWN])
+        more = f"\n... and {len(mismatched) - SHOWN} more" if len(mismatched) > SHOWN else ""
+        raise SettingsMismatchError(
+            f"{out}: {len(mismatched)} run folder(s) hold runs with other settings:\n{shown}{more}",
+            "Use another --out, or --restart to train those runs afresh.")
+    for key, _ in mismatched:
+        with hold_folder(out / key.path()):
+            clear_run_dir(out / key.path())
+    if mismatched:
+        log(f"[grid] restart: cleared {len(mismatched)} run folder(s) of other settings")
+    if restart or not path.is_file():
+        old = set(record_runs(out) or ())
+        write_json(path, {"spec": spec_payload(spec), "runs": runs,
+                          "provenance": {**provenance(), "started": now()}})
+        dropped = old - set(runs)
+        if dropped:
+            log(f"[grid] {len(dropped)} run folder(s) of the previous record are not runs of this "
+                "spec; multitask-tables reports them until they are removed")
+
+
+def _check_record(path: Path, spec: GridSpec, runs: list[str]) -> None:
+    recorded = read_json(path)
+    changed = differences({"spec": recorded.get("spec")}, {"spec": spec_payload(spec)})
+    old_runs = recorded.get("runs", [])
+    if old_runs != runs:
+        changed.append(f"runs: {len(old_runs)} -> {len(runs)} ({len(set(runs) - set(old_runs))} "
+                       f"new, {len(set(old_runs) - set(runs))} no longer in the grid)")
+    if changed:
+        raise SettingsMismatchError(
+            f"{path} records another grid (recorded -> requested):\n  " + "\n  ".join(changed),
+            "Use another --out, or --restart to make this spec the grid's (runs of other "
+            "settings are trained afresh; finished runs of the same settings are kept).")
+
+
+def _mismatched_runs(out: Path, spec: GridSpec, keys: list[RunKey]
+                     ) -> list[tuple[RunKey, str]]:
+    """``(key, message)`` of every run folder holding a run of other settings than ``spec``'s."""
+    fingerprints: dict = {}       # one data fingerprint per data configuration
+    mismatched = []
+    for key in keys:
+        args = run_arguments(spec, key)
+        data = args["config"].data
+        configs = variant_configs(**args, fingerprint=fingerprints.get(data))
+        fingerprints[data] = configs["data_fingerprint"]
+        try:
+            check_run_dir(out / key.path(), configs)
+        except SettingsMismatchError as error:
+            mismatched.append((key, error.details))
+    return mismatched

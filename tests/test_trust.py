@@ -1,0 +1,599 @@
+"""Issue #16, engine and grid side: each numbered case of items 1-4 and 6, replayed.
+
+Every case ends in a clear error (non-zero exit, no traceback, the culprit named) or in a correct
+recovery; none exits 0 with wrong or partial results. Tiny models on a small synthetic release.
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import tensorflow as tf
+
+from baseline.builder import build_trainer, gesture_task
+from baseline.cli import main as baseline_main
+from baseline.config import RunConfig
+from jigsaws_tools.dataset import DataConfig
+from jigsaws_tools.synth import SynthConfig, write_release
+from multitask.grid_cli import main as grid_main
+from multitask.grid_record import prepare_grid
+from multitask.grid_spec import expand, load_spec, with_budget
+from multitask.tables_cli import main as tables_main
+from multitask.train_cli import main as multitask_main
+from rnn_seg.checkpoints import checkpoint_prefix, restore_weights
+from rnn_seg.folder_lock import hold_folder
+from rnn_seg.lstm import EncoderConfig
+from rnn_seg.model import SegmentationModel
+from rnn_seg.optim import OptimConfig
+from rnn_seg.rundir import RunFolderError, write_atomic, write_json
+from rnn_seg.stack import TrainerStack
+from rnn_seg.tasks import SoftmaxClassification
+from rnn_seg.trainer import TrainConfig, Trainer, TrainingDiverged
+from test_stack import F, _data, _trainer, _weights
+
+ROOT = Path(__file__).resolve().parents[1]
+ENV = {**os.environ, "PYTHONPATH": str(ROOT), "TF_CPP_MIN_LOG_LEVEL": "3"}
+TINY = ["--variant", "A", "--hidden", "8", "--epochs", "2", "--no-plots"]
+
+
+@pytest.fixture(scope="module")
+def small_dir(tmp_path_factory) -> Path:
+    """Three users x three trials: a fold trains on 6 trials, 2 sweeps per epoch."""
+    return write_release(tmp_path_factory.mktemp("small") / "Suturing",
+                         SynthConfig(users=("B", "C", "D"), trials_per_user=3))
+
+
+def _cli(main, argv: list[str], capsys) -> tuple[int, str, str]:
+    """Exit code, stdout and stderr of a CLI's ``main`` (argparse errors exit via SystemExit)."""
+    try:
+        code = main(argv)
+    except SystemExit as exit_:
+        code = exit_.code
+    captured = capsys.readouterr()
+    return code, captured.out, captured.err
+
+
+def _assert_clean_error(code: int, err: str, *named: str) -> None:
+    assert code != 0 and "Traceback" not in err, err
+    for text in named:
+        assert text in err, (text, err)
+
+
+def _strict(path: Path):
+    def reject(constant):
+        raise ValueError(f"{path}: {constant}")
+    return json.loads(path.read_text(), parse_constant=reject)
+
+
+# -- 1. a run folder always matches its weights -----------------------------------------------
+@pytest.fixture(scope="module")
+def finished_run(small_dir, tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("run") / "x"
+    assert multitask_main([*TINY, "--data-dir", str(small_dir), "--test-user", "B",
+                           "--keep-checkpoints", "eval_points", "--eval-at", "1,2",
+                           "--out", str(out)]) == 0
+    return out
+
+
+def _snapshot(run: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(run)): p.read_bytes() for p in sorted(run.rglob("*"))
+            if p.is_file() and p.name != ".lock"}
+
+
+def test_relaunch_with_other_settings_stops_before_any_work(finished_run, small_dir, capsys):
+    before = _snapshot(finished_run)
+    code, out, err = _cli(multitask_main, [*TINY, "--data-dir", str(small_dir), "--test-user",
+                                           "C", "--lr", "0.1", "--out", str(finished_run)], capsys)
+    _assert_clean_error(code, err, str(finished_run), 'run.test_user: "B" -> "C"',
+                        "run.optim.learning_rate: 1.0 -> 0.1", "--restart")
+    assert "done" not in out
+    assert _snapshot(finished_run) == before           # config.json and results untouched
+
+
+def test_unfinished_run_relaunched_for_another_fold_does_not_resume(small_dir, tmp_path, capsys):
+    """The test user must never leak into training through another fold's weights."""
+    out = tmp_path / "x"
+    assert multitask_main([*TINY, "--data-dir", str(small_dir), "--test-user", "B",
+                           "--out", str(out)]) == 0
+    (out / "finished.json").unlink()                  # as if killed before the end
+    before = _snapshot(out)
+    code, _, err = _cli(multitask_main, [*TINY, "--data-dir", str(small_dir), "--test-user", "C",
+                                         "--out", str(out)], capsys)
+    _assert_clean_error(code, err, 'run.test_user: "B" -> "C"')
+    assert _snapshot(out) == before
+
+
+def test_restart_trains_afresh_and_output_settings_may_change(small_dir, tmp_path, capsys):
+    out = tmp_path / "x"
+    assert multitask_main([*TINY, "--data-dir", str(small_dir), "--test-user", "B",
+                           "--out", str(out)]) == 0
+    # plots / checkpoint keeping are output settings: the finished run is simply reported
+    code, stdout, _ = _cli(multitask_main, [*TINY[:-1], "--data-dir", str(small_dir),
+                                            "--test-user", "B", "--out", str(out)], capsys)
+    assert code == 0 and "already finished" in stdout
+    code, _, _ = _cli(multitask_main, [*TINY, "--data-dir", str(small_dir), "--test-user", "C",
+                                       "--restart", "--out", str(out)], capsys)
+    assert code == 0
+    config = _strict(out / "config.json")
+    assert config["run"]["test_user"] == "C"
+    predictions = sorted(p.stem for p in (out / "eval/epoch0002/predictions").glob("*.csv"))
+    assert predictions == [f"Suturing_C00{i}" for i in (1, 2, 3)]
+
+
+def test_changed_data_is_a_changed_setting(small_dir, tmp_path, capsys):
+    data = shutil.copytree(small_dir, tmp_path / "Suturing")
+    out = tmp_path / "x"
+    argv = [*TINY, "--data-dir", str(data), "--out", str(out)]
+    assert multitask_main(argv) == 0
+    capsys.readouterr()
+    kinematics = data / "kinematics/AllGestures/Suturing_C001.txt"
+    lines = kinematics.read_text().splitlines(keepends=True)
+    kinematics.write_text("".join(lines[1:] + lines[:1]))     # same size, other content
+    code, _, err = _cli(multitask_main, argv, capsys)
+    _assert_clean_error(code, err, "data_fingerprint:")
+
+
+def test_settings_hash_in_config_checkpoints_and_finished(finished_run):
+    config = _strict(finished_run / "config.json")
+    finished = _strict(finished_run / "finished.json")
+    assert {"run", "tasks", "variant", "weighting"} <= set(config)        # existing layout kept
+    assert config["settings_hash"] == finished["settings_hash"]
+    sweeps = finished["sweeps"]
+    reader = tf.train.load_checkpoint(str(checkpoint_prefix(finished_run, sweeps)))
+    assert reader.get_tensor("settings/.ATTRIBUTES/VARIABLE_VALUE").decode() == \
+        config["settings_hash"]
+
+
+def test_trainer_constructor_writes_nothing(small_dir, tmp_path):
+    config = RunConfig(DataConfig(str(small_dir)), encoder=EncoderConfig(hidden=8),
+                       optim=OptimConfig(total=1), train=TrainConfig(eval_points=()))
+    build_trainer(config, [gesture_task()], tmp_path / "run", log=lambda m: None)
+    assert not (tmp_path / "run").exists()
+
+
+# -- 1 + 2 + 3. the grid -------------------------------------------------------------------------
+GRID = """
+preset = "quick"
+data = "{data}"
+folds = ["B"]
+seeds = [0]
+hidden = {hidden}
+epochs = {epochs}
+
+[[experiments]]
+variants = ["A"]
+"""
+
+
+def _spec(folder: Path, data: Path, hidden: int = 8, epochs: int = 2) -> Path:
+    path = folder / f"grid-h{hidden}-e{epochs}.toml"
+    path.write_text(GRID.format(data=data, hidden=hidden, epochs=epochs))
+    return path
+
+
+@pytest.fixture(scope="module")
+def finished_grid(small_dir, tmp_path_factory) -> tuple[Path, Path]:
+    folder = tmp_path_factory.mktemp("grid")
+    spec = _spec(folder, small_dir)
+    assert grid_main(["--spec", str(spec), "--out", str(folder / "out")]) == 0
+    return folder, folder / "out"
+
+
+@pytest.mark.parametrize("change,named", [({"hidden": 16}, "spec.hidden: 8 -> 16"),
+                                          ({"epochs": 3}, "spec.epochs: 2 -> 3")])
+def test_another_budget_over_a_grid_is_not_already_finished(finished_grid, small_dir, capsys,
+                                                            change, named):
+    folder, out = finished_grid
+    record = (out / "grid.json").read_bytes()
+    code, stdout, err = _cli(grid_main, ["--spec", str(_spec(folder, small_dir, **change)),
+                                         "--out", str(out)], capsys)
+    _assert_clean_error(code, err, named, "--restart")
+    assert "already finished" not in stdout
+    assert (out / "grid.json").read_bytes() == record
+
+
+def test_grid_checks_every_run_folder_and_restart_retrains_only_those(finished_grid, small_dir,
+                                                                      tmp_path, capsys):
+    _, out = finished_grid
+    copy = shutil.copytree(out, tmp_path / "out")
+    (copy / "grid.json").unlink()               # no record: the runs' own config.json still says
+    spec_file = _spec(tmp_path, small_dir, hidden=16)
+    code, _, err = _cli(grid_main, ["--spec", str(spec_file), "--out", str(copy)], capsys)
+    _assert_clean_error(code, err, "run.encoder.hidden: 8 -> 16")
+    spec = with_budget(load_spec(spec_file))
+    keys = expand(spec, ("B", "C", "D"))
+    prepare_grid(copy, spec, keys, restart=True, log=lambda m: None)
+    run = copy / keys[0].path()
+    assert not (run / "config.json").exists() and not (run / "checkpoints").exists()
+    assert _strict(copy / "grid.json")["spec"]["hidden"] == 16
+
+
+def test_grid_record_carries_provenance(finished_grid):
+    _, out = finished_grid
+    record = _strict(out / "grid.json")
+    assert record["spec"]["hidden"] == 8 and record["spec"]["seeds"] == [0]
+    assert record["runs"] == ["runs/revised/bidirectional/A-fixed/seed0/B"]
+    assert record["provenance"]["command"].startswith("multitask-grid --spec")
+
+
+@pytest.mark.parametrize("line,named", [
+    ("epochs = -4", "epochs must be an integer >= 1 (got -4)"),
+    ("epochs = 0", "epochs must be an integer >= 1 (got 0)"),
+    ("hidden = 0", "hidden must be an integer >= 1 (got 0)"),
+    ("hidden = -16", "hidden must be an integer >= 1 (got -16)"),
+    ("seeds = []", "seeds must be a non-empty list"),
+    ("seeds = 0", "seeds must be a non-empty list"),
+    ('epochs = "four"', "epochs must be an integer >= 1 (got 'four')"),
+    ('seeds = [0, "../../../../ESCAPED"]', "seeds must be a list of integers >= 0"),
+])
+def test_bad_spec_values_fail_at_load_time(tmp_path, small_dir, capsys, line, named):
+    spec = tmp_path / "bad.toml"
+    spec.write_text(f'data = "{small_dir}"\nfolds = ["B"]\n{line}\n')
+    code, _, err = _cli(grid_main, ["--spec", str(spec), "--out", str(tmp_path / "out")], capsys)
+    _assert_clean_error(code, err, str(spec), named)
+    assert not (tmp_path / "out").exists()
+    assert not list(tmp_path.parent.glob("ESCAPED"))
+
+
+# -- 2. one writer per folder ---------------------------------------------------------------------
+@pytest.fixture()
+def foreign_lock(tmp_path):
+    """Another process holding the lock of ``tmp_path / "x"``; yields (folder, pid)."""
+    folder = tmp_path / "x"
+    holder = subprocess.Popen(
+        [sys.executable, "-c", "import sys, time\nfrom rnn_seg.folder_lock import hold_folder\n"
+         "with hold_folder(sys.argv[1]):\n    print('locked', flush=True)\n    time.sleep(600)",
+         str(folder)], stdout=subprocess.PIPE, text=True, env=ENV)
+    assert holder.stdout.readline().strip() == "locked"
+    yield folder, holder
+    holder.kill()
+    holder.wait()
+
+
+def test_second_writer_fails_at_once_and_a_dead_holder_is_taken_over(foreign_lock, small_dir,
+                                                                     tmp_path, capsys):
+    folder, holder = foreign_lock
+    code, _, err = _cli(multitask_main, [*TINY, "--data-dir", str(small_dir),
+                                         "--out", str(folder)], capsys)
+    _assert_clean_error(code, err, str(folder), f"pid {holder.pid}")
+    code, _, err = _cli(grid_main, ["--spec", str(_spec(tmp_path, small_dir)),
+                                    "--out", str(folder)], capsys)
+    _assert_clean_error(code, err, "grid folder", str(folder), f"pid {holder.pid}")
+    holder.kill()
+    holder.wait()
+    with hold_folder(folder):                      # the dead holder's lock is free
+        pass
+
+
+def _wait_for(condition, what: str, timeout: float = 300) -> None:
+    deadline = time.time() + timeout
+    while not condition():
+        assert time.time() < deadline, f"timed out waiting for {what}"
+        time.sleep(0.2)
+
+
+def _children(pid: int) -> list[int]:
+    """Pids of the grid's worker processes (children running multiprocessing's spawn_main)."""
+    found = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            ppid = int(stat.read_text().rsplit(")", 1)[1].split()[1])
+            cmdline = (stat.parent / "cmdline").read_bytes()
+        except (OSError, IndexError, ValueError):
+            continue
+        if ppid == pid and b"spawn_main" in cmdline:
+            found.append(int(stat.parent.name))
+    return found
+
+
+def _alive(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+def _group_alive(pgid: int) -> bool:
+    try:
+        os.killpg(pgid, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
+def _checkpointed(out: Path) -> bool:
+    return any(out.glob("runs/**/checkpoints/ckpt-*.index"))
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
+def test_grid_workers_die_with_their_parent(tmp_path, small_dir):
+    out = tmp_path / "out"
+    grid = subprocess.Popen([sys.executable, "-m", "multitask.grid_cli", "--spec",
+                             str(_spec(tmp_path, small_dir, epochs=200)), "--out", str(out)],
+                            env=ENV, start_new_session=True, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    try:
+        _wait_for(lambda: _checkpointed(out), "a first checkpoint")
+        workers = _children(grid.pid)
+        assert workers
+        grid.kill()                                      # the parent only
+        grid.wait()
+        _wait_for(lambda: not any(_alive(w) for w in workers), "the workers to end", 60)
+    finally:
+        try:
+            os.killpg(grid.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+
+
+def test_ctrl_c_stops_a_grid_cleanly_and_it_resumes(tmp_path, small_dir):
+    out = tmp_path / "out"
+    command = [sys.executable, "-m", "multitask.grid_cli", "--spec",
+               str(_spec(tmp_path, small_dir, epochs=12)), "--out", str(out)]
+    grid = subprocess.Popen(command, env=ENV, start_new_session=True, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    _wait_for(lambda: _checkpointed(out), "a first checkpoint")
+    os.killpg(grid.pid, signal.SIGINT)                   # as a terminal's Ctrl-C does
+    _, err = grid.communicate(timeout=120)
+    assert grid.returncode == 130, err
+    assert "Traceback" not in err and err.count("multitask-grid: interrupted") == 1, err
+    _wait_for(lambda: not _group_alive(grid.pid), "the grid's processes to end", 60)
+    again = subprocess.run(command, env=ENV, capture_output=True, text=True, timeout=600)
+    assert again.returncode == 0, again.stderr
+    log = next(out.glob("runs/**/train.log")).read_text()
+    assert "resuming from sweep" in log and (next(out.glob("runs/**/finished.json"))).is_file()
+
+
+def test_ctrl_c_stops_training_cleanly_and_it_resumes(tmp_path, small_dir):
+    command = [sys.executable, "-m", "multitask.train_cli", *TINY[:-3], "--epochs", "20",
+               "--no-plots", "--data-dir", str(small_dir), "--out", str(tmp_path / "x")]
+    train = subprocess.Popen(command, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                             text=True)
+    for line in train.stdout:
+        if line.startswith("[x] epoch 2/20"):
+            break
+    train.send_signal(signal.SIGINT)
+    out, err = train.communicate(timeout=120)
+    assert train.returncode == 130, err
+    assert "Traceback" not in err and err.count("multitask-train: interrupted") == 1, err
+    again = subprocess.run(command, env=ENV, capture_output=True, text=True, timeout=600)
+    assert again.returncode == 0, again.stderr
+    assert "resuming from sweep" in again.stdout and "done:" in again.stdout
+
+
+# -- 3. values validated before any work -----------------------------------------------------------
+EPOCHS = ["--epochs", "2"]
+
+
+@pytest.mark.parametrize("options,named", [
+    (["--epochs", "0"], "OptimConfig.total must be an integer >= 1 (got 0)"),
+    (["--sweeps", "0"], "OptimConfig.total must be an integer >= 1 (got 0)"),
+    (["--hidden", "0", *EPOCHS], ">= 1"),
+    (["--hidden", "-4", *EPOCHS], ">= 1"),
+    (["--layers", "0", *EPOCHS], ">= 1"),
+    (["--keep-prob", "1.5", *EPOCHS], "(0, 1]"),
+    (["--lr", "nan", *EPOCHS], "learning_rate"),
+    (["--batch-size", "0", *EPOCHS], ">= 1"),
+    (["--eval-at", "0", *EPOCHS], ">= 1"),
+    (["--eval-at", "3", *EPOCHS], "beyond the 2 epochs"),
+    (["--eval-at", "two", *EPOCHS], "--eval-at"),
+    (["--momentum", "1", *EPOCHS], "momentum"),
+])
+def test_bad_option_values_fail_before_any_work(small_dir, tmp_path, capsys, options, named):
+    out = tmp_path / "x"
+    code, stdout, err = _cli(baseline_main, ["--hidden", "8", *options, "--data-dir",
+                                             str(small_dir), "--out", str(out)], capsys)
+    _assert_clean_error(code, err, named)
+    assert code == 2 and "done" not in stdout and not out.exists()
+
+
+def _nan_data() -> tuple:
+    inputs = [np.ones((12, 4), np.float32) for _ in range(6)]
+    inputs[2][5, 1] = np.nan
+    labels = {"gesture": [np.zeros(12, int) for _ in range(6)]}
+    from rnn_seg.trainer import SequenceSet
+    return SequenceSet([f"s{i}" for i in range(6)], inputs, labels)
+
+
+def test_a_non_finite_loss_stops_the_run_resumably(tmp_path):
+    tasks = [SoftmaxClassification("gesture", ["a", "b"])]
+    data = _nan_data()
+    trainer = Trainer(SegmentationModel(4, EncoderConfig(hidden=8), tasks, 0), tasks,
+                      OptimConfig(unit="sweeps", total=4, decay_start=4), TrainConfig(
+                          batch_size=2, eval_points=(4,), plots=False), data, data,
+                      tmp_path / "run", {}, 5.0, log=lambda m: None)
+    with pytest.raises(TrainingDiverged, match=r"loss gesture nan"):
+        trainer.run()
+    run = tmp_path / "run"
+    assert not (run / "finished.json").exists() and not (run / "metrics.json").exists()
+    assert (run / "config.json").is_file()
+
+
+def test_cli_reports_divergence_without_done(small_dir, tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(SoftmaxClassification, "loss",
+                        lambda self, outputs, targets, mask=None: tf.reduce_sum(outputs) * np.nan)
+    code, stdout, err = _cli(multitask_main, [*TINY, "--data-dir", str(small_dir),
+                                              "--out", str(tmp_path / "x")], capsys)
+    _assert_clean_error(code, err, "diverged", "nan")
+    assert code == 1 and "done" not in stdout
+
+
+# -- 4. checkpoints and --stack resume ----------------------------------------------------------
+def _train_until(trainer: Trainer, sweeps: int) -> None:
+    """Train ``sweeps`` sweeps and stop, as if killed right after the checkpoint."""
+    start = trainer.resume()
+    for sweep in range(start, sweeps):
+        lr = trainer.optim.learning_rate_at(sweep, trainer.spe)
+        trainer.after_sweep(sweep, lr, trainer.step(sweep, lr))
+
+
+def test_stack_members_at_far_apart_checkpoints_resume_and_catch_up(tmp_path):
+    lone = [_trainer(tmp_path / f"lone{s}", s, False) for s in (0, 1)]
+    for t in lone:
+        t.run()
+    first = [_trainer(tmp_path / f"m{s}", s, False) for s in (0, 1)]
+    for t, reached in zip(first, (5, 2)):
+        _train_until(t, reached)
+    assert [t.checkpoint_sweeps() for t in first] == [[4, 5], [1, 2]]   # 2 is not common
+    again = [_trainer(tmp_path / f"m{s}", s, False) for s in (0, 1)]
+    metrics = TrainerStack(again).run()
+    for a, b in zip(lone, again):
+        for wa, wb in zip(_weights(a), _weights(b)):
+            np.testing.assert_allclose(wb, wa, atol=2e-5)
+    done = [_trainer(tmp_path / f"m{s}", s, False) for s in (0, 1)]
+    assert TrainerStack(done).run() == metrics                 # finished: nothing to train
+
+
+def test_truncated_checkpoint_falls_back_and_leftovers_are_removed(tmp_path):
+    lone = _trainer(tmp_path / "lone", 0, False)
+    lone.run()
+    run = tmp_path / "cut"
+    _train_until(_trainer(run, 0, False), 4)
+    data = next((run / "checkpoints").glob("ckpt-4.data-*"))
+    data.write_bytes(data.read_bytes()[:50])
+    leftovers = [run / "checkpoints/ckpt-5_temp/part-00000-of-00001.data-00000-of-00001",
+                 run / "eval/.metrics.json.1a2b3c4d.tmp", run / ".history.csv.5e6f7a8b.tmp"]
+    for path in leftovers:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text("partial")
+    messages = []
+    resumed = _trainer(run, 0, False)
+    resumed.log = messages.append
+    resumed.run()
+    assert any("cannot read checkpoint" in m and "ckpt-4" in m for m in messages), messages
+    assert any("resuming from sweep 3" in m for m in messages), messages
+    assert not any(p.exists() for p in leftovers)
+    assert not (run / "checkpoints/ckpt-5_temp").exists()
+    for wa, wb in zip(_weights(lone), _weights(resumed)):
+        np.testing.assert_allclose(wb, wa, atol=2e-5)
+
+
+def _tiny(run_dir: Path, eval_points: tuple[int, ...] = (6,), keep: str = "final") -> Trainer:
+    tasks = [SoftmaxClassification("gesture", ["a", "b", "c"])]
+    data = _data(0)
+    return Trainer(SegmentationModel(F, EncoderConfig(hidden=8), tasks, 0), tasks,
+                   OptimConfig(unit="sweeps", total=6, decay_start=3, decay_every=2),
+                   TrainConfig(eval_points=eval_points, plots=False, keep_checkpoints=keep),
+                   data, data, run_dir, {}, 5.0, log=lambda m: None)
+
+
+@pytest.mark.parametrize("keep,kept", [("final", [6]), ("eval_points", [2, 4, 6]),
+                                       ("all", [1, 2, 3, 4, 5, 6])])
+def test_finished_runs_keep_what_they_are_asked_to(tmp_path, keep, kept):
+    trainer = _tiny(tmp_path / keep, eval_points=(2, 4, 6), keep=keep)
+    trainer.run()
+    assert trainer.checkpoint_sweeps() == kept
+
+
+def test_keep_checkpoints_option_keeps_the_evaluation_points(finished_run):
+    points = sorted(_strict(p)["sweep"] for p in finished_run.glob("eval/*/metrics.json"))
+    kept = sorted(int(p.name.split("-")[1].split(".")[0])
+                  for p in (finished_run / "checkpoints").glob("*.index"))
+    assert kept == points and len(points) == 2
+    assert points[-1] == _strict(finished_run / "finished.json")["sweeps"]
+
+
+def test_restore_weights_of_the_final_and_an_evaluation_point(finished_run, tmp_path):
+    config = _strict(finished_run / "config.json")["run"]
+    tasks = [gesture_task()]
+
+    def model():
+        return SegmentationModel(14, EncoderConfig(hidden=config["encoder"]["hidden"]), tasks, 99)
+    final, point1 = model(), model()
+    assert restore_weights(final, finished_run) == _strict(finished_run / "finished.json")["sweeps"]
+    assert restore_weights(point1, finished_run, point=1) == 2
+    assert not np.allclose(final.variables[0].numpy(), point1.variables[0].numpy())
+    final_only = _tiny(tmp_path / "final", eval_points=(3, 6))
+    final_only.run()
+    assert final_only.checkpoint_sweeps() == [6]
+    with pytest.raises(RunFolderError, match="were not kept"):
+        restore_weights(final_only.model, final_only.run_dir, point=3)
+
+
+# -- 6. provenance, strict JSON, umask ----------------------------------------------------------
+def test_every_json_of_a_finished_run_is_strict_with_provenance(finished_run):
+    files = sorted(finished_run.rglob("*.json"))
+    assert len(files) >= 5
+    for path in files:
+        _strict(path)
+    started = _strict(finished_run / "config.json")["provenance"]
+    finished = _strict(finished_run / "finished.json")
+    for record in (started, finished["provenance"]):
+        assert {"package", "git_commit", "python", "tensorflow", "numpy", "command"} <= set(record)
+        assert record["command"].startswith("multitask-train --variant A")
+    assert record["tensorflow"] == tf.__version__ and record["numpy"] == np.__version__
+    assert finished["started"] == started["started"] <= finished["finished"]
+
+
+def test_json_is_strict_and_files_follow_the_umask(tmp_path):
+    write_json(tmp_path / "m.json", {"a": float("nan"), "b": np.float32("inf"), "c": (1.5,)})
+    assert _strict(tmp_path / "m.json") == {"a": None, "b": None, "c": [1.5]}
+    for umask in (0o022, 0o077):
+        old = os.umask(umask)
+        try:
+            write_atomic(tmp_path / f"f{umask}", "x")
+        finally:
+            os.umask(old)
+        assert (tmp_path / f"f{umask}").stat().st_mode & 0o777 == 0o666 & ~umask
+
+
+# -- 6 (issue). tables refuse incomplete evidence ----------------------------------------------
+def _fake_grid(root: Path) -> Path:
+    """A finished two-fold grid of A-fixed, written by hand (no training)."""
+    runs = [f"runs/revised/bidirectional/A-fixed/seed0/{fold}" for fold in "BC"]
+    write_json(root / "grid.json", {"spec": {}, "runs": runs})
+    for k, run in enumerate(runs):
+        metrics = {"accuracy": 80.0 + k, "edit": 70.0 + k, "f1@10": 75.0 + k, "accuracy_G7": None}
+        write_json(root / run / "metrics.json", {"mean": {"gesture": metrics}})
+        write_json(root / run / "finished.json", {"sweeps": 1})
+    return root / runs[0]
+
+
+def _tables(root: Path, capsys, *flags: str) -> tuple[int, str]:
+    code, _, err = _cli(tables_main, [str(root), "--no-figures", *flags], capsys)
+    return code, err
+
+
+def test_tables_of_a_complete_grid(tmp_path, capsys):
+    _fake_grid(tmp_path)
+    code, err = _tables(tmp_path, capsys)
+    assert code == 0, err
+    summary = pd.read_csv(tmp_path / "tables/summary.csv")
+    assert list(summary.folds) == [2] and bool(summary.complete[0])
+
+
+@pytest.mark.parametrize("damage,named", [
+    (lambda run: shutil.rmtree(run), "not finished"),
+    (lambda run: (run / "finished.json").unlink(), "not finished"),
+    (lambda run: shutil.copytree(run, run.with_name("C.old")), "C.old"),
+    (lambda run: write_json(run / "metrics.json", {"mean": {"gesture": {"accuracy": None}}}),
+     "gesture_accuracy is nan"),
+    (lambda run: (run / "metrics.json").write_text('{"mean": {"gesture": {"accuracy": NaN}}}'),
+     "metrics.json"),
+    (lambda run: (run / "metrics.json").write_text('{"mean": {"gest'), "metrics.json"),
+])
+def test_tables_refuse_incomplete_evidence(tmp_path, capsys, damage, named):
+    run = _fake_grid(tmp_path)
+    damage(run)
+    code, err = _tables(tmp_path, capsys)
+    _assert_clean_error(code, err, named)
+    assert not (tmp_path / "tables").exists()
+
+
+def test_allow_incomplete_marks_the_configuration(tmp_path, capsys):
+    shutil.rmtree(_fake_grid(tmp_path))
+    code, err = _tables(tmp_path, capsys, "--allow-incomplete")
+    assert code == 0 and "not finished" in err
+    summary = pd.read_csv(tmp_path / "tables/summary.csv")
+    assert list(summary.folds) == [1] and not summary.complete[0]
+    table = pd.read_csv(tmp_path / "tables/table1.csv")
+    assert (table.model == "A (incomplete: 1/2 runs)").all()
