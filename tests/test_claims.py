@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 import re
 
 import numpy as np
@@ -242,14 +243,19 @@ def test_claims_latex_is_a_well_formed_booktabs_table():
 
 
 def _write_grid(root, runs: pd.DataFrame) -> None:
-    """A finished-runs folder tree as ``multitask-grid`` leaves it (metrics only)."""
+    """A finished-runs folder tree as ``multitask-grid`` leaves it (metrics only), with the
+    grid's record of its runs (grid.json)."""
+    paths = []
     for row in runs.itertuples(index=False):
-        run = (root / "runs" / row.annotations / row.direction / f"{row.variant}-{row.weighting}"
-               / f"seed{row.seed}" / row.fold)
+        path = (Path("runs") / row.annotations / row.direction / f"{row.variant}-{row.weighting}"
+                / f"seed{row.seed}" / row.fold)
+        paths.append(str(path))
+        run = root / path
         run.mkdir(parents=True)
         (run / "metrics.json").write_text(json.dumps({"mean": {"gesture": {
             "accuracy": row.gesture_edit, "edit": row.gesture_edit}}}))
         (run / "finished.json").write_text("{}")
+    (root / "grid.json").write_text(json.dumps({"runs": paths}))
 
 
 def test_cli_writes_the_claims_and_compares_two_configurations(tmp_path, capsys):
