@@ -10,7 +10,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal
 
 from .gestures import UNLABELLED
 from .release import KINEMATICS_HZ
@@ -37,6 +36,8 @@ def lowpass(x: np.ndarray, cutoff_hz: float, order: int, fs_hz: float = KINEMATI
 
     ``x``: ``[n_frames, n_features]`` at ``fs_hz``; returns the same shape.
     """
+    from scipy import signal     # here, not at the top: SciPy's import costs command lines 0.6 s
+
     sos = signal.butter(order, cutoff_hz, btype="low", fs=fs_hz, output="sos")
     return signal.sosfiltfilt(sos, x, axis=0)
 

@@ -15,7 +15,7 @@ from importlib import import_module
 _PUBLIC = {
     "train_variant": "fold_run",
     "variant_trainer": "fold_run",
-    "GradNormConfig": "gradnorm",
+    "GradNormConfig": "weighting",
     "VARIANTS": "variants",
     "Variant": "variants",
     "get_variant": "variants",

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 from functools import partial
 from pathlib import Path
-from typing import Callable, Literal
+from typing import Callable
 
 from baseline.config import RunConfig
 from baseline.builder import build_trainer
@@ -12,9 +12,7 @@ from rnn_seg.trainer import Trainer
 
 from .gradnorm import GradNormConfig, GradNormTrainer
 from .variants import Variant
-
-Weighting = Literal["fixed", "gradnorm"]
-WEIGHTINGS = ("fixed", "gradnorm")
+from .weighting import WEIGHTINGS, Weighting
 
 
 def variant_trainer(variant: Variant, weighting: Weighting, config: RunConfig, run_dir: Path,

@@ -16,20 +16,14 @@ and, by linearity, the weighted network gradient.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 import tensorflow as tf
 
 from rnn_seg.trainer import Trainer, append_csv_row
 
+from .weighting import GradNormConfig
+
 MIN_WEIGHT = 1e-3
-
-
-@dataclass(frozen=True)
-class GradNormConfig:
-    alpha: float = 1.5
-    learning_rate: float = 0.025
 
 
 def shared_layer_variables(model) -> list[tf.Variable]:

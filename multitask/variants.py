@@ -6,15 +6,18 @@ ordered classification; Pr / Pc / Poc = progress only. Optimiser defaults are th
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from importlib import import_module
+from typing import TYPE_CHECKING
 
-from baseline.builder import gesture_task
-from rnn_seg.optim import OptimConfig
-from rnn_seg.tasks import Task
-from rnn_seg.trainer import TrainConfig
+from rnn_seg.config import OptimConfig, TrainConfig
 
-from .heads import OrdinalProgress, ProgressClassification, ProgressRegression
+if TYPE_CHECKING:
+    from rnn_seg.tasks import Task
 
-_PROGRESS_HEADS = {"r": ProgressRegression, "c": ProgressClassification, "oc": OrdinalProgress}
+#: Progress head of each variant suffix: a class of ``multitask.heads``, imported when a variant's
+#: tasks are built, so that the registry (and every ``--help``) does not load TensorFlow.
+_PROGRESS_HEADS = {"r": "ProgressRegression", "c": "ProgressClassification",
+                   "oc": "OrdinalProgress"}
 
 #: Paper: APr "GD with Momentum 0.9 ... initial learning rate 0.1"; APc/APoc "GD ... 1.0";
 #: decay 0.5 after 80 epochs, stop after 120, evaluate after 100, 110, 120.
@@ -34,14 +37,19 @@ class Variant:
     progress: str | None        # "r", "c", "oc" or None
 
     def tasks(self) -> list[Task]:
+        """The variant's heads, gestures first (imports TensorFlow)."""
+        from baseline.builder import gesture_task
+
         tasks = [gesture_task()] if self.gestures else []
         if self.progress:
-            tasks.append(_PROGRESS_HEADS[self.progress]())
+            heads = import_module(".heads", __package__)
+            tasks.append(getattr(heads, _PROGRESS_HEADS[self.progress])())
         return tasks
 
     @property
     def multitask(self) -> bool:
-        return len(self.tasks()) > 1
+        """Whether the variant has two tasks (gestures and progress)."""
+        return self.gestures and self.progress is not None
 
     def optim(self) -> OptimConfig:
         """The paper's optimiser and schedule for this variant."""

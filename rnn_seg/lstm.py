@@ -18,33 +18,11 @@ Shapes: batch-major ``[B, T, ...]`` at the API, time-major inside the scan.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Literal, NamedTuple
+from typing import NamedTuple
 
 import tensorflow as tf
 
-ResetMode = Literal["original", "corrected"]
-RESET_MODES = ("original", "corrected")
-
-
-@dataclass(frozen=True)
-class EncoderConfig:
-    """Shape of the recurrent encoder."""
-
-    hidden: int = 1024
-    layers: int = 1
-    bidirectional: bool = True
-    keep_prob: float = 0.5          # dropout keep probability on each layer's inputs and outputs
-    init_scale: float = 0.1
-    reset_mode: ResetMode = "original"
-
-    def __post_init__(self):
-        if self.reset_mode not in RESET_MODES:
-            raise ValueError(f"reset_mode must be one of {RESET_MODES}, not {self.reset_mode!r}")
-
-    @property
-    def output_size(self) -> int:
-        return self.hidden * (2 if self.bidirectional else 1)
+from .config import RESET_MODES, EncoderConfig, ResetMode  # noqa: F401 (re-exported)
 
 
 class LayerParams(NamedTuple):

@@ -5,44 +5,11 @@ Schedule lengths are counted in explicit units: ``"sweeps"`` (optimisation steps
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Literal, Sequence
+from typing import Sequence
 
 import tensorflow as tf
 
-Unit = Literal["epochs", "sweeps"]
-UNITS = ("epochs", "sweeps")
-
-
-@dataclass(frozen=True)
-class OptimConfig:
-    """Optimiser and schedule: constant ``learning_rate`` for ``decay_start`` units, then multiplied
-    by ``decay_factor`` every ``decay_every`` units, until ``total`` units."""
-
-    learning_rate: float = 1.0
-    momentum: float = 0.0
-    clip_norm: float = 1.0
-    unit: Unit = "epochs"
-    total: int = 120
-    decay_start: int = 80
-    decay_every: int = 40
-    decay_factor: float = 0.5
-
-    def __post_init__(self):
-        if self.unit not in UNITS:
-            raise ValueError(f"unit must be one of {UNITS}, not {self.unit!r}")
-        if min(self.total, self.decay_every) < 1 or self.decay_start < 0:
-            raise ValueError("total and decay_every must be >= 1, decay_start >= 0")
-
-    def sweeps(self, units: int, sweeps_per_epoch: int) -> int:
-        """Convert a count in this schedule's unit to sweeps."""
-        return units * (sweeps_per_epoch if self.unit == "epochs" else 1)
-
-    def learning_rate_at(self, sweep: int, sweeps_per_epoch: int) -> float:
-        """Learning rate of 0-based sweep ``sweep``."""
-        unit = sweep // sweeps_per_epoch if self.unit == "epochs" else sweep
-        decays = 0 if unit < self.decay_start else 1 + (unit - self.decay_start) // self.decay_every
-        return self.learning_rate * self.decay_factor ** decays
+from .config import UNITS, OptimConfig, Unit  # noqa: F401 (re-exported)
 
 
 class SGD(tf.Module):

@@ -17,34 +17,19 @@ import json
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Literal, Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 import pandas as pd
 import tensorflow as tf
 
+from .config import PREDICTION_MODES, PredictionMode, TrainConfig  # noqa: F401 (re-exported)
 from .model import ModelParams, SegmentationModel
 from .optim import SGD, OptimConfig
 from .plots import plot_sequence
 from .rundir import is_finished, mark_finished, write_atomic, write_json
 from .sweeps import make_sweep, reset_flags, sweep_indices, sweeps_per_epoch
 from .tasks import Task, task_metrics
-
-PredictionMode = Literal["sweep", "per_sequence"]
-PREDICTION_MODES = ("sweep", "per_sequence")
-
-
-@dataclass(frozen=True)
-class TrainConfig:
-    """Batching, seeding and what a run writes."""
-
-    batch_size: int = 5
-    seed: int = 0
-    eval_points: tuple[int, ...] = (100, 110, 120)   # in the schedule's unit; () = at the end
-    prediction: PredictionMode = "sweep"
-    log_every: int = 1                               # units between progress lines
-    checkpoint_every: int = 1                        # units between checkpoints
-    plots: bool = True
 
 
 @dataclass
