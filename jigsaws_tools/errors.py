@@ -8,7 +8,7 @@ OBTAIN_HINT = (
     "(https://cirl.lcsr.jhu.edu/research/hmm/datasets/jigsaws_release/). Point the tools at the "
     "task folder, which must contain kinematics/AllGestures/Suturing_<User><Trial>.txt, "
     "transcriptions/Suturing_<User><Trial>.txt and meta_file_Suturing.txt; or run "
-    "`jigsaws-tools synth OUT` to write a synthetic release in that layout."
+    "`jigsaws-tools synth --out DIR` to write a synthetic release in that layout."
 )
 
 

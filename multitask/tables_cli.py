@@ -12,15 +12,17 @@ import argparse
 import sys
 from pathlib import Path
 
-from rnn_seg.rundir import write_atomic
+from jigsaws_tools.cli_common import command_parser, run_command
 
-from .collect import per_fold, run_rows, summary
-from .figures import all_figures
-from .tables import PAPER_TABLES, annotation_ablation, paper_best, paper_comparison, to_latex
+PROG = "multitask-tables"
 
 
 def write_tables(grid_dir: Path, out: Path, figures: bool = True) -> list[Path]:
     """Everything ``multitask-tables`` writes; returns the paths."""
+    from .collect import per_fold, run_rows, summary
+    from .figures import all_figures
+    from .tables import PAPER_TABLES, annotation_ablation, paper_best, paper_comparison, to_latex
+
     runs, unfinished = run_rows(grid_dir)
     for run_dir in unfinished:
         print(f"not finished, left out: {run_dir}", file=sys.stderr)
@@ -48,31 +50,38 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True) -> list[Path]:
 
 
 def _csv(frame, path: Path) -> Path:
+    from rnn_seg.rundir import write_atomic
+
     write_atomic(path, frame.to_csv(index=False, float_format="%.4f"))
     return path
 
 
 def _tex(text: str, path: Path) -> Path:
+    from rnn_seg.rundir import write_atomic
+
     write_atomic(path, text)
     return path
 
 
+def build_parser() -> argparse.ArgumentParser:
+    parser = command_parser(PROG, __doc__)
+    parser.add_argument("grid_dir", type=Path, metavar="GRID_DIR",
+                        help="output folder of multitask-grid")
+    parser.add_argument("--out", type=Path, metavar="DIR",
+                        help="where to write (default: GRID_DIR/tables)")
+    parser.add_argument("--no-figures", action="store_true", help="write the tables only")
+    return parser
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="multitask-tables", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("grid_dir", type=Path, help="output folder of multitask-grid")
-    parser.add_argument("--out", type=Path, help="where to write (default GRID_DIR/tables)")
-    parser.add_argument("--no-figures", action="store_true")
-    args = parser.parse_args(argv)
-    try:
-        paths = write_tables(args.grid_dir, args.out or args.grid_dir / "tables",
-                             figures=not args.no_figures)
-    except (ValueError, OSError) as error:
-        print(f"multitask-tables: error: {error}", file=sys.stderr)
-        return 2
-    for path in paths:
+    args = build_parser().parse_args(argv)
+    return run_command(PROG, args.verbose, lambda: _write(args))
+
+
+def _write(args: argparse.Namespace) -> None:
+    for path in write_tables(args.grid_dir, args.out or args.grid_dir / "tables",
+                             figures=not args.no_figures):
         print(path)
-    return 0
 
 
 if __name__ == "__main__":

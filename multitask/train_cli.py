@@ -1,56 +1,72 @@
-"""``multitask-train``: train one of A, APr, APc, APoc, Pr, Pc, Poc on one LOUO fold."""
+"""``multitask-train``: train one of A, APr, APc, APoc, Pr, Pc, Poc on one LOUO fold.
+
+``--help`` shows the defaults of the chosen ``--variant`` (each has the paper's optimiser).
+"""
 from __future__ import annotations
 
 import argparse
-import logging
-import os
 import sys
 
 from baseline.options import add_run_arguments, run_config_from_args
-from jigsaws_tools.errors import JigsawsError
-from rnn_seg.threads import configure_threads
+from jigsaws_tools.arg_types import non_negative_float, positive_float
+from jigsaws_tools.cli_common import command_parser, import_tensorflow, run_command
 
-from .gradnorm import GradNormConfig
-from .fold_run import WEIGHTINGS, train_variant
-from .variants import VARIANTS, get_variant
+from .variants import VARIANTS, Variant, get_variant
+from .weighting import WEIGHTINGS, GradNormConfig
+
+PROG = "multitask-train"
+DEFAULT_VARIANT = "APc"
 
 
-def build_parser(variant_name: str) -> argparse.ArgumentParser:
+def add_variant_argument(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--variant", choices=list(VARIANTS), default=DEFAULT_VARIANT,
+                        help="A = gestures only; APr / APc / APoc = gestures + progress by "
+                             "regression / classification / ordered classification; Pr / Pc / "
+                             "Poc = progress only")
+
+
+def build_parser(variant_name: str = DEFAULT_VARIANT) -> argparse.ArgumentParser:
+    """The parser, its schedule defaults those of variant ``variant_name``."""
     variant = get_variant(variant_name)
-    parser = argparse.ArgumentParser(prog="multitask-train", description=__doc__)
-    parser.add_argument("--variant", choices=list(VARIANTS), default="APc")
-    parser.add_argument("--weighting", choices=WEIGHTINGS, default="fixed")
-    parser.add_argument("--alpha", type=float, default=GradNormConfig.alpha)
-    parser.add_argument("--weight-lr", type=float, default=GradNormConfig.learning_rate,
-                        help="learning rate of the GradNorm task weights")
-    add_run_arguments(parser, variant.optim())
+    parser = command_parser(PROG, __doc__)
+    add_variant_argument(parser)
+    parser.add_argument("--weighting", choices=WEIGHTINGS, default=WEIGHTINGS[0],
+                        help="task loss weights: fixed w1 = w2 = 1, or GradNorm (two-task "
+                             "variants only)")
+    parser.add_argument("--alpha", type=non_negative_float, default=GradNormConfig.alpha,
+                        help="GradNorm's asymmetry alpha")
+    parser.add_argument("--weight-lr", type=positive_float, default=GradNormConfig.learning_rate,
+                        metavar="LR", help="learning rate of the GradNorm task weights")
+    add_run_arguments(parser, variant.optim(), variant.eval_points())
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "2")
-    logging.basicConfig(format="%(levelname)s: %(message)s", level=logging.WARNING)
     pre = argparse.ArgumentParser(add_help=False)
-    pre.add_argument("--variant", choices=list(VARIANTS), default="APc")
+    add_variant_argument(pre)
     known, _ = pre.parse_known_args(argv)
     variant = get_variant(known.variant)
     args = build_parser(variant.name).parse_args(argv)
-    try:
-        configure_threads(args.threads, args.hidden)
-        config = run_config_from_args(args, variant.optim(), variant.eval_points())
-        print(f"variant: {variant.name} ({args.weighting})\n{config.describe()}", flush=True)
-        result = train_variant(variant, args.weighting, config, args.out,
-                               GradNormConfig(alpha=args.alpha, learning_rate=args.weight_lr),
-                               log=lambda m: print(m, flush=True))
-    except (JigsawsError, ValueError) as error:
-        print(f"multitask-train: error: {error}", file=sys.stderr)
-        return 2
+    return run_command(PROG, args.verbose, lambda: _train(args, variant))
+
+
+def _train(args: argparse.Namespace, variant: Variant) -> None:
+    import_tensorflow()
+    from rnn_seg.threads import configure_threads
+
+    from .fold_run import train_variant
+
+    configure_threads(args.threads, args.hidden)
+    config = run_config_from_args(args, variant.optim(), variant.eval_points())
+    print(f"variant: {variant.name} ({args.weighting})\n{config.describe()}", flush=True)
+    result = train_variant(variant, args.weighting, config, args.out,
+                           GradNormConfig(alpha=args.alpha, learning_rate=args.weight_lr),
+                           log=lambda m: print(m, flush=True))
     summary = "; ".join(f"{task}: accuracy {m['accuracy']:.1f}, edit {m['edit']:.1f}, "
                         f"F1@10 {m['f1@10']:.1f}" + (f", MAE {m['mae_normalised']:.1f}"
                                                      if "mae_normalised" in m else "")
                         for task, m in result["mean"].items())
     print(f"done: {summary} (mean over evaluation points); outputs in {args.out}")
-    return 0
 
 
 if __name__ == "__main__":
