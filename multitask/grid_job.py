@@ -1,22 +1,24 @@
 """One job of a grid, as a worker process runs it: a group of runs of one configuration.
 
 A job takes and returns plain data (so process pools and Dask can ship it), trains its runs
-together (``rnn_seg.stack``) and logs each run to ``<run dir>/train.log``.
+together (``rnn_seg.stack``) and logs each run to ``<run dir>/train.log``. This module imports
+TensorFlow only inside ``run_job``, after quieting it, so that a worker process that unpickles
+the job prints none of TensorFlow's start-up lines.
 """
 from __future__ import annotations
 
+import logging
 import traceback
-from contextlib import ExitStack
+from contextlib import ExitStack, contextmanager
 from pathlib import Path
-from typing import Callable, TextIO
+from typing import Callable, Iterator, TextIO
 
-from jigsaws_tools.dataset import load_dataset
-from rnn_seg.stack import train_together
-from rnn_seg.threads import configure_threads
+from jigsaws_tools.cli_common import import_tensorflow
 
-from .fold_run import variant_trainer
 from .grid_spec import RunKey, run_config, spec_from_dict
 from .variants import get_variant
+
+Log = Callable[[str], None]
 
 
 def run_job(spec: dict, keys: list[dict], out: str, cores: int) -> list[dict]:
@@ -25,8 +27,16 @@ def run_job(spec: dict, keys: list[dict], out: str, cores: int) -> list[dict]:
     (``rnn_seg.stack``).
 
     Takes and returns plain data so that process pools and Dask workers can ship it; each run's
-    log (and the traceback of a failure) goes to ``<run dir>/train.log``.
+    log (and the traceback of a failure) goes to ``<run dir>/train.log``, and so do the warnings
+    of the data layer (the submitting process has shown them once already).
     """
+    import_tensorflow()
+    from jigsaws_tools.dataset import load_dataset
+    from rnn_seg.stack import train_together
+    from rnn_seg.threads import configure_threads
+
+    from .fold_run import variant_trainer
+
     grid, runs = spec_from_dict(spec), [RunKey(**key) for key in keys]
     configure_threads(cores, grid.budget.hidden)
     run_dirs = [Path(out) / run.path() for run in runs]
@@ -35,6 +45,7 @@ def run_job(spec: dict, keys: list[dict], out: str, cores: int) -> list[dict]:
         for run_dir in run_dirs:
             run_dir.mkdir(parents=True, exist_ok=True)
             logs.append(_line_writer(files.enter_context(open(run_dir / "train.log", "a"))))
+        files.enter_context(_warnings_to(logs))
         try:
             configs = [run_config(grid, run) for run in runs]
             dataset = load_dataset(configs[0].data)          # one configuration: one release
@@ -48,8 +59,32 @@ def run_job(spec: dict, keys: list[dict], out: str, cores: int) -> list[dict]:
             raise
 
 
-def _line_writer(file: TextIO) -> Callable[[str], None]:
+def _line_writer(file: TextIO) -> Log:
     def write(message: str) -> None:
         file.write(message + "\n")
         file.flush()
     return write
+
+
+class _ToLogs(logging.Handler):
+    def __init__(self, logs: list[Log]):
+        super().__init__(logging.WARNING)
+        self.logs = logs
+
+    def emit(self, record: logging.LogRecord) -> None:
+        for log in self.logs:
+            log(f"{record.levelname}: {record.getMessage()}")
+
+
+@contextmanager
+def _warnings_to(logs: list[Log]) -> Iterator[None]:
+    """Send ``jigsaws_tools``' warnings to the runs' logs instead of the worker's terminal."""
+    logger = logging.getLogger("jigsaws_tools")
+    handler, propagate = _ToLogs(logs), logger.propagate
+    logger.addHandler(handler)
+    logger.propagate = False
+    try:
+        yield
+    finally:
+        logger.removeHandler(handler)
+        logger.propagate = propagate

@@ -13,8 +13,8 @@ and is resumable on its own; ``finished.json`` marks it complete (``rnn_seg.rund
 Example spec (every key optional)::
 
     preset = "quick"
-    data = "synthetic"            # or a JIGSAWS Suturing folder; default $JIGSAWS_DIR
-    folds = ["B", "C"]            # default: every user of the release
+    data_dir = "synthetic"        # or a JIGSAWS Suturing folder; default $JIGSAWS_DIR
+    test_users = ["B", "C"]       # the LOUO folds; default: every user of the release
     seeds = [0]
     hidden = 64                   # budget overrides
     epochs = 10                   # length of the gesture variants' schedule; P scaled alike
@@ -24,27 +24,32 @@ Example spec (every key optional)::
     weightings = ["fixed"]
     annotations = ["revised"]
     directions = ["bidirectional"]
+
+The keys ``data`` and ``folds`` of earlier versions are read as ``data_dir`` and ``test_users``,
+with a deprecation warning.
 """
 from __future__ import annotations
 
 import json
+import logging
 import tomllib
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 
-from baseline.config import RunConfig
+from baseline.config import DIRECTIONS, RunConfig
 from jigsaws_tools.annotations import ANNOTATION_VERSIONS
 from jigsaws_tools.dataset import DataConfig, default_cache_dir, default_data_dir
 from jigsaws_tools.release import discover
 from jigsaws_tools.synth import SynthConfig, ensure_release
-from rnn_seg.lstm import EncoderConfig
-from rnn_seg.trainer import TrainConfig
+from rnn_seg.config import EncoderConfig, TrainConfig
 
-from .fold_run import WEIGHTINGS
 from .variants import MULTITASK_EVAL, VARIANTS, get_variant
+from .weighting import WEIGHTINGS
 
-DIRECTIONS = ("bidirectional", "forward")
+log = logging.getLogger(__name__)
 PAPER_EPOCHS = MULTITASK_EVAL[-1]
+#: Old spec key -> its name now.
+DEPRECATED_KEYS = {"data": "data_dir", "folds": "test_users"}
 
 
 @dataclass(frozen=True)
@@ -94,8 +99,8 @@ class GridSpec:
     """A whole grid; ``None`` budget fields take the preset's value."""
 
     preset: str = "quick"
-    data: str = ""                  # "" = $JIGSAWS_DIR or the default folder; "synthetic"
-    folds: tuple[str, ...] = ()     # () = every user of the release
+    data_dir: str = ""              # "" = $JIGSAWS_DIR or the default folder; "synthetic"
+    test_users: tuple[str, ...] = ()    # the LOUO folds; () = every user of the release
     seeds: tuple[int, ...] | None = None
     hidden: int | None = None
     epochs: int | None = None
@@ -112,10 +117,11 @@ class GridSpec:
         return Budget(hidden=self.hidden or base.hidden, schedule_scale=scale,
                       seeds=self.seeds if self.seeds is not None else base.seeds)
 
-    def data_dir(self) -> Path:
-        if self.data == "synthetic":
+    def release_dir(self) -> Path:
+        """The release folder ``data_dir`` names (the synthetic one written on first use)."""
+        if self.data_dir == "synthetic":
             return ensure_release(default_cache_dir(), SynthConfig())
-        return Path(self.data) if self.data else default_data_dir()
+        return Path(self.data_dir) if self.data_dir else default_data_dir()
 
 
 def load_spec(path: Path | str) -> GridSpec:
@@ -129,6 +135,15 @@ def load_spec(path: Path | str) -> GridSpec:
 
 
 def spec_from_dict(raw: dict, source: str = "spec") -> GridSpec:
+    """A ``GridSpec`` from plain data (a parsed TOML file, grid.json's ``spec``); ``source`` names
+    it in errors and warnings."""
+    raw = dict(raw)
+    for old, new in DEPRECATED_KEYS.items():
+        if old in raw:
+            log.warning("%s: spec key %r is deprecated; use %r", source, old, new)
+            if new in raw:
+                raise ValueError(f"{source}: both {old!r} and {new!r} given; keep {new!r}")
+            raw[new] = raw.pop(old)
     known = {f.name for f in fields(GridSpec)}
     unknown = set(raw) - known
     if unknown:
@@ -137,7 +152,7 @@ def spec_from_dict(raw: dict, source: str = "spec") -> GridSpec:
     values = {k: v for k, v in raw.items() if v is not None}
     if "experiments" in values:
         values["experiments"] = tuple(_experiment(e, source) for e in values["experiments"])
-    for key in ("folds", "seeds"):
+    for key in ("test_users", "seeds"):
         if key in values:
             values[key] = tuple(values[key])
     return GridSpec(**values)
@@ -174,10 +189,10 @@ class RunKey:
 
 def expand(spec: GridSpec, users: tuple[str, ...]) -> list[RunKey]:
     """Every run of the grid, sorted, each once. ``users`` are the release's users."""
-    folds = spec.folds or users
+    folds = spec.test_users or users
     missing = sorted(set(folds) - set(users))
     if missing:
-        raise ValueError(f"fold(s) {', '.join(missing)} not among the release's users "
+        raise ValueError(f"test user(s) {', '.join(missing)} not among the release's users "
                          f"{', '.join(users)}")
     keys = {RunKey(a, d, v, w, s, f)
             for e in spec.experiments
@@ -189,7 +204,7 @@ def expand(spec: GridSpec, users: tuple[str, ...]) -> list[RunKey]:
 
 def release_users(spec: GridSpec) -> tuple[str, ...]:
     """The LOUO folds of the spec's release: every user with at least one complete trial."""
-    return discover(spec.data_dir()).users
+    return discover(spec.release_dir()).users
 
 
 def run_config(spec: GridSpec, key: RunKey) -> RunConfig:
@@ -197,7 +212,7 @@ def run_config(spec: GridSpec, key: RunKey) -> RunConfig:
     budget = spec.budget
     optim, points = get_variant(key.variant).schedule(budget.schedule_scale)
     return RunConfig(
-        data=DataConfig(str(spec.data_dir()), annotations=key.annotations),
+        data=DataConfig(str(spec.release_dir()), annotations=key.annotations),
         test_user=key.fold,
         encoder=EncoderConfig(hidden=budget.hidden, bidirectional=key.direction == "bidirectional"),
         optim=optim,

@@ -58,8 +58,11 @@ class TrainerStack:
         in common) and return each member's metrics, in order."""
         active = [t for t in self.trainers if not t.finished()]
         if len(active) == 1:
-            active[0].run()                  # the plain step is faster than a stack of one
-        elif active:
+            # The plain step is faster than a stack of one. run() finishes the run: finishing
+            # it again would log a stray "already finished".
+            result = active[0].run()
+            return [result if t is active[0] else t.finish() for t in self.trainers]
+        if active:
             start = min(max(t.checkpoint_sweeps(), default=0) for t in active)
             for t in active:
                 t.resume(start)

@@ -23,8 +23,8 @@ from multitask.variants import get_variant
 
 TINY = """
 preset = "quick"
-data = "{data}"
-folds = ["B", "C"]
+data_dir = "{data}"
+test_users = ["B", "C"]
 seeds = [0]
 hidden = 16
 epochs = 3
@@ -64,17 +64,17 @@ def test_spec_errors_name_the_file_and_key(tmp_path):
 
 
 def test_expand_skips_gradnorm_for_single_task_and_checks_folds():
-    spec = GridSpec(folds=("B",), seeds=(0, 1),
+    spec = GridSpec(test_users=("B",), seeds=(0, 1),
                     experiments=(Experiment(("A", "APc", "Pc"), ("fixed", "gradnorm")),))
     keys = expand(spec, ("B", "C"))
     assert {k.config_name for k in keys} == {"A-fixed", "APc-fixed", "APc-gradnorm", "Pc-fixed"}
     assert len(keys) == 4 * 2
     with pytest.raises(ValueError, match="Z"):
-        expand(GridSpec(folds=("Z",)), ("B", "C"))
+        expand(GridSpec(test_users=("Z",)), ("B", "C"))
 
 
 def test_paper_preset_run_configs(synth_dir):
-    spec = GridSpec(preset="paper", data=str(synth_dir))
+    spec = GridSpec(preset="paper", data_dir=str(synth_dir))
     keys = expand(spec, ("B", "C", "D", "E", "F", "G", "H", "I"))
     assert len(keys) == 22 * 8 * 3
     online_apc = run_config(spec, RunKey("revised", "forward", "APc", "fixed", 2, "G"))
