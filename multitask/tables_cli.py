@@ -17,11 +17,21 @@ from jigsaws_tools.cli_common import command_parser, run_command
 PROG = "multitask-tables"
 
 
-def write_tables(grid_dir: Path, out: Path, figures: bool = True) -> list[Path]:
-    """Everything ``multitask-tables`` writes; returns the paths."""
+def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: bool = False
+                 ) -> list[Path]:
+    """Everything ``multitask-tables`` writes; returns the paths.
+
+    Args:
+        grid_dir: output folder of ``multitask-grid``.
+        out: where to write.
+        figures: also draw the figures.
+        ours_only: LaTeX tables without the paper's columns (the CSVs keep them).
+    """
+    from .captions import describe_runs
     from .collect import per_fold, run_rows, summary
     from .figures import all_figures
-    from .tables import PAPER_TABLES, annotation_ablation, paper_best, paper_comparison, to_latex
+    from .tables import (PAPER_TABLES, ablation_caption, annotation_ablation, paper_best,
+                         paper_caption, paper_comparison, table_runs, to_latex)
 
     runs, unfinished = run_rows(grid_dir)
     for run_dir in unfinished:
@@ -34,15 +44,18 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True) -> list[Path]:
         frame = paper_comparison(stats, table)
         if frame.empty:
             continue
+        budget = describe_runs(grid_dir, table_runs(runs, frame, (table.annotations,),
+                                                    table.direction)).sentence()
         written.append(_csv(frame, out / f"{table.name}.csv"))
-        written.append(_tex(to_latex(frame, table.caption, table.name, ("Ours", "Paper"),
-                                     paper_best(table)), out / f"{table.name}.tex"))
+        written.append(_tex(to_latex(frame, paper_caption(table, budget, ours_only), table.name,
+                                     ("Ours", "Paper"), paper_best(table), ours_only),
+                            out / f"{table.name}.tex"))
     ablation = annotation_ablation(stats)
     if not ablation.empty:
-        caption = ("Annotation-version ablation: revised against original labels, mean (std) "
-                   "over folds; Delta = revised - original.")
+        budget = describe_runs(grid_dir, table_runs(runs, ablation, ("revised", "original"),
+                                                    "bidirectional")).sentence()
         written.append(_csv(ablation, out / "ablation_annotations.csv"))
-        written.append(_tex(to_latex(ablation, caption, "ablation_annotations",
+        written.append(_tex(to_latex(ablation, ablation_caption(budget), "ablation_annotations",
                                      ("Revised", "Original")), out / "ablation_annotations.tex"))
     if figures:
         written += all_figures(Path(grid_dir), stats, folds, out / "figures")
@@ -70,6 +83,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--out", type=Path, metavar="DIR",
                         help="where to write (default: GRID_DIR/tables)")
     parser.add_argument("--no-figures", action="store_true", help="write the tables only")
+    parser.add_argument("--ours-only", action="store_true",
+                        help="LaTeX tables with our numbers alone, without the paper's columns "
+                             "(the CSVs keep them)")
     return parser
 
 
@@ -80,7 +96,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def _write(args: argparse.Namespace) -> None:
     for path in write_tables(args.grid_dir, args.out or args.grid_dir / "tables",
-                             figures=not args.no_figures):
+                             figures=not args.no_figures, ours_only=args.ours_only):
         print(path)
 
 
