@@ -63,11 +63,14 @@ def _amendments(args: argparse.Namespace) -> None:
 
 def _plot(args: argparse.Namespace) -> None:
     from .dataset import DataConfig, load_dataset
+    from .gestures import GESTURES
     from .plots import plot_dataset
+    from .progress import NUM_STAGES
 
     config = DataConfig(str(data_dir_from_args(args)), annotations=args.annotations)
     dataset = load_dataset(config)
-    out = plot_dataset(dataset.trials, args.out, config.preprocessing.sample_hz)
+    out = plot_dataset(dataset.trials, args.out, config.preprocessing.sample_hz, GESTURES,
+                       [f"P{k}" for k in range(NUM_STAGES)])
     print(f"wrote {out}")
 
 

@@ -3,8 +3,10 @@
 Writes to ``--out`` (default ``GRID_DIR/tables``): ``runs.csv`` (one row per finished run),
 ``per_fold.csv`` (mean over seeds per configuration and fold), ``summary.csv`` (mean and std over
 folds), ``table1|2|3.csv/.tex`` (ours against the paper), ``ablation_annotations.csv/.tex``
-(revised against original labels) and ``figures/*.png|pdf``. Unfinished runs are left out and
-listed.
+(revised against original labels), ``figures/*.png|pdf`` and, with ``--curves``,
+``figures/curves/*.png|pdf`` (training curves). Unfinished runs are left out and listed.
+
+    multitask-tables runs/quick --out results --example-trial Suturing_D003 --curves
 """
 from __future__ import annotations
 
@@ -17,8 +19,8 @@ from jigsaws_tools.cli_common import command_parser, run_command
 PROG = "multitask-tables"
 
 
-def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: bool = False
-                 ) -> list[Path]:
+def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: bool = False,
+                 example_trial: str | None = None, curves: bool = False) -> list[Path]:
     """Everything ``multitask-tables`` writes; returns the paths.
 
     Args:
@@ -26,10 +28,13 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
         out: where to write.
         figures: also draw the figures.
         ours_only: LaTeX tables without the paper's columns (the CSVs keep them).
+        example_trial: the test trial of the example figures (default: the first).
+        curves: also draw every configuration's training curves.
     """
     from .captions import describe_runs
     from .collect import per_fold, run_rows, summary
-    from .figures import all_figures
+    from .curves import training_curves
+    from .figures import all_figures, example_trial as choose_example
     from .tables import (PAPER_TABLES, ablation_caption, annotation_ablation, paper_best,
                          paper_caption, paper_comparison, table_runs, to_latex)
 
@@ -38,6 +43,7 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
         print(f"not finished, left out: {run_dir}", file=sys.stderr)
     folds = per_fold(runs)
     stats = summary(folds)
+    example = choose_example(Path(grid_dir), folds, example_trial) if figures else None
     written = [_csv(runs, out / "runs.csv"), _csv(folds, out / "per_fold.csv"),
                _csv(stats, out / "summary.csv")]
     for table in PAPER_TABLES:
@@ -58,7 +64,9 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
         written.append(_tex(to_latex(ablation, ablation_caption(budget), "ablation_annotations",
                                      ("Revised", "Original")), out / "ablation_annotations.tex"))
     if figures:
-        written += all_figures(Path(grid_dir), stats, folds, out / "figures")
+        written += all_figures(Path(grid_dir), folds, out / "figures", example)
+    if curves:
+        written += training_curves(grid_dir, out / "figures" / "curves")
     return written
 
 
@@ -83,6 +91,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--out", type=Path, metavar="DIR",
                         help="where to write (default: GRID_DIR/tables)")
     parser.add_argument("--no-figures", action="store_true", help="write the tables only")
+    parser.add_argument("--example-trial", metavar="TRIAL",
+                        help="test trial of the example figures, e.g. Suturing_D003 (default: "
+                             "the first test trial of the first fold)")
+    parser.add_argument("--curves", action="store_true",
+                        help="also draw training curves from every run's history.csv: per "
+                             "configuration the losses and test accuracies, a line per fold")
     parser.add_argument("--ours-only", action="store_true",
                         help="LaTeX tables with our numbers alone, without the paper's columns "
                              "(the CSVs keep them)")
@@ -96,7 +110,8 @@ def main(argv: list[str] | None = None) -> int:
 
 def _write(args: argparse.Namespace) -> None:
     for path in write_tables(args.grid_dir, args.out or args.grid_dir / "tables",
-                             figures=not args.no_figures, ours_only=args.ours_only):
+                             figures=not args.no_figures, ours_only=args.ours_only,
+                             example_trial=args.example_trial, curves=args.curves):
         print(path)
 
 

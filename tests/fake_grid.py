@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from multitask.grid_spec import GridSpec, expand, run_config
+from multitask.grid_spec import PAPER_EXPERIMENTS, Experiment, GridSpec, expand, run_config
 from rnn_seg.rundir import to_jsonable
 
 GESTURES = ("G1", "G2", "G3", "G4", "G5", "G6", "G8", "G9", "G10", "G11")
@@ -26,10 +26,12 @@ SAMPLES = 60                       # per test trial, at 5 Hz
 
 
 def write_fake_grid(root: Path, seeds: tuple[int, ...] = (0, 1), hidden: int = 16,
-                    epochs: int = 12) -> Path:
-    """Every run of the paper's grid (22 configurations x 8 folds x ``seeds``) under ``root``."""
+                    epochs: int = 12,
+                    experiments: tuple[Experiment, ...] = PAPER_EXPERIMENTS) -> Path:
+    """Every run of a grid (default: the paper's, 22 configurations) over 8 folds and ``seeds``
+    under ``root``."""
     spec = GridSpec(data_dir=str(root / "data" / "Suturing"), seeds=seeds, hidden=hidden,
-                    epochs=epochs)
+                    epochs=epochs, experiments=experiments)
     rng = np.random.default_rng(0)
     keys = expand(spec, FOLDS)
     for key in keys:
@@ -89,8 +91,13 @@ def _predictions(rng: np.random.Generator, tasks: list[str], variant: str) -> pd
         true = _labels(rng, len(names))
         pred = np.where(rng.random(SAMPLES) < 0.8, true, _labels(rng, len(names)))
         columns[f"{task}_true"], columns[f"{task}_pred"] = true, pred
-        if task == "progress" and variant.endswith("Pr"):
+        if task == "progress" and variant.endswith("Pr"):          # regression: the raw output
             columns["progress_value"] = true + rng.normal(0, 0.4, SAMPLES)
+        elif task == "progress" and variant.endswith("oc"):        # ordinal: sigmoid outputs
+            columns.update({f"progress_y{k}": (pred >= k) * 0.9 for k in range(len(names))})
+        else:                                                       # softmax probabilities
+            columns.update({f"{task}_p_{n}": (pred == k) * 0.9 + 0.01
+                            for k, n in enumerate(names)})
     return pd.DataFrame(columns)
 
 
