@@ -23,7 +23,8 @@ setup(
     project_urls={
         "Paper": PAPER,
         "Paper (open access)": "https://arxiv.org/abs/2003.04772",
-        "Baseline (DiPietro et al.)": "https://github.com/rdipietro/miccai-2016-surgical-activity-rec",
+        "Baseline code (DiPietro et al.)":
+            "https://github.com/rdipietro/miccai-2016-surgical-activity-rec",
     },
     license="MIT",
     license_files=["LICENSE"],

@@ -1,4 +1,9 @@
-"""JIGSAWS Suturing I/O, preprocessing, annotation versions and progress labels."""
+"""JIGSAWS Suturing I/O, preprocessing, annotation versions and progress labels.
+
+Also what every command of the package shares: ``cli_common`` (``--version``, ``-v``, quiet
+TensorFlow, one-line errors), ``arg_types`` (range-checked option types) and ``options`` (the
+options that choose a release); ``plots`` draws label ribbons.
+"""
 from importlib import import_module
 
 #: Public name -> the submodule defining it.

@@ -4,10 +4,12 @@ Read first: ``variants.VARIANTS`` (A, APr, APc, APoc, Pr, Pc, Poc), then ``fold_
 (one variant on one LOUO fold, fixed weights or ``gradnorm.GradNormTrainer``).
 
 * ``heads``: the progress heads (regression, classification, ordered classification);
+  ``weighting``: fixed weights or GradNorm, and GradNorm's settings (no TensorFlow import);
 * ``grid_spec``: TOML specs, presets, the runs they expand to; ``grid_job``: one worker's job;
   ``grid_executors``: the local process pool and Dask;
 * ``collect``, ``tables``, ``figures``: results of a grid as the paper's tables and figures;
-  ``paper_results``: the published numbers.
+  ``captions``: what the runs were trained with, for the tables' captions; ``latex``: pieces of
+  paste-ready tables; ``curves``: training curves; ``paper_results``: the published numbers.
 """
 from importlib import import_module
 

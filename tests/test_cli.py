@@ -160,7 +160,7 @@ def test_old_and_new_spec_keys_give_the_same_grid(synth_dir, tmp_path):
 def test_tensorflow_start_up_lines_are_recognised():
     noise = ["WARNING: All log messages before absl::InitializeLog() is called are written to "
              "STDERR\n",
-             "I0000 00:00:1795276466.592615    8348 port.cc:153] oneDNN custom operations are on.\n",
+             "I0000 00:00:1795276466.592615    8348 port.cc:153] oneDNN custom operations on.\n",
              "E0000 00:00:1795276493.637004    8808 util.cc:131] oneDNN supports DT_BOOL only\n",
              "To enable the following instructions: AVX2 FMA, in other operations, rebuild\n"]
     kept = ["WARNING: Suturing_G001: transcription present but no kinematics; trial skipped\n",
