@@ -6,7 +6,8 @@
 * ``segmentation_example``: ground truth, A and APoc ribbons of one test trial (Fig. 5);
 * ``progress_example``: true progress and APr's regression output, APc's and APoc's predicted
   stages over time (Fig. 6);
-* ``fold_accuracy``: gesture vs progress accuracy of each fold, APoc (Fig. 7);
+* ``fold_accuracy``: gesture vs progress accuracy of each fold, APoc (Fig. 7; without APoc runs,
+  every two-task configuration);
 * ``gradnorm_weights``: task weights over training for the GradNorm runs.
 
 Figures read the revised-annotation, bidirectional runs of seed 0 where one run is needed; the
@@ -170,12 +171,14 @@ def progress_example(grid_dir: Path, trial: str, fold: str, out_dir: Path) -> li
 
 
 def fold_accuracy(folds: pd.DataFrame, out_dir: Path) -> list[Path]:
-    """Gesture vs progress accuracy, one point per fold labelled with its test user, APoc."""
+    """Gesture vs progress accuracy, one point per fold labelled with its test user: APoc's (the
+    paper's Fig. 7), or every two-task configuration's if the grid ran no APoc."""
     if not {"gesture_accuracy", "progress_accuracy"} <= set(folds):
         return []
-    tables = {c: _offline_folds(folds, c).dropna(subset=["gesture_accuracy", "progress_accuracy"])
-              for c in FOLD_RUNS}
-    tables = {c: t for c, t in tables.items() if not t.empty}
+    both = folds.dropna(subset=["gesture_accuracy", "progress_accuracy"])
+    configs = [c for c in FOLD_RUNS if not _offline_folds(both, c).empty] or list(dict.fromkeys(
+        f"{r.variant}-{r.weighting}" for r in both.itertuples()))
+    tables = {c: t for c in configs if not (t := _offline_folds(both, c)).empty}
     if not tables:
         return []
     fig, ax = plt.subplots(figsize=(4.5, 4))
