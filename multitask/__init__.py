@@ -4,7 +4,7 @@ Read first: ``variants.VARIANTS`` (A, APr, APc, APoc, Pr, Pc, Poc), then ``fold_
 (one variant on one LOUO fold, fixed weights or ``gradnorm.GradNormTrainer``).
 
 * ``heads``: the progress heads (regression, classification, ordered classification);
-  ``weighting``: fixed weights or GradNorm, and GradNorm's settings (no TensorFlow import);
+  ``config``: the multi-task configuration (weightings, GradNorm; no TensorFlow import);
 * ``grid_spec``: TOML specs, presets, the runs they expand to; ``grid_job``: one worker's job;
   ``grid_executors``: the local process pool and Dask;
 * ``collect``, ``tables``, ``figures``: results of a grid as the paper's tables and figures;
@@ -17,7 +17,7 @@ from importlib import import_module
 _PUBLIC = {
     "train_variant": "fold_run",
     "variant_trainer": "fold_run",
-    "GradNormConfig": "weighting",
+    "GradNormConfig": "config",
     "VARIANTS": "variants",
     "Variant": "variants",
     "get_variant": "variants",

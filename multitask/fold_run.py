@@ -10,9 +10,9 @@ from baseline.builder import build_trainer
 from jigsaws_tools.dataset import Dataset
 from rnn_seg.trainer import Trainer
 
+from .config import WEIGHTINGS, Weighting
 from .gradnorm import GradNormConfig, GradNormTrainer
 from .variants import Variant
-from .weighting import WEIGHTINGS, Weighting
 
 
 def variant_trainer(variant: Variant, weighting: Weighting, config: RunConfig, run_dir: Path,

@@ -21,7 +21,7 @@ import tensorflow as tf
 
 from rnn_seg.trainer import Trainer, append_csv_row
 
-from .weighting import GradNormConfig
+from .config import GradNormConfig
 
 MIN_WEIGHT = 1e-3
 

@@ -43,8 +43,8 @@ from jigsaws_tools.release import discover
 from jigsaws_tools.synth import SynthConfig, ensure_release
 from rnn_seg.config import EncoderConfig, TrainConfig
 
+from .config import WEIGHTINGS
 from .variants import MULTITASK_EVAL, VARIANTS, get_variant
-from .weighting import WEIGHTINGS
 
 log = logging.getLogger(__name__)
 PAPER_EPOCHS = MULTITASK_EVAL[-1]

@@ -11,8 +11,8 @@ from baseline.options import add_run_arguments, run_config_from_args
 from jigsaws_tools.arg_types import non_negative_float, positive_float
 from jigsaws_tools.cli_common import command_parser, import_tensorflow, run_command
 
+from .config import WEIGHTINGS, GradNormConfig
 from .variants import VARIANTS, Variant, get_variant
-from .weighting import WEIGHTINGS, GradNormConfig
 
 PROG = "multitask-train"
 DEFAULT_VARIANT = "APc"
