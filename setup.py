@@ -44,7 +44,7 @@ setup(
              "JIGSAWS",
     python_requires=">=3.11",
     packages=find_packages(include=["jigsaws_tools*", "rnn_seg*", "baseline*", "multitask*"]),
-    package_data={"jigsaws_tools": ["data/*.csv"]},
+    package_data={"jigsaws_tools": ["data/*.csv", "data/tasks/*.toml"]},
     install_requires=[
         "tensorflow-cpu>=2.21,<3",
         "numpy>=2.4,<3",
@@ -64,6 +64,9 @@ setup(
             "multitask-train=multitask.train_cli:main",
             "multitask-grid=multitask.grid_cli:main",
             "multitask-tables=multitask.tables_cli:main",
+            "multitask-predict=multitask.predict_cli:main",
+            "multitask-evaluate=multitask.evaluate_cli:main",
+            "multitask-export=multitask.export_cli:main",
         ],
     },
 )

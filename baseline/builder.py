@@ -1,11 +1,12 @@
 """Model "A": DiPietro et al.'s BiLSTM gesture recogniser (and its forward-LSTM online twin)."""
 from __future__ import annotations
 
+import time
 from pathlib import Path
 from typing import Callable, Sequence
 
 from jigsaws_tools.dataset import Dataset, Trial, load_dataset
-from jigsaws_tools.gestures import GESTURES
+from jigsaws_tools.task_definition import TaskDefinition
 from rnn_seg.model import SegmentationModel
 from rnn_seg.tasks import SoftmaxClassification, Task
 from rnn_seg.trainer import SequenceSet, Trainer
@@ -16,9 +17,9 @@ from .config import RunConfig
 LABEL_FIELDS = {"gesture": "gestures", "progress": "progress"}
 
 
-def gesture_task() -> Task:
-    """10-way softmax over G1-G6, G8-G11 with mean cross-entropy."""
-    return SoftmaxClassification("gesture", GESTURES)
+def gesture_task(task: TaskDefinition) -> Task:
+    """Softmax over ``task``'s gestures (Suturing: 10-way, G1-G6, G8-G11), mean cross-entropy."""
+    return SoftmaxClassification("gesture", task.gestures)
 
 
 def to_sequences(trials: Sequence[Trial], tasks: Sequence[Task]) -> SequenceSet:
@@ -36,17 +37,22 @@ TrainerFactory = Callable[..., Trainer]
 def build_trainer(config: RunConfig, tasks: Sequence[Task], run_dir: Path,
                   dataset: Dataset | None = None, trainer: TrainerFactory = Trainer,
                   extra_configs: dict | None = None, log: Callable[[str], None] = print) -> Trainer:
-    """Load the fold's data, build the model and return a ready ``Trainer`` for ``run_dir``."""
+    """Load the fold's data (unless ``dataset`` is given), build the model and return a ready
+    ``Trainer`` for ``run_dir``; the loading time goes to the trainer's ``data`` phase."""
+    began = time.perf_counter()
     dataset = dataset or load_dataset(config.data)
+    loading = time.perf_counter() - began
     train, test = dataset.louo_split(config.test_user)
     model = SegmentationModel(dataset.num_features, config.encoder, tasks, config.train.seed)
     configs = {"run": config, "tasks": [t.name for t in tasks], **(extra_configs or {})}
-    return trainer(model, tasks, config.optim, config.train, to_sequences(train, tasks),
-                   to_sequences(test, tasks), run_dir, configs,
-                   config.data.preprocessing.sample_hz, log=log)
+    built = trainer(model, tasks, config.optim, config.train, to_sequences(train, tasks),
+                    to_sequences(test, tasks), run_dir, configs,
+                    config.data.preprocessing.sample_hz, log=log)
+    built.clock.add("data", loading)
+    return built
 
 
 def train_baseline(config: RunConfig, run_dir: Path, dataset: Dataset | None = None,
                    log: Callable[[str], None] = print) -> dict:
     """Train model A on one fold; returns the run's metrics (see ``rnn_seg.trainer``)."""
-    return build_trainer(config, [gesture_task()], run_dir, dataset, log=log).run()
+    return build_trainer(config, [gesture_task(config.data.task)], run_dir, dataset, log=log).run()

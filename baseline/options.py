@@ -14,7 +14,9 @@ from jigsaws_tools.arg_types import (momentum, non_negative_int, positive_float,
 from jigsaws_tools.dataset import DataConfig
 from jigsaws_tools.features import FEATURE_SETS
 from jigsaws_tools.options import add_data_arguments, data_dir_from_args
-from rnn_seg.config import PREDICTION_MODES, RESET_MODES, EncoderConfig, OptimConfig, TrainConfig
+from jigsaws_tools.task_options import task_from_options
+from rnn_seg.config import (PLOT_POINTS, PRECISIONS, PREDICTION_MODES, RESET_MODES, EncoderConfig,
+                            OptimConfig, TrainConfig)
 
 from .config import DIRECTIONS, RunConfig
 
@@ -43,6 +45,9 @@ def add_run_arguments(parser: argparse.ArgumentParser, optim: OptimConfig,
     model.add_argument("--reset-mode", choices=RESET_MODES, default=encoder.reset_mode,
                        help="where the reverse direction restarts between wrapped sequences: as "
                             "in DiPietro's code, or before each sequence's last frame")
+    model.add_argument("--precision", choices=PRECISIONS, default=encoder.precision,
+                       help="of the LSTM's matrix products: bf16 needs a CPU with native "
+                            "bfloat16 (docs/PERFORMANCE.md)")
     opt = parser.add_argument_group("optimisation")
     length = opt.add_mutually_exclusive_group()
     length.add_argument("--epochs", type=positive_int, metavar="N",
@@ -75,8 +80,18 @@ def add_run_arguments(parser: argparse.ArgumentParser, optim: OptimConfig,
     run.add_argument("--prediction", choices=PREDICTION_MODES, default=train.prediction,
                      help="test sequences wrapped into one sweep as in DiPietro's code, or each "
                           "predicted alone")
-    run.add_argument("--no-plots", action="store_true",
-                     help="do not draw a figure per test sequence at each evaluation point")
+    run.add_argument("--plots", choices=PLOT_POINTS, default=train.plots,
+                     help="evaluation points that draw a figure per test sequence")
+    run.add_argument("--no-plots", dest="plots", action="store_const", const="none",
+                     help="same as --plots none")
+    run.add_argument("--monitor-every", type=positive_int, default=train.monitor_every,
+                     metavar="N", help="epochs (sweeps) between test-set scores on the progress "
+                                       "line; the last is always scored; evaluation points are "
+                                       "unaffected")
+    run.add_argument("--monitor-train", action="store_true",
+                     help="also score the training set on those progress lines (slow)")
+    run.add_argument("--tensorboard", action="store_true",
+                     help="also write the progress scalars to RUN_DIR/tensorboard")
     add_threads_argument(run, "cores for this run (0 = all)")
     run.add_argument("--out", type=Path, required=True, metavar="DIR",
                      help="run folder; an unfinished run there resumes")
@@ -100,6 +115,7 @@ def run_config_from_args(args: argparse.Namespace, optim: OptimConfig,
                          eval_points: tuple[int, ...] = TrainConfig.eval_points) -> RunConfig:
     """Build the run's configuration from parsed options over the defaults in ``optim``;
     ``eval_points`` apply when the schedule keeps its default length, else the last unit."""
+    task = task_from_options(args)
     unit, total = ("sweeps", args.sweeps) if args.sweeps else ("epochs", args.epochs or optim.total)
     default_length = unit == "epochs" and total == optim.total
     decay_start = args.decay_start if args.decay_start is not None else (
@@ -109,15 +125,17 @@ def run_config_from_args(args: argparse.Namespace, optim: OptimConfig,
     else:
         eval_points = eval_points if default_length else (total,)
     return RunConfig(
-        data=DataConfig(str(data_dir_from_args(args)), feature_set=args.features,
-                        annotations=args.annotations),
+        data=DataConfig(str(data_dir_from_args(args, task)), feature_set=args.features,
+                        annotations=args.annotations, task=task),
         test_user=args.test_user,
         encoder=EncoderConfig(hidden=args.hidden, layers=args.layers,
                               bidirectional=args.direction == "bidirectional",
                               keep_prob=args.keep_prob, init_scale=args.init_scale,
-                              reset_mode=args.reset_mode),
+                              reset_mode=args.reset_mode, precision=args.precision),
         optim=OptimConfig(learning_rate=args.lr, momentum=args.momentum, clip_norm=args.clip_norm,
                           unit=unit, total=total, decay_start=decay_start,
                           decay_every=args.decay_every, decay_factor=args.decay_factor),
         train=TrainConfig(batch_size=args.batch_size, seed=args.seed, eval_points=eval_points,
-                          prediction=args.prediction, plots=not args.no_plots))
+                          prediction=args.prediction, plots=args.plots,
+                          monitor_every=args.monitor_every, monitor_train=args.monitor_train,
+                          tensorboard=args.tensorboard))

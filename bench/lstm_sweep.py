@@ -1,13 +1,16 @@
 """Time one training sweep (forward, backward, SGD update) of the bidirectional LSTM model.
 
-Compares ``rnn_seg``'s layer with a per-gate reference written like the original code, at paper
-size (H=1024, B=5, 14 inputs, T=800) and H=256, in the same run. Each (implementation, H) runs in
-its own process so its peak resident memory is its own; ``rnn_seg`` uses its own thread plan
-(rnn_seg.threads), the reference TensorFlow's default (its fastest here). Also times the bare
-recurrent product on this machine, which gives the floor: T steps x 2 directions x 3 products.
-Prints medians, ratios to the floor and the reference, and peak memory.
+Compares ``rnn_seg``'s layer in float32 (``rnn_seg``) and with bfloat16 products
+(``rnn_seg_bf16``, when the CPU has native bfloat16) with a per-gate reference written like the
+original code, at paper size (H=1024, B=5, 14 inputs, T=800) and H=256, in the same run. Each
+(implementation, H) runs in its own process so its peak resident memory is its own; ``rnn_seg``
+uses its own thread plan (rnn_seg.threads), the reference TensorFlow's default (its fastest
+here). Also times the bare float32 recurrent product on this machine, which gives the float32
+floor: T steps x 2 directions x 3 products. Prints medians, ratios to the floor and the
+reference, and peak memory.
 
     python bench/lstm_sweep.py [--hidden 1024 256] [--repeats 5] [--steps 800]
+    python bench/lstm_sweep.py --threads 1,2     # force a thread plan (intra, inter) on rnn_seg
 """
 from __future__ import annotations
 
@@ -25,7 +28,7 @@ os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "2")
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "bench")]
 F, K, B = 14, 10, 5
-IMPLEMENTATIONS = ("rnn_seg", "per_gate")
+IMPLEMENTATIONS = ("rnn_seg", "rnn_seg_bf16", "per_gate")
 
 
 def _step_function(impl: str, hidden: int):
@@ -40,8 +43,10 @@ def _step_function(impl: str, hidden: int):
     task = SoftmaxClassification("gesture", [f"G{k}" for k in range(K)])
     rng = tf.random.Generator.from_seed(0)
     dropout_rng = tf.random.Generator.from_seed(1)
-    if impl == "rnn_seg":
-        model = SegmentationModel(F, EncoderConfig(hidden=hidden), [task], seed=0)
+    if impl.startswith("rnn_seg"):
+        precision = "bf16" if impl.endswith("bf16") else "fp32"
+        model = SegmentationModel(F, EncoderConfig(hidden=hidden, precision=precision), [task],
+                                  seed=0)
 
         def outputs(x, r):
             return model(x, r, tf.transpose(dropout_rng.make_seeds(model.dropout_calls)))["gesture"]
@@ -72,13 +77,19 @@ def _step_function(impl: str, hidden: int):
     return step
 
 
-def worker(impl: str, hidden: int, steps: int, repeats: int) -> dict:
+def worker(impl: str, hidden: int, steps: int, repeats: int, plan: str | None = None) -> dict:
     import numpy as np
     import tensorflow as tf
 
     from rnn_seg.threads import configure_threads
 
-    threads = configure_threads(0, hidden) if impl == "rnn_seg" else "TF default"
+    if plan:
+        intra, inter = (int(v) for v in plan.split(","))
+        tf.config.threading.set_intra_op_parallelism_threads(intra)
+        tf.config.threading.set_inter_op_parallelism_threads(inter)
+        threads = (intra, inter)
+    else:
+        threads = configure_threads(0, hidden) if impl.startswith("rnn_seg") else "TF default"
 
     rng = np.random.default_rng(0)
     x = tf.constant(rng.normal(size=(B, steps, F)).astype(np.float32))
@@ -125,14 +136,20 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--steps", type=int, default=800)
     parser.add_argument("--impl", nargs="+", default=list(IMPLEMENTATIONS))
+    parser.add_argument("--threads", help="thread plan 'intra,inter' for rnn_seg (default: its "
+                                          "own plan, rnn_seg.threads)")
     parser.add_argument("--worker", nargs=2, metavar=("IMPL", "HIDDEN"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
         impl, hidden = args.worker[0], int(args.worker[1])
         result = (product_time(hidden, args.repeats) if impl == "product"
-                  else worker(impl, hidden, args.steps, args.repeats))
+                  else worker(impl, hidden, args.steps, args.repeats,
+                              args.threads if impl.startswith("rnn_seg") else None))
         print(json.dumps(result))
         return
+    if not _native_bf16():
+        args.impl = [i for i in args.impl if i != "rnn_seg_bf16"]
+        print("no native bfloat16 on this CPU: rnn_seg_bf16 skipped")
     print(f"training sweep: bidirectional LSTM, B={B}, F={F}, T={args.steps}, "
           f"{args.repeats} timed repeats after one warm-up; {os.cpu_count()} cores")
     for hidden in args.hidden:
@@ -147,15 +164,26 @@ def main() -> None:
                   f"(min {min(res['times']):.3f}, max {max(res['times']):.3f})  "
                   f"{med / floor:.2f}x floor  peak RSS {res['peak_mb']:6.0f} MB  "
                   f"threads (intra, inter) {res['threads']}")
-        if len(results) == 2:
-            ours, ref = (statistics.median(results[i]["times"]) for i in IMPLEMENTATIONS)
-            print(f"H={hidden:5d} speed-up rnn_seg vs per_gate: {ref / ours:.2f}x")
+        medians = {impl: statistics.median(res["times"]) for impl, res in results.items()}
+        if {"rnn_seg", "per_gate"} <= set(medians):
+            print(f"H={hidden:5d} speed-up rnn_seg vs per_gate: "
+                  f"{medians['per_gate'] / medians['rnn_seg']:.2f}x")
+        if {"rnn_seg", "rnn_seg_bf16"} <= set(medians):
+            print(f"H={hidden:5d} speed-up bf16 vs fp32: "
+                  f"{medians['rnn_seg'] / medians['rnn_seg_bf16']:.2f}x")
+
+
+def _native_bf16() -> bool:
+    from rnn_seg.lstm import native_bf16
+    return native_bf16()
 
 
 def _run_worker(impl: str, hidden: int, args):
-    out = subprocess.run([sys.executable, __file__, "--worker", impl, str(hidden),
-                          "--steps", str(args.steps), "--repeats", str(args.repeats)],
-                         check=True, capture_output=True, text=True).stdout
+    command = [sys.executable, __file__, "--worker", impl, str(hidden), "--steps",
+               str(args.steps), "--repeats", str(args.repeats)]
+    if args.threads:
+        command += ["--threads", args.threads]
+    out = subprocess.run(command, check=True, capture_output=True, text=True).stdout
     return json.loads(out.strip().splitlines()[-1])
 
 

@@ -1,8 +1,9 @@
-"""JIGSAWS Suturing I/O, preprocessing, annotation versions and progress labels.
+"""JIGSAWS I/O for any task defined as data (Suturing, Knot_Tying, Needle_Passing or your own),
+preprocessing, annotation versions and progress labels.
 
 Also what every command of the package shares: ``cli_common`` (``--version``, ``-v``, quiet
-TensorFlow, one-line errors), ``arg_types`` (range-checked option types) and ``options`` (the
-options that choose a release); ``plots`` draws label ribbons.
+TensorFlow, one-line errors), ``arg_types`` (range-checked option types), ``options`` and
+``task_options`` (the options that choose a release and its task); ``plots`` draws label ribbons.
 """
 from importlib import import_module
 
@@ -12,7 +13,11 @@ _PUBLIC = {
     "Dataset": "dataset",
     "Trial": "dataset",
     "load_dataset": "dataset",
+    "Normalisation": "preprocessing",
     "PreprocessConfig": "preprocessing",
+    "preprocess_recording": "preprocessing",
+    "TaskDefinition": "task_definition",
+    "load_task": "task_definition",
 }
 __all__ = sorted(_PUBLIC)
 

@@ -3,7 +3,8 @@
 The amendments come from the appendix of van Amsterdam et al. (ICRA 2020) and ship as
 ``jigsaws_tools/data/revised_amendments.csv`` (trial, start, end, gesture; 1-based inclusive
 frames at 30 Hz, the convention of the release's transcriptions). Applying a version relabels
-every frame of each listed range, whatever its previous label.
+every frame of each listed range, whatever its previous label. They are Suturing's: for any other
+task both versions are the release's labels.
 """
 from __future__ import annotations
 
@@ -15,12 +16,13 @@ from importlib import resources
 import numpy as np
 
 from .errors import FormatError, JigsawsError
-from .gestures import GESTURE_INDEX, GESTURES, UNLABELLED
+from .gestures import GESTURE_INDEX, UNLABELLED
 from .release import (ReleaseIndex, frame_labels, read_kinematics, read_transcription,
                       transcriptions_dir)
+from .task_definition import PAPER_TASK, SUTURING, TaskDefinition
 
 ANNOTATION_VERSIONS = ("original", "revised")
-_AMENDMENT_FILES = {"revised": "revised_amendments.csv"}
+_AMENDMENT_FILES = {"revised": "revised_amendments.csv"}    # of the paper's task only
 
 
 @dataclass(frozen=True)
@@ -50,23 +52,26 @@ def check_version(version: str) -> str:
     return version
 
 
-def amendments(version: str) -> tuple[Amendment, ...]:
-    """The amendments a version applies to the release (none for ``original``)."""
-    check_version(version)
-    if version not in _AMENDMENT_FILES:
+def amendments(version: str, task: TaskDefinition = SUTURING) -> tuple[Amendment, ...]:
+    """The amendments a version applies to ``task``'s release (none for ``original`` and for
+    tasks other than Suturing)."""
+    if not _table_name(version, task):
         return ()
-    source = resources.files("jigsaws_tools") / "data" / _AMENDMENT_FILES[version]
+    source = resources.files("jigsaws_tools") / "data" / _table_name(version, task)
     with source.open(encoding="utf-8") as f:
         return tuple(_parse_amendment(str(source), number, row)
                      for number, row in enumerate(csv.DictReader(f), start=2))
 
 
-def amendment_table_text(version: str) -> str:
-    """The raw table behind a version ('' for ``original``); part of the dataset cache key."""
+def amendment_table_text(version: str, task: TaskDefinition = SUTURING) -> str:
+    """The raw table behind a version ('' when it amends nothing); part of the dataset cache key."""
+    name = _table_name(version, task)
+    return (resources.files("jigsaws_tools") / "data" / name).read_text("utf-8") if name else ""
+
+
+def _table_name(version: str, task: TaskDefinition) -> str | None:
     check_version(version)
-    if version not in _AMENDMENT_FILES:
-        return ""
-    return (resources.files("jigsaws_tools") / "data" / _AMENDMENT_FILES[version]).read_text("utf-8")
+    return _AMENDMENT_FILES.get(version) if task.name == PAPER_TASK else None
 
 
 def _parse_amendment(path: str, number: int, row: dict[str, str]) -> Amendment:
@@ -81,20 +86,23 @@ def _parse_amendment(path: str, number: int, row: dict[str, str]) -> Amendment:
     return Amendment(row["trial"], start, end, row["gesture"])
 
 
-def apply_amendments(trial: str, labels: np.ndarray, version: str
-                     ) -> tuple[np.ndarray, list[AmendmentEffect]]:
+def apply_amendments(trial: str, labels: np.ndarray, version: str,
+                     task: TaskDefinition = SUTURING) -> tuple[np.ndarray, list[AmendmentEffect]]:
     """Relabel one trial's frames under ``version``.
 
     Args:
         trial: trial name, e.g. ``"Suturing_B004"``.
-        labels: ``[n_frames]`` int gesture class indices at 30 Hz (``UNLABELLED`` = -1).
+        labels: ``[n_frames]`` int class indices of ``task``'s vocabulary at 30 Hz
+            (``UNLABELLED`` = -1).
+        version: an annotation version (``ANNOTATION_VERSIONS``).
+        task: the trial's task; only Suturing has amendments.
 
     Returns:
         The amended copy of ``labels`` and the effect of each amendment of this trial.
     """
     labels = labels.copy()
     effects = []
-    for a in amendments(version):
+    for a in amendments(version, task):
         if a.trial != trial:
             continue
         if a.end > len(labels):
@@ -102,16 +110,15 @@ def apply_amendments(trial: str, labels: np.ndarray, version: str
                                               f"frames of the trial", 0, {}))
             continue
         window = labels[a.start - 1:a.end]
-        previous = Counter(_label_name(v) for v in window)
-        new = GESTURE_INDEX[a.gesture]
+        previous = Counter("unlabelled" if v == UNLABELLED else task.gestures[v] for v in window)
+        if a.gesture not in task.gesture_index:
+            raise JigsawsError(f"amendment of {trial} relabels frames {a.gesture}, which the "
+                               f"vocabulary of task {task.name} lacks")
+        new = task.gesture_index[a.gesture]
         changed = int(np.count_nonzero(window != new))
         window[:] = new
         effects.append(AmendmentEffect(a, "applied", changed, dict(sorted(previous.items()))))
     return labels, effects
-
-
-def _label_name(value: int) -> str:
-    return "unlabelled" if value == UNLABELLED else GESTURES[value]
 
 
 def amendment_report(index: ReleaseIndex, version: str) -> list[tuple[str, AmendmentEffect]]:
@@ -122,7 +129,8 @@ def amendment_report(index: ReleaseIndex, version: str) -> list[tuple[str, Amend
     """
     complete = {t.name: t for t in index.trials}
     report = []
-    for name in dict.fromkeys(a.trial for a in amendments(version)):
+    task = index.task
+    for name in dict.fromkeys(a.trial for a in amendments(version, task)):
         transcription = transcriptions_dir(index.root) / f"{name}.txt"
         if name in complete:
             n_frames = len(read_kinematics(complete[name].kinematics))
@@ -131,11 +139,11 @@ def amendment_report(index: ReleaseIndex, version: str) -> list[tuple[str, Amend
             n_frames, status = None, "applied to the transcription only (no kinematics)"
         else:
             report += [(name, AmendmentEffect(a, "skipped: trial absent", 0, {}))
-                       for a in amendments(version) if a.trial == name]
+                       for a in amendments(version, task) if a.trial == name]
             continue
-        segments = read_transcription(transcription, n_frames=n_frames)
+        segments = read_transcription(transcription, n_frames, task)
         n_frames = n_frames or segments[-1].end
-        _, effects = apply_amendments(name, frame_labels(segments, n_frames), version)
+        _, effects = apply_amendments(name, frame_labels(segments, n_frames, task), version, task)
         report += [(name, e if status is None or e.status != "applied"
                     else AmendmentEffect(e.amendment, status, e.frames_changed, e.previous))
                    for e in effects]

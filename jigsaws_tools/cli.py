@@ -1,7 +1,10 @@
 """``jigsaws-tools``: write a synthetic release, inspect a release, list amendments, plot labels.
 
+Every subcommand reads one task's release: ``--task`` (Suturing, the default; Knot_Tying;
+Needle_Passing) or ``--task-file`` (your own definition).
+
     jigsaws-tools synth --out /tmp/synth/Suturing
-    jigsaws-tools inspect --data-dir /path/to/Suturing
+    jigsaws-tools inspect --data-dir /path/to/Knot_Tying --task Knot_Tying
     jigsaws-tools amendments --data-dir /path/to/Suturing
     jigsaws-tools plot --synthetic --out labels.png
 """
@@ -14,6 +17,7 @@ from pathlib import Path
 from .cli_common import (HelpFormatter, add_verbose_argument, command_parser, deprecated_alias,
                          deprecated_positional, run_command)
 from .options import add_data_arguments, add_synthetic_seed_argument, data_dir_from_args
+from .task_options import add_task_options, task_from_options
 
 PROG = "jigsaws-tools"
 
@@ -23,8 +27,9 @@ def _synth(args: argparse.Namespace) -> None:
 
     if args.out is None:
         raise ValueError("synth needs --out DIR, the folder to write the release into")
-    out = write_release(args.out, SynthConfig(seed=args.synthetic_seed))
-    print(f"wrote a synthetic Suturing release (seed {args.synthetic_seed}) to {out}")
+    task = task_from_options(args)
+    out = write_release(args.out, SynthConfig(seed=args.synthetic_seed), task)
+    print(f"wrote a synthetic {task.name} release (seed {args.synthetic_seed}) to {out}")
 
 
 def _inspect(args: argparse.Namespace) -> None:
@@ -33,23 +38,33 @@ def _inspect(args: argparse.Namespace) -> None:
     from .release import discover
     from .summary import release_summary
 
-    index = discover(data_dir_from_args(args))
+    task = task_from_options(args)
+    index = discover(data_dir_from_args(args, task), task)
     table = release_summary(index, args.annotations)
+    print(task.describe() + "\n")
     with pd.option_context("display.max_rows", None, "display.width", 200):
         print(table.to_string())
     print(f"\n{len(table)} complete trials, {table['frames'].sum()} frames at 30 Hz, "
           f"{table['labelled'].sum()} labelled ({args.annotations} annotations)")
-    print("gestures:", {k: int(v) for k, v in table.filter(regex="^G").sum().items()})
-    print("progress:", {k: int(v) for k, v in table.filter(regex="^P").sum().items()})
+    print("gestures:", _histogram(table[list(task.gestures)].sum()))
+    print("progress:", _histogram(table[list(task.stage_labels)].sum()))
     print("missing kinematics:", ", ".join(index.missing_kinematics) or "none")
     print("missing transcription:", ", ".join(index.missing_transcription) or "none")
+    print("unusable files:", "; ".join(index.unusable) or "none")
+
+
+def _histogram(counts) -> str:
+    """``G1 4102 (3.2%), G2 ...``: frame counts (a pandas Series) and shares."""
+    total = counts.sum()
+    return ", ".join(f"{k} {int(v)} ({100 * v / total:.1f}%)" for k, v in counts.items())
 
 
 def _amendments(args: argparse.Namespace) -> None:
     from .annotations import amendment_report
     from .release import discover
 
-    report = amendment_report(discover(data_dir_from_args(args)), args.annotations)
+    task = task_from_options(args)
+    report = amendment_report(discover(data_dir_from_args(args, task), task), args.annotations)
     total = 0
     print(f"{'trial':15} {'start':>6} {'end':>6} {'new':>4} {'changed':>8}  previous labels / status")
     for name, e in report:
@@ -63,14 +78,14 @@ def _amendments(args: argparse.Namespace) -> None:
 
 def _plot(args: argparse.Namespace) -> None:
     from .dataset import DataConfig, load_dataset
-    from .gestures import GESTURES
     from .plots import plot_dataset
-    from .progress import NUM_STAGES
 
-    config = DataConfig(str(data_dir_from_args(args)), annotations=args.annotations)
+    task = task_from_options(args)
+    config = DataConfig(str(data_dir_from_args(args, task)), annotations=args.annotations,
+                        task=task)
     dataset = load_dataset(config)
-    out = plot_dataset(dataset.trials, args.out, config.preprocessing.sample_hz, GESTURES,
-                       [f"P{k}" for k in range(NUM_STAGES)])
+    out = plot_dataset(dataset.trials, args.out, config.preprocessing.sample_hz, task.gestures,
+                       task.stage_labels)
     print(f"wrote {out}")
 
 
@@ -78,10 +93,11 @@ def build_parser() -> argparse.ArgumentParser:
     parser = command_parser(PROG, __doc__)
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
-    p = _subcommand(sub, "synth", _synth, "write a deterministic synthetic Suturing release")
+    p = _subcommand(sub, "synth", _synth, "write a deterministic synthetic release of a task")
     out = p.add_argument("--out", type=Path, metavar="DIR",
                          help="folder to write the release into (required)")
     seed = add_synthetic_seed_argument(p)
+    add_task_options(p)
     deprecated_positional(p, out)
     deprecated_alias(p, "--seed", seed)
 

@@ -1,16 +1,20 @@
 """Per-trial training sequences at 5 Hz, LOUO splits, and a standardized on-disk cache.
 
-The cache is an ``.npz`` of plain arrays plus a ``.json`` of metadata (no pickle), keyed by a hash
-of every option that shapes the sequences (features, preprocessing, annotation version and its
-amendment table) and of the release files' names, sizes and modification times, so a changed
-option or file never reuses a stale cache.
+The cache is an optimisation only: an ``.npz`` of plain arrays plus a ``.json`` of metadata (no
+pickle), keyed by ``cache_key``, a hash of every option that shapes the sequences and of the bytes
+of every release file read, so a changed option or file never reuses a stale entry. An entry is
+verified when read (its key, the arrays' checksum, their lengths); a damaged one is rebuilt with one
+warning, and a cache folder that cannot be written is one warning and no cache.
 """
 from __future__ import annotations
 
 import hashlib
 import json
+import logging
 import os
 import tempfile
+import zipfile
+import zlib
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -23,32 +27,42 @@ from .preprocessing import PreprocessConfig, preprocess
 from .progress import progress_labels
 from .release import (ReleaseIndex, TrialFiles, discover, frame_labels, meta_path, read_kinematics,
                       read_meta, read_transcription)
+from .task_definition import PAPER_TASK, SUTURING, TaskDefinition, load_task
 
-CACHE_FORMAT = 1
+CACHE_FORMAT = 2
 JIGSAWS_ENV = "JIGSAWS_DIR"
 CACHE_ENV = "JIGSAWS_CACHE_DIR"
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
 class DataConfig:
-    """Which release, which inputs, which labels."""
+    """Which release, which inputs, which labels, of which task.
+
+    ``task`` accepts a built-in task's name or a definition file's path too, and holds the
+    definition itself after construction (so ``config.json`` records the vocabulary and grammar).
+    """
 
     data_dir: str
     feature_set: str = DEFAULT_FEATURE_SET
     annotations: str = "revised"
     preprocessing: PreprocessConfig = field(default_factory=PreprocessConfig)
+    task: TaskDefinition = SUTURING
 
     def __post_init__(self):
         check_version(self.annotations)
         feature_columns(self.feature_set)
+        object.__setattr__(self, "task", load_task(self.task))
 
 
 @dataclass(frozen=True)
 class Trial:
     """One demonstration after preprocessing (``T`` samples at ``sample_hz``, 5 Hz by default).
 
-    inputs ``[T, F]`` float32; gestures ``[T]`` int64 class 0-9; progress ``[T]`` int64 stage 0-4;
-    frames ``[T]`` int64 1-based 30 Hz frame each sample came from.
+    inputs ``[T, F]`` float32; gestures ``[T]`` int64 class ``0..num_gestures-1`` of the task;
+    progress ``[T]`` int64 stage ``0..num_stages-1``; frames ``[T]`` int64 1-based 30 Hz frame each
+    sample came from.
     """
 
     name: str
@@ -83,16 +97,20 @@ class Dataset:
         """Leave-one-user-out: ``(train trials, test trials)`` with ``test_user``'s trials held out."""
         if test_user not in self.users:
             raise JigsawsError(f"unknown test user {test_user!r}; users are {', '.join(self.users)}")
+        if len(self.users) < 2:
+            raise JigsawsError(f"{self.config.data_dir}: only user {test_user} has complete "
+                               f"{self.config.task.name} trials; leave-one-user-out needs at "
+                               f"least two users")
         train = [t for t in self.trials if t.user != test_user]
         test = [t for t in self.trials if t.user == test_user]
         return train, test
 
 
-def default_data_dir() -> Path:
-    """``$JIGSAWS_DIR`` if set, else ``../shared/jigsaws/Suturing`` relative to the project."""
+def default_data_dir(task_name: str = PAPER_TASK) -> Path:
+    """``$JIGSAWS_DIR`` if set, else ``../shared/jigsaws/<task_name>`` relative to the project."""
     if os.environ.get(JIGSAWS_ENV):
         return Path(os.environ[JIGSAWS_ENV])
-    return Path(__file__).resolve().parents[2] / "shared" / "jigsaws" / "Suturing"
+    return Path(__file__).resolve().parents[2] / "shared" / "jigsaws" / task_name
 
 
 def default_cache_dir() -> Path:
@@ -100,12 +118,13 @@ def default_cache_dir() -> Path:
 
 
 def load_trial(files: TrialFiles, skill: str, config: DataConfig) -> Trial:
-    """Read, relabel, derive progress and preprocess one trial."""
+    """Read, relabel, derive progress and preprocess one trial of ``config.task``."""
+    task = config.task
     kinematics = read_kinematics(files.kinematics)
-    segments = read_transcription(files.transcription, n_frames=len(kinematics))
-    gestures, _ = apply_amendments(files.name, frame_labels(segments, len(kinematics)),
-                                   config.annotations)
-    labels = np.stack([gestures, progress_labels(gestures)], axis=1)
+    segments = read_transcription(files.transcription, len(kinematics), task)
+    gestures, _ = apply_amendments(files.name, frame_labels(segments, len(kinematics), task),
+                                   config.annotations, task)
+    labels = np.stack([gestures, progress_labels(gestures, task)], axis=1)
     inputs, labels, frames = preprocess(kinematics[:, feature_columns(config.feature_set)],
                                         labels, config.preprocessing)
     return Trial(files.name, files.user, files.trial, skill, inputs,
@@ -114,15 +133,17 @@ def load_trial(files: TrialFiles, skill: str, config: DataConfig) -> Trial:
 
 def load_dataset(config: DataConfig, cache_dir: Path | str | None = None,
                  use_cache: bool = True) -> Dataset:
-    """Load every complete trial of ``config.data_dir``, from the cache when it is current."""
-    index = discover(config.data_dir)
+    """Load every complete trial of ``config.task`` in ``config.data_dir``, from the cache when
+    it holds a verified entry for the files' current content."""
+    index = discover(config.data_dir, config.task)
     cache_dir = Path(cache_dir) if cache_dir is not None else default_cache_dir()
     key = cache_key(config, index)
     if use_cache:
         cached = _read_cache(cache_dir, key, config)
         if cached is not None:
             return cached
-    meta = read_meta(meta_path(config.data_dir)) if meta_path(config.data_dir).is_file() else {}
+    meta_file = meta_path(config.data_dir, config.task)
+    meta = read_meta(meta_file) if meta_file.is_file() else {}
     trials = tuple(load_trial(f, meta[f.name].skill if f.name in meta else "?", config)
                    for f in index.trials)
     dataset = Dataset(config, trials)
@@ -132,30 +153,49 @@ def load_dataset(config: DataConfig, cache_dir: Path | str | None = None,
 
 
 def cache_key(config: DataConfig, index: ReleaseIndex) -> str:
-    """Hash of every option that shapes the sequences and of the release files' fingerprints."""
+    """The data fingerprint of ``config``: a hash of every option that shapes the sequences (task
+    definition, features, preprocessing, annotation version and its amendment table) and of the
+    names and bytes of every file read. The folder's location is not part of it: an identical copy
+    elsewhere has the same fingerprint."""
     paths = [p for t in index.trials for p in (t.kinematics, t.transcription)]
-    if meta_path(index.root).is_file():
-        paths.append(meta_path(index.root))
-    fingerprint = [(str(p.resolve()), p.stat().st_size, p.stat().st_mtime_ns) for p in paths]
-    payload = json.dumps({"format": CACHE_FORMAT, "config": asdict(config),
-                          "amendments": amendment_table_text(config.annotations),
-                          "files": fingerprint}, sort_keys=True, default=str)
+    if meta_path(index.root, config.task).is_file():
+        paths.append(meta_path(index.root, config.task))
+    files = [(p.relative_to(index.root).as_posix(), _file_digest(p)) for p in paths]
+    options = {k: v for k, v in asdict(config).items() if k != "data_dir"}
+    payload = json.dumps({"format": CACHE_FORMAT, "config": options,
+                          "amendments": amendment_table_text(config.annotations, config.task),
+                          "files": files}, sort_keys=True)
     return hashlib.sha256(payload.encode()).hexdigest()[:24]
 
 
+def _file_digest(path: Path) -> str:
+    with open(path, "rb") as f:
+        return hashlib.file_digest(f, "sha256").hexdigest()
+
+
 _ARRAYS = ("inputs", "gestures", "progress", "frames")
+#: What a damaged cache entry can raise while it is read and checked.
+_UNREADABLE = (OSError, ValueError, KeyError, TypeError, EOFError, zipfile.BadZipFile, zlib.error)
 
 
 def _write_cache(cache_dir: Path, key: str, dataset: Dataset) -> None:
-    """Write ``key.npz`` then ``key.json`` atomically; the JSON's presence marks completion."""
-    cache_dir.mkdir(parents=True, exist_ok=True)
+    """Write ``key.npz`` then ``key.json`` atomically; the JSON's presence marks completion and
+    holds the arrays' checksum. A cache folder that cannot be written is one warning, no error."""
     arrays = {name: np.concatenate([getattr(t, name) for t in dataset.trials]) for name in _ARRAYS}
     arrays["lengths"] = np.array([len(t) for t in dataset.trials], dtype=np.int64)
-    meta = {"format": CACHE_FORMAT, "config": asdict(dataset.config),
-            "trials": [{"name": t.name, "user": t.user, "trial": t.trial, "skill": t.skill}
-                       for t in dataset.trials]}
-    _atomic_write(cache_dir / f"{key}.npz", lambda f: np.savez(f, **arrays))
-    _atomic_write(cache_dir / f"{key}.json", lambda f: f.write(json.dumps(meta, indent=1).encode()))
+    npz_path = cache_dir / f"{key}.npz"
+    try:
+        cache_dir.mkdir(parents=True, exist_ok=True)
+        _atomic_write(npz_path, lambda f: np.savez(f, **arrays))
+        meta = {"format": CACHE_FORMAT, "key": key, "npz_sha256": _file_digest(npz_path),
+                "config": asdict(dataset.config),
+                "trials": [{"name": t.name, "user": t.user, "trial": t.trial, "skill": t.skill}
+                           for t in dataset.trials]}
+        _atomic_write(cache_dir / f"{key}.json",
+                      lambda f: f.write(json.dumps(meta, indent=1).encode()))
+    except OSError as error:
+        log.warning("cannot write the dataset cache in %s (%s); continuing without it",
+                    cache_dir, error.strerror or error)
 
 
 def _atomic_write(path: Path, write) -> None:
@@ -170,15 +210,38 @@ def _atomic_write(path: Path, write) -> None:
 
 
 def _read_cache(cache_dir: Path, key: str, config: DataConfig) -> Dataset | None:
+    """The cached dataset of ``key``, or None when there is none or it fails its checks (one
+    warning naming the damaged file; the caller rebuilds it)."""
     json_path, npz_path = cache_dir / f"{key}.json", cache_dir / f"{key}.npz"
-    if not (json_path.is_file() and npz_path.is_file()):
+    if not json_path.is_file():
+        return None                     # never written, or interrupted before completion
+    reading = json_path
+    try:
+        meta = json.loads(json_path.read_text(encoding="utf-8"))
+        if meta["format"] != CACHE_FORMAT or meta["key"] != key:
+            raise ValueError(f"written for format {meta['format']}, key {meta['key']}")
+        reading = npz_path
+        if _file_digest(npz_path) != meta["npz_sha256"]:
+            raise ValueError("arrays differ from the checksum recorded in "
+                             f"{json_path.name}")
+        with np.load(npz_path, allow_pickle=False) as npz:
+            arrays = {name: npz[name] for name in (*_ARRAYS, "lengths")}
+        trials = _split_trials(arrays, meta["trials"])
+    except _UNREADABLE as error:
+        detail = " ".join(str(error).split()) or type(error).__name__
+        log.warning("%s: damaged dataset cache entry (%s); rebuilding it", reading, detail)
         return None
-    meta = json.loads(json_path.read_text())
-    with np.load(npz_path, allow_pickle=False) as npz:
-        arrays = {name: npz[name] for name in (*_ARRAYS, "lengths")}
-    bounds = np.concatenate([[0], np.cumsum(arrays["lengths"])])
-    trials = tuple(
+    return Dataset(config, trials)
+
+
+def _split_trials(arrays: dict[str, np.ndarray], meta: list[dict]) -> tuple[Trial, ...]:
+    """Cut the concatenated arrays back into trials, checking that their lengths agree."""
+    lengths = arrays["lengths"]
+    if len(lengths) != len(meta) or any(len(arrays[n]) != lengths.sum() for n in _ARRAYS):
+        raise ValueError(f"{len(meta)} trials listed, {len(lengths)} lengths summing to "
+                         f"{lengths.sum()}, arrays of {[len(arrays[n]) for n in _ARRAYS]} rows")
+    bounds = np.concatenate([[0], np.cumsum(lengths)])
+    return tuple(
         Trial(m["name"], m["user"], m["trial"], m["skill"],
               *(arrays[name][bounds[i]:bounds[i + 1]] for name in _ARRAYS))
-        for i, m in enumerate(meta["trials"]))
-    return Dataset(config, trials)
+        for i, m in enumerate(meta))

@@ -6,9 +6,9 @@ from pathlib import Path
 OBTAIN_HINT = (
     "JIGSAWS is distributed by the JHU CIRL lab after registration "
     "(https://cirl.lcsr.jhu.edu/research/hmm/datasets/jigsaws_release/). Point the tools at the "
-    "task folder, which must contain kinematics/AllGestures/Suturing_<User><Trial>.txt, "
-    "transcriptions/Suturing_<User><Trial>.txt and meta_file_Suturing.txt; or run "
-    "`jigsaws-tools synth --out DIR` to write a synthetic release in that layout."
+    "task folder, which must contain kinematics/AllGestures/<Task>_<User><Trial>.txt, "
+    "transcriptions/<Task>_<User><Trial>.txt and meta_file_<Task>.txt (e.g. Suturing_B001.txt); "
+    "or run `jigsaws-tools synth --out DIR --task <Task>` to write a synthetic release in that layout."
 )
 
 
@@ -32,5 +32,18 @@ class FormatError(JigsawsError, ValueError):
         super().__init__(f"{where}: {problem} (value: {value!r})")
         self.path = Path(path)
         self.line = line
+        self.value = value
+        self.problem = problem
+
+
+class DefinitionError(JigsawsError, ValueError):
+    """A task definition breaks the format; names the file (when there is one), the key and the
+    value."""
+
+    def __init__(self, path: Path | str, key: str | None, value: object, problem: str):
+        where = ": ".join(str(part) for part in (path or "task definition", key) if part)
+        super().__init__(f"{where}: {problem} (value: {value!r})")
+        self.path = str(path)
+        self.key = key
         self.value = value
         self.problem = problem

@@ -1,23 +1,16 @@
-"""The Suturing gesture vocabulary and its mapping to class indices 0-9."""
+"""The label of unlabelled frames, and the paper's (Suturing's) gesture vocabulary.
+
+Every task-dependent piece takes a ``TaskDefinition`` (``jigsaws_tools.task_definition``); these
+names are Suturing's classes for code that is about the paper's task only (its annotation
+amendments).
+"""
 from __future__ import annotations
 
-#: Suturing uses G1-G6 and G8-G11 (no G7); class index = position in this tuple.
-GESTURES: tuple[str, ...] = ("G1", "G2", "G3", "G4", "G5", "G6", "G8", "G9", "G10", "G11")
-NUM_GESTURES = len(GESTURES)
-GESTURE_INDEX: dict[str, int] = {name: i for i, name in enumerate(GESTURES)}
+from .task_definition import SUTURING
 
-GESTURE_DESCRIPTIONS: dict[str, str] = {
-    "G1": "Reaching for needle with right hand",
-    "G2": "Positioning needle",
-    "G3": "Pushing needle through tissue",
-    "G4": "Transferring needle from left to right",
-    "G5": "Moving to center with needle in grip",
-    "G6": "Pulling suture with left hand",
-    "G8": "Orienting needle",
-    "G9": "Using right hand to help tighten suture",
-    "G10": "Loosening more suture",
-    "G11": "Dropping suture at end and moving to end points",
-}
+#: Suturing uses G1-G6 and G8-G11 (no G7); class index = position in this tuple.
+GESTURES: tuple[str, ...] = SUTURING.gestures
+GESTURE_INDEX: dict[str, int] = SUTURING.gesture_index
 
 #: Label value of a 30 Hz frame that no transcription segment covers.
 UNLABELLED = -1

@@ -4,10 +4,16 @@ Order (documented in docs/REPRODUCTION.md): (1) zero-phase low-pass filter on th
 30 Hz signal, (2) removal of unlabelled frames, (3) resampling 30 Hz -> 5 Hz by keeping every 6th
 sample, (4) z-normalisation per trial. Filtering comes first because it needs the contiguous
 signal; normalisation comes last so that the network sees exactly zero mean / unit variance.
+
+Unlabelled recordings (prediction) keep every frame: ``preprocess_recording``. Online use needs
+causal steps: ``CausalLowpass`` (one forward pass, state carried between calls), normalisation
+with statistics fixed in advance (``Normalisation``), and ``StreamingPreprocessor``, which feeds
+frames one at a time through both and equals ``preprocess_recording(..., causal=True)``.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
 
@@ -31,15 +37,52 @@ class PreprocessConfig:
         return KINEMATICS_HZ / self.resample_factor
 
 
+def _scipy_signal():
+    """``scipy.signal``, imported on first use: its import costs every command line 0.6 s."""
+    from scipy import signal
+
+    return signal
+
+
+def butterworth(cutoff_hz: float, order: int, fs_hz: float = KINEMATICS_HZ) -> np.ndarray:
+    """Second-order sections ``[n_sections, 6]`` (``b0 b1 b2 1 a1 a2``) of the low-pass."""
+    return _scipy_signal().butter(order, cutoff_hz, btype="low", fs=fs_hz, output="sos")
+
+
 def lowpass(x: np.ndarray, cutoff_hz: float, order: int, fs_hz: float = KINEMATICS_HZ) -> np.ndarray:
     """Zero-phase Butterworth low-pass (forward-backward, second-order sections).
 
-    ``x``: ``[n_frames, n_features]`` at ``fs_hz``; returns the same shape.
+    ``x``: ``[n_frames, n_features]`` at ``fs_hz``; returns the same shape. Needs more frames than
+    scipy's edge padding (15 for order 4).
     """
-    from scipy import signal     # here, not at the top: SciPy's import costs command lines 0.6 s
+    return _scipy_signal().sosfiltfilt(butterworth(cutoff_hz, order, fs_hz), x, axis=0)
 
-    sos = signal.butter(order, cutoff_hz, btype="low", fs=fs_hz, output="sos")
-    return signal.sosfiltfilt(sos, x, axis=0)
+
+class CausalLowpass:
+    """The Butterworth low-pass run forward only (``scipy.signal.sosfilt``): each output depends on
+    the frames up to it, so frames can be fed one at a time; the filter state is carried between
+    calls. It starts in the steady state of a signal that stayed at the first frame's value (no
+    start-up transient from zero). Order ``order`` (not doubled as in ``lowpass``), with the
+    Butterworth's delay (at 1.5 Hz, order 4: 0.27 s for slow motion, 0.36 s at 1 Hz).
+    """
+
+    def __init__(self, cutoff_hz: float, order: int, fs_hz: float = KINEMATICS_HZ):
+        self.sos = butterworth(cutoff_hz, order, fs_hz)
+        self._state: np.ndarray | None = None        # [n_sections, 2, F]
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        """Filter the next frames ``[n, F]`` (``n`` >= 1) of the signal; returns ``[n, F]``."""
+        x = np.asarray(x, dtype=np.float64)
+        if self._state is None:
+            self._state = _scipy_signal().sosfilt_zi(self.sos)[:, :, None] * x[0]
+        y, self._state = _scipy_signal().sosfilt(self.sos, x, axis=0, zi=self._state)
+        return y
+
+
+def causal_lowpass(x: np.ndarray, cutoff_hz: float, order: int, fs_hz: float = KINEMATICS_HZ
+                   ) -> np.ndarray:
+    """``CausalLowpass`` over a whole signal ``[n_frames, F]``: what frame-by-frame use gives."""
+    return CausalLowpass(cutoff_hz, order, fs_hz)(x)
 
 
 def resample(x: np.ndarray, factor: int) -> np.ndarray:
@@ -49,8 +92,35 @@ def resample(x: np.ndarray, factor: int) -> np.ndarray:
 
 def znormalise(x: np.ndarray) -> np.ndarray:
     """Per-column zero mean, unit variance over this trial; constant columns become 0."""
-    std = x.std(axis=0, keepdims=True)
-    return (x - x.mean(axis=0, keepdims=True)) / np.where(std > 0, std, 1.0)
+    return _standardise(x, x.mean(axis=0, keepdims=True), x.std(axis=0, keepdims=True))
+
+
+def _standardise(x: np.ndarray, mean: np.ndarray, std: np.ndarray) -> np.ndarray:
+    return (x - mean) / np.where(std > 0, std, 1.0)
+
+
+@dataclass(frozen=True)
+class Normalisation:
+    """Per-feature statistics fixed in advance (e.g. from a run's training trials), for inputs
+    that cannot be normalised over the whole recording (streaming): ``(x - mean) / std``, a zero
+    ``std`` counting as 1."""
+
+    mean: tuple[float, ...]
+    std: tuple[float, ...]
+
+    @classmethod
+    def fit(cls, samples: Sequence[np.ndarray]) -> Normalisation:
+        """Mean and (population) standard deviation per column, pooled over every row of
+        ``samples`` (a list of ``[T_i, F]`` arrays)."""
+        pooled = np.concatenate([np.asarray(s, dtype=np.float64) for s in samples])
+        return cls(tuple(pooled.mean(axis=0).tolist()), tuple(pooled.std(axis=0).tolist()))
+
+    def apply(self, x: np.ndarray) -> np.ndarray:
+        """``[..., F]`` -> the same shape, standardised with these statistics."""
+        if np.shape(x)[-1] != len(self.mean):
+            raise ValueError(f"normalisation has {len(self.mean)} features, input "
+                             f"{np.shape(x)[-1]}")
+        return _standardise(x, np.asarray(self.mean), np.asarray(self.std))
 
 
 def preprocess(features: np.ndarray, labels: np.ndarray, config: PreprocessConfig
@@ -77,3 +147,64 @@ def preprocess(features: np.ndarray, labels: np.ndarray, config: PreprocessConfi
     if config.normalise:
         x = znormalise(x)
     return x.astype(np.float32), labels.astype(np.int64), frames.astype(np.int64)
+
+
+def preprocess_recording(features: np.ndarray, config: PreprocessConfig, causal: bool = False,
+                         normalisation: Normalisation | None = None
+                         ) -> tuple[np.ndarray, np.ndarray]:
+    """Preprocess an unlabelled recording as ``preprocess`` does a trial, keeping every frame.
+
+    Steps: low-pass on the whole recording, every ``resample_factor``-th frame from the first,
+    normalisation over the recording's samples (``drop_unlabelled`` does not apply: there are no
+    labels). With ``causal`` the filter is ``causal_lowpass`` and ``normalisation`` (required when
+    ``config.normalise``) replaces the per-recording statistics, so each sample depends only on
+    the frames up to it, as in ``StreamingPreprocessor``.
+
+    Args:
+        features: ``[n_frames, F]`` float at 30 Hz.
+        config: the run's preprocessing switches.
+        causal: forward-only filter and fixed statistics instead of the offline steps.
+        normalisation: fixed statistics (with ``causal``; None = per-recording z-normalisation).
+
+    Returns:
+        ``(inputs [T, F] float32, frames [T] int64)``, ``T = ceil(n_frames / resample_factor)``,
+        ``frames`` the 1-based 30 Hz frame each sample came from.
+    """
+    if causal and config.normalise and normalisation is None:
+        raise ValueError("causal preprocessing needs fixed normalisation statistics")
+    x = np.asarray(features, dtype=np.float64)
+    if config.lowpass:
+        x = (causal_lowpass if causal else lowpass)(x, config.cutoff_hz, config.filter_order)
+    x = resample(x, config.resample_factor)
+    if config.normalise:
+        x = normalisation.apply(x) if normalisation is not None else znormalise(x)
+    frames = resample(np.arange(1, len(features) + 1, dtype=np.int64), config.resample_factor)
+    return x.astype(np.float32), frames
+
+
+class StreamingPreprocessor:
+    """``preprocess_recording(..., causal=True)`` one 30 Hz frame at a time.
+
+    ``push(frame)`` filters the frame (state carried over) and, on every ``resample_factor``-th
+    frame from the first, returns the normalised 5 Hz sample ``[F]`` float32; otherwise None.
+    """
+
+    def __init__(self, config: PreprocessConfig, normalisation: Normalisation | None):
+        if config.normalise and normalisation is None:
+            raise ValueError("streaming preprocessing needs fixed normalisation statistics")
+        self.config, self.normalisation = config, normalisation
+        self.frames = 0                    # frames pushed so far
+        self._filter = CausalLowpass(config.cutoff_hz, config.filter_order) if config.lowpass \
+            else None
+
+    def push(self, frame: np.ndarray) -> np.ndarray | None:
+        """Next frame ``[F]`` -> its sample ``[F]`` float32 when it is kept, else None."""
+        x = np.asarray(frame, dtype=np.float64)[None]
+        if self._filter is not None:
+            x = self._filter(x)
+        self.frames += 1
+        if (self.frames - 1) % self.config.resample_factor:
+            return None
+        if self.config.normalise:
+            x = self.normalisation.apply(x)
+        return x[0].astype(np.float32)

@@ -1,41 +1,35 @@
 """Action-based progress labels (van Amsterdam et al. 2020) and their three target encodings.
 
-Stages within one stitch: 0 = G1, G5; 1 = G2; 2 = G3; 3 = G6, G9, G10; 4 = G11. The adjustment
-gestures G4 and G8 take the stage of the next essential gesture. A trailing G4/G8 with no essential
-gesture after it keeps the stage of the last essential gesture before it (it completes that stage);
-a trial made only of adjustments is stage 0. Progress repeats for each throw of the suture.
+A task's progress grammar (``TaskDefinition.stages``) maps each essential gesture to a stage
+0..K-1; for Suturing, the paper's: 0 = G1, G5; 1 = G2; 2 = G3; 3 = G6, G9, G10; 4 = G11. Adjustment
+gestures (Suturing's G4 and G8) take the stage of the next essential gesture. A trailing adjustment
+with no essential gesture after it keeps the stage of the last essential gesture before it (it
+completes that stage); a trial made only of adjustments is stage 0. Progress repeats for each
+cycle of the task (each throw of the suture).
 """
 from __future__ import annotations
 
 import numpy as np
 
-from .gestures import GESTURE_INDEX, UNLABELLED
-
-NUM_STAGES = 5
-ESSENTIAL_STAGE: dict[str, int] = {
-    "G1": 0, "G5": 0, "G2": 1, "G3": 2, "G6": 3, "G9": 3, "G10": 3, "G11": 4,
-}
-ADJUSTMENTS = ("G4", "G8")
-
-# Class index -> stage; adjustments -> -1 (resolved from their neighbours).
-_STAGE_OF_CLASS = np.full(len(GESTURE_INDEX), -1, dtype=np.int64)
-for _name, _stage in ESSENTIAL_STAGE.items():
-    _STAGE_OF_CLASS[GESTURE_INDEX[_name]] = _stage
+from .gestures import UNLABELLED
+from .task_definition import SUTURING, TaskDefinition
 
 
-def progress_labels(gestures: np.ndarray) -> np.ndarray:
+def progress_labels(gestures: np.ndarray, task: TaskDefinition = SUTURING) -> np.ndarray:
     """Progress stage per frame from gesture class indices.
 
     Args:
-        gestures: ``[n]`` int gesture class indices (0-9), ``UNLABELLED`` (-1) allowed anywhere.
+        gestures: ``[n]`` int class indices of ``task``'s vocabulary, ``UNLABELLED`` (-1) anywhere.
+        task: whose progress grammar applies (default: the paper's Suturing).
 
     Returns:
-        ``[n]`` int64 stages 0-4; ``UNLABELLED`` where the gesture is unlabelled. Unlabelled frames
-        are transparent: an adjustment looks past them to the next labelled essential gesture.
+        ``[n]`` int64 stages ``0..task.num_stages-1``; ``UNLABELLED`` where the gesture is
+        unlabelled. Unlabelled frames are transparent: an adjustment looks past them to the next
+        labelled essential gesture.
     """
     out = np.full(len(gestures), UNLABELLED, dtype=np.int64)
     labelled = np.flatnonzero(gestures != UNLABELLED)
-    stages = _STAGE_OF_CLASS[gestures[labelled]]
+    stages = task.stage_of_class[gestures[labelled]]
     stages = _fill(stages, backward=True)     # adjustments take the next essential stage
     stages = _fill(stages, backward=False)    # trailing adjustments keep the previous one
     stages[stages < 0] = 0                    # only adjustments at all
@@ -52,15 +46,16 @@ def _fill(values: np.ndarray, backward: bool) -> np.ndarray:
     return filled[::-1] if backward else filled
 
 
-def one_hot(progress: np.ndarray, num_stages: int = NUM_STAGES) -> np.ndarray:
+def one_hot(progress: np.ndarray, num_stages: int = SUTURING.num_stages) -> np.ndarray:
     """``[T]`` stages -> ``[T, num_stages]`` float32 one-hot targets (classification)."""
     return np.eye(num_stages, dtype=np.float32)[progress]
 
 
-def ordinal_encode(progress: np.ndarray, num_stages: int = NUM_STAGES) -> np.ndarray:
+def ordinal_encode(progress: np.ndarray, num_stages: int = SUTURING.num_stages) -> np.ndarray:
     """Cheng et al. (2008) cumulative targets: stage k -> ``t_j = 1`` for ``j <= k``, else 0.
 
-    ``[T]`` stages -> ``[T, num_stages]`` float32; stage 0 is ``[1, 0, 0, 0, 0]``, stage 4 all ones.
+    ``[T]`` stages -> ``[T, num_stages]`` float32; with 5 stages, stage 0 is ``[1, 0, 0, 0, 0]``
+    and stage 4 all ones.
     """
     return (np.arange(num_stages)[None, :] <= progress[:, None]).astype(np.float32)
 

@@ -5,26 +5,31 @@ Layout::
     <root>/kinematics/AllGestures/<Task>_<User><Trial>.txt   76 columns, 30 Hz, one line per frame
     <root>/transcriptions/<Task>_<User><Trial>.txt           "start end G<k>", 1-based inclusive frames
     <root>/meta_file_<Task>.txt                              name, skill level, GRS, 6 GRS items
+
+``<Task>`` is ``TaskDefinition.name``; every function that depends on it takes the task (default:
+the paper's Suturing).
 """
 from __future__ import annotations
 
 import logging
 import re
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from .errors import FormatError, ReleaseNotFoundError
-from .gestures import GESTURE_INDEX, UNLABELLED
+from .errors import FormatError, JigsawsError, ReleaseNotFoundError
+from .gestures import UNLABELLED
+from .task_definition import SUTURING, TaskDefinition
 
 NUM_KINEMATIC_COLUMNS = 76
 KINEMATICS_HZ = 30.0
-TASK = "Suturing"
-_TRIAL_FILE = re.compile(rf"^{TASK}_([A-Z])(\d{{3}})\.txt$")
-
+_BOM = b"\xef\xbb\xbf"
+_ANY_TRIAL_FILE = re.compile(r"^(.+)_[A-Z]\d{3}\.txt$", re.IGNORECASE)
 
 log = logging.getLogger(__name__)
+
 
 @dataclass(frozen=True)
 class Segment:
@@ -61,21 +66,24 @@ class TrialFiles:
 
 @dataclass(frozen=True)
 class ReleaseIndex:
-    """The trials of a release: complete ones, and names lacking kinematics or a transcription."""
+    """The trials of one task's release: complete ones, names lacking kinematics or a
+    transcription, and files that exist but cannot be used (``"<file>: <reason>"``)."""
 
     root: Path
     trials: tuple[TrialFiles, ...]
     missing_kinematics: tuple[str, ...]
     missing_transcription: tuple[str, ...]
+    task: TaskDefinition = SUTURING
+    unusable: tuple[str, ...] = ()
 
     @property
     def users(self) -> tuple[str, ...]:
         return tuple(sorted({t.user for t in self.trials}))
 
 
-def trial_name(user: str, trial: int) -> str:
+def trial_name(user: str, trial: int, task: TaskDefinition = SUTURING) -> str:
     """``("B", 1) -> "Suturing_B001"``."""
-    return f"{TASK}_{user}{trial:03d}"
+    return f"{task.name}_{user}{trial:03d}"
 
 
 def kinematics_dir(root: Path) -> Path:
@@ -86,51 +94,123 @@ def transcriptions_dir(root: Path) -> Path:
     return Path(root) / "transcriptions"
 
 
-def meta_path(root: Path) -> Path:
-    return Path(root) / f"meta_file_{TASK}.txt"
+def meta_path(root: Path, task: TaskDefinition = SUTURING) -> Path:
+    return Path(root) / f"meta_file_{task.name}.txt"
 
 
-def _trial_names(folder: Path) -> dict[str, Path]:
-    return {p.stem: p for p in sorted(folder.iterdir()) if _TRIAL_FILE.match(p.name)}
+def discover(root: Path | str, task: TaskDefinition = SUTURING) -> ReleaseIndex:
+    """Index the trials of ``task`` in a release folder, sorted by user letter then trial number.
 
-
-def discover(root: Path | str) -> ReleaseIndex:
-    """Index the trials of a release folder, sorted by user letter then trial number.
-
-    A trial with only one of kinematics / transcription is reported in one warning line (logger
-    ``jigsaws_tools.release``) and left out of ``trials``; the index lists it as missing.
+    A trial that cannot be used (only one of kinematics / transcription, an empty file, a folder or
+    a broken link where a file should be) is reported in one warning line (logger
+    ``jigsaws_tools.release``) and left out of ``trials``. Files named ``.TXT`` are read, with one
+    warning per folder.
     """
     root = Path(root)
     if not root.is_dir():
-        raise ReleaseNotFoundError(root, "JIGSAWS Suturing folder")
+        raise ReleaseNotFoundError(root, f"JIGSAWS {task.name} folder")
     kin_dir, tr_dir = kinematics_dir(root), transcriptions_dir(root)
     for folder, what in ((kin_dir, "kinematics folder"), (tr_dir, "transcriptions folder")):
         if not folder.is_dir():
             raise ReleaseNotFoundError(folder, what)
-    kin, trans = _trial_names(kin_dir), _trial_names(tr_dir)
-    missing_kin = tuple(sorted(set(trans) - set(kin)))
-    missing_tr = tuple(sorted(set(kin) - set(trans)))
-    for name in missing_kin:
-        log.warning("%s: transcription present but no kinematics; trial skipped", name)
-    for name in missing_tr:
-        log.warning("%s: kinematics present but no transcription; trial skipped", name)
+    kin, kin_unusable = _trial_files(kin_dir, task)
+    trans, trans_unusable = _trial_files(tr_dir, task)
+    unusable = {**trans_unusable, **kin_unusable}
+    missing_kin = tuple(sorted(set(trans) - set(kin) - set(kin_unusable)))
+    missing_tr = tuple(sorted(set(kin) - set(trans) - set(trans_unusable)))
+    for name in sorted(set(kin) | set(trans) | set(unusable)):
+        reasons = [r for r in (kin_unusable.get(name), trans_unusable.get(name)) if r]
+        if name not in kin and name not in kin_unusable:
+            reasons.append("no kinematics")
+        if name not in trans and name not in trans_unusable:
+            reasons.append("no transcription")
+        if reasons:
+            log.warning("%s: %s; trial skipped", name, "; ".join(reasons))
     trials = []
     for name in sorted(set(kin) & set(trans)):
-        user, number = _TRIAL_FILE.match(name + ".txt").groups()
+        user, number = name.removeprefix(f"{task.name}_")[0], name[-3:]
         trials.append(TrialFiles(name, user, int(number), kin[name], trans[name]))
     if not trials:
-        raise ReleaseNotFoundError(root, "a trial with both kinematics and a transcription")
-    return ReleaseIndex(root, tuple(trials), missing_kin, missing_tr)
+        others = _other_tasks(kin_dir, task)
+        if others:
+            raise JigsawsError(f"{root}: no {task.name} trial found; it holds {', '.join(others)} "
+                               f"trials (choose the task with --task or --task-file)")
+        raise ReleaseNotFoundError(root, f"a {task.name} trial with both kinematics and a "
+                                         f"transcription")
+    return ReleaseIndex(root, tuple(trials), missing_kin, missing_tr, task,
+                        tuple(reason for _, reason in sorted(unusable.items())))
+
+
+def _trial_files(folder: Path, task: TaskDefinition) -> tuple[dict[str, Path], dict[str, str]]:
+    """``folder``'s trial files of ``task``: usable ones (name -> path) and unusable ones (name ->
+    why). A ``.TXT`` file is used (warned once per folder) unless a ``.txt`` twin exists."""
+    pattern = re.compile(rf"^{re.escape(task.name)}_[A-Z]\d{{3}}\.txt$", re.IGNORECASE)
+    usable: dict[str, Path] = {}
+    unusable: dict[str, str] = {}
+    upper = []
+    for path in sorted(folder.iterdir()):
+        if not pattern.match(path.name) or not path.name.startswith(f"{task.name}_"):
+            continue
+        name = path.name[:-4]
+        if path.suffix != ".txt":
+            if (folder / f"{name}.txt").exists():
+                continue
+            upper.append(path.name)
+        problem = _unusable(path)
+        if problem:
+            unusable[name] = f"{path}: {problem}"
+        else:
+            usable[name] = path
+    if upper:
+        log.warning("%s: %d file(s) named with an upper-case extension read as trials (%s)",
+                    folder, len(upper), ", ".join(upper[:3]) + (", ..." if len(upper) > 3 else ""))
+    return usable, unusable
+
+
+def _unusable(path: Path) -> str | None:
+    """Why ``path`` cannot be read as a trial file, or None."""
+    if path.is_symlink() and not path.exists():
+        return "broken symbolic link or link loop"
+    if path.is_dir():
+        return "a folder, not a file"
+    if not path.is_file():
+        return "not a regular file"
+    if path.stat().st_size == 0:
+        return "empty file (0 bytes)"
+    return None
+
+
+def _other_tasks(folder: Path, task: TaskDefinition) -> list[str]:
+    """Names of the other tasks whose trial files ``folder`` holds."""
+    return sorted({m.group(1) for p in folder.iterdir()
+                   if (m := _ANY_TRIAL_FILE.match(p.name)) and m.group(1) != task.name})
+
+
+def _check_readable(path: Path, what: str) -> None:
+    """A clear error for a path that cannot hold ``what``; one warning for a byte-order mark."""
+    if not path.exists() and not path.is_symlink():
+        raise ReleaseNotFoundError(path, what)
+    problem = _unusable(path)
+    if problem:
+        raise FormatError(path, None, str(path), f"cannot be read as a {what}: {problem}")
+    with open(path, "rb") as f:
+        if f.read(len(_BOM)) == _BOM:
+            log.warning("%s: starts with a UTF-8 byte-order mark; ignored", path)
 
 
 def read_kinematics(path: Path | str) -> np.ndarray:
     """Read a kinematics file: ``[n_frames, 76]`` float64, one row per 30 Hz frame."""
     path = Path(path)
+    _check_readable(path, "kinematics file")
     try:
-        data = np.loadtxt(path, dtype=np.float64, ndmin=2)
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", "loadtxt: input contained no data")
+            data = np.loadtxt(path, dtype=np.float64, ndmin=2, encoding="utf-8-sig")
     except ValueError:
         _diagnose_kinematics(path)
         raise
+    if len(data) == 0:
+        raise FormatError(path, None, "", "kinematics file has only blank lines")
     if data.shape[1] != NUM_KINEMATIC_COLUMNS:
         _diagnose_kinematics(path)
     if not np.isfinite(data).all():
@@ -142,7 +222,7 @@ def read_kinematics(path: Path | str) -> np.ndarray:
 def _data_line_number(path: Path, row: int) -> int:
     """1-based file line of the ``row``-th non-blank line."""
     seen = -1
-    with open(path, encoding="utf-8", errors="replace") as f:
+    with open(path, encoding="utf-8-sig", errors="replace") as f:
         for number, line in enumerate(f, start=1):
             if line.strip():
                 seen += 1
@@ -153,7 +233,7 @@ def _data_line_number(path: Path, row: int) -> int:
 
 def _diagnose_kinematics(path: Path) -> None:
     """Find the first malformed line of a kinematics file and raise a FormatError naming it."""
-    with open(path, encoding="utf-8", errors="replace") as f:
+    with open(path, encoding="utf-8-sig", errors="replace") as f:
         for number, line in enumerate(f, start=1):
             fields = line.split()
             if not fields:
@@ -169,20 +249,26 @@ def _diagnose_kinematics(path: Path) -> None:
                                       f"non-numeric kinematic value in column {column}") from None
 
 
-def read_transcription(path: Path | str, n_frames: int | None = None) -> list[Segment]:
+def read_transcription(path: Path | str, n_frames: int | None = None,
+                       task: TaskDefinition = SUTURING) -> list[Segment]:
     """Read ``start end G<k>`` lines (CRLF and trailing spaces tolerated).
 
-    Segments must be in increasing order, non-overlapping, with ``1 <= start <= end`` and, when
-    ``n_frames`` (the kinematics length) is given, ``end <= n_frames``.
+    Args:
+        path: the transcription file.
+        n_frames: the kinematics length; when given, every ``end <= n_frames``.
+        task: whose gesture vocabulary the labels must belong to.
+
+    Segments must be in increasing order, non-overlapping, with ``1 <= start <= end``.
     """
     path = Path(path)
+    _check_readable(path, "transcription")
     segments: list[Segment] = []
-    with open(path, encoding="utf-8", errors="replace", newline=None) as f:
+    with open(path, encoding="utf-8-sig", errors="replace", newline=None) as f:
         for number, line in enumerate(f, start=1):
             fields = line.split()
             if not fields:
                 continue
-            segment = _parse_segment(path, number, fields)
+            segment = _parse_segment(path, number, fields, task)
             if n_frames is not None and segment.end > n_frames:
                 raise FormatError(path, number, segment.end,
                                   f"end frame beyond the {n_frames} kinematic frames")
@@ -196,7 +282,7 @@ def read_transcription(path: Path | str, n_frames: int | None = None) -> list[Se
     return segments
 
 
-def _parse_segment(path: Path, number: int, fields: list[str]) -> Segment:
+def _parse_segment(path: Path, number: int, fields: list[str], task: TaskDefinition) -> Segment:
     if len(fields) != 3:
         raise FormatError(path, number, " ".join(fields), "expected 'start end G<k>'")
     try:
@@ -204,9 +290,9 @@ def _parse_segment(path: Path, number: int, fields: list[str]) -> Segment:
     except ValueError:
         raise FormatError(path, number, " ".join(fields[:2]), "non-integer frame number") from None
     gesture = fields[2]
-    if gesture not in GESTURE_INDEX:
-        raise FormatError(path, number, gesture,
-                          f"unknown Suturing gesture (expected one of {', '.join(GESTURE_INDEX)})")
+    if gesture not in task.gesture_index:
+        raise FormatError(path, number, gesture, f"unknown {task.name} gesture "
+                                                 f"(expected one of {', '.join(task.gestures)})")
     if start < 1 or end < start:
         raise FormatError(path, number, f"{start} {end}",
                           "frames must satisfy 1 <= start <= end")
@@ -214,12 +300,12 @@ def _parse_segment(path: Path, number: int, fields: list[str]) -> Segment:
 
 
 def read_meta(path: Path | str) -> dict[str, TrialMeta]:
-    """Read ``meta_file_Suturing.txt``: trial name -> skill level and GRS scores."""
+    """Read ``meta_file_<Task>.txt``: trial name -> skill level and GRS scores."""
     path = Path(path)
     if not path.is_file():
         raise ReleaseNotFoundError(path, "meta file")
     meta: dict[str, TrialMeta] = {}
-    with open(path, encoding="utf-8", errors="replace") as f:
+    with open(path, encoding="utf-8-sig", errors="replace") as f:
         for number, line in enumerate(f, start=1):
             fields = line.split()
             if not fields:
@@ -238,9 +324,11 @@ def read_meta(path: Path | str) -> dict[str, TrialMeta]:
     return meta
 
 
-def frame_labels(segments: list[Segment], n_frames: int) -> np.ndarray:
-    """Per-frame gesture class indices ``[n_frames]`` int64 at 30 Hz; uncovered frames are -1."""
+def frame_labels(segments: list[Segment], n_frames: int, task: TaskDefinition = SUTURING
+                 ) -> np.ndarray:
+    """Per-frame class indices of ``task``'s vocabulary, ``[n_frames]`` int64 at 30 Hz; uncovered
+    frames are -1."""
     labels = np.full(n_frames, UNLABELLED, dtype=np.int64)
     for s in segments:
-        labels[s.start - 1:s.end] = GESTURE_INDEX[s.gesture]
+        labels[s.start - 1:s.end] = task.gesture_index[s.gesture]
     return labels

@@ -1,35 +1,35 @@
-"""Deterministic synthetic JIGSAWS-format Suturing release (the project's embedded default).
+"""Deterministic synthetic JIGSAWS-format release of any defined task (the project's embedded
+default data).
 
 Writes the official layout (76-column kinematics at 30 Hz, transcriptions with CRLF line ends and
-trailing spaces, meta file) for 8 users x 5 trials. Each trial follows the suturing grammar: reach
-(G1, sometimes G5), several throws of position / push / pull (G2, G3, G6) with adjustment gestures
-(G4, G8) and tightening (G9, G10) between them, and a final drop (G11). Kinematics move each
-patient-side arm towards a gesture-specific pose with a gesture-specific oscillation; users differ
-in speed, workspace offset and motion amplitude, trials in pose jitter, and every signal carries
-noise: learnable from context, but not from one sample.
+trailing spaces, meta file) for 8 users x 5 trials. Each trial follows the task's synthetic grammar
+(``TaskDefinition.synthetic``): for Suturing, reach (G1, sometimes G5), several throws of position /
+push / pull (G2, G3, G6) with adjustment gestures (G4, G8) and tightening (G9, G10) between them,
+and a final drop (G11). Kinematics move each patient-side arm towards a gesture-specific pose with
+a gesture-specific oscillation; users differ in speed, workspace offset and motion amplitude,
+trials in pose jitter, and every signal carries noise: learnable from context, but not from one
+sample.
 """
 from __future__ import annotations
 
 import hashlib
+import json
 import shutil
 import tempfile
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
 
-from .gestures import GESTURES
+from .errors import JigsawsError
 from .release import KINEMATICS_HZ, kinematics_dir, meta_path, trial_name, transcriptions_dir
+from .task_definition import SUTURING, SynthGrammar, SynthStep, TaskDefinition
 
-#: Bump whenever the generator's output changes for the same ``SynthConfig``.
+#: Bump whenever the generator's output changes for the same ``SynthConfig`` and task.
 GENERATOR_VERSION = 2
 SYNTH_USERS = ("B", "C", "D", "E", "F", "G", "H", "I")
 SYNTH_SKILLS = ("N", "I", "E", "E", "I", "N", "N", "N")
 TRIALS_PER_USER = 5
-
-#: Gesture -> (min, max) duration in 30 Hz frames before the user's speed factor.
-_DURATIONS = {"G1": (45, 110), "G2": (45, 140), "G3": (70, 170), "G4": (40, 100), "G5": (40, 90),
-              "G6": (70, 150), "G8": (40, 110), "G9": (30, 80), "G10": (30, 70), "G11": (45, 110)}
 
 
 @dataclass(frozen=True)
@@ -39,52 +39,63 @@ class SynthConfig:
     seed: int = 0
     users: tuple[str, ...] = SYNTH_USERS
     trials_per_user: int = TRIALS_PER_USER
-    min_throws: int = 3
-    max_throws: int = 5
     noise: float = 1.0           # measurement noise, in units of the typical pose separation
     pose_jitter: float = 0.8     # per-segment perturbation of the gesture poses, same units
 
 
-def gesture_sequence(rng: np.random.Generator, config: SynthConfig) -> list[str]:
-    """Sample one trial's gesture sequence from the suturing grammar."""
-    seq = ["G1"] + (["G5"] if rng.random() < 0.5 else [])
-    for throw in range(rng.integers(config.min_throws, config.max_throws + 1)):
-        if throw > 0 and rng.random() < 0.5:
-            seq.append("G4" if rng.random() < 0.5 else "G8")
-        elif throw == 0 and rng.random() < 0.4:
-            seq.append("G8")
-        seq.append("G2")
-        if rng.random() < 0.15:
-            seq.append("G8")
-        seq.append("G3")
-        if rng.random() < 0.2:
-            seq.append("G4")
-        seq.append("G6")
-        if rng.random() < 0.25:
-            seq.append("G9" if rng.random() < 0.75 else "G10")
-    if rng.random() < 0.3:
-        seq.append("G4")
-    seq.append("G11")
+def grammar(task: TaskDefinition) -> SynthGrammar:
+    """``task``'s synthetic grammar, or a clear error when its definition has none."""
+    if task.synthetic is None:
+        raise JigsawsError(f"task {task.name} has no [synthetic] section in its definition: "
+                           f"the generator cannot write it")
+    return task.synthetic
+
+
+def gesture_sequence(rng: np.random.Generator, task: TaskDefinition = SUTURING) -> list[str]:
+    """Sample one trial's gesture sequence from ``task``'s synthetic grammar."""
+    rules = grammar(task)
+    seq = [g for step in rules.opening if (g := _sample(step, rng, 0))]
+    for cycle in range(rng.integers(rules.cycles[0], rules.cycles[1] + 1)):
+        seq += [g for step in rules.cycle if (g := _sample(step, rng, cycle))]
+    seq += [g for step in rules.closing if (g := _sample(step, rng, 0))]
     return seq
 
 
-def _prototypes(seed: int) -> dict[str, dict[str, np.ndarray]]:
+def _sample(step: SynthStep, rng: np.random.Generator, cycle: int) -> str | None:
+    """The gesture ``step`` produces in ``cycle`` (0-based), or None. Draws one uniform number for
+    ``p < 1`` and one to choose among several gestures, none otherwise."""
+    if step.cycles == "first" and cycle > 0 or step.cycles == "later" and cycle == 0:
+        return None
+    if step.p < 1.0 and not rng.random() < step.p:
+        return None
+    if len(step.gestures) == 1:
+        return step.gestures[0]
+    cumulative = np.cumsum(step.weights) / sum(step.weights)
+    choice = int(np.searchsorted(cumulative, rng.random(), side="right"))
+    return step.gestures[min(choice, len(step.gestures) - 1)]
+
+
+def _prototypes(seed: int, task: TaskDefinition) -> dict[str, dict[str, np.ndarray]]:
     """Per-gesture motion prototype for both arms: pose [2, 3], gripper [2], wobble [2, 3], rate."""
     rng = np.random.default_rng([seed, 7919])
     protos = {}
-    for g in GESTURES:
+    for g in task.gestures:
         protos[g] = {"pose": rng.normal(0.0, 1.0, (2, 3)), "grip": rng.uniform(-0.3, 1.2, 2),
                      "wobble": rng.normal(0.0, 0.6, (2, 3)), "rate": rng.uniform(0.3, 1.5),
                      "turn": rng.normal(0.0, 0.5, (2, 3))}
-    # Related gestures look alike: the two adjustments, and tightening / loosening vs pulling.
-    for g, like in (("G8", "G4"), ("G9", "G6"), ("G10", "G6"), ("G5", "G1")):
-        for key in ("pose", "wobble", "turn"):
-            protos[g][key] = 0.6 * protos[like][key] + 0.4 * protos[g][key]
+    # Related gestures look alike (Suturing: the two adjustments, tightening / loosening vs pulling).
+    for timing in grammar(task).gestures:
+        if timing.like:
+            for key in ("pose", "wobble", "turn"):
+                protos[timing.gesture][key] = (0.6 * protos[timing.like][key]
+                                               + 0.4 * protos[timing.gesture][key])
     return protos
 
 
-def _segments(seq: list[str], rng: np.random.Generator, speed: float) -> list[tuple[str, int]]:
-    return [(g, max(8, int(rng.integers(*_DURATIONS[g]) * speed))) for g in seq]
+def _segments(seq: list[str], rng: np.random.Generator, speed: float, rules: SynthGrammar
+              ) -> list[tuple[str, int]]:
+    return [(g, max(8, int(rng.integers(rules.timing(g).min_frames, rules.timing(g).max_frames)
+                           * speed))) for g in seq]
 
 
 def _arm_signals(segments: list[tuple[str, int]], protos, rng: np.random.Generator,
@@ -132,17 +143,27 @@ def _rotation_matrices(angles: np.ndarray) -> np.ndarray:
         np.stack([-sb, cb * sc, cb * cc], -1)], -2)
 
 
-def synth_trial(config: SynthConfig, user_index: int, trial: int
-                ) -> tuple[np.ndarray, list[tuple[int, int, str]]]:
-    """One trial: kinematics ``[n_frames, 76]`` at 30 Hz and its ``(start, end, gesture)`` lines."""
-    protos = _prototypes(config.seed)
+def synth_trial(config: SynthConfig, user_index: int, trial: int,
+                task: TaskDefinition = SUTURING) -> tuple[np.ndarray, list[tuple[int, int, str]]]:
+    """One trial of ``task``: kinematics ``[n_frames, 76]`` at 30 Hz and its
+    ``(start, end, gesture)`` lines.
+
+    Args:
+        config: the generator's knobs (seed, users, noise).
+        user_index: position of the user in ``config.users``.
+        trial: 1-based trial number.
+        task: whose grammar and vocabulary the trial follows.
+    """
+    rules = grammar(task)
+    protos = _prototypes(config.seed, task)
     user_rng = np.random.default_rng([config.seed, 1, user_index])
     style = {"tempo": user_rng.uniform(0.7, 1.3), "amplitude": user_rng.uniform(0.6, 1.4),
              "offset": user_rng.normal(0.0, 0.02, (2, 3)), "speed": user_rng.uniform(0.75, 1.35)}
     rng = np.random.default_rng([config.seed, 2, user_index, trial])
-    segments = _segments(gesture_sequence(rng, config), rng, style["speed"])
+    segments = _segments(gesture_sequence(rng, task), rng, style["speed"], rules)
     lead, tail = int(rng.integers(15, 90)), int(rng.integers(0, 40))
-    slave = _arm_signals([("G1", lead)] + segments + [("G11", tail)], protos, rng, style, config)
+    slave = _arm_signals([(rules.lead_in, lead)] + segments + [(rules.tail, tail)], protos, rng,
+                         style, config)
     master = slave.copy()
     master[..., 0:3] = slave[..., 0:3] * 3.0 + 0.002 * rng.normal(0.0, 1.0, slave[..., 0:3].shape)
     master[..., 12:15] *= 3.0
@@ -154,9 +175,18 @@ def synth_trial(config: SynthConfig, user_index: int, trial: int
     return kinematics, lines
 
 
-def write_release(out: Path | str, config: SynthConfig = SynthConfig()) -> Path:
-    """Write a complete synthetic Suturing release under ``out`` and return ``out``."""
+def write_release(out: Path | str, config: SynthConfig = SynthConfig(),
+                  task: TaskDefinition = SUTURING) -> Path:
+    """Write a complete synthetic release of ``task`` under ``out`` and return ``out``.
+
+    ``out`` must not exist or be an empty folder: the generator never overwrites data.
+    """
     out = Path(out)
+    grammar(task)
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise JigsawsError(f"{out} exists and is not an empty folder; the synthetic release is "
+                           f"written only into a new or empty folder, so that no data is "
+                           f"overwritten")
     kinematics_dir(out).mkdir(parents=True, exist_ok=True)
     transcriptions_dir(out).mkdir(parents=True, exist_ok=True)
     meta_lines = []
@@ -164,31 +194,34 @@ def write_release(out: Path | str, config: SynthConfig = SynthConfig()) -> Path:
         skill = SYNTH_SKILLS[u % len(SYNTH_SKILLS)]
         grs_rng = np.random.default_rng([config.seed, 3, u])
         for trial in range(1, config.trials_per_user + 1):
-            name = trial_name(user, trial)
-            kinematics, lines = synth_trial(config, u, trial)
+            name = trial_name(user, trial, task)
+            kinematics, lines = synth_trial(config, u, trial, task)
             np.savetxt(kinematics_dir(out) / f"{name}.txt", kinematics, fmt="%15.8f", delimiter=" ")
             with open(transcriptions_dir(out) / f"{name}.txt", "wb") as f:
                 f.write("".join(f"{s} {e} {g} \r\n" for s, e, g in lines).encode())
             items = grs_rng.integers(1, 6, 6)
             meta_lines.append(f"{name}\t\t{skill}\t{items.sum()}\t\t" + "\t".join(map(str, items)))
-    meta_path(out).write_bytes(("\r\n".join(meta_lines) + "\r\n").encode())
+    meta_path(out, task).write_bytes(("\r\n".join(meta_lines) + "\r\n").encode())
     return out
 
 
-def ensure_release(cache_dir: Path | str, config: SynthConfig = SynthConfig()) -> Path:
-    """The synthetic release for ``config`` under ``cache_dir``, written once (atomically).
+def ensure_release(cache_dir: Path | str, config: SynthConfig = SynthConfig(),
+                   task: TaskDefinition = SUTURING) -> Path:
+    """The synthetic release of ``task`` for ``config`` under ``cache_dir``, written once
+    (atomically).
 
-    The folder name carries ``GENERATOR_VERSION`` and a hash of ``config``, so a changed generator
-    or option never reuses an older release.
+    The folder name carries ``GENERATOR_VERSION`` and a hash of ``config`` and of the task's whole
+    definition, so a changed generator, option or grammar never reuses an older release.
     """
-    key = hashlib.sha256(repr((GENERATOR_VERSION, config)).encode()).hexdigest()[:12]
-    target = Path(cache_dir) / f"synthetic-seed{config.seed}-{key}" / "Suturing"
+    definition = json.dumps(asdict(task), sort_keys=True)
+    key = hashlib.sha256(repr((GENERATOR_VERSION, config, definition)).encode()).hexdigest()[:12]
+    target = Path(cache_dir) / f"synthetic-seed{config.seed}-{key}" / task.name
     if target.is_dir():
         return target
     target.parent.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(dir=target.parent.parent, prefix=".synthetic-"))
     try:
-        write_release(staging / "Suturing", config)
+        write_release(staging / task.name, config, task)
         staging.rename(target.parent)
     except OSError:
         if not target.is_dir():        # lost no race: a real failure

@@ -5,7 +5,9 @@ Per training sweep, with task losses L_i and weights w_i:
 * the network is updated with the gradient of ``sum_i w_i L_i`` (weights held constant);
 * ``G_i = ||grad_W (w_i L_i)||_2`` on the shared weights ``W`` = every variable of the encoder's
   last layer, both directions (the BiLSTM layer the heads read), ``G_bar = mean_i G_i``;
-* ``r_i = (L_i / L_i(0)) / mean_j (L_j / L_j(0))``, ``L_i(0)`` the losses of the first sweep;
+* ``r_i = (L_i / L_i(0)) / mean_j (L_j / L_j(0))``, ``L_i(0)`` the losses of the first sweep
+  (Chen et al.'s relative inverse training rate; ``relative_rate="paper"`` divides by the mean
+  loss ``mean_j L_j`` instead, the paper's literal words, see docs/REPRODUCTION.md);
 * ``L_grad = sum_i |G_i - G_bar * r_i^alpha|`` with the target held constant, and
   ``w <- w - lr_w * dL_grad/dw`` (plain SGD); since ``G_i = w_i ||grad_W L_i||``, the derivative is
   ``sign(G_i - target_i) * ||grad_W L_i||``, exact without second-order terms;
@@ -21,7 +23,7 @@ import tensorflow as tf
 
 from rnn_seg.trainer import Trainer, append_csv_row
 
-from .config import GradNormConfig
+from .config import RELATIVE_RATES, GradNormConfig, RelativeRate  # noqa: F401 (re-exported)
 
 MIN_WEIGHT = 1e-3
 
@@ -62,7 +64,7 @@ class GradNormTrainer(Trainer):
         self.initial_losses.assign(tf.where(self.initial_losses > 0, self.initial_losses, losses))
         G = weights * norms
         ratio = losses / self.initial_losses
-        r = ratio / tf.reduce_mean(ratio)
+        r = ratio / tf.reduce_mean(ratio if self.gradnorm.relative_rate == "chen" else losses)
         target = tf.reduce_mean(G) * r ** self.gradnorm.alpha               # held constant
         d_weights = tf.sign(G - target) * norms                            # dL_grad / dw_i
         new = tf.maximum(weights - self.gradnorm.learning_rate * d_weights, MIN_WEIGHT)

@@ -65,11 +65,12 @@ def _run(args: argparse.Namespace) -> int:
 
     spec = load_spec(args.spec) if args.spec else GridSpec()
     spec = with_overrides(spec, preset=args.preset, data_dir=args.data_dir)
-    spec = with_overrides(spec, data_dir=str(spec.release_dir().resolve()))  # one path for all
+    spec = spec.with_absolute_paths()                                   # workers see one path
     keys = expand(spec, release_users(spec))
     budget = spec.budget
-    print(f"grid: preset {spec.preset}, H={budget.hidden}, schedule x{budget.schedule_scale:g}, "
-          f"seeds {list(budget.seeds)}, data {spec.data_dir}", flush=True)
+    print(f"grid: task {spec.task}, preset {spec.preset}, H={budget.hidden}, "
+          f"schedule x{budget.schedule_scale:g}, seeds {list(budget.seeds)}, "
+          f"data {spec.data_dir}", flush=True)
     if args.dry_run:
         for key in keys:
             print(key.path())

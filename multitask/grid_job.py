@@ -8,6 +8,7 @@ the job prints none of TensorFlow's start-up lines.
 from __future__ import annotations
 
 import logging
+import time
 import traceback
 from contextlib import ExitStack, contextmanager
 from pathlib import Path
@@ -48,11 +49,15 @@ def run_job(spec: dict, keys: list[dict], out: str, cores: int) -> list[dict]:
         files.enter_context(_warnings_to(logs))
         try:
             configs = [run_config(grid, run) for run in runs]
+            began = time.perf_counter()
             dataset = load_dataset(configs[0].data)          # one configuration: one release
-            return train_together([
-                variant_trainer(get_variant(run.variant), run.weighting, config, run_dir,
-                                dataset=dataset, log=log)
-                for run, config, run_dir, log in zip(runs, configs, run_dirs, logs)])
+            loading = (time.perf_counter() - began) / len(runs)
+            trainers = [variant_trainer(get_variant(run.variant), run.weighting, config, run_dir,
+                                        grid.gradnorm, dataset, log, grid.heads)
+                        for run, config, run_dir, log in zip(runs, configs, run_dirs, logs)]
+            for trainer in trainers:
+                trainer.clock.add("data", loading)          # shared by the job's runs
+            return train_together(trainers)
         except Exception:
             for log in logs:
                 log(traceback.format_exc())

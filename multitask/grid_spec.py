@@ -13,11 +13,15 @@ and is resumable on its own; ``finished.json`` marks it complete (``rnn_seg.rund
 Example spec (every key optional)::
 
     preset = "quick"
-    data_dir = "synthetic"        # or a JIGSAWS Suturing folder; default $JIGSAWS_DIR
+    task = "Suturing"             # a built-in task (Knot_Tying, ...) or a definition file (*.toml)
+    data_dir = "synthetic"        # or the task's JIGSAWS folder; default $JIGSAWS_DIR
     test_users = ["B", "C"]       # the LOUO folds; default: every user of the release
     seeds = [0]
     hidden = 64                   # budget overrides
     epochs = 10                   # length of the gesture variants' schedule; P scaled alike
+    precision = "fp32"            # or "bf16": the LSTM's matrix products in bfloat16
+    ordinal_loss = "sum"          # the ordered progress head's loss: "sum" (paper) or "mean"
+    relative_rate = "chen"        # GradNorm's r_i: "chen" (ratio mean) or "paper" (loss mean)
 
     [[experiments]]
     variants = ["A", "APc"]
@@ -41,9 +45,10 @@ from jigsaws_tools.annotations import ANNOTATION_VERSIONS
 from jigsaws_tools.dataset import DataConfig, default_cache_dir, default_data_dir
 from jigsaws_tools.release import discover
 from jigsaws_tools.synth import SynthConfig, ensure_release
-from rnn_seg.config import EncoderConfig, TrainConfig
+from jigsaws_tools.task_definition import PAPER_TASK, TaskDefinition, load_task
+from rnn_seg.config import PRECISIONS, EncoderConfig, TrainConfig
 
-from .config import WEIGHTINGS
+from .config import WEIGHTINGS, GradNormConfig, HeadConfig
 from .variants import MULTITASK_EVAL, VARIANTS, get_variant
 
 log = logging.getLogger(__name__)
@@ -99,16 +104,32 @@ class GridSpec:
     """A whole grid; ``None`` budget fields take the preset's value."""
 
     preset: str = "quick"
+    task: str = PAPER_TASK          # a built-in task's name or a definition file's path
     data_dir: str = ""              # "" = $JIGSAWS_DIR or the default folder; "synthetic"
     test_users: tuple[str, ...] = ()    # the LOUO folds; () = every user of the release
     seeds: tuple[int, ...] | None = None
     hidden: int | None = None
     epochs: int | None = None
+    precision: str = EncoderConfig.precision
+    ordinal_loss: str = HeadConfig.ordinal_loss
+    relative_rate: str = GradNormConfig.relative_rate
     experiments: tuple[Experiment, ...] = PAPER_EXPERIMENTS
 
     def __post_init__(self):
         if self.preset not in PRESETS:
             raise ValueError(f"unknown preset {self.preset!r}; choose from {', '.join(PRESETS)}")
+        self.heads, self.gradnorm          # validate both
+        if self.precision not in PRECISIONS:
+            raise ValueError(f"precision must be one of {PRECISIONS}, not {self.precision!r}")
+        self.task_definition()          # a bad task fails here, not in every worker
+
+    @property
+    def heads(self) -> HeadConfig:
+        return HeadConfig(ordinal_loss=self.ordinal_loss)
+
+    @property
+    def gradnorm(self) -> GradNormConfig:
+        return GradNormConfig(relative_rate=self.relative_rate)
 
     @property
     def budget(self) -> Budget:
@@ -117,11 +138,21 @@ class GridSpec:
         return Budget(hidden=self.hidden or base.hidden, schedule_scale=scale,
                       seeds=self.seeds if self.seeds is not None else base.seeds)
 
+    def task_definition(self) -> TaskDefinition:
+        return load_task(self.task)
+
     def release_dir(self) -> Path:
         """The release folder ``data_dir`` names (the synthetic one written on first use)."""
         if self.data_dir == "synthetic":
-            return ensure_release(default_cache_dir(), SynthConfig())
-        return Path(self.data_dir) if self.data_dir else default_data_dir()
+            return ensure_release(default_cache_dir(), SynthConfig(), self.task_definition())
+        return (Path(self.data_dir) if self.data_dir
+                else default_data_dir(self.task_definition().name))
+
+    def with_absolute_paths(self) -> GridSpec:
+        """This spec with its data folder and task file as absolute paths, so that every worker
+        (and grid.json) sees the same ones."""
+        task = str(Path(self.task).resolve()) if self.task.endswith(".toml") else self.task
+        return replace(self, data_dir=str(self.release_dir().resolve()), task=task)
 
 
 def load_spec(path: Path | str) -> GridSpec:
@@ -203,8 +234,13 @@ def expand(spec: GridSpec, users: tuple[str, ...]) -> list[RunKey]:
 
 
 def release_users(spec: GridSpec) -> tuple[str, ...]:
-    """The LOUO folds of the spec's release: every user with at least one complete trial."""
-    return discover(spec.release_dir()).users
+    """The LOUO folds of the spec's release: every user with at least one complete trial of the
+    spec's task (at least two, or there is no fold to train)."""
+    index = discover(spec.release_dir(), spec.task_definition())
+    if len(index.users) < 2:
+        raise ValueError(f"{index.root}: only user {index.users[0]} has complete "
+                         f"{index.task.name} trials; leave-one-user-out needs at least two users")
+    return index.users
 
 
 def run_config(spec: GridSpec, key: RunKey) -> RunConfig:
@@ -212,9 +248,11 @@ def run_config(spec: GridSpec, key: RunKey) -> RunConfig:
     budget = spec.budget
     optim, points = get_variant(key.variant).schedule(budget.schedule_scale)
     return RunConfig(
-        data=DataConfig(str(spec.release_dir()), annotations=key.annotations),
+        data=DataConfig(str(spec.release_dir()), annotations=key.annotations,
+                        task=spec.task_definition()),
         test_user=key.fold,
-        encoder=EncoderConfig(hidden=budget.hidden, bidirectional=key.direction == "bidirectional"),
+        encoder=EncoderConfig(hidden=budget.hidden, bidirectional=key.direction == "bidirectional",
+                              precision=spec.precision),
         optim=optim,
         train=TrainConfig(seed=key.seed, eval_points=points))
 

@@ -1,7 +1,9 @@
 """Progress heads: regression (MAE), classification (softmax) and ordered classification (sigmoid).
 
 Each reads the shared ``2H`` BiLSTM features through its own fully connected layer (built by
-``rnn_seg.model``); here are their targets, losses and decoding. Progress stages are 0-4.
+``rnn_seg.model``); here are their targets, losses and decoding. Progress stages are
+``0..num_stages-1``, the task's (``TaskDefinition.num_stages``; 5 for the paper's Suturing, the
+default), named ``P0``, ``P1``, ...
 """
 from __future__ import annotations
 
@@ -10,19 +12,30 @@ from typing import Sequence
 import numpy as np
 import tensorflow as tf
 
-from jigsaws_tools.progress import NUM_STAGES, ordinal_decode, ordinal_encode
+from jigsaws_tools.progress import ordinal_decode, ordinal_encode
+from jigsaws_tools.task_definition import SUTURING
 from rnn_seg.tasks import SoftmaxClassification, Task, step_mean
 
-STAGE_NAMES = tuple(f"P{k}" for k in range(NUM_STAGES))
+from .config import ORDINAL_LOSSES, HeadConfig, OrdinalLoss  # noqa: F401 (re-exported)
+
+PAPER_STAGES = SUTURING.num_stages
+
+
+def stage_names(num_stages: int) -> tuple[str, ...]:
+    """Class names of the progress heads: ``P0 .. P{num_stages-1}``."""
+    if num_stages < 2:
+        raise ValueError(f"progress needs at least 2 stages, not {num_stages}")
+    return tuple(f"P{k}" for k in range(num_stages))
 
 
 class ProgressRegression(Task):
-    """One linear output, mean absolute error over time steps; prediction = round, clip to 0..4."""
+    """One linear output, mean absolute error over time steps; prediction = round, clip to
+    ``0..num_stages-1``."""
 
     ordered = True
 
-    def __init__(self):
-        super().__init__("progress", STAGE_NAMES)
+    def __init__(self, num_stages: int = PAPER_STAGES):
+        super().__init__("progress", stage_names(num_stages))
 
     @property
     def num_outputs(self) -> int:
@@ -41,13 +54,21 @@ class ProgressRegression(Task):
         return ["value"]
 
     def decode(self, outputs):
-        return np.clip(np.rint(outputs[..., 0]), 0, NUM_STAGES - 1).astype(np.int64)
+        return np.clip(np.rint(outputs[..., 0]), 0, self.num_classes - 1).astype(np.int64)
+
+    def scores_tf(self, outputs):
+        return outputs
+
+    def decode_tf(self, outputs):
+        return tf.cast(tf.clip_by_value(tf.round(outputs[..., 0]), 0.0,
+                                        float(self.num_classes - 1)), tf.int64)
 
     def extra_metrics(self, outputs: Sequence[np.ndarray], labels: Sequence[np.ndarray]
                       ) -> dict[str, float]:
-        """``mae_normalised`` = 100 * MAE / 4 of the raw output (mean over sequences), and of the
-        rounded prediction (``mae_normalised_rounded``)."""
-        span = NUM_STAGES - 1
+        """``mae_normalised`` = 100 * MAE / (num_stages - 1) of the raw output (mean over
+        sequences; the paper's 100 * MAE / 4 for Suturing), and of the rounded prediction
+        (``mae_normalised_rounded``)."""
+        span = self.num_classes - 1
         raw = [np.mean(np.abs(o[:, 0] - y)) for o, y in zip(outputs, labels)]
         rounded = [np.mean(np.abs(self.decode(o) - y)) for o, y in zip(outputs, labels)]
         return {"mae_normalised": float(100 * np.mean(raw) / span),
@@ -55,28 +76,33 @@ class ProgressRegression(Task):
 
 
 class ProgressClassification(SoftmaxClassification):
-    """Five-way softmax over stages with mean cross-entropy."""
+    """Softmax over the stages (five-way for Suturing) with mean cross-entropy."""
 
     ordered = True
 
-    def __init__(self):
-        super().__init__("progress", STAGE_NAMES)
+    def __init__(self, num_stages: int = PAPER_STAGES):
+        super().__init__("progress", stage_names(num_stages))
 
 
 class OrdinalProgress(Task):
-    """Five sigmoid outputs on Cheng et al.'s cumulative targets, mean binary cross-entropy over
-    outputs and steps; decoded by the first output below 0.5 (see jigsaws_tools.progress)."""
+    """One sigmoid output per stage (five for Suturing) on Cheng et al.'s cumulative targets;
+    loss = binary cross-entropy summed (or averaged, ``reduction="mean"``) over the outputs,
+    averaged over steps; decoded by the first output below 0.5 (see jigsaws_tools.progress)."""
 
     ordered = True
 
-    def __init__(self):
-        super().__init__("progress", STAGE_NAMES)
+    def __init__(self, num_stages: int = PAPER_STAGES, reduction: OrdinalLoss = "sum"):
+        super().__init__("progress", stage_names(num_stages))
+        self.reduction = reduction
 
     def encode(self, labels):
         return ordinal_encode(labels.reshape(-1), self.num_classes).reshape(labels.shape + (-1,))
 
     def loss(self, outputs, targets, mask=None):
-        return step_mean(tf.nn.sigmoid_cross_entropy_with_logits(targets, outputs), mask)
+        per_output = tf.nn.sigmoid_cross_entropy_with_logits(targets, outputs)     # [B, T, K]
+        if self.reduction == "sum":
+            return step_mean(tf.reduce_sum(per_output, axis=-1), mask)
+        return step_mean(per_output, mask)
 
     def scores(self, outputs):
         return 1.0 / (1.0 + np.exp(-outputs))
@@ -86,3 +112,14 @@ class OrdinalProgress(Task):
 
     def decode(self, outputs):
         return ordinal_decode(self.scores(outputs))
+
+    def scores_tf(self, outputs):
+        return tf.sigmoid(outputs)
+
+    def decode_tf(self, outputs):
+        """``ordinal_decode`` of the sigmoid outputs."""
+        below = self.scores_tf(outputs) < 0.5
+        first_below = tf.where(tf.reduce_any(below, axis=-1),
+                               tf.argmax(tf.cast(below, tf.int32), axis=-1),
+                               tf.cast(tf.shape(outputs)[-1], tf.int64))
+        return tf.maximum(first_below - 1, 0)

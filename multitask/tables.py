@@ -25,10 +25,14 @@ from .collect import LOWER_IS_BETTER, METRICS, finite, lookup
 from .latex import bold, escape, mean_std, number, requires
 from .paper_results import TABLE_1, TABLE_2, TABLE_2_RELATED, TABLE_3, Number
 
+#: Metric -> the paper's name for it, after the letter of its task ("A" gestures, "P" progress).
+METRIC_LABELS = {"gesture_accuracy": "A Accuracy", "gesture_edit": "A Edit",
+                 "gesture_f1@10": "A F1@10", "progress_mae": "P MAE",
+                 "progress_mae_raw": "P MAE (raw)",
+                 "progress_accuracy": "P Accuracy", "progress_edit": "P Edit",
+                 "progress_f1@10": "P F1@10"}
 #: Task of a metric (its name's prefix) -> the heading of its rows (the paper's letter for it).
 TASK_HEADINGS = {"gesture": "Gesture recognition (A)", "progress": "Progress estimation (P)"}
-#: Metric (after the task prefix) -> how the paper names it.
-METRIC_NAMES = {"accuracy": "Accuracy", "edit": "Edit", "f1@10": "F1@10", "mae": "MAE"}
 CONFIG_LABELS = {"A-fixed": "A", "APr-fixed": "APr (w1=w2=1)", "APr-gradnorm": "APr (alpha=1.5)",
                  "APc-fixed": "APc (w1=w2=1)", "APc-gradnorm": "APc (alpha=1.5)",
                  "APoc-fixed": "APoc (w1=w2=1)", "APoc-gradnorm": "APoc (alpha=1.5)",
@@ -241,9 +245,11 @@ def _header(models: list[str], labels: int) -> list[str]:
 
 
 def _metric_label(metric: str) -> str:
-    """``gesture_f1@10`` -> ``F1@10``; an unknown metric (``progress_mae_raw``) -> its words."""
-    name = metric.split("_", 1)[1]
-    return escape(" ".join(METRIC_NAMES.get(w, w) for w in name.split("_")))
+    """A metric's row label within its task's rows: ``METRIC_LABELS`` without the task's letter
+    (``gesture_f1@10`` -> ``F1@10``), an unknown metric's name in words."""
+    if metric in METRIC_LABELS:
+        return METRIC_LABELS[metric].split(" ", 1)[1]
+    return escape(metric.split("_", 1)[1].replace("_", " "))
 
 
 def _cell(cell, side: str, best: dict) -> str:

@@ -3,10 +3,19 @@
 Writes to ``--out`` (default ``GRID_DIR/tables``): ``runs.csv`` (one row per finished run),
 ``per_fold.csv`` (mean over seeds per configuration and fold), ``summary.csv`` (mean and std over
 folds), ``table1|2|3.csv/.tex`` (ours against the paper), ``ablation_annotations.csv/.tex``
-(revised against original labels), ``figures/*.png|pdf`` and, with ``--curves``,
-``figures/curves/*.png|pdf`` (training curves). Unfinished runs are left out and listed.
+(revised against original labels), ``claims.csv/.tex`` (the paper's claims tested with paired
+statistics over folds and seeds, settings in ``claims_config.json``), ``figures/*.png|pdf`` and,
+with ``--curves``, ``figures/curves/*.png|pdf`` (training curves). Unfinished runs are left out
+and listed. The paper's tables, the annotation ablation and its claims are Suturing's: a grid of
+another task gets none of them.
 
     multitask-tables runs/quick --out results --example-trial Suturing_D003 --curves
+
+``--compare X Y --metric M`` prints the paired statistics of one comparison instead, e.g.
+``multitask-tables GRID --compare APc-fixed A-fixed --metric gesture_edit``; a configuration is
+``[annotations/][direction/]<variant>-<weighting>`` as in the grid's run folders
+(``original/APoc-gradnorm``, ``forward/A-fixed``), and ``--minus X2 Y2`` makes it a difference of
+differences, ``(X - Y) - (X2 - Y2)``.
 """
 from __future__ import annotations
 
@@ -31,12 +40,12 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
         example_trial: the test trial of the example figures (default: the first).
         curves: also draw every configuration's training curves.
     """
-    from .captions import describe_runs
-    from .collect import per_fold, run_rows, summary
+    from jigsaws_tools.task_definition import PAPER_TASK
+
+    from .claims_table import write_claims
+    from .collect import grid_task_name, per_fold, run_rows, summary
     from .curves import training_curves
     from .figures import all_figures, example_trial as choose_example
-    from .tables import (PAPER_TABLES, ablation_caption, annotation_ablation, paper_best,
-                         paper_caption, paper_comparison, table_runs, to_latex)
 
     runs, unfinished = run_rows(grid_dir)
     for run_dir in unfinished:
@@ -46,6 +55,23 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
     example = choose_example(Path(grid_dir), folds, example_trial) if figures else None
     written = [_csv(runs, out / "runs.csv"), _csv(folds, out / "per_fold.csv"),
                _csv(stats, out / "summary.csv")]
+    if grid_task_name(grid_dir) == PAPER_TASK:
+        written += _paper_tables(grid_dir, runs, stats, out, ours_only)
+        written += write_claims(runs, out)
+    if figures:
+        written += all_figures(Path(grid_dir), folds, out / "figures", example)
+    if curves:
+        written += training_curves(grid_dir, out / "figures" / "curves")
+    return written
+
+
+def _paper_tables(grid_dir: Path, runs, stats, out: Path, ours_only: bool) -> list[Path]:
+    """Tables I-III against the paper and the annotation ablation (Suturing grids only)."""
+    from .captions import describe_runs
+    from .tables import (PAPER_TABLES, ablation_caption, annotation_ablation, paper_best,
+                         paper_caption, paper_comparison, table_runs, to_latex)
+
+    written = []
     for table in PAPER_TABLES:
         frame = paper_comparison(stats, table)
         if frame.empty:
@@ -63,11 +89,21 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
         written.append(_csv(ablation, out / "ablation_annotations.csv"))
         written.append(_tex(to_latex(ablation, ablation_caption(budget), "ablation_annotations",
                                      ("Revised", "Original")), out / "ablation_annotations.tex"))
-    if figures:
-        written += all_figures(Path(grid_dir), folds, out / "figures", example)
-    if curves:
-        written += training_curves(grid_dir, out / "figures" / "curves")
     return written
+
+
+def _compare(grid_dir: Path, compare: list[str], minus: list[str] | None, metric: str) -> str:
+    """The paired statistics of one comparison, as text."""
+    from .collect import run_rows
+    from .paired import ConfigId, Contrast, NotPaired, config_labels, paired
+
+    x, y = map(ConfigId.parse, compare)
+    contrast = Contrast(x, y, tuple(map(ConfigId.parse, minus)) if minus else None)
+    runs, _ = run_rows(grid_dir)
+    try:
+        return paired(runs, contrast, metric).describe()
+    except NotPaired as error:
+        raise NotPaired(f"{error}; {grid_dir} holds {', '.join(config_labels(runs))}") from None
 
 
 def _csv(frame, path: Path) -> Path:
@@ -100,15 +136,30 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--ours-only", action="store_true",
                         help="LaTeX tables with our numbers alone, without the paper's columns "
                              "(the CSVs keep them)")
+    parser.add_argument("--compare", nargs=2, metavar=("X", "Y"),
+                        help="print the paired statistics of X - Y instead of writing tables "
+                             "(default: write the tables)")
+    parser.add_argument("--minus", nargs=2, metavar=("X2", "Y2"),
+                        help="with --compare: (X - Y) - (X2 - Y2), paired per fold "
+                             "(default: X - Y alone)")
+    parser.add_argument("--metric",
+                        help="with --compare: a metric column of runs.csv, e.g. gesture_edit "
+                             "(required with --compare)")
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    return run_command(PROG, args.verbose, lambda: _write(args))
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if bool(args.compare) != bool(args.metric) or (args.minus and not args.compare):
+        parser.error("--compare needs --metric, and --metric and --minus need --compare")
+    return run_command(PROG, args.verbose, lambda: _run(args))
 
 
-def _write(args: argparse.Namespace) -> None:
+def _run(args: argparse.Namespace) -> None:
+    if args.compare:
+        print(_compare(args.grid_dir, args.compare, args.minus, args.metric))
+        return
     for path in write_tables(args.grid_dir, args.out or args.grid_dir / "tables",
                              figures=not args.no_figures, ours_only=args.ours_only,
                              example_trial=args.example_trial, curves=args.curves):

@@ -11,7 +11,7 @@ from baseline.options import add_run_arguments, run_config_from_args
 from jigsaws_tools.arg_types import non_negative_float, positive_float
 from jigsaws_tools.cli_common import command_parser, import_tensorflow, run_command
 
-from .config import WEIGHTINGS, GradNormConfig
+from .config import ORDINAL_LOSSES, RELATIVE_RATES, WEIGHTINGS, GradNormConfig, HeadConfig
 from .variants import VARIANTS, Variant, get_variant
 
 PROG = "multitask-train"
@@ -37,6 +37,13 @@ def build_parser(variant_name: str = DEFAULT_VARIANT) -> argparse.ArgumentParser
                         help="GradNorm's asymmetry alpha")
     parser.add_argument("--weight-lr", type=positive_float, default=GradNormConfig.learning_rate,
                         metavar="LR", help="learning rate of the GradNorm task weights")
+    parser.add_argument("--relative-rate", choices=RELATIVE_RATES,
+                        default=GradNormConfig.relative_rate,
+                        help="GradNorm's r_i divides the loss ratios by their mean (chen) or by "
+                             "the mean loss (paper's literal text)")
+    parser.add_argument("--ordinal-loss", choices=ORDINAL_LOSSES, default=HeadConfig.ordinal_loss,
+                        help="the ordered progress head's cross-entropy over its outputs (one "
+                             "per stage): summed (the paper's MBCE) or averaged")
     add_run_arguments(parser, variant.optim(), variant.eval_points())
     return parser
 
@@ -60,11 +67,13 @@ def _train(args: argparse.Namespace, variant: Variant) -> None:
     config = run_config_from_args(args, variant.optim(), variant.eval_points())
     print(f"variant: {variant.name} ({args.weighting})\n{config.describe()}", flush=True)
     result = train_variant(variant, args.weighting, config, args.out,
-                           GradNormConfig(alpha=args.alpha, learning_rate=args.weight_lr),
-                           log=lambda m: print(m, flush=True))
+                           GradNormConfig(alpha=args.alpha, learning_rate=args.weight_lr,
+                                          relative_rate=args.relative_rate),
+                           log=lambda m: print(m, flush=True),
+                           heads=HeadConfig(ordinal_loss=args.ordinal_loss))
     summary = "; ".join(f"{task}: accuracy {m['accuracy']:.1f}, edit {m['edit']:.1f}, "
-                        f"F1@10 {m['f1@10']:.1f}" + (f", MAE {m['mae_normalised']:.1f}"
-                                                     if "mae_normalised" in m else "")
+                        f"F1@10 {m['f1@10']:.1f}" + (f", MAE {m['mae_normalised_rounded']:.1f}"
+                                                     if "mae_normalised_rounded" in m else "")
                         for task, m in result["mean"].items())
     print(f"done: {summary} (mean over evaluation points); outputs in {args.out}")
 

@@ -6,18 +6,15 @@ ordered classification; Pr / Pc / Poc = progress only. Optimiser defaults are th
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
-from importlib import import_module
 from typing import TYPE_CHECKING
 
+from jigsaws_tools.task_definition import TaskDefinition
 from rnn_seg.config import OptimConfig, TrainConfig
+
+from .config import HeadConfig
 
 if TYPE_CHECKING:
     from rnn_seg.tasks import Task
-
-#: Progress head of each variant suffix: a class of ``multitask.heads``, imported when a variant's
-#: tasks are built, so that the registry (and every ``--help``) does not load TensorFlow.
-_PROGRESS_HEADS = {"r": "ProgressRegression", "c": "ProgressClassification",
-                   "oc": "OrdinalProgress"}
 
 #: Paper: APr "GD with Momentum 0.9 ... initial learning rate 0.1"; APc/APoc "GD ... 1.0";
 #: decay 0.5 after 80 epochs, stop after 120, evaluate after 100, 110, 120.
@@ -36,14 +33,20 @@ class Variant:
     gestures: bool
     progress: str | None        # "r", "c", "oc" or None
 
-    def tasks(self) -> list[Task]:
-        """The variant's heads, gestures first (imports TensorFlow)."""
+    def tasks(self, task: TaskDefinition, heads: HeadConfig = HeadConfig()) -> list[Task]:
+        """The heads this variant trains on ``task``: its gestures and / or its progress stages,
+        the progress loss configured by ``heads`` (imports TensorFlow, the registry does not)."""
         from baseline.builder import gesture_task
 
-        tasks = [gesture_task()] if self.gestures else []
-        if self.progress:
-            heads = import_module(".heads", __package__)
-            tasks.append(getattr(heads, _PROGRESS_HEADS[self.progress])())
+        from .heads import OrdinalProgress, ProgressClassification, ProgressRegression
+
+        tasks = [gesture_task(task)] if self.gestures else []
+        if self.progress == "r":
+            tasks.append(ProgressRegression(task.num_stages))
+        elif self.progress == "c":
+            tasks.append(ProgressClassification(task.num_stages))
+        elif self.progress == "oc":
+            tasks.append(OrdinalProgress(task.num_stages, heads.ordinal_loss))
         return tasks
 
     @property

@@ -11,6 +11,8 @@ from typing import Literal
 
 ResetMode = Literal["original", "corrected"]
 RESET_MODES = ("original", "corrected")
+Precision = Literal["fp32", "bf16"]
+PRECISIONS = ("fp32", "bf16")
 
 
 @dataclass(frozen=True)
@@ -23,10 +25,13 @@ class EncoderConfig:
     keep_prob: float = 0.5          # dropout keep probability on each layer's inputs and outputs
     init_scale: float = 0.1
     reset_mode: ResetMode = "original"
+    precision: Precision = "fp32"   # of the LSTM's matrix products (rnn_seg.lstm's docstring)
 
     def __post_init__(self):
         if self.reset_mode not in RESET_MODES:
             raise ValueError(f"reset_mode must be one of {RESET_MODES}, not {self.reset_mode!r}")
+        if self.precision not in PRECISIONS:
+            raise ValueError(f"precision must be one of {PRECISIONS}, not {self.precision!r}")
 
     @property
     def output_size(self) -> int:
@@ -70,6 +75,8 @@ class OptimConfig:
 
 PredictionMode = Literal["sweep", "per_sequence"]
 PREDICTION_MODES = ("sweep", "per_sequence")
+PlotPoints = Literal["last", "all", "none"]
+PLOT_POINTS = ("last", "all", "none")
 
 
 @dataclass(frozen=True)
@@ -81,5 +88,8 @@ class TrainConfig:
     eval_points: tuple[int, ...] = (100, 110, 120)   # in the schedule's unit; () = at the end
     prediction: PredictionMode = "sweep"
     log_every: int = 1                               # units between progress lines
+    monitor_every: int = 10                          # units between test scores on them
+    monitor_train: bool = False                      # also score the training set (slow)
     checkpoint_every: int = 1                        # units between checkpoints
-    plots: bool = True
+    plots: PlotPoints = "last"                       # evaluation points with per-sequence figures
+    tensorboard: bool = False                        # also write progress scalars there

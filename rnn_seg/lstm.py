@@ -14,15 +14,28 @@ before the step. The four gate matrices are stored fused, in gate order (g, i, f
 ``[F, 4H]``, ``W_h`` ``[H, 4H]``, ``b`` ``[4H]``; peepholes ``w_ic, w_fc, w_oc`` ``[H]`` each. All weights
 start uniform in ``[-init_scale, init_scale]``, biases at zero, as in the original code.
 
-Shapes: batch-major ``[B, T, ...]`` at the API, time-major inside the scan.
+Shapes: batch-major ``[B, T, ...]`` at the API, time-major inside the scan. A forward-only encoder
+also runs one step at a time with its state carried between calls (``RecurrentEncoder.step``).
+
+Precision: ``fp32`` computes everything in float32. ``bf16`` runs the layer's matrix products
+(input product ``x W_x``, recurrent ``h W_h`` forward, ``dz W_h^T`` backward, and the weight
+gradients ``dW_x``, ``dW_h``) on bfloat16 operands; oneDNN accumulates each product in float32
+and rounds its result to bfloat16, which is widened to float32 at once. Weights, cell state,
+nonlinearities, peepholes, losses, clipping and updates stay float32. It needs a CPU with native
+bfloat16 arithmetic (AVX512_BF16 or AMX; ``require_native_precision``).
 """
 from __future__ import annotations
 
+from functools import lru_cache
+from pathlib import Path
 from typing import NamedTuple
 
 import tensorflow as tf
 
-from .config import RESET_MODES, EncoderConfig, ResetMode  # noqa: F401 (re-exported)
+from .config import (PRECISIONS, RESET_MODES, EncoderConfig, Precision,  # noqa: F401 (re-exported)
+                     ResetMode)
+
+_DTYPES = {"fp32": tf.float32, "bf16": tf.bfloat16}
 
 
 class LayerParams(NamedTuple):
@@ -53,46 +66,82 @@ class LSTMCellWeights(tf.Module):
         return LayerParams(self.W_x, self.W_h, self.peep, self.b)
 
 
-def lstm_scan(x_proj: tf.Tensor, resets: tf.Tensor, W_h: tf.Variable, peep: tf.Variable
-              ) -> tf.Tensor:
+def require_native_precision(precision: Precision) -> None:
+    """Refuse ``bf16`` on a CPU without native bfloat16 arithmetic (TensorFlow would emulate it,
+    several times slower than float32)."""
+    if precision == "bf16" and not native_bf16():
+        raise ValueError("--precision bf16 needs a CPU with native bfloat16 arithmetic "
+                         "(x86 AVX512_BF16 or AMX_BF16, or Arm BF16); this one has none: use "
+                         "--precision fp32")
+
+
+@lru_cache(maxsize=1)
+def native_bf16() -> bool:
+    """Whether this CPU reports native bfloat16 instructions (Linux ``/proc/cpuinfo``)."""
+    try:
+        flags = Path("/proc/cpuinfo").read_text().split()
+    except OSError:
+        return False
+    return bool({"avx512_bf16", "amx_bf16", "bf16"} & set(flags))
+
+
+def product(a: tf.Tensor, b: tf.Tensor, dtype: tf.DType = tf.float32, **matmul) -> tf.Tensor:
+    """``a @ b`` (``tf.matmul`` options) with both operands in ``dtype``; a float32 result."""
+    return tf.cast(tf.matmul(tf.cast(a, dtype), tf.cast(b, dtype), **matmul), tf.float32)
+
+
+def lstm_scan(x_proj: tf.Tensor, resets: tf.Tensor, W_h: tf.Variable, peep: tf.Variable,
+              precision: Precision = "fp32") -> tf.Tensor:
     """Run the cell over time, with a hand-written backward pass through time.
 
     Args:
         x_proj: ``[T, B, 4H]`` time-major ``x W_x + b`` for every step (one product for all steps).
         resets: ``[T, B, 1]`` float32, 1.0 where the state restarts before the step.
-        W_h: ``[H, 4H]`` recurrent weights; peep: ``[3, H]`` peepholes.
+        W_h: ``[H, 4H]`` recurrent weights.
+        peep: ``[3, H]`` peepholes (rows w_ic, w_fc, w_oc).
+        precision: of the recurrent products and ``dW_h`` (module docstring).
 
     Returns:
         ``[T, B, H]`` hidden outputs h_t.
     """
-    return _lstm_bptt(x_proj, 1.0 - resets, tf.convert_to_tensor(W_h), tf.convert_to_tensor(peep))
+    return _BPTT[precision](x_proj, 1.0 - resets, tf.convert_to_tensor(W_h),
+                            tf.convert_to_tensor(peep))
 
 
-@tf.custom_gradient
-def _lstm_bptt(x_proj, keep, W_h, peep):
-    """``lstm_scan`` on plain tensors (``keep = 1 - resets``); the gradient runs one recurrent
-    product per step.
+def _bptt_in(dtype: tf.DType):
+    """``lstm_scan`` on plain tensors (``keep = 1 - resets``) with products in ``dtype``.
 
     The forward loop keeps every step's gate activations. Before the backward loop, every factor
     of the chain rule that does not depend on the incoming gradient is computed for all steps at
     once, so each backward step is one product ``dz W_h^T`` and a few multiply-adds; ``dW_h`` and
-    the peephole gradients are then single reductions over all steps.
+    the peephole gradients are then single reductions over all steps. Reference and test of this
+    hand-written gradient: ``tests/lstm_reference.py`` (a NumPy cell and a step-by-step
+    TensorFlow cell differentiated by autodiff) and ``tests/test_lstm.py``.
     """
-    state = _forward(x_proj, keep, W_h, peep)                        # h, c, g, i, f, o [T, B, H]
+    @tf.custom_gradient
+    def bptt(x_proj, keep, W_h, peep):
+        W = tf.cast(W_h, dtype)                          # once per call, not per step
+        state = _forward(x_proj, keep, W, peep)                      # h, c, g, i, f, o [T, B, H]
 
-    def grad(dh_out):
-        h, c = state[0], state[1]
-        hidden = tf.shape(W_h)[0]
-        h_prev, c_prev = keep * _shift(h), keep * _shift(c)          # state entering each step
-        dz = _backward(dh_out, keep, _backward_factors(state, c_prev, keep, peep), W_h)  # [T,B,4H]
-        dW_h = tf.matmul(tf.reshape(h_prev, [-1, hidden]), tf.reshape(dz, [-1, 4 * hidden]),
-                         transpose_a=True)
-        _, dz_i, dz_f, dz_o = tf.split(dz, 4, axis=2)
-        dpeep = tf.stack([tf.reduce_sum(dz_i * c_prev, [0, 1]), tf.reduce_sum(dz_f * c_prev, [0, 1]),
-                          tf.reduce_sum(dz_o * c, [0, 1])])
-        return dz, None, dW_h, dpeep
+        def grad(dh_out):
+            h, c = state[0], state[1]
+            hidden = tf.shape(W_h)[0]
+            h_prev, c_prev = keep * _shift(h), keep * _shift(c)      # state entering each step
+            factors = _backward_factors(state, c_prev, keep, peep)
+            dz = _backward(dh_out, keep, factors, W)                             # [T, B, 4H]
+            dW_h = product(tf.reshape(h_prev, [-1, hidden]), tf.reshape(dz, [-1, 4 * hidden]),
+                           dtype, transpose_a=True)
+            _, dz_i, dz_f, dz_o = tf.split(dz, 4, axis=2)
+            dpeep = tf.stack([tf.reduce_sum(dz_i * c_prev, [0, 1]),
+                              tf.reduce_sum(dz_f * c_prev, [0, 1]),
+                              tf.reduce_sum(dz_o * c, [0, 1])])
+            return dz, None, dW_h, dpeep
 
-    return state[0], grad
+        return state[0], grad
+    return bptt
+
+
+_BPTT = {precision: _bptt_in(dtype) for precision, dtype in _DTYPES.items()}
 
 
 def _shift(x: tf.Tensor) -> tf.Tensor:
@@ -100,22 +149,41 @@ def _shift(x: tf.Tensor) -> tf.Tensor:
     return tf.concat([tf.zeros_like(x[:1]), x[:-1]], axis=0)
 
 
+def lstm_cell(z_x: tf.Tensor, c_prev: tf.Tensor, h_prev: tf.Tensor, W_h: tf.Tensor,
+              peepholes: tuple[tf.Tensor, tf.Tensor, tf.Tensor]) -> tuple[tf.Tensor, ...]:
+    """One step of the cell (the module docstring's equations) for a batch.
+
+    Args:
+        z_x: ``[B, 4H]`` the input's share of the gate inputs, ``x W_x + b``.
+        c_prev: ``[B, H]`` cell state entering the step (after any reset).
+        h_prev: ``[B, H]`` hidden state entering the step (after any reset).
+        W_h: ``[H, 4H]`` recurrent weights, in the products' dtype.
+        peepholes: ``(w_ic, w_fc, w_oc)``, ``[H]`` each.
+
+    Returns:
+        ``(c, h, g, i, f, o)``, each ``[B, H]``.
+    """
+    w_ic, w_fc, w_oc = peepholes
+    z = z_x + product(h_prev, W_h, W_h.dtype)
+    z_g, z_i, z_f, z_o = tf.split(z, 4, axis=1)
+    g = tf.tanh(z_g)
+    i = tf.sigmoid(z_i + w_ic * c_prev)
+    f = tf.sigmoid(z_f + w_fc * c_prev)
+    c = g * i + c_prev * f
+    o = tf.sigmoid(z_o + w_oc * c)
+    h = o * tf.tanh(c)
+    return c, h, g, i, f, o
+
+
 def _forward(x_proj, keep, W_h, peep):
-    """The cell over time; returns ``(h, c, g, i, f, o)``, each ``[T, B, H]``."""
+    """The cell over time; returns ``(h, c, g, i, f, o)``, each ``[T, B, H]`` float32. ``W_h``
+    is in the products' dtype."""
     steps = tf.shape(x_proj)[0]
-    w_ic, w_fc, w_oc = peep[0], peep[1], peep[2]
+    peepholes = (peep[0], peep[1], peep[2])
 
     def body(t, c_prev, h_prev, records):
         k = keep[t]
-        c_prev = c_prev * k
-        z = x_proj[t] + tf.matmul(h_prev * k, W_h)
-        z_g, z_i, z_f, z_o = tf.split(z, 4, axis=1)
-        g = tf.tanh(z_g)
-        i = tf.sigmoid(z_i + w_ic * c_prev)
-        f = tf.sigmoid(z_f + w_fc * c_prev)
-        c = g * i + c_prev * f
-        o = tf.sigmoid(z_o + w_oc * c)
-        h = o * tf.tanh(c)
+        c, h, g, i, f, o = lstm_cell(x_proj[t], c_prev * k, h_prev * k, W_h, peepholes)
         return t + 1, c, h, [r.write(t, v) for r, v in zip(records, (h, c, g, i, f, o))]
 
     zeros = tf.zeros(tf.stack([tf.shape(x_proj)[1], tf.shape(W_h)[0]]))
@@ -150,7 +218,7 @@ def _backward(dh_out, keep, factors, W_h):
     """Reverse loop over time; returns ``dz`` ``[T, B, 4H]``, the gradient of the gate inputs.
 
     ``dh_out`` ``[T, B, H]`` is the gradient arriving at the outputs; the state passed back one
-    step is ``dc * to_prev`` and ``keep * dz W_h^T``.
+    step is ``dc * to_prev`` and ``keep * dz W_h^T`` (``W_h`` in the products' dtype).
     """
     steps, batch = tf.shape(dh_out)[0], tf.shape(dh_out)[1]
     out_c, gates_dc, gates_dh, to_prev = factors
@@ -160,7 +228,7 @@ def _backward(dh_out, keep, factors, W_h):
         dh = dh_out[t] + dh_next
         dc = dc_next + dh * out_c[t]
         dz = tf.reshape(dc[:, None] * gates_dc[t] + dh[:, None] * gates_dh[t], [batch, -1])
-        return t - 1, keep[t] * tf.matmul(dz, W_t), dc * to_prev[t], records.write(t, dz)
+        return t - 1, keep[t] * product(dz, W_t, W_t.dtype), dc * to_prev[t], records.write(t, dz)
 
     zeros = tf.zeros_like(dh_out[0])
     records = tf.TensorArray(tf.float32, size=steps)
@@ -214,29 +282,59 @@ class RecurrentEncoder(tf.Module):
                  ) -> tf.Tensor:
         return self.apply(self.params(), inputs, resets, dropout_seeds)
 
+    def initial_state(self, batch: int = 1) -> tf.Tensor:
+        """The zero state ``[layers, 2, batch, H]`` (per layer ``c``, ``h``) before a first step."""
+        return tf.zeros([self.config.layers, 2, batch, self.config.hidden])
+
+    def step(self, params: EncoderParams, x: tf.Tensor, state: tf.Tensor
+             ) -> tuple[tf.Tensor, tf.Tensor]:
+        """One time step of a forward-only encoder, without dropout, for online use. Stepping
+        through a sequence gives ``apply``'s outputs for it (a sequence starting with a reset).
+
+        Args:
+            params: the encoder's weights (``params()``).
+            x: ``[B, F]`` inputs of this step.
+            state: ``[layers, 2, B, H]`` state after the previous step (``initial_state`` before
+                a sequence's first).
+
+        Returns:
+            ``(features [B, H], state after the step)``.
+        """
+        if "rv" in params:
+            raise ValueError("only a forward (online) encoder runs one step at a time; a "
+                             "bidirectional one needs the whole sequence")
+        states = []
+        for layer, p in enumerate(params["fw"]):
+            c, h, *_ = lstm_cell(tf.matmul(x, p.W_x) + p.b, state[layer, 0], state[layer, 1],
+                                 p.W_h, (p.peep[0], p.peep[1], p.peep[2]))
+            states.append(tf.stack([c, h]))
+            x = h
+        return x, tf.stack(states)
+
     def apply(self, params: EncoderParams, inputs: tf.Tensor, resets: tf.Tensor,
               dropout_seeds: tf.Tensor | None, valid: tf.Tensor | None = None) -> tf.Tensor:
         """The encoder with weights ``params`` (this encoder's own, or any of the same shapes).
 
-        ``inputs`` ``[B, T, F]`` float32, ``resets`` ``[B, T]`` bool; ``dropout_seeds``
-        ``[dropout_calls, 2]`` int64 stateless seeds, used in the order fw input, rv input, then
-        per layer fw and rv output (None = no dropout). ``valid`` ``[B, T]`` bool marks the steps of
-        a sweep padded at the end (None = all valid): the reverse state then starts afresh at
-        each row's last valid step, so padding never reaches a valid step.
+        Args:
+            params: one ``LayerParams`` per layer and direction (``params()``'s structure).
+            inputs: ``[B, T, F]`` float32.
+            resets: ``[B, T]`` bool, True where the state restarts before the step.
+            dropout_seeds: ``[dropout_calls, 2]`` int64 stateless seeds, used in the order fw
+                input, rv input, then per layer fw and rv output; None = no dropout.
+            valid: ``[B, T]`` bool marking the steps of a sweep padded at the end (None = all
+                valid): the reverse state then starts afresh at each row's last valid step, so
+                padding never reaches a valid step.
+
+        Returns:
+            ``[B, T, H]`` or, bidirectional, ``[B, T, 2H]`` (forward features first).
 
         Every direction keeps its own stack (layer l+1 of a direction reads layer l of the same
-        direction) and draws its own dropout masks, as in the original. The directions' loops are
-        independent, so TensorFlow's inter-op threads run them side by side. The reverse
-        direction sees inputs and reset flags reversed in time.
+        direction) and draws its own dropout masks, as in the original; between layers every
+        tensor is in forward time, and each direction flips it into its own time order and back.
+        The directions' loops are independent, so TensorFlow's inter-op threads can run them
+        side by side.
         """
-        x = tf.transpose(inputs, [1, 0, 2])                               # [T, B, F]
-        flags = {"fw": resets}
-        if "rv" in params:
-            rv = reverse_resets(resets, self.config.reset_mode)
-            if valid is not None:
-                rv = rv | (valid & ~tf.concat([valid[:, 1:], tf.zeros_like(valid[:, :1])], 1))
-            flags["rv"] = tf.reverse(rv, [1])
-        flags = {d: tf.transpose(tf.cast(f, tf.float32))[:, :, None] for d, f in flags.items()}
+        flags = self._reset_flags(resets, valid, directions=tuple(params))
         seeds = iter(range(self.dropout_calls))
 
         def drop(v):
@@ -245,17 +343,35 @@ class RecurrentEncoder(tf.Module):
             seed = None if dropout_seeds is None else dropout_seeds[next(seeds)]
             return dropout(v, self.config.keep_prob, seed)
 
-        xs = {d: drop(x) for d in params}                     # between layers: forward time
+        x = tf.transpose(inputs, [1, 0, 2])                                      # [T, B, F]
+        layer_inputs = {d: drop(x) for d in params}
         for layer in range(self.config.layers):
-            xs = {d: drop(_flip(d, self._layer(params[d][layer], _flip(d, v), flags[d])))
-                  for d, v in xs.items()}
-        return tf.transpose(tf.concat(list(xs.values()), axis=2), [1, 0, 2])
+            layer_outputs = {}
+            for d, layer_input in layer_inputs.items():
+                in_own_time = _flip(d, layer_input)
+                hidden = self._layer(params[d][layer], in_own_time, flags[d])   # [T, B, H]
+                layer_outputs[d] = drop(_flip(d, hidden))
+            layer_inputs = layer_outputs
+        features = tf.concat(list(layer_inputs.values()), axis=2)           # [T, B, H or 2H]
+        return tf.transpose(features, [1, 0, 2])
 
-    @staticmethod
-    def _layer(params: LayerParams, x: tf.Tensor, resets: tf.Tensor) -> tf.Tensor:
+    def _reset_flags(self, resets: tf.Tensor, valid: tf.Tensor | None,
+                     directions: tuple[str, ...]) -> dict[str, tf.Tensor]:
+        """Each direction's reset flags in its own time order, ``[T, B, 1]`` float32."""
+        flags = {"fw": resets}
+        if "rv" in directions:
+            rv = reverse_resets(resets, self.config.reset_mode)
+            if valid is not None:
+                rv = rv | (valid & ~tf.concat([valid[:, 1:], tf.zeros_like(valid[:, :1])], 1))
+            flags["rv"] = tf.reverse(rv, [1])
+        return {d: tf.transpose(tf.cast(f, tf.float32))[:, :, None] for d, f in flags.items()}
+
+    def _layer(self, params: LayerParams, x: tf.Tensor, resets: tf.Tensor) -> tf.Tensor:
         """``[T, B, F]`` -> ``[T, B, H]``; the input product for all steps at once."""
-        return lstm_scan(tf.tensordot(x, params.W_x, 1) + params.b, resets, params.W_h,
-                         params.peep)
+        dtype = _DTYPES[self.config.precision]
+        x_proj = tf.cast(tf.tensordot(tf.cast(x, dtype), tf.cast(params.W_x, dtype), 1),
+                         tf.float32) + params.b
+        return lstm_scan(x_proj, resets, params.W_h, params.peep, self.config.precision)
 
 
 def _flip(direction: str, x: tf.Tensor) -> tf.Tensor:

@@ -6,7 +6,8 @@
 * edit distance (DiPietro et al. 2016): the raw Levenshtein distance ``lev(P, Y)``.
 * F1@k (Lea et al.): each predicted segment is matched to the true segment of the same label with
   the highest IoU; it is a true positive when that IoU >= k/100 and the true segment is still
-  unused, else a false positive; unused true segments are false negatives.
+  unused, else a false positive; unused true segments are false negatives. The IoU threshold
+  ``k`` is in percent everywhere (``f1@10``: k = 10).
   Reported per sequence and averaged (Lea's TCN code), or pooled: TP/FP/FN summed over sequences
   before one F1 (MS-TCN's code). Tables name which.
 """
@@ -31,8 +32,18 @@ def segments(labels: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return labels[starts], starts, ends
 
 
+def check_same_length(pred: np.ndarray, true: np.ndarray) -> None:
+    """A prediction and its ground truth label the same frames: raise ``ValueError`` otherwise."""
+    if len(pred) != len(true):
+        raise ValueError(f"predicted and true labels differ in length: {len(pred)} predicted, "
+                         f"{len(true)} true")
+
+
 def accuracy(pred: np.ndarray, true: np.ndarray) -> float:
-    return 100.0 * float(np.mean(np.asarray(pred) == np.asarray(true)))
+    """Percentage of ``[T]`` frames whose predicted label equals the true one."""
+    pred, true = np.asarray(pred), np.asarray(true)
+    check_same_length(pred, true)
+    return 100.0 * float(np.mean(pred == true))
 
 
 def levenshtein(a: Sequence[int], b: Sequence[int]) -> int:
@@ -51,6 +62,8 @@ def edit_distance(pred: np.ndarray, true: np.ndarray) -> int:
 
 
 def edit_score(pred: np.ndarray, true: np.ndarray) -> float:
+    """Lea et al.'s normalised edit score of ``[T]`` predicted against ``[T]`` true labels."""
+    check_same_length(pred, true)
     p, y = segments(pred)[0].tolist(), segments(true)[0].tolist()
     longest = max(len(p), len(y))
     return 100.0 if longest == 0 else 100.0 * (1.0 - levenshtein(p, y) / longest)
@@ -71,8 +84,10 @@ class SegmentCounts:
         return 0.0 if self.tp == 0 else 100.0 * 2 * self.tp / (2 * self.tp + self.fp + self.fn)
 
 
-def overlap_counts(pred: np.ndarray, true: np.ndarray, overlap: float) -> SegmentCounts:
-    """TP / FP / FN of the overlap matching at IoU threshold ``overlap`` (a fraction, e.g. 0.1)."""
+def overlap_counts(pred: np.ndarray, true: np.ndarray, k: float) -> SegmentCounts:
+    """TP / FP / FN of the overlap matching at IoU threshold ``k`` percent (e.g. 10), on the
+    segments of ``pred`` and ``true`` (not checked for equal lengths: see ``f1_score``)."""
+    overlap = k / 100.0
     p_label, p_start, p_end = segments(pred)
     y_label, y_start, y_end = segments(true)
     used = np.zeros(len(y_label), dtype=bool)
@@ -91,13 +106,16 @@ def overlap_counts(pred: np.ndarray, true: np.ndarray, overlap: float) -> Segmen
 
 
 def f1_score(pred: np.ndarray, true: np.ndarray, k: int) -> float:
-    """F1@k (k in percent IoU) of one sequence."""
-    return overlap_counts(pred, true, k / 100.0).f1
+    """F1@k (k in percent IoU) of ``[T]`` predicted against ``[T]`` true labels."""
+    check_same_length(pred, true)
+    return overlap_counts(pred, true, k).f1
 
 
 def class_accuracy(preds: Sequence[np.ndarray], trues: Sequence[np.ndarray], num_classes: int
                    ) -> np.ndarray:
     """``[num_classes]`` percent of each true class's frames labelled correctly; NaN if absent."""
+    for p, y in zip(preds, trues, strict=True):
+        check_same_length(p, y)
     pred, true = np.concatenate(preds), np.concatenate(trues)
     hits = np.bincount(true[pred == true], minlength=num_classes)
     totals = np.bincount(true, minlength=num_classes)
@@ -113,13 +131,17 @@ def segmentation_metrics(preds: Sequence[np.ndarray], trues: Sequence[np.ndarray
     Lea et al. and DiPietro et al.); ``accuracy_pooled`` counts frames over all sequences and
     ``f1@k_pooled`` sums TP/FP/FN over all sequences first (as MS-TCN does).
     """
+    if len(preds) != len(trues):
+        raise ValueError(f"{len(preds)} predicted sequences but {len(trues)} true ones")
     pairs = list(zip(preds, trues))
+    for p, y in pairs:
+        check_same_length(p, y)
     out = {"accuracy": float(np.mean([accuracy(p, y) for p, y in pairs])),
            "accuracy_pooled": accuracy(np.concatenate(preds), np.concatenate(trues)),
            "edit": float(np.mean([edit_score(p, y) for p, y in pairs])),
            "edit_distance": float(np.mean([edit_distance(p, y) for p, y in pairs]))}
     for k in F1_OVERLAPS:
-        counts = [overlap_counts(p, y, k / 100.0) for p, y in pairs]
+        counts = [overlap_counts(p, y, k) for p, y in pairs]
         out[f"f1@{k}"] = float(np.mean([c.f1 for c in counts]))
         out[f"f1@{k}_pooled"] = sum(counts, SegmentCounts(0, 0, 0)).f1
     return out

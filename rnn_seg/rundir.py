@@ -1,14 +1,20 @@
-"""Run directories: atomic writes and the marker that tells a finished run from a partial one."""
+"""Run directories: atomic writes, configuration to and from JSON, and the marker that tells a
+finished run from a partial one."""
 from __future__ import annotations
 
 import dataclasses
 import json
 import os
+import shutil
 import tempfile
+import types
+import typing
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterator, Literal, TypeVar, Union
 
 FINISHED = "finished.json"
+T = TypeVar("T")
 
 
 def to_jsonable(obj: Any) -> Any:
@@ -24,6 +30,105 @@ def to_jsonable(obj: Any) -> Any:
     return obj
 
 
+class ConfigError(ValueError):
+    """A saved configuration that does not fit its dataclass; names the place and the value."""
+
+    def __init__(self, where: str, problem: str, value: Any):
+        super().__init__(f"{where}: {problem} (value: {value!r})")
+        self.where, self.problem, self.value = where, problem, value
+
+
+def from_jsonable(cls: type[T], data: Any, where: str = "config") -> T:
+    """Rebuild a (nested) dataclass from ``to_jsonable``'s output: the inverse for the field types
+    configurations use (dataclasses, ``int``, ``float``, ``bool``, ``str``, ``Literal``,
+    ``X | None``, ``tuple``, ``list``, ``dict``, ``Path``).
+
+    Strict: an unknown key, a value of the wrong type or a missing field without a default is a
+    ``ConfigError`` naming its place. A field added to a dataclass later with a default may be
+    absent, so older files still load. The dataclass's own validation (``__post_init__``) runs
+    as usual.
+
+    Args:
+        cls: the dataclass to build.
+        data: its saved form (parsed JSON).
+        where: the place named in errors, followed by the field path (e.g. ``config.json: run``
+            gives ``config.json: run.encoder.hidden``).
+    """
+    return _from_jsonable(cls, data, where)
+
+
+def _from_jsonable(tp: Any, value: Any, where: str) -> Any:
+    origin, args = typing.get_origin(tp), typing.get_args(tp)
+    if dataclasses.is_dataclass(tp):
+        return _dataclass_from_jsonable(tp, value, where)
+    if tp is Any:
+        return value
+    if origin is Literal:
+        if value not in args:
+            raise ConfigError(where, f"expected one of {', '.join(map(repr, args))}", value)
+        return value
+    if origin in (Union, types.UnionType):
+        if value is None and type(None) in args:
+            return None
+        errors = []
+        for option in (a for a in args if a is not type(None)):
+            try:
+                return _from_jsonable(option, value, where)
+            except ConfigError as error:
+                errors.append(error.problem)
+        raise ConfigError(where, " or ".join(errors), value)
+    if origin in (tuple, list):
+        if not isinstance(value, list):
+            raise ConfigError(where, "expected a list", value)
+        if origin is tuple and not (len(args) == 2 and args[1] is Ellipsis):
+            if len(value) != len(args):
+                raise ConfigError(where, f"expected {len(args)} items", value)
+            return tuple(_from_jsonable(a, v, f"{where}[{i}]")
+                         for i, (a, v) in enumerate(zip(args, value)))
+        items = [_from_jsonable(args[0] if args else Any, v, f"{where}[{i}]")
+                 for i, v in enumerate(value)]
+        return tuple(items) if origin is tuple else items
+    if origin is dict:
+        if not isinstance(value, dict):
+            raise ConfigError(where, "expected an object", value)
+        return {k: _from_jsonable(args[1] if args else Any, v, f"{where}.{k}")
+                for k, v in value.items()}
+    return _scalar_from_jsonable(tp, value, where)
+
+
+def _scalar_from_jsonable(tp: Any, value: Any, where: str) -> Any:
+    if tp is float and isinstance(value, (int, float)) and not isinstance(value, bool):
+        return float(value)
+    if tp is Path and isinstance(value, str):
+        return Path(value)
+    if tp in (int, bool, str) and type(value) is tp:
+        return value
+    if tp in (int, float, bool, str, Path):
+        raise ConfigError(where, f"expected {tp.__name__}", value)
+    raise TypeError(f"{where}: from_jsonable does not handle the type {tp!r}")
+
+
+def _dataclass_from_jsonable(cls: type, value: Any, where: str) -> Any:
+    if not isinstance(value, dict):
+        raise ConfigError(where, f"expected an object for {cls.__name__}", value)
+    fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
+    unknown = sorted(set(value) - set(fields))
+    if unknown:
+        raise ConfigError(where, f"unknown field {unknown[0]!r} of {cls.__name__} (known: "
+                                 f"{', '.join(fields)})", value[unknown[0]])
+    hints = typing.get_type_hints(cls)
+    kwargs = {}
+    for name, f in fields.items():
+        if name in value:
+            kwargs[name] = _from_jsonable(hints[name], value[name], f"{where}.{name}")
+        elif f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
+            raise ConfigError(where, f"missing field {name!r} of {cls.__name__}", value)
+    try:
+        return cls(**kwargs)
+    except Exception as error:          # the dataclass's own validation, whatever its error class
+        raise ConfigError(where, str(error), value) from None
+
+
 def write_atomic(path: Path, text: str) -> None:
     """Write ``text`` to ``path`` through a temporary file and a rename: never half a file."""
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -35,6 +140,29 @@ def write_atomic(path: Path, text: str) -> None:
     except BaseException:
         os.unlink(tmp)
         raise
+
+
+@contextmanager
+def staged_folder(target: Path, overwrite: bool = False) -> Iterator[Path]:
+    """A fresh hidden sibling folder to write into; it becomes ``target`` when the block ends
+    normally and is removed when it fails, so ``target`` is never left half-written.
+
+    An existing non-empty ``target`` is an error (``FileExistsError``) unless ``overwrite``; it is
+    then replaced only once the new folder is complete.
+    """
+    target = Path(target)
+    if target.exists() and any(target.iterdir()) and not overwrite:
+        raise FileExistsError(f"{target} exists and is not empty; choose another output folder, "
+                              "or overwrite it (--overwrite)")
+    target.parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp"))
+    try:
+        yield staging
+        if target.exists():
+            shutil.rmtree(target)
+        os.replace(staging, target)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
 
 
 def write_json(path: Path, obj: Any) -> None:

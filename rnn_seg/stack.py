@@ -17,6 +17,7 @@ indistinguishable from a lone run's: either way can resume it.
 from __future__ import annotations
 
 import logging
+import time
 from functools import partial
 from typing import Sequence
 
@@ -42,6 +43,7 @@ class TrainerStack:
 
     def __init__(self, trainers: Sequence[Trainer]):
         self.trainers = list(trainers)
+        self.compiled_step = None            # the vectorised step, once ``run`` has traced it
         if not self.trainers:
             raise ValueError("a stack needs at least one trainer")
         first = self.trainers[0]
@@ -66,13 +68,16 @@ class TrainerStack:
             start = min(max(t.checkpoint_sweeps(), default=0) for t in active)
             for t in active:
                 t.resume(start)
-            step = tf.function(partial(_vector_step, active), reduce_retracing=True)
+            step = self.compiled_step = _compiled_step(active)
             for sweep in range(start, active[0].total_sweeps):
                 lrs = [t.optim.learning_rate_at(sweep, t.spe) for t in active]
-                outs = step(*padded_batches([t.batch(sweep) for t in active]),
-                            tf.constant(lrs, tf.float32))
+                began = time.perf_counter()
+                outs = [out.numpy() for out in step(*padded_batches([t.batch(sweep) for t in active]),
+                                                    tf.constant(lrs, tf.float32))]
+                shared = (time.perf_counter() - began) / len(active)
                 for t, lr, out in zip(active, lrs, outs):
-                    t.after_sweep(sweep, lr, out.numpy())
+                    t.clock.add("train", shared)
+                    t.after_sweep(sweep, lr, out)
         return [t.finish() for t in self.trainers]
 
 
@@ -86,6 +91,28 @@ def train_together(trainers: Sequence[Trainer]) -> list[dict]:
     for members in by_sweeps.values():
         results.update(zip(members, TrainerStack([trainers[i] for i in members]).run()))
     return [results[i] for i in range(len(trainers))]
+
+
+def _compiled_step(members: list[Trainer]):
+    """The members' vectorised training step, traced once (with their evaluation passes) for
+    sweeps of any duration; the tracing time is shared among the members' clocks."""
+    template = members[0]
+    features = template.train.inputs[0].shape[1]
+    m, b = len(members), template.config.batch_size
+    signature = [tf.TensorSpec([m, b, None, features], tf.float32),
+                 tf.TensorSpec([m, b, None], tf.bool),
+                 tuple(tf.TensorSpec([m, b, None, t.num_outputs], tf.float32)
+                       for t in template.tasks),
+                 tf.TensorSpec([m, b, None], tf.bool),
+                 tf.TensorSpec([m], tf.float32)]
+    began = time.perf_counter()
+    step = tf.function(partial(_vector_step, members), input_signature=signature)
+    step.get_concrete_function()
+    for t in members:
+        t.model.infer.get_concrete_function()
+    for t in members:
+        t.clock.add("trace", (time.perf_counter() - began) / m)
+    return step
 
 
 def _require_same(a: Trainer, b: Trainer, what: str, key) -> None:

@@ -48,6 +48,15 @@ class Task:
         """Raw outputs ``[T, K]`` -> integer labels ``[T]``."""
         raise NotImplementedError
 
+    def scores_tf(self, outputs: tf.Tensor) -> tf.Tensor:
+        """``scores`` as TensorFlow ops on ``[..., K]`` (for exported graphs; tests check that the
+        two agree)."""
+        raise NotImplementedError
+
+    def decode_tf(self, outputs: tf.Tensor) -> tf.Tensor:
+        """``decode`` as TensorFlow ops: ``[..., K]`` -> int64 ``[...]``."""
+        raise NotImplementedError
+
     def score_columns(self) -> list[str]:
         return [f"p_{c}" for c in self.class_names]
 
@@ -72,6 +81,12 @@ class SoftmaxClassification(Task):
 
     def decode(self, outputs):
         return np.argmax(outputs, axis=-1)
+
+    def scores_tf(self, outputs):
+        return tf.nn.softmax(outputs, axis=-1)
+
+    def decode_tf(self, outputs):
+        return tf.argmax(outputs, axis=-1)
 
 
 def step_mean(values: tf.Tensor, mask: tf.Tensor | None) -> tf.Tensor:

@@ -4,10 +4,16 @@ A run directory holds::
 
     config.json                  every configuration dataclass of the run
     checkpoints/                 TF checkpoints (model, optimiser state, dropout RNG, sweep count)
-    history.csv                  one line per logged epoch / unit
+    history.csv                  one line per logged epoch / unit: training losses, time; test
+                                 (and with ``monitor_train`` training) scores every
+                                 ``monitor_every`` units
+    timing.json                  seconds per phase of the last session (``rnn_seg.timing``)
+    tensorboard/                 the same scalars for TensorBoard, with ``tensorboard``
     eval/<unit><N>/metrics.json  test metrics at evaluation point N
-    eval/<unit><N>/predictions/<sequence>.csv, plots/<sequence>.png
-    metrics.json                 every evaluation point and their mean
+    eval/<unit><N>/predictions/<sequence>.csv, plots/<sequence>.png (figures: last point only,
+                                 unless ``plots="all"``)
+    metrics.json                 every evaluation point, their mean, and whether the training
+                                 loss had stopped falling (``rnn_seg.convergence``)
     finished.json                written last; a run without it is incomplete and will resume
 """
 from __future__ import annotations
@@ -16,20 +22,31 @@ import csv
 import json
 import time
 from dataclasses import dataclass, field
+from datetime import timedelta
 from pathlib import Path
 from typing import Callable, Sequence
 
 import numpy as np
 import pandas as pd
 import tensorflow as tf
+from tensorflow.core.framework import summary_pb2
 
-from .config import PREDICTION_MODES, PredictionMode, TrainConfig  # noqa: F401 (re-exported)
+from .config import (PLOT_POINTS, PREDICTION_MODES, PlotPoints,  # noqa: F401 (re-exported)
+                     PredictionMode, TrainConfig)
+from .convergence import history_convergence
+from .lstm import require_native_precision
 from .model import ModelParams, SegmentationModel
 from .optim import SGD, OptimConfig
 from .plots import plot_sequence
 from .rundir import is_finished, mark_finished, write_atomic, write_json
 from .sweeps import make_sweep, reset_flags, sweep_indices, sweeps_per_epoch
 from .tasks import Task, task_metrics
+from .timing import PhaseClock
+
+#: What TensorBoard's scalar plugin reads (written without the tensorboard package).
+_SCALAR_METADATA = summary_pb2.SummaryMetadata(
+    plugin_data=summary_pb2.SummaryMetadata.PluginData(plugin_name="scalars"),
+    data_class=summary_pb2.DATA_CLASS_SCALAR).SerializeToString()
 
 
 @dataclass
@@ -60,18 +77,13 @@ def predict(model: SegmentationModel, inputs: Sequence[np.ndarray], mode: Predic
     for group in groups:
         lengths = [len(inputs[i]) for i in group]
         duration = max(lengths)
-        x = tf.constant(make_sweep([inputs[i] for i in group], duration))
-        r = tf.constant(reset_flags(lengths, duration))
-        outputs = _forward(model, x, r)
+        outputs = model.infer(tf.constant(make_sweep([inputs[i] for i in group], duration)),
+                              tf.constant(reset_flags(lengths, duration)))
         for name, value in outputs.items():
+            value = value.numpy()
             for row, i in enumerate(group):
-                out[name][i] = value[row, :lengths[row]].numpy()
+                out[name][i] = value[row, :lengths[row]]
     return out
-
-
-@tf.function(reduce_retracing=True)
-def _forward(model, x, r):
-    return model(x, r, None)
 
 
 class Trainer:
@@ -90,6 +102,7 @@ class Trainer:
         self.model, self.tasks, self.optim, self.config = model, list(tasks), optim, config
         self.train, self.test, self.run_dir, self.log = train, test, Path(run_dir), log
         self.sample_hz = sample_hz
+        require_native_precision(model.encoder.config.precision)
         self.variables = tf.nest.flatten(model.params())      # the order of every gradient list
         self.sgd = SGD(self.variables, optim.momentum, optim.clip_norm)
         self.dropout_rng = tf.random.Generator.from_seed(config.seed + 1_000_003)
@@ -103,10 +116,15 @@ class Trainer:
         self.eval_sweeps = {optim.sweeps(p, self.spe): p for p in points}
         write_json(self.run_dir / "config.json", configs)
         self._targets = {t.name: [t.encode(y) for y in train.labels[t.name]] for t in self.tasks}
+        self._train_step = tf.function(self._train_step_graph,
+                                       input_signature=self._step_signature(train))
+        self.clock = PhaseClock()
         self._test_outputs_at: tuple[int, dict] | None = None   # (sweep, outputs) of the test set
         self._manager: tf.train.CheckpointManager | None = None     # set by resume()
         self._losses: list[np.ndarray] = []                         # since the last progress line
+        self._summaries: tf.summary.SummaryWriter | None = None     # with config.tensorboard
         self._started = time.time()
+        self._last_line = (0, self._started)                       # (sweeps done, time)
 
     # -- state ---------------------------------------------------------------------------------
     def extra_state(self) -> dict:
@@ -146,8 +164,21 @@ class Trainer:
                                 tuple(tf.constant(y) for y in targets),
                                 tf.constant(learning_rate, tf.float32)).numpy()
 
-    @tf.function(reduce_retracing=True)
-    def _train_step(self, inputs, resets, targets, learning_rate):
+    def _step_signature(self, train: SequenceSet) -> list:
+        """Shapes of one sweep (any duration): traced once, never again."""
+        features = train.inputs[0].shape[1]
+        batch = self.config.batch_size
+        return [tf.TensorSpec([batch, None, features], tf.float32),
+                tf.TensorSpec([batch, None], tf.bool),
+                tuple(tf.TensorSpec([batch, None, t.num_outputs], tf.float32) for t in self.tasks),
+                tf.TensorSpec([], tf.float32)]
+
+    def compile(self) -> None:
+        """Trace the training step and the evaluation pass (once per process)."""
+        self._train_step.get_concrete_function()
+        self.model.infer.get_concrete_function()
+
+    def _train_step_graph(self, inputs, resets, targets, learning_rate):
         losses, grads = loss_gradients(self.model, self.tasks, self.per_task_gradients,
                                        self.model.params(), inputs, resets, targets,
                                        self.dropout_seeds())
@@ -172,9 +203,14 @@ class Trainer:
         """Train to the end (resuming from the last checkpoint) and return ``metrics.json``'s content."""
         if self.finished():
             return self.finish()
-        for sweep in range(self.resume(), self.total_sweeps):
+        start = self.resume()
+        with self.clock.phase("trace"):
+            self.compile()
+        for sweep in range(start, self.total_sweeps):
             lr = self.optim.learning_rate_at(sweep, self.spe)
-            self.after_sweep(sweep, lr, self.step(sweep, lr))
+            with self.clock.phase("train"):
+                out = self.step(sweep, lr)
+            self.after_sweep(sweep, lr, out)
         return self.finish()
 
     def finished(self) -> bool:
@@ -194,8 +230,10 @@ class Trainer:
             self.log(f"resuming from sweep {int(self.sweep.numpy())} ({path})")
         for log in self.run_dir.glob("*.csv"):      # rows past the checkpoint will be redone
             truncate_csv_log(log, int(self.sweep.numpy()))
+        done = int(self.sweep.numpy())
         self._losses, self._started = [], time.time()
-        return int(self.sweep.numpy())
+        self._last_line = (done, self._started)
+        return done
 
     def after_sweep(self, sweep: int, lr: float, out: np.ndarray) -> None:
         """Book-keeping after 0-based sweep ``sweep`` (``out`` from ``update``): progress line,
@@ -205,27 +243,71 @@ class Trainer:
         self.sweep.assign(done)
         unit_sweeps = self.optim.sweeps(1, self.spe)
         if done % (unit_sweeps * self.config.log_every) == 0 or done == self.total_sweeps:
-            self._log_progress(done, lr, np.mean(self._losses, axis=0), time.time() - self._started)
+            with self.clock.phase("monitor"):
+                self._log_progress(done, lr, np.mean(self._losses, axis=0))
             self._losses = []
         if done in self.eval_sweeps:
-            self._evaluate(self.eval_sweeps[done])
+            with self.clock.phase("evaluate"):
+                self._evaluate(self.eval_sweeps[done])
         if done % (unit_sweeps * self.config.checkpoint_every) == 0 or done == self.total_sweeps:
-            self._manager.save(checkpoint_number=done)
+            with self.clock.phase("checkpoint"):
+                self._manager.save(checkpoint_number=done)
 
-    def _log_progress(self, done: int, lr: float, losses: np.ndarray, elapsed: float) -> None:
-        unit = done / self.optim.sweeps(1, self.spe)
-        train = self._quick_metrics(self.train)
-        test = self._quick_metrics(self.test)
-        row = {"unit": self.optim.unit, "n": round(unit, 3), "sweep": done, "lr": lr,
-               **{f"loss_{t.name}": float(v) for t, v in zip(self.tasks, losses)},
-               **{f"train_{k}": v for k, v in train.items()},
-               **{f"test_{k}": v for k, v in test.items()}, "seconds": round(elapsed, 1)}
+    def _monitored(self, done: int) -> bool:
+        """Whether the progress line after ``done`` sweeps scores the model: every
+        ``monitor_every`` units and at the end."""
+        every = self.optim.sweeps(self.config.monitor_every, self.spe)
+        return done == self.total_sweeps or (every > 0 and done % every == 0)
+
+    def _log_progress(self, done: int, lr: float, losses: np.ndarray) -> None:
+        """One ``history.csv`` row and one short progress line: the training losses of the sweeps
+        since the last line (free), time per unit and ETA, and every ``monitor_every`` units the
+        test set's scores (and the training set's with ``monitor_train``)."""
+        unit_sweeps = self.optim.sweeps(1, self.spe)
+        now = time.time()
+        unit_seconds = (now - self._last_line[1]) * unit_sweeps / max(1, done - self._last_line[0])
+        self._last_line = (done, now)
+        scores = {}
+        if self.config.monitor_train:
+            scores.update({f"train_{k}": v for k, v in self._scores(self.train, done).items()})
+        scores.update({f"test_{k}": v for k, v in self._scores(self.test, done).items()})
+        row = {"unit": self.optim.unit, "n": round(done / unit_sweeps, 3), "sweep": done,
+               "lr": lr, **{f"loss_{t.name}": float(v) for t, v in zip(self.tasks, losses)},
+               **scores, "unit_seconds": round(unit_seconds, 3),
+               "elapsed_seconds": round(now - self._started, 1)}
         self._append_history(row)
+        self._write_summaries(row)
         self._on_log(done)
-        shown = " ".join(f"{k}={v:.3f}" if isinstance(v, float) else f"{k}={v}"
-                         for k, v in row.items() if k not in ("unit", "n", "sweep"))
-        self.log(f"[{self.run_dir.name}] {self.optim.unit[:-1]} {unit:g}/{self.optim.total} "
-                 f"sweep {done}/{self.total_sweeps} {shown}")
+        self.log(self._progress_line(row))
+
+    def _progress_line(self, row: dict) -> str:
+        """``[B] epoch 12/30  loss gesture 0.412 progress 0.233  test gesture 84.1/80.2
+        1.8 s/epoch  ETA 0:00:32`` (test: accuracy / edit)."""
+        unit = self.optim.unit[:-1]
+        losses = " ".join(f"{t.name} {row[f'loss_{t.name}']:.3f}" for t in self.tasks)
+        parts = [f"[{self.run_dir.name}] {unit} {row['n']:g}/{self.optim.total}", f"loss {losses}"]
+        for split in ("train", "test"):
+            if row.get(f"{split}_{self.tasks[0].name}_acc") is not None:
+                parts.append(f"{split} " + " ".join(
+                    f"{t.name} {row[f'{split}_{t.name}_acc']:.1f}/{row[f'{split}_{t.name}_edit']:.1f}"
+                    for t in self.tasks))
+        left = (self.total_sweeps - row["sweep"]) / self.optim.sweeps(1, self.spe)
+        parts.append(f"{row['unit_seconds']:.1f} s/{unit}  ETA "
+                     f"{timedelta(seconds=round(left * row['unit_seconds']))}")
+        return "  ".join(parts)
+
+    def _write_summaries(self, row: dict) -> None:
+        """The row's numbers as TensorBoard scalars (``config.tensorboard``)."""
+        if not self.config.tensorboard:
+            return
+        if self._summaries is None:
+            self._summaries = tf.summary.create_file_writer(str(self.run_dir / "tensorboard"))
+        with self._summaries.as_default(step=row["sweep"]):
+            for name, value in row.items():
+                if isinstance(value, float) and name != "elapsed_seconds":
+                    tf.summary.write(name.replace("_", "/", 1), tf.constant(value, tf.float32),
+                                     metadata=_SCALAR_METADATA)
+        self._summaries.flush()
 
     def _test_outputs(self) -> dict[str, list[np.ndarray]]:
         """Test-set outputs of the current model, computed once per sweep (progress line and
@@ -236,13 +318,17 @@ class Trainer:
                                                     self.config.prediction))
         return self._test_outputs_at[1]
 
-    def _quick_metrics(self, data: SequenceSet) -> dict[str, float]:
-        """Accuracy and edit score of every task (for progress lines)."""
-        outputs = (self._test_outputs() if data is self.test
-                   else predict(self.model, data.inputs, self.config.prediction))
-        out = {}
+    def _scores(self, data: SequenceSet, done: int) -> dict[str, float | None]:
+        """Accuracy and edit score of every task on ``data`` when this progress line is
+        monitored, else None for each (an empty cell in ``history.csv``)."""
+        out: dict[str, float | None] = {}
+        outputs = None
+        if self._monitored(done):
+            outputs = (self._test_outputs() if data is self.test
+                       else predict(self.model, data.inputs, self.config.prediction))
         for t in self.tasks:
-            m = task_metrics(t, outputs[t.name], data.labels[t.name])
+            m = (task_metrics(t, outputs[t.name], data.labels[t.name]) if outputs
+                 else {"accuracy": None, "edit": None})
             out[f"{t.name}_acc"], out[f"{t.name}_edit"] = m["accuracy"], m["edit"]
         return out
 
@@ -251,31 +337,18 @@ class Trainer:
 
     def _evaluate(self, point: int) -> None:
         """Write predictions, plots and metrics of the test set at evaluation point ``point``."""
-        folder = point_dir(self.run_dir, self.optim.unit, point)
-        outputs = self._test_outputs()
-        metrics = {t.name: task_metrics(t, outputs[t.name], self.test.labels[t.name])
-                   for t in self.tasks}
-        for i, name in enumerate(self.test.names):
-            true = {t.name: self.test.labels[t.name][i] for t in self.tasks}
-            pred = {t.name: t.decode(outputs[t.name][i]) for t in self.tasks}
-            columns = {"frame": self.test.frames[i] if self.test.frames else np.arange(len(
-                self.test.inputs[i]))}
-            for t in self.tasks:
-                columns[f"{t.name}_true"] = true[t.name]
-                columns[f"{t.name}_pred"] = pred[t.name]
-                columns.update(zip([f"{t.name}_{c}" for c in t.score_columns()],
-                                   t.scores(outputs[t.name][i]).T))
-            write_atomic(folder / "predictions" / f"{name}.csv",
-                         pd.DataFrame(columns).to_csv(index=False, float_format="%.5f"))
-            if self.config.plots:
-                plot_sequence(f"{name} - {self.optim.unit[:-1]} {point}", self.tasks, true, pred,
-                              folder / "plots" / f"{name}.png", self.sample_hz)
-        write_json(folder / "metrics.json", {"point": point, "unit": self.optim.unit,
-                                             "metrics": metrics})
-        summary = ", ".join(f"{t.name} acc {metrics[t.name]['accuracy']:.1f} edit "
-                            f"{metrics[t.name]['edit']:.1f} F1@10 {metrics[t.name]['f1@10']:.1f}"
-                            for t in self.tasks)
-        self.log(f"[{self.run_dir.name}] evaluation at {self.optim.unit[:-1]} {point}: {summary}")
+        label = f"{self.optim.unit[:-1]} {point}"
+        metrics = write_evaluation(point_dir(self.run_dir, self.optim.unit, point), self.tasks,
+                                   self.test, self._test_outputs(),
+                                   {"point": point, "unit": self.optim.unit}, label,
+                                   self.sample_hz, self._plotted(point))
+        self.log(f"[{self.run_dir.name}] evaluation at {label}: "
+                 f"{metrics_summary(self.tasks, metrics)}")
+
+    def _plotted(self, point: int) -> bool:
+        """Whether evaluation point ``point`` draws per-sequence figures (``config.plots``)."""
+        return self.config.plots == "all" or (
+            self.config.plots == "last" and point == max(self.eval_sweeps.values()))
 
     def finish(self) -> dict:
         """Write ``metrics.json`` and mark the run finished (once); returns the metrics."""
@@ -287,10 +360,59 @@ class Trainer:
         mean = {task: {k: float(np.mean([per_point[p][task][k] for p in points]))
                        for k in per_point[points[0]][task]}
                 for task in per_point[points[0]]}
-        result = {"points": per_point, "mean": mean, "unit": self.optim.unit}
+        result = {"points": per_point, "mean": mean, "unit": self.optim.unit,
+                  "convergence": history_convergence(pd.read_csv(self.run_dir / "history.csv"),
+                                                     [t.name for t in self.tasks],
+                                                     self.optim.total)}
         write_json(self.run_dir / "metrics.json", result)
+        write_json(self.run_dir / "timing.json", self.clock.report())
         mark_finished(self.run_dir, {"sweeps": self.total_sweeps})
         return result
+
+
+def write_evaluation(folder: Path, tasks: Sequence[Task], data: SequenceSet,
+                     outputs: dict[str, list[np.ndarray]], header: dict, label: str,
+                     sample_hz: float, plots: bool = True) -> dict[str, dict[str, float]]:
+    """Score ``outputs`` against ``data``'s labels and write an evaluation folder: one predictions
+    CSV (and plot) per sequence and ``metrics.json`` (``header``'s keys, then ``metrics``).
+
+    Args:
+        folder: where to write (``predictions/``, ``plots/``, ``metrics.json``).
+        tasks: the tasks of the model's heads.
+        data: the labelled sequences scored.
+        outputs: raw head outputs ``[T_i, K]`` per task and sequence of ``data``.
+        header: leading entries of ``metrics.json`` (e.g. the evaluation point and its unit).
+        label: what is evaluated, for the plot titles (e.g. ``"epoch 120"``).
+        sample_hz: the sequences' sampling rate (plot axes).
+        plots: whether to draw the per-sequence plots.
+
+    Returns:
+        The metrics per task (``task_metrics``).
+    """
+    metrics = {t.name: task_metrics(t, outputs[t.name], data.labels[t.name]) for t in tasks}
+    for i, name in enumerate(data.names):
+        true = {t.name: data.labels[t.name][i] for t in tasks}
+        pred = {t.name: t.decode(outputs[t.name][i]) for t in tasks}
+        columns = {"frame": data.frames[i] if data.frames else np.arange(len(data.inputs[i]))}
+        for t in tasks:
+            columns[f"{t.name}_true"] = true[t.name]
+            columns[f"{t.name}_pred"] = pred[t.name]
+            columns.update(zip([f"{t.name}_{c}" for c in t.score_columns()],
+                               t.scores(outputs[t.name][i]).T))
+        write_atomic(folder / "predictions" / f"{name}.csv",
+                     pd.DataFrame(columns).to_csv(index=False, float_format="%.5f"))
+        if plots:
+            plot_sequence(f"{name} - {label}", tasks, true, pred, folder / "plots" / f"{name}.png",
+                          sample_hz)
+    write_json(folder / "metrics.json", {**header, "metrics": metrics})
+    return metrics
+
+
+def metrics_summary(tasks: Sequence[Task], metrics: dict[str, dict[str, float]]) -> str:
+    """One line of each task's accuracy, edit score and F1@10."""
+    return ", ".join(f"{t.name} acc {metrics[t.name]['accuracy']:.1f} edit "
+                     f"{metrics[t.name]['edit']:.1f} F1@10 {metrics[t.name]['f1@10']:.1f}"
+                     for t in tasks)
 
 
 def loss_gradients(model: SegmentationModel, tasks: Sequence[Task], per_task: bool,

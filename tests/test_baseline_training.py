@@ -38,7 +38,8 @@ def test_model_a_beats_majority_on_held_out_user(synth_dir, tmp_path, bidirectio
 
 def test_run_outputs(synth_dir, tmp_path):
     run = tmp_path / "run"
-    train_baseline(_config(synth_dir, epochs=3, eval_points=(2, 3)), run, log=lambda m: None)
+    train_baseline(_config(synth_dir, epochs=3, eval_points=(2, 3), plots="all"), run,
+                   log=lambda m: None)
     assert is_finished(run)
     config = json.loads((run / "config.json").read_text())
     assert config["run"]["encoder"]["hidden"] == 32 and config["tasks"] == ["gesture"]
@@ -63,7 +64,7 @@ class _Interrupt(Exception):
 
 
 def test_resume_after_interruption_matches_uninterrupted(synth_dir, tmp_path, monkeypatch):
-    config = _config(synth_dir, epochs=4, eval_points=(4,), plots=False)
+    config = _config(synth_dir, epochs=4, eval_points=(4,), plots="none")
     straight = tmp_path / "straight"
     train_baseline(config, straight, log=lambda m: None)
 

@@ -215,3 +215,25 @@ def test_annotation_ablation_reports_revised_minus_original():
     tex = to_latex(table, "caption", "ablation", ("Revised", "Original"))
     assert r"Accuracy & Revised & \textbf{85.0 (1.0)} \\" in tex
     assert r" & Original & \textbf{83.0 (1.0)} \\" in tex and r" & $\Delta$ & $+$2.0 \\" in tex
+
+
+def test_runs_table_records_convergence(tiny_grid):
+    tables_main([str(tiny_grid), "--no-figures"])
+    runs = pd.read_csv(tiny_grid / "tables" / "runs.csv")
+    assert {"converged", "loss_drop"} <= set(runs.columns)
+    summary = pd.read_csv(tiny_grid / "tables" / "summary.csv")
+    assert (summary["unconverged"] >= 0).all()
+
+
+def test_tables_carry_rounded_and_raw_mae():
+    from multitask.tables import PAPER_TABLES, paper_comparison
+
+    summary = pd.DataFrame([{"annotations": "revised", "direction": "bidirectional",
+                             "variant": "APr", "weighting": "fixed", "folds": 8, "unconverged": 0,
+                             "progress_mae_mean": 5.0, "progress_mae_std": 1.0,
+                             "progress_mae_raw_mean": 7.0, "progress_mae_raw_std": 1.0}])
+    table = paper_comparison(summary, PAPER_TABLES[0]).set_index("metric")
+    assert table.loc["progress_mae", "right_mean"] == 5.3            # the paper's, rounded output
+    assert table.loc["progress_mae", "left_mean"] == 5.0
+    assert table.loc["progress_mae_raw", "left_mean"] == 7.0
+    assert pd.isna(table.loc["progress_mae_raw", "right_mean"])       # the paper has no raw MAE

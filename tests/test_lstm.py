@@ -159,3 +159,22 @@ def test_dropout_only_in_training_and_independent_per_step():
     init = config.init_scale
     w = enc.cells["fw"][0].W_h.numpy()
     assert np.abs(w).max() <= init and np.all(enc.cells["fw"][0].b.numpy() == 0)
+
+
+@pytest.mark.parametrize("layers", [1, 2])
+def test_forward_steps_equal_the_whole_sequence(layers):
+    """Online use: one step at a time, state carried, equals one pass over the sequence."""
+    enc = _encoder("original", bidirectional=False, layers=layers)
+    x = np.random.default_rng(4).normal(size=(1, 9, F)).astype(np.float32)
+    whole = enc(tf.constant(x), tf.constant(reset_flags([9], 9)), None).numpy()[0]
+    state, steps = enc.initial_state(1), []
+    for t in range(9):
+        h, state = enc.step(enc.params(), tf.constant(x[:, t]), state)
+        steps.append(h.numpy()[0])
+    np.testing.assert_allclose(np.stack(steps), whole, rtol=1e-5, atol=1e-6)
+
+
+def test_a_bidirectional_encoder_does_not_step():
+    enc = _encoder("original")
+    with pytest.raises(ValueError, match="forward"):
+        enc.step(enc.params(), tf.zeros([1, F]), enc.initial_state(1))

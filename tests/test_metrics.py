@@ -29,7 +29,7 @@ def test_f1_one_segment_and_all_wrong():
     y = np.zeros(10, int)
     assert f1_score(y, y, 50) == 100.0
     assert f1_score(np.ones(10, int), y, 10) == 0.0
-    assert overlap_counts(np.ones(10, int), y, 0.1).__dict__ == {"tp": 0, "fp": 1, "fn": 1}
+    assert overlap_counts(np.ones(10, int), y, 10).__dict__ == {"tp": 0, "fp": 1, "fn": 1}
 
 
 def test_f1_overlap_thresholds_and_duplicate_matches():
@@ -40,14 +40,14 @@ def test_f1_overlap_thresholds_and_duplicate_matches():
     assert f1_score(p, y, 50) == pytest.approx(100 * 2 * 1 / (2 * 1 + 1 + 1))
     # two predicted segments of class 1 matching the same true segment: second is a FP
     p2 = np.array([0] * 10 + [1] * 5 + [0] + [1] * 4)
-    c = overlap_counts(p2, y, 0.1)
+    c = overlap_counts(p2, y, 10)
     assert (c.tp, c.fp, c.fn) == (2, 2, 0)
 
 
 def test_empty_sequences():
     e = np.array([], int)
-    assert overlap_counts(e, e, 0.1).f1 == 0.0
-    assert overlap_counts(e, np.array([1, 1]), 0.1).fn == 1
+    assert overlap_counts(e, e, 10).f1 == 0.0
+    assert overlap_counts(e, np.array([1, 1]), 10).fn == 1
 
 
 def test_pooled_vs_mean_f1_and_class_accuracy():
@@ -61,3 +61,14 @@ def test_pooled_vs_mean_f1_and_class_accuracy():
     assert acc[0] == pytest.approx(100 * 2 / 6) and acc[1] == 100.0 and acc[2] == 0.0
     assert np.isnan(acc[3])
     assert accuracy(p1, y1) == 100.0
+
+
+def test_unequal_lengths_are_a_clear_error():
+    with pytest.raises(ValueError, match="1 predicted, 4 true"):
+        accuracy(np.array([1]), np.array([1, 1, 2, 2]))
+    with pytest.raises(ValueError, match="differ in length"):
+        f1_score(np.zeros(3, int), np.zeros(5, int), 10)
+    with pytest.raises(ValueError, match="differ in length"):
+        edit_score(np.zeros(3, int), np.zeros(5, int))
+    with pytest.raises(ValueError, match="2 predicted sequences but 1 true"):
+        segmentation_metrics([np.zeros(2, int)] * 2, [np.zeros(2, int)])

@@ -36,7 +36,7 @@ def test_regression_rounding_clipping_and_normalised_mae():
 
 
 def test_ordinal_head_targets_loss_and_decoding():
-    head = OrdinalProgress()
+    head = OrdinalProgress(reduction="mean")
     stages = np.array([0, 3, 4])
     targets = head.encode(stages)
     assert targets.shape == (3, 5) and targets[1].tolist() == [1, 1, 1, 1, 0]
@@ -44,6 +44,25 @@ def test_ordinal_head_targets_loss_and_decoding():
     np.testing.assert_array_equal(head.decode(logits), stages)
     loss = float(head.loss(tf.constant(logits[None], tf.float32), tf.constant(targets[None])))
     assert loss == pytest.approx(np.log1p(np.exp(-4.0)), rel=1e-5)
+
+
+def test_summed_ordinal_loss_is_the_paper_mbce():
+    """Binary cross-entropy summed over the 5 outputs, averaged over time steps (paper Eq. 2)."""
+    logits = np.array([[[2.0, -1.0, 0.5, -3.0, 0.0],
+                        [1.0, 1.0, -2.0, 0.3, -0.7]]])                  # [B=1, T=2, 5]
+    stages = np.array([[2, 0]])
+    targets = OrdinalProgress().encode(stages)                          # [[1,1,1,0,0],[1,0,0,0,0]]
+    p = 1 / (1 + np.exp(-logits))
+    bce = -(targets * np.log(p) + (1 - targets) * np.log(1 - p))
+    by_hand = bce.sum(axis=-1).mean()
+    summed = OrdinalProgress(reduction="sum").loss(tf.constant(logits, tf.float32), tf.constant(targets))
+    assert float(summed) == pytest.approx(by_hand, rel=1e-5)
+    averaged = OrdinalProgress(reduction="mean").loss(tf.constant(logits, tf.float32), tf.constant(targets))
+    assert float(averaged) == pytest.approx(by_hand / 5, rel=1e-5)
+    mask = tf.constant([[True, False]])
+    assert float(OrdinalProgress().loss(tf.constant(logits, tf.float32), tf.constant(targets),
+                                        mask)) == pytest.approx(bce[0, 0].sum(), rel=1e-5)
+    assert OrdinalProgress().reduction == "sum"                          # the default
 
 
 def test_classification_head():
@@ -64,7 +83,7 @@ class _Scaled(SoftmaxClassification):
         return self.scale * super().loss(outputs, targets, mask)
 
 
-def _two_task_trainer(tmp_path, alpha, seed=0, weight_lr=0.025):
+def _two_task_trainer(tmp_path, alpha, seed=0, weight_lr=0.025, relative_rate="chen"):
     rng = np.random.default_rng(seed)
     inputs = [rng.normal(size=(40, 4)).astype(np.float32) for _ in range(10)]
     labels = {"t1": [(x[:, 0] > 0).astype(int) + (x[:, 1] > 1) for x in inputs],
@@ -74,9 +93,10 @@ def _two_task_trainer(tmp_path, alpha, seed=0, weight_lr=0.025):
     model = SegmentationModel(4, EncoderConfig(hidden=8, keep_prob=1.0), tasks, seed)
     return GradNormTrainer(model, tasks, OptimConfig(learning_rate=0.1, unit="sweeps", total=60,
                                                      decay_start=60),
-                           TrainConfig(eval_points=(60,), plots=False), data, data, tmp_path, {},
-                           5.0, log=lambda m: None, gradnorm=GradNormConfig(alpha=alpha,
-                                                                            learning_rate=weight_lr))
+                           TrainConfig(eval_points=(60,), plots="none"), data, data, tmp_path, {},
+                           5.0, log=lambda m: None,
+                           gradnorm=GradNormConfig(alpha=alpha, learning_rate=weight_lr,
+                                                   relative_rate=relative_rate))
 
 
 def _direct_norms(trainer, sweep):
@@ -108,6 +128,17 @@ def test_gradnorm_balances_a_task_scaled_100x(tmp_path):
     assert G_end[1] / G_end[0] < G0[1] / G0[0] / 2            # norms move towards balance
 
 
+@pytest.mark.parametrize("relative_rate", ["chen", "paper"])
+def test_gradnorm_relative_inverse_training_rate(tmp_path, relative_rate):
+    """r_i = (L_i / L_i(0)) / mean of the ratios (Chen et al.) or / mean loss (the paper's text)."""
+    trainer = _two_task_trainer(tmp_path, alpha=1.5, relative_rate=relative_rate)
+    trainer.step(0, 0.1)
+    losses, _, r, _ = trainer.step(1, 0.1)
+    ratio = losses / trainer.initial_losses.numpy()
+    expected = ratio / (ratio.mean() if relative_rate == "chen" else losses.mean())
+    np.testing.assert_allclose(r, expected, rtol=1e-5)
+
+
 def test_gradnorm_alpha_zero_equalises_norms(tmp_path):
     """With alpha = 0 the target is the mean norm; a weight step fine enough to resolve the ~0.02
     weight that balances a 100x task lets the norms meet."""
@@ -135,7 +166,7 @@ def _run_config(synth_dir, optim, epochs=14, hidden=48):
     return RunConfig(data=DataConfig(str(synth_dir)), test_user="C",
                      encoder=EncoderConfig(hidden=hidden),
                      optim=replace(optim, total=epochs, decay_start=(2 * epochs) // 3),
-                     train=TrainConfig(eval_points=(epochs,), plots=False))
+                     train=TrainConfig(eval_points=(epochs,), plots="none"))
 
 
 def _chance(trials, field):

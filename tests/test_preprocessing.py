@@ -1,9 +1,13 @@
-"""Each preprocessing step, and their order."""
+"""Each preprocessing step, their order, and the prediction and streaming paths."""
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from jigsaws_tools.gestures import UNLABELLED
-from jigsaws_tools.preprocessing import PreprocessConfig, lowpass, preprocess, resample, znormalise
+from jigsaws_tools.preprocessing import (Normalisation, PreprocessConfig, StreamingPreprocessor,
+                                         causal_lowpass, lowpass, preprocess,
+                                         preprocess_recording, resample, znormalise)
 
 FS = 30.0
 
@@ -66,3 +70,60 @@ def test_every_step_switchable():
     out, out_labels, frames = preprocess(x, labels, off)
     np.testing.assert_array_equal(out, x.astype(np.float32))
     assert len(frames) == 20 and out_labels[0, 0] == UNLABELLED
+
+
+# -- unlabelled recordings and causal (streaming) preprocessing ------------------------------------
+def _recording(n=400, seed=2):
+    rng = np.random.default_rng(seed)
+    return rng.normal(size=(n, 3)) + 5 * _sine(0.3, n / FS) + [0.0, 10.0, -3.0]
+
+
+def test_recording_keeps_every_frame_as_training_would_without_dropping():
+    x = _recording(401)
+    labels = np.full((401, 1), UNLABELLED)          # unknown labels, none dropped
+    config = PreprocessConfig()
+    inputs, frames = preprocess_recording(x, config)
+    expected, _, expected_frames = preprocess(x, labels, replace(config, drop_unlabelled=False))
+    np.testing.assert_array_equal(inputs, expected)
+    np.testing.assert_array_equal(frames, expected_frames)
+    assert frames[0] == 1 and np.all(np.diff(frames) == 6) and len(frames) == 67
+
+
+def test_causal_lowpass_depends_only_on_the_past_and_filters():
+    x = _recording()
+    changed = x.copy()
+    changed[200:] += 100.0
+    np.testing.assert_array_equal(causal_lowpass(changed, 1.5, 4)[:200], causal_lowpass(x, 1.5, 4)[:200])
+    fast = causal_lowpass(_sine(5.0), 1.5, 4)
+    assert np.abs(fast[60:]).max() < 1e-2
+    constant = np.full((50, 2), [3.0, -7.0])
+    np.testing.assert_allclose(causal_lowpass(constant, 1.5, 4), constant)   # no start-up transient
+
+
+def test_normalisation_fitted_on_one_recording_is_its_z_normalisation():
+    x = _recording()
+    stats = Normalisation.fit([x[:100], x[100:]])
+    np.testing.assert_allclose(stats.apply(x), znormalise(x), atol=1e-12)
+    with pytest.raises(ValueError, match="3 features"):
+        stats.apply(x[:, :2])
+
+
+@pytest.mark.parametrize("n", [1, 6, 7, 400])
+def test_streaming_frame_by_frame_equals_the_causal_whole_recording(n):
+    x = _recording(n)
+    config = PreprocessConfig()
+    stats = Normalisation.fit([_recording(300, seed=5)])
+    stream = StreamingPreprocessor(config, stats)
+    samples = [stream.push(frame) for frame in x]
+    kept = [i + 1 for i, s in enumerate(samples) if s is not None]
+    inputs, frames = preprocess_recording(x, config, causal=True, normalisation=stats)
+    assert kept == frames.tolist()
+    np.testing.assert_allclose(np.stack([s for s in samples if s is not None]), inputs,
+                               rtol=1e-6, atol=1e-6)
+
+
+def test_causal_preprocessing_needs_fixed_statistics():
+    with pytest.raises(ValueError, match="fixed normalisation"):
+        preprocess_recording(_recording(), PreprocessConfig(), causal=True)
+    with pytest.raises(ValueError, match="fixed normalisation"):
+        StreamingPreprocessor(PreprocessConfig(), None)

@@ -33,7 +33,7 @@ def _trainer(run_dir, seed: int, gradnorm: bool, mode: str = "corrected") -> Tra
     data = _data(seed)
     args = (model, tasks, OptimConfig(learning_rate=0.5, momentum=0.5, unit="sweeps",
                                       total=SWEEPS, decay_start=3, decay_every=2),
-            TrainConfig(seed=seed, eval_points=(SWEEPS,), plots=False), data, data, run_dir, {},
+            TrainConfig(seed=seed, eval_points=(SWEEPS,), plots="none"), data, data, run_dir, {},
             5.0)
     if gradnorm:
         return GradNormTrainer(*args, log=lambda m: None, gradnorm=GradNormConfig())

@@ -1,0 +1,291 @@
+"""The paper's claims as data, each tested on our runs with paired statistics (``paired``).
+
+A claim is one contrast on one metric with the sign the paper asserts (or, for "only marginally",
+an equivalence margin). ``evaluate`` gives one row per claim: the paper's own difference (computed
+from its tables, ``paper_results``), ours with its 95 % CI and Wilcoxon p-value over folds, and a
+verdict:
+
+* sign claims (``expect`` +1 / -1): *reproduced* (our mean has the claimed sign and the CI
+  excludes 0), *consistent* (claimed sign, CI includes 0), *not reproduced* (opposite sign, CI
+  includes 0), *contradicted* (CI excludes 0 on the opposite side);
+* equivalence claims (``expect`` 0, ``|difference| <= margin``): *reproduced* (the CI lies inside
+  [-margin, margin]), *consistent* (mean inside, CI crosses a bound), *not reproduced* (mean
+  outside, CI reaches inside), *contradicted* (the CI lies outside the margin).
+
+A verdict needs at least ``MIN_PAIRS`` paired folds; a claim whose configurations the grid did not
+run keeps its row with empty statistics and a note saying what is missing.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from .collect import LOWER_IS_BETTER
+from .paired import (UNIT_OF_PAIRING, BootstrapConfig, ConfigId, Contrast, PairedResult,
+                     paired)
+from .tables import PAPER_TABLES
+
+VERDICTS = ("reproduced", "consistent", "not reproduced", "contradicted")
+#: The fewest paired folds at which the two-sided exact Wilcoxon test can reach p < 0.05
+#: (2 / 2^6 = 0.031); with fewer, statistics are reported without a verdict.
+MIN_PAIRS = 6
+#: "Only marginally": within one percentage point of frame accuracy. The paper calls changes of
+#: -0.2 to +0.7 points marginal (Table I) and an edit / F1@10 gain of 0.5 points an improvement.
+FRAME_ACCURACY_MARGIN = 1.0
+
+COLUMNS = ["claim", "paper_diff", "ours_diff", "ci_low", "ci_high", "p_value", "folds", "seeds",
+           "verdict", "quote", "comparison", "metric", "annotations", "direction", "pairing",
+           "note"]
+
+
+@dataclass(frozen=True)
+class BestOf:
+    """``x`` against the strongest of ``rivals`` on the metric: chosen on our runs for our test,
+    in the paper's table for the paper's difference. Beating the strongest rival is the binding
+    test of "best". Choosing it on the same runs biases the difference against the claim: a
+    *reproduced* verdict is conservative, a *contradicted* one is not."""
+
+    x: ConfigId
+    rivals: tuple[ConfigId, ...]
+
+
+@dataclass(frozen=True)
+class Claim:
+    """One claim of the paper: ``comparison`` on ``metric`` should be > 0 (``expect`` +1), < 0
+    (-1) or within ``[-margin, margin]`` (0)."""
+
+    claim: str                      # id, e.g. "segmental:APc-fixed:gesture_edit"
+    quote: str                      # the paper's words, short
+    comparison: Contrast | BestOf
+    metric: str
+    expect: int
+    margin: float = 0.0
+    note: str = ""                  # what our test or the paper's evidence is, where not obvious
+
+    def __post_init__(self):
+        if self.expect not in (-1, 0, 1) or (self.expect == 0) != (self.margin > 0):
+            raise ValueError(f"claim {self.claim}: expect must be +1 or -1 without a margin, or "
+                             f"0 with one (expect {self.expect}, margin {self.margin})")
+
+    @property
+    def direction(self) -> str:
+        if self.expect == 0:
+            return f"|diff| <= {self.margin:g}"
+        better = " (lower is better)" if self.metric in LOWER_IS_BETTER else ""
+        return ("> 0" if self.expect > 0 else "< 0") + better
+
+
+def verdict(ci_low: float, ci_high: float, mean: float, expect: int, margin: float = 0.0) -> str:
+    """One of ``VERDICTS`` for a difference with confidence interval ``[ci_low, ci_high]``
+    (rules in the module docstring)."""
+    if expect == 0:
+        if -margin <= ci_low and ci_high <= margin:
+            return "reproduced"
+        if ci_low > margin or ci_high < -margin:
+            return "contradicted"
+        return "consistent" if abs(mean) <= margin else "not reproduced"
+    decided = 1 if ci_low > 0 else -1 if ci_high < 0 else 0
+    if decided:
+        return "reproduced" if decided == expect else "contradicted"
+    return "consistent" if np.sign(mean) == expect else "not reproduced"
+
+
+def evaluate(runs: pd.DataFrame, claims: tuple[Claim, ...] | None = None,
+             config: BootstrapConfig = BootstrapConfig()) -> pd.DataFrame:
+    """The claims table: one row per claim, columns ``COLUMNS``.
+
+    Args:
+        runs: one row per finished run (``collect.run_rows``).
+        claims: the claims to test; default ``CLAIMS``, the paper's.
+        config: bootstrap settings of every comparison.
+    """
+    rows = [_evaluate(claim, runs, config) for claim in (CLAIMS if claims is None else claims)]
+    return pd.DataFrame(rows, columns=COLUMNS).astype({"folds": "Int64", "seeds": "Int64"})
+
+
+def _evaluate(claim: Claim, runs: pd.DataFrame, config: BootstrapConfig) -> dict:
+    notes = [claim.note] if claim.note else []
+    contrast, paper_contrast = _contrasts(claim, runs, notes)
+    paper_diff = paper_difference(paper_contrast, claim.metric)
+    if paper_diff is not None and claim.expect and np.sign(paper_diff) != claim.expect:
+        notes.append(f"the paper's own table gives {paper_diff:+.1f}, against its words")
+    row = {"claim": claim.claim, "paper_diff": paper_diff, "quote": claim.quote,
+           "comparison": contrast.label, "metric": claim.metric,
+           "annotations": " vs ".join(dict.fromkeys(c.annotations for c in contrast.configs)),
+           "direction": claim.direction, "pairing": UNIT_OF_PAIRING}
+    try:
+        result = paired(runs, contrast, claim.metric, config)
+    except ValueError as error:             # not run (NotPaired) or metric absent from the grid
+        notes.append(f"not tested: {error}")
+        return row | {"note": "; ".join(notes)}
+    notes += _result_notes(result) + _convergence_notes(runs, contrast)
+    row |= {"ours_diff": result.mean, "ci_low": result.ci_low, "ci_high": result.ci_high,
+            "p_value": result.p_value, "folds": result.pairs, "seeds": result.seeds[0]}
+    if result.pairs >= MIN_PAIRS:
+        row["verdict"] = verdict(result.ci_low, result.ci_high, result.mean, claim.expect,
+                                 claim.margin)
+    else:
+        notes.append(f"no verdict below {MIN_PAIRS} paired folds")
+    return row | {"note": "; ".join(notes)}
+
+
+def _contrasts(claim: Claim, runs: pd.DataFrame, notes: list[str]
+               ) -> tuple[Contrast, Contrast | None]:
+    """Our contrast and the paper's (they differ only for ``BestOf``, whose strongest rival is
+    chosen separately on each side); appends the choice to ``notes``."""
+    if isinstance(claim.comparison, Contrast):
+        return claim.comparison, claim.comparison
+    x, rivals = claim.comparison.x, claim.comparison.rivals
+    ours = _strongest(rivals, claim.metric, lambda c: _our_mean(runs, c, claim.metric))
+    theirs = _strongest(rivals, claim.metric, lambda c: paper_value(c, claim.metric))
+    notes.append(f"against the strongest other of {', '.join(r.label for r in rivals)}: ours "
+                 f"{ours.label if ours else 'none run'}, the paper's "
+                 f"{theirs.label if theirs else 'none published'} (chosen on the same runs: "
+                 "biased against the claim)")
+    return Contrast(x, ours or rivals[0]), Contrast(x, theirs) if theirs else None
+
+
+def _strongest(configs: tuple[ConfigId, ...], metric: str, score) -> ConfigId | None:
+    """The config with the best ``score`` (which returns None where it has none)."""
+    scored = [(s, c) for c in configs if (s := score(c)) is not None]
+    if not scored:
+        return None
+    pick = min if metric in LOWER_IS_BETTER else max
+    return pick(scored, key=lambda pair: pair[0])[1]
+
+
+def _our_mean(runs: pd.DataFrame, config: ConfigId, metric: str) -> float | None:
+    """Mean over folds of the per-fold seed means, None if not run."""
+    if metric not in runs.columns:
+        return None
+    values = config.select(runs)[["fold", metric]].dropna()
+    return None if values.empty else float(values.groupby("fold")[metric].mean().mean())
+
+
+def _result_notes(result: PairedResult) -> list[str]:
+    notes = []
+    if result.dropped:
+        notes.append("folds dropped (not run by every side): "
+                     + ", ".join(f"{fold} (no {sides})" for fold, sides in result.dropped.items()))
+    if result.seeds[0] != result.seeds[1]:
+        notes.append(f"{result.seeds[0]}-{result.seeds[1]} seeds per side and fold")
+    if result.zero_differences:
+        notes.append(f"{result.zero_differences} zero difference(s) left out of the Wilcoxon test")
+    return notes
+
+
+def _convergence_notes(runs: pd.DataFrame, contrast: Contrast) -> list[str]:
+    """Which sides have runs whose training loss was still falling (``collect``'s ``converged``
+    column, where the grid records it)."""
+    if "converged" not in runs.columns:
+        return []
+    still = []
+    for side in contrast.configs:
+        flags = side.select(runs).converged
+        falling = int(flags.eq(False).sum())
+        if falling:
+            still.append(f"{side.label} {falling}/{len(flags)}")
+    return [f"runs still converging: {', '.join(still)}"] if still else []
+
+
+_PAPER = {(table.annotations, table.direction): table.paper for table in PAPER_TABLES}
+
+
+def paper_value(config: ConfigId, metric: str) -> float | None:
+    """The paper's mean for a configuration and metric (Tables I-III), None where it gives none."""
+    published = _PAPER.get((config.annotations, config.direction), {})
+    number = published.get(f"{config.variant}-{config.weighting}", {}).get(metric)
+    return None if number is None else number[0]
+
+
+def paper_difference(contrast: Contrast | None, metric: str) -> float | None:
+    """``contrast`` on the paper's published means, None if a side is missing; rounded to the
+    tables' one decimal."""
+    if contrast is None:
+        return None
+    values = {c: paper_value(c, metric) for c in contrast.terms()}
+    if any(v is None for v in values.values()):
+        return None
+    return round(sum(coef * values[c] for c, coef in contrast.terms().items()), 1)
+
+
+# --- The paper's claims ---------------------------------------------------------------------
+
+A = ConfigId("A")
+MULTITASK = tuple(ConfigId(v, w) for v in ("APr", "APc", "APoc") for w in ("fixed", "gradnorm"))
+SEGMENTAL = ("gesture_edit", "gesture_f1@10")
+PROGRESS = ("progress_accuracy", "progress_edit", "progress_f1@10")
+
+
+def _gradnorm_gain_difference(other: str) -> Contrast:
+    """APr's GradNorm gain minus ``other``'s: (APr-gradnorm - APr-fixed) - (other-gradnorm -
+    other-fixed)."""
+    return Contrast(ConfigId("APr", "gradnorm"), ConfigId("APr"),
+                    (ConfigId(other, "gradnorm"), ConfigId(other)))
+
+
+_Q_SEGMENTAL = ("All three multi-task architectures outperform the single-task baseline on the "
+                "segmental scores (Edit and F1@10)")
+_Q_FRAME = ("the advantage of the proposed method ... mainly affects the segmental scores and only "
+            "marginally the framewise evaluation metrics")
+_Q_APOC = ("Even if none of the proposed architectures clearly stands out from the others, APoc "
+           "generates slightly better results")
+_Q_GRADNORM = ("The architecture that benefits the most from multi-task gradient normalization "
+               "is APr")
+_Q_PROGRESS = ("For APr and APc, but not for APoc, all evaluation scores improved with respect to "
+               "their single-task counterparts Pr and Pc")
+_Q_LABELS = ("sensitivity of our models to action annotation noise ... This results in "
+             "performance degradation with respect to the previous experiments, especially for "
+             "APoc")
+_Q_DIPIETRO = ("the proposed networks significantly outperform [DiPietro et al.] both in accuracy "
+               "and Edit score")
+_Q_ONLINE = ("We reached accuracy and Edit score of 82.2 and 76.2 respectively, improving upon the "
+             "original single-task baseline")
+_PUBLISHED = ("the paper's {side} is DiPietro et al.'s published {model}, not a run of the "
+              "authors: its difference is against a published number; ours pairs our own runs")
+
+CLAIMS: tuple[Claim, ...] = (
+    *(Claim(f"segmental:{mt.label}:{metric}", _Q_SEGMENTAL, Contrast(mt, A), metric, +1)
+      for mt in MULTITASK for metric in SEGMENTAL),
+    *(Claim(f"frame-accuracy:{mt.label}:gesture_accuracy", _Q_FRAME, Contrast(mt, A),
+            "gesture_accuracy", 0, FRAME_ACCURACY_MARGIN,
+            note=f"equivalence within +-{FRAME_ACCURACY_MARGIN:g} point of frame accuracy")
+      for mt in MULTITASK),
+    *(Claim(f"apoc-best:APoc-gradnorm:{metric}", _Q_APOC,
+            BestOf(ConfigId("APoc", "gradnorm"), (A, *MULTITASK[:-1])), metric, +1,
+            note="Table I prints APoc (alpha=1.5) in bold for this score")
+      for metric in ("gesture_accuracy", "gesture_f1@10")),
+    *(Claim(f"gradnorm-apr-most:APr-vs-{other}:{metric}", _Q_GRADNORM,
+            _gradnorm_gain_difference(other), metric, +1,
+            note="GradNorm gain = alpha=1.5 minus w1=w2=1, paired per fold")
+      for other in ("APc", "APoc") for metric in SEGMENTAL),
+    *(Claim(f"progress-vs-single:APr-{w}:progress_mae", _Q_PROGRESS,
+            Contrast(ConfigId("APr", w), ConfigId("Pr")), "progress_mae", -1)
+      for w in ("fixed", "gradnorm")),
+    *(Claim(f"progress-vs-single:APc-{w}:{metric}", _Q_PROGRESS,
+            Contrast(ConfigId("APc", w), ConfigId("Pc")), metric, +1)
+      for w in ("fixed", "gradnorm") for metric in PROGRESS),
+    *(Claim(f"progress-vs-single:APoc-{w}:{metric}", _Q_PROGRESS,
+            Contrast(ConfigId("APoc", w), ConfigId("Poc")), metric, expect,
+            note="'not all scores improved': each metric with the sign of the paper's Table I")
+      for w in ("fixed", "gradnorm")
+      for metric, expect in zip(PROGRESS, (+1, -1, -1))),
+    *(Claim(f"revised-labels:{v}-fixed:{metric}", _Q_LABELS,
+            Contrast(ConfigId(v), ConfigId(v, annotations="original")), metric, +1,
+            note="Table I against Table II, whose weighting the paper does not state (we take "
+                 "w1=w2=1); each side is scored against its own labels")
+      for v in ("APc", "APoc") for metric in ("gesture_accuracy", "gesture_edit")),
+    *(Claim(f"vs-dipietro:{v}-fixed:{metric}", _Q_DIPIETRO,
+            Contrast(ConfigId(v, annotations="original"), ConfigId("A", annotations="original")),
+            metric, +1,
+            note=_PUBLISHED.format(side="baseline (Table II, BiLSTM)", model="bidirectional LSTM")
+            + "; the paper reports no significance test")
+      for v in ("APc", "APoc") for metric in ("gesture_accuracy", "gesture_edit")),
+    *(Claim(f"online:APc-fixed:{metric}", _Q_ONLINE,
+            Contrast(ConfigId("APc", direction="forward"), ConfigId("A", direction="forward")),
+            metric, +1,
+            note=_PUBLISHED.format(side="baseline (Table III, LSTM)", model="forward LSTM"))
+      for metric in ("gesture_accuracy", "gesture_edit")),
+)

@@ -1,0 +1,55 @@
+"""The convergence diagnostic tells a training loss still falling from a flat one."""
+import numpy as np
+import pandas as pd
+import pytest
+
+from rnn_seg.convergence import ConvergenceCriterion, convergence, history_convergence, loss_drop
+
+TOTAL = 60
+
+
+def _noisy(curve: np.ndarray, seed: int, noise: float = 0.06) -> np.ndarray:
+    """``curve`` with the multiplicative unit-to-unit noise of a real run (about 6 %)."""
+    return curve * np.exp(np.random.default_rng(seed).normal(0, noise, curve.shape))
+
+
+def test_a_steep_fall_is_flagged_and_a_flat_loss_passes():
+    units = np.arange(1, TOTAL + 1)
+    steep = _noisy(2.0 * np.exp(-units / 15), seed=0)           # -33 % per 6 units at the end
+    flat = _noisy(0.3 + 0.0 * units, seed=1)
+    for seed in range(20):                                       # whatever the noise
+        assert not convergence(units, {"t": _noisy(2.0 * np.exp(-units / 15), seed)},
+                               TOTAL)["converged"]
+        assert convergence(units, {"t": _noisy(0.3 + 0.0 * units, seed)}, TOTAL)["converged"]
+    assert loss_drop(units, steep, TOTAL) == pytest.approx(1 - np.exp(-6 / 15), abs=0.1)
+    assert abs(loss_drop(units, flat, TOTAL)) < 0.05
+
+
+def test_every_task_must_have_converged():
+    units = np.arange(1, TOTAL + 1)
+    result = convergence(units, {"gesture": 0.3 + 0 * units, "progress": 2.0 * np.exp(-units / 15)},
+                         TOTAL)
+    assert result["loss_drop"]["gesture"] == pytest.approx(0.0, abs=1e-9)
+    assert result["max_loss_drop"] == pytest.approx(result["loss_drop"]["progress"])
+    assert result["converged"] is False
+
+
+def test_too_short_a_history_is_unknown():
+    units = np.arange(1, 4)
+    result = convergence(units, {"t": np.array([1.0, 0.5, 0.2])}, 3)
+    assert result["converged"] is None and result["max_loss_drop"] is None
+
+
+def test_window_follows_the_criterion():
+    """Only the last ``window`` of the schedule counts: a fall before it is ignored."""
+    units = np.arange(1, TOTAL + 1)
+    early_fall = np.where(units < 40, 2.0, 0.3)
+    assert loss_drop(units, early_fall, TOTAL) == pytest.approx(0.0, abs=1e-9)
+    wide = ConvergenceCriterion(window=0.5)
+    assert loss_drop(units, early_fall, TOTAL, wide) > 0.05
+
+
+def test_history_table():
+    history = pd.DataFrame({"n": np.arange(1, 11.0), "loss_gesture": np.linspace(1, 0.5, 10)})
+    result = history_convergence(history, ["gesture"], 10, ConvergenceCriterion(window=0.5))
+    assert result["converged"] is False and result["loss_drop"]["gesture"] > 0.05

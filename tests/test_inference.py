@@ -1,0 +1,278 @@
+"""Using a trained run: predict new recordings, evaluate saved weights, stream, export, the API."""
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+import tensorflow as tf
+
+import multitask
+from baseline.builder import train_baseline
+from baseline.config import RunConfig
+from jigsaws_tools.dataset import DataConfig, load_dataset
+from jigsaws_tools.gestures import GESTURES
+from jigsaws_tools.release import frame_labels, kinematics_dir, read_kinematics, read_transcription
+from jigsaws_tools.release import transcriptions_dir
+from multitask.evaluate_cli import main as evaluate_main
+from multitask.export_cli import main as export_main
+from multitask.fold_run import train_variant
+from multitask.predict_cli import kinematics_files
+from multitask.predict_cli import main as predict_main
+from multitask.streaming import StreamingPredictor, stream_recording
+from multitask.trained_run import STREAM_NORMALISATION_FILE, checkpoints, load_run
+from multitask.variants import get_variant
+from rnn_seg.lstm import EncoderConfig
+from rnn_seg.optim import OptimConfig
+from rnn_seg.trainer import TrainConfig
+
+EPOCHS = 3
+
+
+def _config(synth_dir, bidirectional):
+    return RunConfig(data=DataConfig(str(synth_dir)), test_user="B",
+                     encoder=EncoderConfig(hidden=16, bidirectional=bidirectional),
+                     optim=OptimConfig(total=EPOCHS, decay_start=2),
+                     train=TrainConfig(eval_points=(EPOCHS,), plots="none"))
+
+
+@pytest.fixture(scope="module")
+def bi_run(synth_dir, tmp_path_factory):
+    """APoc (gestures + ordinal progress), bidirectional, trained by multitask's fold runner."""
+    config = _config(synth_dir, bidirectional=True)
+    run_dir = tmp_path_factory.mktemp("bi") / "run"
+    train_variant(get_variant("APoc"), "fixed", config, run_dir,
+                  dataset=load_dataset(config.data, use_cache=False), log=lambda m: None)
+    return run_dir
+
+
+@pytest.fixture(scope="module")
+def fw_run(synth_dir, tmp_path_factory):
+    """Model A's forward (online) twin, trained by baseline-train's code (no variant recorded)."""
+    config = _config(synth_dir, bidirectional=False)
+    run_dir = tmp_path_factory.mktemp("fw") / "run"
+    train_baseline(config, run_dir, dataset=load_dataset(config.data, use_cache=False),
+                   log=lambda m: None)
+    return run_dir
+
+
+def _last_point(run_dir):
+    return run_dir / "eval" / f"epoch{EPOCHS:04d}"
+
+
+def _held_out(synth_dir, name="Suturing_B002"):
+    """A held-out trial's kinematics file and its per-frame gesture labels (-1 = unlabelled)."""
+    path = kinematics_dir(synth_dir) / f"{name}.txt"
+    n = len(read_kinematics(path))
+    return path, frame_labels(read_transcription(transcriptions_dir(synth_dir) / f"{name}.txt"), n)
+
+
+# -- multitask-predict -----------------------------------------------------------------------------
+def test_predict_labels_every_frame_of_a_recording_without_transcription(bi_run, synth_dir,
+                                                                         tmp_path, capsys):
+    kinematics, truth = _held_out(synth_dir)
+    inputs = tmp_path / "recordings"
+    inputs.mkdir()
+    shutil.copy(kinematics, inputs / "mine.txt")                 # no transcription anywhere
+    assert predict_main([str(bi_run), str(inputs), "--out", str(tmp_path / "out")]) == 0
+    assert "done: 1 recording(s)" in capsys.readouterr().out
+    table = pd.read_csv(tmp_path / "out" / "mine.csv")
+    assert list(table["frame"]) == list(range(1, len(truth) + 1))
+    assert set(table["gesture"]) <= set(GESTURES)
+    np.testing.assert_allclose(table.filter(like="gesture_p_").sum(axis=1), 1.0, atol=1e-4)
+    assert set(table["progress"]) <= set(range(5)) and "progress_y4" in table
+    assert (tmp_path / "out" / "mine.png").is_file()
+    record = json.loads((tmp_path / "out" / "prediction.json").read_text())
+    assert record["recordings"]["mine"]["frames"] == len(truth) and record["mode"] == "offline"
+    # the frames' labels line up with the recording: well above chance on this held-out trial
+    labelled = truth >= 0
+    predicted = np.array([GESTURES.index(g) for g in table["gesture"]])
+    accuracy = 100 * np.mean(predicted[labelled] == truth[labelled])
+    majority = 100 * np.bincount(truth[labelled]).max() / labelled.sum()
+    assert accuracy > majority + 15, (accuracy, majority)
+
+
+def test_predict_refuses_to_overwrite_and_reports_bad_input(bi_run, synth_dir, tmp_path, capsys):
+    kinematics, _ = _held_out(synth_dir)
+    out = tmp_path / "out"
+    assert predict_main([str(bi_run), str(kinematics), "--out", str(out), "--no-plots"]) == 0
+    assert predict_main([str(bi_run), str(kinematics), "--out", str(out)]) == 2
+    assert "exists" in capsys.readouterr().err
+    assert predict_main([str(bi_run), str(kinematics), "--out", str(out), "--overwrite",
+                         "--no-plots"]) == 0
+    bad = tmp_path / "bad.txt"
+    lines = kinematics.read_text().splitlines()
+    lines[41] = lines[41].replace(lines[41].split()[5], "x1.5", 1)
+    bad.write_text("\n".join(lines) + "\n")
+    capsys.readouterr()
+    assert predict_main([str(bi_run), str(bad), "--out", str(tmp_path / "o2")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("multitask-predict: error: ") and f"{bad}:42" in err and "x1.5" in err
+    assert "Traceback" not in err and not (tmp_path / "o2" / "prediction.json").exists()
+    for argv, words in (([str(tmp_path / "nothing.txt")], "no such file or folder"),
+                        ([str(kinematics), "--checkpoint", "5"], "no checkpoint after sweep 5"),
+                        ([str(kinematics), "--stream"], "forward (online) model")):
+        assert predict_main([str(bi_run), *argv, "--out", str(tmp_path / "o3")]) == 2
+        assert words in capsys.readouterr().err
+
+
+def test_a_config_json_that_does_not_fit_is_a_clear_error(bi_run, tmp_path, capsys):
+    run = tmp_path / "run"
+    shutil.copytree(bi_run, run)
+    config = json.loads((run / "config.json").read_text())
+    config["run"]["encoder"]["hiden"] = 16
+    (run / "config.json").write_text(json.dumps(config))
+    assert evaluate_main([str(run)]) == 2
+    assert "config.json: run.encoder: unknown field 'hiden'" in capsys.readouterr().err
+    del config["run"]["encoder"]["hiden"], config["variant"]
+    (run / "config.json").write_text(json.dumps(config))
+    assert evaluate_main([str(run)]) == 2
+    assert "are not variant A's" in capsys.readouterr().err
+
+
+# -- multitask-evaluate ----------------------------------------------------------------------------
+def test_evaluate_reproduces_the_runs_last_evaluation_exactly(bi_run, tmp_path):
+    out = tmp_path / "evaluation"
+    assert evaluate_main([str(bi_run), "--out", str(out), "--no-plots"]) == 0
+    saved = json.loads((_last_point(bi_run) / "metrics.json").read_text())
+    again = json.loads((out / "metrics.json").read_text())
+    assert again["metrics"] == saved["metrics"]
+    assert (again["point"], again["unit"]) == (saved["point"], saved["unit"])
+    for csv in sorted((_last_point(bi_run) / "predictions").glob("*.csv")):
+        assert (out / "predictions" / csv.name).read_text() == csv.read_text()
+
+
+# -- streaming -------------------------------------------------------------------------------------
+def test_streaming_equals_the_whole_sequence_under_causal_preprocessing(fw_run, synth_dir):
+    run = load_run(fw_run)
+    assert run.variant == "A" and [t.name for t in run.tasks] == ["gesture"]
+    kinematics = read_kinematics(_held_out(synth_dir)[0])[:500]
+    predictor = StreamingPredictor(run)                 # statistics of the training trials
+    assert (fw_run / STREAM_NORMALISATION_FILE).is_file()
+    streamed = stream_recording(predictor, kinematics)
+    whole = run.predict(kinematics, causal=True, normalisation=predictor.normalisation)
+    np.testing.assert_array_equal(streamed.sample_frames, whole.sample_frames)
+    np.testing.assert_allclose(streamed.outputs["gesture"], whole.outputs["gesture"],
+                               rtol=1e-5, atol=1e-5)
+    predictor.reset()
+    first = predictor.push(kinematics[0])
+    assert first.frame == 1 and first.labels["gesture"] in GESTURES
+    assert all(predictor.push(frame) is None for frame in kinematics[1:6])
+    assert predictor.push(kinematics[6]).frame == 7
+
+
+def test_stream_evaluation_scores_the_offline_samples(fw_run, tmp_path):
+    assert evaluate_main([str(fw_run), "--stream", "--out", str(tmp_path / "s"),
+                          "--no-plots"]) == 0
+    metrics = json.loads((tmp_path / "s" / "metrics.json").read_text())
+    assert metrics["preprocessing"] == "stream"
+    for csv in sorted((_last_point(fw_run) / "predictions").glob("*.csv")):
+        offline, stream = pd.read_csv(csv), pd.read_csv(tmp_path / "s" / "predictions" / csv.name)
+        assert stream[["frame", "gesture_true"]].equals(offline[["frame", "gesture_true"]])
+    offline = json.loads((_last_point(fw_run) / "metrics.json").read_text())["metrics"]
+    assert metrics["metrics"]["gesture"]["accuracy"] > offline["gesture"]["accuracy"] - 25
+
+
+def test_stream_normalisation_is_read_back_without_the_data(fw_run, tmp_path):
+    run_dir = tmp_path / "run"
+    shutil.copytree(fw_run, run_dir)
+    run = load_run(run_dir)
+    saved = run.stream_normalisation(data_dir=tmp_path / "no-data-here")
+    assert saved == load_run(fw_run).stream_normalisation()
+
+
+# -- Python API ------------------------------------------------------------------------------------
+def test_load_run_from_the_package(bi_run, synth_dir):
+    run = multitask.load_run(bi_run)
+    assert run.config == _config(synth_dir, bidirectional=True) and run.variant == "APoc"
+    kinematics, truth = _held_out(synth_dir)
+    from_path, from_array = run.predict(kinematics), run.predict(read_kinematics(kinematics))
+    assert from_path.table().equals(from_array.table()) and len(from_path.table()) == len(truth)
+    with pytest.raises(ValueError, match=r"expected \[frames, 76\]"):
+        run.predict(np.zeros((100, 14)))
+
+
+# -- multitask-export ------------------------------------------------------------------------------
+_FRESH_PROCESS = """
+import sys
+import numpy as np
+import tensorflow as tf
+model = tf.saved_model.load(sys.argv[1])
+kinematics = np.loadtxt(sys.argv[2], ndmin=2)
+out = model.signatures["serving_default"](kinematics=tf.constant(kinematics))
+ours = {"jigsaws_tools", "rnn_seg", "baseline", "multitask"}
+assert not ours & {name.split(".")[0] for name in sys.modules}, "imported this project"
+np.savez(sys.argv[3], **{name: value.numpy() for name, value in out.items()})
+"""
+
+
+def test_exported_model_alone_reproduces_multitask_predict(bi_run, synth_dir, tmp_path):
+    kinematics, _ = _held_out(synth_dir)
+    assert predict_main([str(bi_run), str(kinematics), "--out", str(tmp_path / "pred"),
+                         "--no-plots"]) == 0
+    assert export_main([str(bi_run), "--out", str(tmp_path / "saved")]) == 0
+    subprocess.run([sys.executable, "-c", _FRESH_PROCESS, str(tmp_path / "saved"),
+                    str(kinematics), str(tmp_path / "out.npz")],
+                   check=True, cwd=tmp_path, env={k: v for k, v in os.environ.items()
+                                                  if k != "PYTHONPATH"})
+    exported = np.load(tmp_path / "out.npz")
+    table = pd.read_csv(tmp_path / "pred" / f"{kinematics.stem}.csv")
+    np.testing.assert_array_equal(exported["frame"], table["frame"])
+    np.testing.assert_array_equal(exported["sample"], table["sample"])
+    np.testing.assert_array_equal(np.asarray(GESTURES)[exported["gesture"]], table["gesture"])
+    np.testing.assert_array_equal(exported["progress"], table["progress"])
+    for task, prefix in (("gesture", "gesture_p_"), ("progress", "progress_y")):
+        np.testing.assert_allclose(exported[f"{task}_scores"], table.filter(like=prefix),
+                                   atol=1e-5)              # the CSV's 5 decimals, float32 outputs
+    description = json.loads((tmp_path / "saved" / "assets.extra" / "model.json").read_text())
+    assert description["tasks"][0]["classes"] == list(GESTURES)
+    assert description["preprocessing"]["feature_columns_1based"][:3] == [39, 40, 41]
+    assert export_main([str(bi_run), "--out", str(tmp_path / "saved")]) == 2
+
+
+def test_graph_scores_and_decoding_agree_with_numpy():
+    rng = np.random.default_rng(0)
+    for task in [*get_variant("APr").tasks(), *get_variant("APc").tasks(),
+                 *get_variant("APoc").tasks()]:
+        outputs = rng.normal(0, 3, (200, task.num_outputs)).astype(np.float32)
+        outputs[:5] = 0.0                                           # ties and the 0.5 boundary
+        np.testing.assert_allclose(task.scores_tf(tf.constant(outputs)).numpy(),
+                                   task.scores(outputs), rtol=1e-5, atol=1e-6)
+        np.testing.assert_array_equal(task.decode_tf(tf.constant(outputs)).numpy(),
+                                      task.decode(outputs))
+
+
+@pytest.mark.parametrize("main", [predict_main, evaluate_main, export_main])
+def test_commands_have_version_and_help(main, capsys):
+    for flag in ("--version", "--help"):
+        with pytest.raises(SystemExit) as done:
+            main([flag])
+        assert done.value.code == 0
+    out = capsys.readouterr().out
+    assert out.startswith("multitask-") and "--checkpoint N" in out and "default" in out
+
+
+def test_inputs_expand_folders_and_refuse_name_clashes(synth_dir, tmp_path):
+    release = kinematics_files([synth_dir])
+    assert len(release) == 40 and release[0].parent == kinematics_dir(synth_dir)
+    (tmp_path / "a").mkdir()
+    (tmp_path / "a" / "x.txt").write_text("0\n")
+    (tmp_path / "x.txt").write_text("0\n")
+    assert kinematics_files([tmp_path / "a"]) == [tmp_path / "a" / "x.txt"]
+    with pytest.raises(ValueError, match="two inputs would write x.csv"):
+        kinematics_files([tmp_path / "a", tmp_path / "x.txt"])
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(ValueError, match=r"no kinematics files \(\*\.txt\)"):
+        kinematics_files([tmp_path / "empty"])
+
+
+def test_an_unfinished_run_loads_with_a_warning(bi_run, tmp_path, caplog):
+    run_dir = tmp_path / "run"
+    shutil.copytree(bi_run, run_dir)
+    (run_dir / "finished.json").unlink()
+    run = load_run(run_dir, checkpoint=min(checkpoints(run_dir)))
+    assert not run.finished and run.checkpoint == min(checkpoints(run_dir))
+    assert "unfinished" in caplog.text

@@ -1,0 +1,87 @@
+"""What a run costs beyond training: graphs traced once, monitoring that never changes training."""
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from multitask.heads import OrdinalProgress
+from rnn_seg.lstm import EncoderConfig
+from rnn_seg.model import SegmentationModel
+from rnn_seg.optim import OptimConfig
+from rnn_seg.stack import TrainerStack
+from rnn_seg.tasks import SoftmaxClassification
+from rnn_seg.trainer import SequenceSet, TrainConfig, Trainer
+
+F, EPOCHS = 4, 4
+
+
+def _data(seed: int) -> SequenceSet:
+    """Twelve sequences of 12-40 steps: every sweep has another duration."""
+    rng = np.random.default_rng(seed)
+    inputs = [rng.normal(size=(rng.integers(12, 40), F)).astype(np.float32) for _ in range(12)]
+    labels = {"gesture": [(x[:, 0] > 0).astype(int) + (x[:, 1] > 0.5) for x in inputs],
+              "progress": [np.minimum(np.arange(len(x)) * 5 // len(x), 4) for x in inputs]}
+    return SequenceSet([f"s{i}" for i in range(12)], inputs, labels)
+
+
+def _trainer(run_dir, seed=0, **train) -> Trainer:
+    tasks = [SoftmaxClassification("gesture", ["a", "b", "c"]), OrdinalProgress()]
+    model = SegmentationModel(F, EncoderConfig(hidden=8), tasks, seed)
+    config = TrainConfig(seed=seed, eval_points=(EPOCHS - 1, EPOCHS), plots="none", **train)
+    return Trainer(model, tasks, OptimConfig(total=EPOCHS, decay_start=2), config, _data(seed),
+                   _data(seed + 100), run_dir, {}, 5.0, log=lambda m: None)
+
+
+def test_a_lone_run_traces_each_graph_once(tmp_path):
+    trainer = _trainer(tmp_path / "run", monitor_every=1, monitor_train=True)
+    trainer.run()
+    assert trainer._train_step.experimental_get_tracing_count() == 1
+    assert trainer.model.infer.experimental_get_tracing_count() == 1
+    timing = json.loads((tmp_path / "run" / "timing.json").read_text())
+    assert {"trace", "train", "monitor", "evaluate", "checkpoint"} <= set(timing)
+
+
+def test_a_stack_traces_its_step_once(tmp_path):
+    members = [_trainer(tmp_path / f"m{s}", seed=s, monitor_every=1) for s in (0, 1)]
+    stack = TrainerStack(members)
+    stack.run()
+    assert stack.compiled_step.experimental_get_tracing_count() == 1
+    assert all(m.model.infer.experimental_get_tracing_count() == 1 for m in members)
+
+
+def test_monitoring_never_changes_training(tmp_path):
+    quiet = _trainer(tmp_path / "quiet", monitor_every=100)
+    busy = _trainer(tmp_path / "busy", monitor_every=1, monitor_train=True)
+    quiet.run()
+    busy.run()
+    for a, b in zip(quiet.variables, busy.variables):
+        np.testing.assert_array_equal(a.numpy(), b.numpy())
+    assert (json.loads((tmp_path / "quiet/metrics.json").read_text())
+            == json.loads((tmp_path / "busy/metrics.json").read_text()))
+
+
+def test_history_scores_only_on_monitored_units(tmp_path):
+    _trainer(tmp_path / "run", monitor_every=3).run()
+    history = pd.read_csv(tmp_path / "run" / "history.csv")
+    assert list(history["n"]) == [1, 2, 3, 4]
+    assert history[["loss_gesture", "loss_progress", "unit_seconds"]].notna().all().all()
+    monitored = history["test_gesture_acc"].notna().tolist()
+    assert monitored == [False, False, True, True]         # every 3 units and the last
+    assert not any(c.startswith("train_") for c in history.columns)
+
+
+@pytest.mark.parametrize("tensorboard", [True, False])
+def test_tensorboard_scalars_are_optional(tmp_path, tensorboard):
+    _trainer(tmp_path / "run", tensorboard=tensorboard).run()
+    events = list((tmp_path / "run").glob("tensorboard/events.out.tfevents.*"))
+    assert bool(events) == tensorboard
+    if tensorboard:
+        import tensorflow as tf
+
+        values = [v for event in tf.compat.v1.train.summary_iterator(str(events[0]))
+                  for v in event.summary.value]
+        losses = [v for v in values if v.tag == "loss/gesture"]
+        assert len(losses) == EPOCHS
+        assert losses[0].metadata.plugin_data.plugin_name == "scalars"
+        assert np.isfinite(tf.make_ndarray(losses[0].tensor))
