@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+from multitask.grid_spec import Experiment
 from multitask.latex import escape, mean_std, number, required_packages
 from multitask.tables_cli import main as tables_main
 from tests.fake_grid import FOLDS, TRIALS, write_fake_grid
@@ -67,6 +68,18 @@ def test_captions_state_data_folds_budget_and_seeds(paper_tables, tables):
         assert "16 hidden units" in caption and "2 seeds (0, 1)" in caption, name
     assert "12 epochs (8 for Pr, Pc, Poc)" in tables["table1"].read_text()
     assert "12 epochs," in tables["table3"].read_text()          # no P model in Table III
+
+
+def test_captions_say_only_what_the_runs_record(tmp_path):
+    """Runs without config.json (or predictions) still get tables; the caption leaves out what
+    it cannot read instead of guessing."""
+    grid = write_fake_grid(tmp_path / "grid", seeds=(0,), experiments=(Experiment(("A",)),))
+    for config in grid.glob("runs/**/config.json"):
+        config.unlink()
+    assert tables_main([str(grid), "--no-figures", "--out", str(tmp_path / "out")]) == 0
+    caption = (tmp_path / "out" / "table1.tex").read_text()
+    assert f"{sum(TRIALS.values())} trials" in caption and "Models: 1 seed (0)." in caption
+    assert "hidden units" not in caption and "epochs" not in caption
 
 
 def test_ours_only_leaves_out_the_paper(tables):
