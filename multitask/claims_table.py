@@ -11,7 +11,7 @@ import pandas as pd
 
 from rnn_seg.rundir import write_atomic, write_json
 
-from .claims import FRAME_ACCURACY_MARGIN, MIN_PAIRS, evaluate
+from .claims import FRAME_ACCURACY_MARGIN, MIN_PAIRS, Claim, evaluate
 from .paired import UNIT_OF_PAIRING, BootstrapConfig, ConfigId
 from .tables import METRIC_LABELS
 from .variants import get_variant
@@ -23,10 +23,11 @@ _NUMBER_OF_COLUMNS = 9
 
 
 def write_claims(runs: pd.DataFrame, out: Path,
-                 config: BootstrapConfig = BootstrapConfig()) -> list[Path]:
-    """Evaluate the paper's claims on ``runs`` (``collect.run_rows``) and write the three files
-    into ``out``; returns their paths."""
-    table = evaluate(runs, config=config)
+                 config: BootstrapConfig = BootstrapConfig(),
+                 claims: tuple[Claim, ...] | None = None) -> list[Path]:
+    """Evaluate ``claims`` (default: the paper's, ``claims.CLAIMS``) on ``runs``
+    (``collect.run_rows``) and write the three files into ``out``; returns their paths."""
+    table = evaluate(runs, claims, config)
     paths = [out / "claims.csv", out / "claims.tex", out / "claims_config.json"]
     write_atomic(paths[0], table.to_csv(index=False, float_format="%.4f"))
     write_atomic(paths[1], claims_latex(table, config))

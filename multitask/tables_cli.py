@@ -7,7 +7,8 @@ folds), ``table1|2|3.csv/.tex`` (ours against the paper), ``ablation_annotations
 statistics over folds and seeds, settings in ``claims_config.json``), ``figures/*.png|pdf`` and,
 with ``--curves``, ``figures/curves/*.png|pdf`` (training curves). Unfinished runs are left out
 and listed. The paper's tables, the annotation ablation and its claims are Suturing's: a grid of
-another task gets none of them.
+another task gets instead the claims of the paper's conjecture (multi-task against model A on
+that task, ``claims.CONJECTURE_CLAIMS``).
 
     multitask-tables runs/quick --out results --example-trial Suturing_D003 --curves
 
@@ -42,6 +43,7 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
     """
     from jigsaws_tools.task_definition import PAPER_TASK
 
+    from .claims import CONJECTURE_CLAIMS
     from .claims_table import write_claims
     from .collect import grid_task_name, per_fold, run_rows, summary
     from .curves import training_curves
@@ -58,6 +60,8 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
     if grid_task_name(grid_dir) == PAPER_TASK:
         written += _paper_tables(grid_dir, runs, stats, out, ours_only)
         written += write_claims(runs, out)
+    else:
+        written += write_claims(runs, out, claims=CONJECTURE_CLAIMS)
     if figures:
         written += all_figures(Path(grid_dir), folds, out / "figures", example)
     if curves:

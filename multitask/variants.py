@@ -8,7 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
-from jigsaws_tools.task_definition import TaskDefinition
+from jigsaws_tools.task_definition import SUTURING, TaskDefinition
 from rnn_seg.config import OptimConfig, TrainConfig
 
 from .config import HeadConfig
@@ -33,7 +33,8 @@ class Variant:
     gestures: bool
     progress: str | None        # "r", "c", "oc" or None
 
-    def tasks(self, task: TaskDefinition, heads: HeadConfig = HeadConfig()) -> list[Task]:
+    def tasks(self, task: TaskDefinition = SUTURING, heads: HeadConfig = HeadConfig()
+              ) -> list[Task]:
         """The heads this variant trains on ``task``: its gestures and / or its progress stages,
         the progress loss configured by ``heads`` (imports TensorFlow, the registry does not)."""
         from baseline.builder import gesture_task

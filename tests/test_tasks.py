@@ -300,6 +300,11 @@ def test_knot_tying_grid_tables_and_figures(tmp_path, capsys):
     assert "gesture_accuracy_G15_mean" in summary and "progress_accuracy_P3_mean" in summary
     assert "progress_accuracy_P4_mean" not in summary
     assert (tables / "figures/per_gesture_accuracy.png").is_file()
+    claims = pd.read_csv(tables / "claims.csv")         # the paper's conjecture, not its claims
+    assert claims["claim"].str.startswith("conjecture").all()
+    assert claims["paper_diff"].isna().all()
+    apc = claims[claims["claim"] == "conjecture:APc-fixed:gesture_edit"].iloc[0]
+    assert apc["folds"] == 1 and pd.isna(apc["verdict"])          # one fold: no verdict
 
 
 def test_grid_spec_takes_a_task(tmp_path):
