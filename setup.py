@@ -1,5 +1,13 @@
-"""Reproduction of van Amsterdam et al. (ICRA 2020) on JIGSAWS Suturing kinematics."""
+"""Reproduction of van Amsterdam et al. (ICRA 2020) on JIGSAWS Suturing kinematics.
+
+Dependency ranges: from the versions the test suite passed with (README, "Tested with") up to the
+next major version, which is untested.
+"""
+from pathlib import Path
+
 from setuptools import find_packages, setup
+
+PAPER = "https://doi.org/10.1109/ICRA40945.2020.9197301"
 
 setup(
     name="mtrnn-jigsaws",
@@ -8,20 +16,46 @@ setup(
         "Multi-task recurrent network for surgical gesture recognition and progress "
         "prediction (van Amsterdam et al., ICRA 2020) on the DiPietro et al. BiLSTM baseline"
     ),
+    long_description=(Path(__file__).parent / "README.md").read_text(encoding="utf-8"),
+    long_description_content_type="text/markdown",
+    author="The mtrnn-jigsaws developers",
+    url=PAPER,
+    project_urls={
+        "Paper": PAPER,
+        "Paper (open access)": "https://arxiv.org/abs/2003.04772",
+        "Baseline code (DiPietro et al.)":
+            "https://github.com/rdipietro/miccai-2016-surgical-activity-rec",
+    },
+    license="MIT",
+    license_files=["LICENSE"],
+    classifiers=[
+        "Development Status :: 4 - Beta",
+        "Environment :: Console",
+        "Intended Audience :: Science/Research",
+        "License :: OSI Approved :: MIT License",
+        "Operating System :: OS Independent",
+        "Programming Language :: Python :: 3",
+        "Programming Language :: Python :: 3 :: Only",
+        "Programming Language :: Python :: 3.11",
+        "Topic :: Scientific/Engineering :: Artificial Intelligence",
+        "Topic :: Scientific/Engineering :: Medical Science Apps.",
+    ],
+    keywords="surgical gesture recognition, progress estimation, multi-task learning, LSTM, "
+             "JIGSAWS",
     python_requires=">=3.11",
     packages=find_packages(include=["jigsaws_tools*", "rnn_seg*", "baseline*", "multitask*"]),
     package_data={"jigsaws_tools": ["data/*.csv", "data/tasks/*.toml"]},
     install_requires=[
-        "tensorflow-cpu>=2.15",
-        "numpy>=1.24",
-        "scipy>=1.10",
-        "pandas>=2.0",
-        "matplotlib>=3.7",
+        "tensorflow-cpu>=2.21,<3",
+        "numpy>=2.4,<3",
+        "scipy>=1.17,<2",
+        "pandas>=3.1,<4",
+        "matplotlib>=3.11,<4",
     ],
     extras_require={
         # Dask distributed: runs the grid's jobs on a cluster (multitask-grid --scheduler)
-        "dask": ["dask[distributed]>=2023.1"],
-        "test": ["pytest>=7", "dask[distributed]>=2023.1"],
+        "dask": ["dask[distributed]>=2026.8"],
+        "test": ["pytest>=9,<10", "dask[distributed]>=2026.8"],
     },
     entry_points={
         "console_scripts": [

@@ -2,27 +2,37 @@
 from __future__ import annotations
 
 import argparse
-import logging
-import os
 import sys
 
-from rnn_seg.optim import OptimConfig
+from jigsaws_tools.cli_common import command_parser, import_tensorflow, run_command
+from rnn_seg.config import OptimConfig
 from rnn_seg.provenance import set_command
-from rnn_seg.threads import configure_threads
 
-from .builder import train_baseline
 from .config import RunConfig
-from .launch import run_training
 from .options import add_run_arguments, run_config_from_args
+
+PROG = "baseline-train"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = command_parser(PROG, __doc__)
+    add_run_arguments(parser, OptimConfig())
+    return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "2")
-    logging.basicConfig(format="%(levelname)s: %(message)s", level=logging.WARNING)
-    parser = argparse.ArgumentParser(prog="baseline-train", description=__doc__)
-    add_run_arguments(parser, OptimConfig())
-    args = parser.parse_args(argv)
-    set_command(["baseline-train", *(sys.argv[1:] if argv is None else argv)])
+    args = build_parser().parse_args(argv)
+    set_command([PROG, *(sys.argv[1:] if argv is None else argv)])
+    return run_command(PROG, args.verbose, lambda: _train(args))
+
+
+def _train(args: argparse.Namespace) -> int:
+    """Configure (no data read), take the run folder's lock, train; returns the exit code."""
+    import_tensorflow()
+    from rnn_seg.threads import configure_threads
+
+    from .builder import train_baseline
+    from .launch import run_training
 
     def configure() -> RunConfig:
         config = run_config_from_args(args, OptimConfig())
@@ -34,7 +44,7 @@ def main(argv: list[str] | None = None) -> int:
         return train_baseline(config, args.out, log=lambda m: print(m, flush=True),
                               restart=args.restart)
 
-    code, result = run_training("baseline-train", args.out, configure, train)
+    code, result = run_training(PROG, args.out, configure, train)
     if result is None:
         return code
     mean = result["mean"]["gesture"]

@@ -4,9 +4,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from jigsaws_tools.dataset import DataConfig
-from rnn_seg.lstm import EncoderConfig
-from rnn_seg.optim import OptimConfig
-from rnn_seg.trainer import TrainConfig, check_eval_points
+from rnn_seg.config import EncoderConfig, OptimConfig, TrainConfig, check_eval_points
+
+#: Encoder directions by name (``EncoderConfig.bidirectional``): offline or online recognition.
+DIRECTIONS = ("bidirectional", "forward")
 
 
 @dataclass(frozen=True)

@@ -1,92 +1,122 @@
 """Command-line options shared by every training CLI, and the run configuration they build.
 
 Every default shown comes from the configuration dataclasses (``DataConfig``, ``EncoderConfig``,
-``OptimConfig``, ``TrainConfig``, ``RunConfig``), so it is stated in one place.
+``OptimConfig``, ``TrainConfig``, ``RunConfig``), so it is stated in one place; none of them
+imports TensorFlow, so ``--help`` does not either.
 """
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
-from jigsaws_tools.annotations import ANNOTATION_VERSIONS
-from jigsaws_tools.dataset import DataConfig, default_cache_dir, default_data_dir
+from jigsaws_tools.arg_types import (momentum, non_negative_int, positive_float, positive_int,
+                                     positive_int_list, probability)
+from jigsaws_tools.dataset import DataConfig
 from jigsaws_tools.features import FEATURE_SETS
-from jigsaws_tools.synth import SynthConfig, ensure_release
-from jigsaws_tools.task_options import add_task_options, task_from_options
-from rnn_seg.checkpoints import KEEP_CHECKPOINTS
-from rnn_seg.lstm import PRECISIONS, RESET_MODES, EncoderConfig
-from rnn_seg.optim import OptimConfig
-from rnn_seg.trainer import PLOT_POINTS, PREDICTION_MODES, TrainConfig, check_eval_points
+from jigsaws_tools.options import add_data_arguments, data_dir_from_args
+from jigsaws_tools.task_options import task_from_options
+from rnn_seg.config import (KEEP_CHECKPOINTS, PLOT_POINTS, PRECISIONS, PREDICTION_MODES,
+                            RESET_MODES, EncoderConfig, OptimConfig, TrainConfig,
+                            check_eval_points)
 
-from .config import RunConfig
+from .config import DIRECTIONS, RunConfig
 
 
-def add_run_arguments(parser: argparse.ArgumentParser, optim: OptimConfig) -> None:
-    """Options shared by every training CLI; ``optim`` supplies the defaults shown."""
+def add_run_arguments(parser: argparse.ArgumentParser, optim: OptimConfig,
+                      eval_points: tuple[int, ...] = TrainConfig.eval_points) -> None:
+    """Options shared by every training CLI; ``optim`` and ``eval_points`` supply the schedule's
+    defaults shown (a variant's)."""
     encoder, train = EncoderConfig(), TrainConfig()
-    data = parser.add_argument_group("data")
-    source = data.add_mutually_exclusive_group()
-    source.add_argument("--data-dir", type=Path, help="JIGSAWS Suturing folder "
-                        f"(default: $JIGSAWS_DIR or {default_data_dir()})")
-    source.add_argument("--synthetic", action="store_true",
-                        help="use the embedded synthetic release (written once to the cache)")
-    data.add_argument("--synthetic-seed", type=int, default=SynthConfig.seed)
-    data.add_argument("--test-user", default=RunConfig.test_user, help="user held out (LOUO fold)")
-    data.add_argument("--annotations", choices=ANNOTATION_VERSIONS, default=DataConfig.annotations)
-    data.add_argument("--features", choices=list(FEATURE_SETS), default=DataConfig.feature_set)
-    add_task_options(data)
+    data = add_data_arguments(parser)
+    add_test_user_argument(data)
+    data.add_argument("--features", choices=list(FEATURE_SETS), default=DataConfig.feature_set,
+                      help="kinematic inputs: the paper's 14 PSM position, velocity and gripper "
+                           "columns, all 38 PSM columns, or all 76")
     model = parser.add_argument_group("model")
-    model.add_argument("--hidden", type=int, default=encoder.hidden)
-    model.add_argument("--layers", type=int, default=encoder.layers)
-    model.add_argument("--direction", choices=("bidirectional", "forward"), default="bidirectional",
-                       help="forward = the online twin")
-    model.add_argument("--keep-prob", type=float, default=encoder.keep_prob)
-    model.add_argument("--init-scale", type=float, default=encoder.init_scale)
-    model.add_argument("--reset-mode", choices=RESET_MODES, default=encoder.reset_mode)
+    model.add_argument("--hidden", type=positive_int, default=encoder.hidden, metavar="H",
+                       help="LSTM units per direction")
+    model.add_argument("--layers", type=positive_int, default=encoder.layers, metavar="N",
+                       help="stacked LSTM layers")
+    model.add_argument("--direction", choices=DIRECTIONS, default=DIRECTIONS[0],
+                       help="bidirectional (offline) or forward only (online)")
+    model.add_argument("--keep-prob", type=probability, default=encoder.keep_prob, metavar="P",
+                       help="dropout keep probability on each layer's inputs and outputs")
+    model.add_argument("--init-scale", type=positive_float, default=encoder.init_scale,
+                       metavar="S", help="initial weights uniform in [-S, S]")
+    model.add_argument("--reset-mode", choices=RESET_MODES, default=encoder.reset_mode,
+                       help="where the reverse direction restarts between wrapped sequences: as "
+                            "in DiPietro's code, or before each sequence's last frame")
     model.add_argument("--precision", choices=PRECISIONS, default=encoder.precision,
                        help="of the LSTM's matrix products: bf16 needs a CPU with native "
                             "bfloat16 (docs/PERFORMANCE.md)")
     opt = parser.add_argument_group("optimisation")
     length = opt.add_mutually_exclusive_group()
-    length.add_argument("--epochs", type=int, help=f"train for N epochs (default {optim.total})")
-    length.add_argument("--sweeps", type=int, help="train for N sweeps instead")
-    opt.add_argument("--decay-start", type=int, default=None,
-                     help=f"units at the initial learning rate (default {optim.decay_start}, "
-                          "or 2/3 of --epochs/--sweeps when those are given)")
-    opt.add_argument("--decay-every", type=int, default=optim.decay_every)
-    opt.add_argument("--decay-factor", type=float, default=optim.decay_factor)
-    opt.add_argument("--lr", type=float, default=optim.learning_rate)
-    opt.add_argument("--momentum", type=float, default=optim.momentum)
-    opt.add_argument("--clip-norm", type=float, default=optim.clip_norm)
-    opt.add_argument("--batch-size", type=int, default=train.batch_size)
+    length.add_argument("--epochs", type=positive_int, metavar="N",
+                        help=f"train for N epochs (default: {optim.total}, the paper's)")
+    length.add_argument("--sweeps", type=positive_int, metavar="N",
+                        help="train for N sweeps (optimisation steps) instead of epochs "
+                             "(default: count epochs)")
+    opt.add_argument("--decay-start", type=non_negative_int, default=None, metavar="N",
+                     help=f"epochs (sweeps) at the initial learning rate (default: "
+                          f"{optim.decay_start}, or 2/3 of --epochs/--sweeps when given)")
+    opt.add_argument("--decay-every", type=positive_int, default=optim.decay_every, metavar="N",
+                     help="epochs (sweeps) between learning-rate decays")
+    opt.add_argument("--decay-factor", type=positive_float, default=optim.decay_factor,
+                     metavar="F", help="learning-rate multiplier at each decay")
+    opt.add_argument("--lr", type=positive_float, default=optim.learning_rate, metavar="LR",
+                     help="initial learning rate")
+    opt.add_argument("--momentum", type=momentum, default=optim.momentum, metavar="M",
+                     help="SGD momentum in [0, 1); 0 = plain gradient descent")
+    opt.add_argument("--clip-norm", type=positive_float, default=optim.clip_norm, metavar="C",
+                     help="clip all gradients together to this global norm")
+    opt.add_argument("--batch-size", type=positive_int, default=train.batch_size, metavar="B",
+                     help="sequences per sweep")
     run = parser.add_argument_group("run")
-    run.add_argument("--seed", type=int, default=train.seed)
-    run.add_argument("--eval-at", default=None,
-                     help="comma-separated evaluation points in the schedule's unit "
-                          "(default: the paper's, e.g. 100,110,120 of 120 epochs; the final "
-                          "unit when --epochs/--sweeps change the length)")
-    run.add_argument("--prediction", choices=PREDICTION_MODES, default=train.prediction)
+    run.add_argument("--seed", type=non_negative_int, default=train.seed, metavar="N",
+                     help="seed of the initial weights, batch order and dropout")
+    run.add_argument("--eval-at", type=positive_int_list, default=None, metavar="N,N,...",
+                     help="evaluate the test user after these epochs (sweeps), saved under "
+                          f"eval/ (default: {','.join(map(str, eval_points))} for the paper's "
+                          "length, else the last epoch)")
+    run.add_argument("--prediction", choices=PREDICTION_MODES, default=train.prediction,
+                     help="test sequences wrapped into one sweep as in DiPietro's code, or each "
+                          "predicted alone")
     run.add_argument("--plots", choices=PLOT_POINTS, default=train.plots,
                      help="evaluation points that draw a figure per test sequence")
     run.add_argument("--no-plots", dest="plots", action="store_const", const="none",
                      help="same as --plots none")
-    run.add_argument("--monitor-every", type=int, default=train.monitor_every,
-                     help="units (epochs) between test-set scores on the progress line; the "
-                          "last unit is always scored; evaluation points are unaffected")
+    run.add_argument("--monitor-every", type=non_negative_int, default=train.monitor_every,
+                     metavar="N", help="epochs (sweeps) between test-set scores on the progress "
+                                       "line (0: none but the last, which is always scored); "
+                                       "evaluation points are unaffected")
     run.add_argument("--monitor-train", action="store_true",
                      help="also score the training set on those progress lines (slow)")
     run.add_argument("--tensorboard", action="store_true",
                      help="also write the progress scalars to RUN_DIR/tensorboard")
-    run.add_argument("--threads", type=int, default=0,
-                     help="cores for this run (0 = all), split between TensorFlow's thread pools "
-                          "as rnn_seg.threads measures best")
-    run.add_argument("--out", type=Path, required=True, help="run directory")
+    add_threads_argument(run, "cores for this run (0 = all)")
+    run.add_argument("--out", type=Path, required=True, metavar="DIR",
+                     help="run folder; an unfinished run there resumes")
     run.add_argument("--restart", action="store_true",
-                     help="delete the run directory's previous config and results and train "
-                          "afresh (needed when it holds a run with other settings)")
-    run.add_argument("--keep-checkpoints", choices=KEEP_CHECKPOINTS, default=train.keep_checkpoints,
+                     help="delete the run folder's previous config and results and train afresh "
+                          "(needed when it holds a run with other settings)")
+    run.add_argument("--keep-checkpoints", choices=KEEP_CHECKPOINTS,
+                     default=train.keep_checkpoints,
                      help="what a finished run keeps: its final weights, also the weights of "
                           "every evaluation point, or every checkpoint")
+
+
+def add_test_user_argument(parser: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
+    """``--test-user U``: the user held out by the leave-one-user-out fold."""
+    parser.add_argument("--test-user", default=RunConfig.test_user, metavar="U",
+                        help="user held out for testing: the leave-one-user-out fold")
+
+
+def add_threads_argument(parser: argparse.ArgumentParser | argparse._ArgumentGroup,
+                         what: str) -> argparse.Action:
+    """``--threads N``: cores per training run, shared by the training CLIs and the grid."""
+    return parser.add_argument("--threads", type=non_negative_int, default=0, metavar="N",
+                               help=f"{what}, split between TensorFlow's thread pools as "
+                                    "rnn_seg.threads measures best")
 
 
 def run_config_from_args(args: argparse.Namespace, optim: OptimConfig,
@@ -104,7 +134,7 @@ def run_config_from_args(args: argparse.Namespace, optim: OptimConfig,
     decay_start = args.decay_start if args.decay_start is not None else (
         optim.decay_start if default_length else (2 * total) // 3)
     if args.eval_at is not None:
-        eval_points = _parse_points(args.eval_at)
+        eval_points = args.eval_at
     else:
         eval_points = eval_points if default_length else (total,)
     encoder = EncoderConfig(hidden=args.hidden, layers=args.layers,
@@ -119,20 +149,7 @@ def run_config_from_args(args: argparse.Namespace, optim: OptimConfig,
                         monitor_every=args.monitor_every, monitor_train=args.monitor_train,
                         tensorboard=args.tensorboard, keep_checkpoints=args.keep_checkpoints)
     check_eval_points(eval_points, optim)
-    if args.synthetic:
-        data_dir = ensure_release(default_cache_dir(), SynthConfig(seed=args.synthetic_seed), task)
-    else:
-        data_dir = args.data_dir or default_data_dir(task.name)
-    data = DataConfig(str(data_dir), feature_set=args.features, annotations=args.annotations,
-                      task=task)
+    data = DataConfig(str(data_dir_from_args(args, task)), feature_set=args.features,
+                      annotations=args.annotations, task=task)
     return RunConfig(data=data, test_user=args.test_user, encoder=encoder, optim=optim,
                      train=train)
-
-
-def _parse_points(text: str) -> tuple[int, ...]:
-    """``"100,110,120"`` -> ``(100, 110, 120)``; anything else is a ``ValueError`` naming it."""
-    try:
-        return tuple(int(p) for p in text.split(","))
-    except ValueError:
-        raise ValueError(f"--eval-at must be comma-separated integers, e.g. 100,110,120 "
-                         f"(got {text!r})") from None

@@ -25,8 +25,8 @@ from jigsaws_tools.dataset import default_data_dir
 
 SPEC = """
 preset = "quick"
-data = "{data}"
-folds = {folds}
+data_dir = "{data}"
+test_users = {folds}
 hidden = {hidden}
 epochs = {epochs}
 

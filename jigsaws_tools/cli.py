@@ -2,35 +2,44 @@
 
 Every subcommand reads one task's release: ``--task`` (Suturing, the default; Knot_Tying;
 Needle_Passing) or ``--task-file`` (your own definition).
+
+    jigsaws-tools synth --out /tmp/synth/Suturing
+    jigsaws-tools inspect --data-dir /path/to/Knot_Tying --task Knot_Tying
+    jigsaws-tools amendments --data-dir /path/to/Suturing
+    jigsaws-tools plot --synthetic --out labels.png
 """
 from __future__ import annotations
 
 import argparse
-import logging
 import sys
 from pathlib import Path
 
-import pandas as pd
-
-from .annotations import ANNOTATION_VERSIONS, amendment_report
-from .dataset import DataConfig, load_dataset
-from .errors import JigsawsError
-from .plots import plot_dataset
-from .release import discover
-from .summary import release_summary
-from .synth import SynthConfig, write_release
+from .cli_common import (HelpFormatter, add_verbose_argument, command_parser, deprecated_alias,
+                         deprecated_positional, run_command)
+from .options import add_data_arguments, add_synthetic_seed_argument, data_dir_from_args
 from .task_options import add_task_options, task_from_options
+
+PROG = "jigsaws-tools"
 
 
 def _synth(args: argparse.Namespace) -> None:
+    from .synth import SynthConfig, write_release
+
+    if args.out is None:
+        raise ValueError("synth needs --out DIR, the folder to write the release into")
     task = task_from_options(args)
-    out = write_release(args.out, SynthConfig(seed=args.seed), task)
-    print(f"wrote a synthetic {task.name} release (seed {args.seed}) to {out}")
+    out = write_release(args.out, SynthConfig(seed=args.synthetic_seed), task)
+    print(f"wrote a synthetic {task.name} release (seed {args.synthetic_seed}) to {out}")
 
 
 def _inspect(args: argparse.Namespace) -> None:
+    import pandas as pd
+
+    from .release import discover
+    from .summary import release_summary
+
     task = task_from_options(args)
-    index = discover(args.dir, task)
+    index = discover(data_dir_from_args(args, task), task)
     table = release_summary(index, args.annotations)
     print(task.describe() + "\n")
     with pd.option_context("display.max_rows", None, "display.width", 200):
@@ -44,14 +53,18 @@ def _inspect(args: argparse.Namespace) -> None:
     print("unusable files:", "; ".join(index.unusable) or "none")
 
 
-def _histogram(counts: pd.Series) -> str:
-    """``G1 4102 (3.2%), G2 ...``: frame counts and shares."""
+def _histogram(counts) -> str:
+    """``G1 4102 (3.2%), G2 ...``: frame counts (a pandas Series) and shares."""
     total = counts.sum()
     return ", ".join(f"{k} {int(v)} ({100 * v / total:.1f}%)" for k, v in counts.items())
 
 
 def _amendments(args: argparse.Namespace) -> None:
-    report = amendment_report(discover(args.dir, task_from_options(args)), args.version)
+    from .annotations import amendment_report
+    from .release import discover
+
+    task = task_from_options(args)
+    report = amendment_report(discover(data_dir_from_args(args, task), task), args.annotations)
     total = 0
     print(f"{'trial':15} {'start':>6} {'end':>6} {'new':>4} {'changed':>8}  previous labels / status")
     for name, e in report:
@@ -64,48 +77,64 @@ def _amendments(args: argparse.Namespace) -> None:
 
 
 def _plot(args: argparse.Namespace) -> None:
-    config = DataConfig(str(args.dir), annotations=args.annotations, task=task_from_options(args))
+    from .dataset import DataConfig, load_dataset
+    from .plots import plot_dataset
+
+    task = task_from_options(args)
+    config = DataConfig(str(data_dir_from_args(args, task)), annotations=args.annotations,
+                        task=task)
     dataset = load_dataset(config)
-    out = plot_dataset(dataset.trials, args.out, config.preprocessing.sample_hz, config.task)
+    out = plot_dataset(dataset.trials, args.out, config.preprocessing.sample_hz, task.gestures,
+                       task.stage_labels)
     print(f"wrote {out}")
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="jigsaws-tools", description=__doc__)
-    sub = parser.add_subparsers(dest="command", required=True)
-    p = sub.add_parser("synth", help="write a deterministic synthetic Suturing release")
-    p.add_argument("out", type=Path)
-    p.add_argument("--seed", type=int, default=0)
+    parser = command_parser(PROG, __doc__)
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = _subcommand(sub, "synth", _synth, "write a deterministic synthetic release of a task")
+    out = p.add_argument("--out", type=Path, metavar="DIR",
+                         help="folder to write the release into (required)")
+    seed = add_synthetic_seed_argument(p)
     add_task_options(p)
-    p.set_defaults(run=_synth)
-    p = sub.add_parser("inspect", help="per-trial frames and gesture / progress histograms")
-    p.add_argument("dir", type=Path)
-    p.add_argument("--annotations", choices=ANNOTATION_VERSIONS, default="revised")
-    add_task_options(p)
-    p.set_defaults(run=_inspect)
-    p = sub.add_parser("amendments", help="what an annotation version changes")
-    p.add_argument("dir", type=Path)
-    p.add_argument("--version", choices=ANNOTATION_VERSIONS, default="revised")
-    add_task_options(p)
-    p.set_defaults(run=_amendments)
-    p = sub.add_parser("plot", help="PNG of gesture and progress ribbons for every trial")
-    p.add_argument("dir", type=Path)
-    p.add_argument("--out", type=Path, default=Path("labels.png"))
-    p.add_argument("--annotations", choices=ANNOTATION_VERSIONS, default="revised")
-    add_task_options(p)
-    p.set_defaults(run=_plot)
+    deprecated_positional(p, out)
+    deprecated_alias(p, "--seed", seed)
+
+    p = _subcommand(sub, "inspect", _inspect, "per-trial frames and gesture / progress histograms")
+    _release_arguments(p)
+
+    p = _subcommand(sub, "amendments", _amendments, "what an annotation version changes")
+    annotations = _release_arguments(p)
+    deprecated_alias(p, "--version", annotations)
+
+    p = _subcommand(sub, "plot", _plot, "PNG of gesture and progress ribbons for every trial")
+    _release_arguments(p)
+    p.add_argument("--out", type=Path, default=Path("labels.png"), metavar="PNG",
+                   help="image to write")
     return parser
 
 
+def _subcommand(sub, name: str, run, summary: str) -> argparse.ArgumentParser:
+    parser = sub.add_parser(name, help=summary, description=summary,
+                            formatter_class=HelpFormatter)
+    add_verbose_argument(parser, default=argparse.SUPPRESS)
+    parser.set_defaults(run=run)
+    return parser
+
+
+def _release_arguments(parser: argparse.ArgumentParser) -> argparse.Action:
+    """The release options, with the old positional folder as a deprecated alias; returns the
+    ``--annotations`` action."""
+    data = add_data_arguments(parser)
+    actions = {a.dest: a for a in data._group_actions}
+    deprecated_positional(parser, actions["data_dir"])
+    return actions["annotations"]
+
+
 def main(argv: list[str] | None = None) -> int:
-    logging.basicConfig(format="%(levelname)s: %(message)s", level=logging.WARNING)
     args = build_parser().parse_args(argv)
-    try:
-        args.run(args)
-    except JigsawsError as error:
-        print(f"jigsaws-tools: error: {error}", file=sys.stderr)
-        return 2
-    return 0
+    return run_command(PROG, args.verbose, lambda: args.run(args))
 
 
 if __name__ == "__main__":

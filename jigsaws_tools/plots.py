@@ -1,6 +1,14 @@
-"""Label ribbons: one coloured bar per label sequence, the way segmentations are usually shown."""
+"""Label ribbons: one coloured bar per label sequence over time in seconds, class names on it.
+
+A class's colour comes from ``class_colours`` alone, for ribbons and legends alike, so a class
+looks the same in every figure of the package: a qualitative colour map (``tab10``, ``tab20``
+beyond ten classes) gives the classes its first colours in order; a continuous one (``viridis``,
+for progress stages) is sampled evenly from end to end. Class names and counts are arguments
+(the task's vocabulary), never constants of this module.
+"""
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
 
@@ -11,70 +19,141 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.patches import Patch  # noqa: E402
 
-from .task_definition import TaskDefinition  # noqa: E402
+#: Colour map of progress stages (ordered: a continuous map).
+STAGE_CMAP = "viridis"
+#: Narrowest run of one class, as a fraction of the ribbon's duration, that gets its name.
+NAMED_RUN = 0.035
+#: Height of a legend row under a ribbon figure.
+LEGEND_ROW_INCHES = 0.3
 
-GESTURE_CMAP = "tab10"
-PROGRESS_CMAP = "viridis"
+
+def class_colours(num_classes: int, cmap: str | None = None) -> np.ndarray:
+    """``[num_classes, 4]`` RGBA colour of each class under ``cmap``; None = ``tab10`` (or
+    ``tab20`` for more than ten classes). A qualitative map (fewer than 256 colours) must have a
+    colour per class."""
+    name = cmap or ("tab10" if num_classes <= 10 else "tab20")
+    colormap = matplotlib.colormaps[name]
+    if colormap.N >= 256:
+        return colormap(np.linspace(0.0, 1.0, num_classes))
+    if colormap.N < num_classes:
+        raise ValueError(f"colour map {name} has {colormap.N} colours for {num_classes} classes")
+    return colormap(np.arange(num_classes))
 
 
-def draw_ribbon(ax: plt.Axes, labels: np.ndarray, num_classes: int, cmap: str,
-                label: str = "") -> None:
-    """Draw ``labels`` ``[T]`` (ints in ``0..num_classes-1``) as a one-row colour strip."""
-    ax.imshow(labels[None, :], aspect="auto", cmap=cmap, vmin=-0.5, vmax=num_classes - 0.5,
-              interpolation="nearest")
-    ax.set_yticks([0])
-    ax.set_yticklabels([label])
+def runs(labels: np.ndarray) -> list[tuple[int, int]]:
+    """``(start, stop)`` sample ranges of the runs of equal labels in ``labels`` ``[T]``."""
+    if len(labels) == 0:
+        return []
+    edges = np.flatnonzero(np.diff(labels)) + 1
+    bounds = np.concatenate([[0], edges, [len(labels)]])
+    return list(zip(bounds[:-1].tolist(), bounds[1:].tolist()))
+
+
+def sample_edges(times: np.ndarray) -> np.ndarray:
+    """``[T + 1]`` start of every sample at ``times`` ``[T]`` (seconds) and the end of the last,
+    one median step after it."""
+    step = float(np.median(np.diff(times))) if len(times) > 1 else 1.0
+    return np.append(times, times[-1] + step)
+
+
+@dataclass(frozen=True)
+class Ribbon:
+    """One row of a ribbon figure."""
+
+    label: str                   # the row's name, left of the bar
+    labels: np.ndarray           # [T] class indices, 0..len(names)-1
+    times: np.ndarray            # [T] seconds of each sample
+    names: tuple[str, ...]       # the task's class names, in index order
+    colours: np.ndarray          # [len(names), 4] RGBA, from class_colours
+
+
+def task_colours(num_classes: int, ordered: bool) -> np.ndarray:
+    """The colours of a task's classes: ordered stages on ``STAGE_CMAP``, other classes (gestures)
+    on the default qualitative map."""
+    return class_colours(num_classes, STAGE_CMAP if ordered else None)
+
+
+def draw_ribbon(ax: plt.Axes, ribbon: Ribbon) -> None:
+    """Draw ``ribbon`` on ``ax`` (x in seconds): a bar per run of one class, its class name
+    written on runs wide enough for it; unlabelled samples (negative labels) stay blank."""
+    edges = sample_edges(ribbon.times)
+    spans = [(edges[a], edges[b] - edges[a], ribbon.labels[a]) for a, b in runs(ribbon.labels)
+             if ribbon.labels[a] >= 0]
+    ax.broken_barh([(x, w) for x, w, _ in spans], (0, 1),
+                   facecolors=[ribbon.colours[k] for *_, k in spans], edgecolor="none")
+    duration = edges[-1] - edges[0]
+    for x, width, k in spans:
+        if width >= NAMED_RUN * duration:
+            dark = np.dot(ribbon.colours[k][:3], (0.299, 0.587, 0.114)) < 0.5
+            ax.text(x + width / 2, 0.5, ribbon.names[k], ha="center", va="center", fontsize=6,
+                    color="white" if dark else "black", clip_on=True)
+    ax.set_xlim(edges[0], edges[-1])
+    ax.set_ylim(0, 1)
+    ax.set_yticks([0.5], [ribbon.label])
     ax.tick_params(axis="y", length=0)
     for side in ("top", "right", "left"):
         ax.spines[side].set_visible(False)
 
 
-def legend_handles(names: Sequence[str], cmap: str) -> list[Patch]:
-    colours = plt.get_cmap(cmap)(np.linspace(0, 1, len(names)) if cmap != GESTURE_CMAP
-                                 else np.arange(len(names)))
-    return [Patch(color=c, label=n) for c, n in zip(colours, names)]
+def legend_handles(names: Sequence[str], colours: np.ndarray) -> list[Patch]:
+    """One legend patch per class, in the colours the ribbons use."""
+    return [Patch(facecolor=c, label=n) for n, c in zip(names, colours)]
 
 
-def plot_ribbon_rows(rows: Sequence[tuple[str, np.ndarray, int, str]], path: Path | str,
-                     legends: Sequence[tuple[Sequence[str], str]], title: str = "",
-                     sample_hz: float | None = None) -> Path:
-    """Save a figure of stacked ribbons.
+def layout_with_legends(fig: plt.Figure, ribbons: Sequence[Ribbon]) -> None:
+    """Lay out ``fig``'s axes above one legend row per class vocabulary of ``ribbons`` (each
+    vocabulary once, in order), then draw the legends."""
+    vocabularies: dict[tuple[str, ...], np.ndarray] = {}
+    for r in ribbons:
+        vocabularies.setdefault(r.names, r.colours)
+    row = LEGEND_ROW_INCHES / fig.get_figheight()
+    fig.tight_layout(rect=(0, row * len(vocabularies), 1, 1))
+    for i, (names, colours) in enumerate(vocabularies.items()):
+        fig.legend(handles=legend_handles(names, colours), loc="lower center", ncol=len(names),
+                   fontsize=7, frameon=False,
+                   bbox_to_anchor=(0.5, row * (len(vocabularies) - 1 - i)))
 
-    Args:
-        rows: ``(name, labels [T], num_classes, cmap)`` per ribbon, top to bottom.
-        path: the image file to write.
-        legends: ``(class names, cmap)`` per legend group, e.g. a task's gestures and stages.
-        title: figure title.
-        sample_hz: sampling rate of the labels, for the x-axis label.
-    """
-    fig, axes = plt.subplots(len(rows), 1, figsize=(10, 0.45 * len(rows) + 1.2), sharex=True,
-                             squeeze=False)
-    for ax, (name, labels, num_classes, cmap) in zip(axes[:, 0], rows):
-        draw_ribbon(ax, labels, num_classes, cmap, name)
-    axes[0, 0].set_xlim(-0.5, max(len(r[1]) for r in rows) - 0.5)
-    axes[-1, 0].set_xlabel(f"sample ({sample_hz:g} Hz)" if sample_hz else "sample")
+
+def plot_ribbons(ribbons: Sequence[Ribbon], path: Path | str, title: str = "") -> Path:
+    """Save a figure of stacked ribbons (time in seconds) with a legend of their classes."""
+    legends = len({r.names for r in ribbons})
+    fig, axes = plt.subplots(len(ribbons), 1, sharex=True, squeeze=False,
+                             figsize=(10, 0.4 * len(ribbons) + 0.8 + LEGEND_ROW_INCHES * legends))
+    for ax, ribbon in zip(axes[:, 0], ribbons):
+        draw_ribbon(ax, ribbon)
+    axes[-1, 0].set_xlim(0, max(sample_edges(r.times)[-1] for r in ribbons))
+    axes[-1, 0].set_xlabel("time [s]")
     if title:
         axes[0, 0].set_title(title, fontsize=9)
-    handles = [h for names, cmap in legends for h in legend_handles(names, cmap)]
-    fig.legend(handles=handles, loc="lower center", ncol=15, fontsize=7, frameon=False,
-               bbox_to_anchor=(0.5, 0.0))
-    fig.tight_layout(rect=(0, 0.08, 1, 1))
-    return _save(fig, path)
+    layout_with_legends(fig, ribbons)
+    return save_png(fig, path)
 
 
-def _save(fig: plt.Figure, path: Path | str) -> Path:
+def save_png(fig: plt.Figure, path: Path | str, dpi: int = 110) -> Path:
+    """Write ``fig`` to ``path`` (folders created) and close it."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
+    fig.savefig(path, dpi=dpi)
     plt.close(fig)
     return path
 
 
-def plot_dataset(trials, path: Path | str, sample_hz: float, task: TaskDefinition) -> Path:
-    """Gesture and progress ribbons of every trial of ``task`` (two rows per trial) in one PNG."""
-    rows = []
+def plot_dataset(trials, path: Path | str, sample_hz: float, gesture_names: Sequence[str],
+                 stage_names: Sequence[str]) -> Path:
+    """Gesture and progress ribbons of every trial (two rows per trial) in one PNG.
+
+    Args:
+        trials: ``jigsaws_tools.dataset.Trial`` objects (labels at ``sample_hz``).
+        path: the PNG to write.
+        sample_hz: rate of the trials' samples (5 Hz after preprocessing).
+        gesture_names: the task's gesture classes, in index order.
+        stage_names: the progress stages, in order.
+    """
+    gestures = (tuple(gesture_names), task_colours(len(gesture_names), ordered=False))
+    stages = (tuple(stage_names), task_colours(len(stage_names), ordered=True))
+    ribbons = []
     for t in trials:
-        rows.append((f"{t.name} gesture", t.gestures, task.num_gestures, GESTURE_CMAP))
-        rows.append(("progress", t.progress, task.num_stages, PROGRESS_CMAP))
-    legends = [(task.gestures, GESTURE_CMAP), (task.stage_labels, PROGRESS_CMAP)]
-    return plot_ribbon_rows(rows, path, legends, sample_hz=sample_hz)
+        times = np.arange(len(t)) / sample_hz
+        ribbons.append(Ribbon(f"{t.name} gesture", t.gestures, times, *gestures))
+        ribbons.append(Ribbon("progress", t.progress, times, *stages))
+    return plot_ribbons(ribbons, path)

@@ -16,7 +16,6 @@ from dataclasses import dataclass
 from typing import Sequence
 
 import numpy as np
-from scipy import signal
 
 from .gestures import UNLABELLED
 from .release import KINEMATICS_HZ
@@ -38,9 +37,16 @@ class PreprocessConfig:
         return KINEMATICS_HZ / self.resample_factor
 
 
+def _scipy_signal():
+    """``scipy.signal``, imported on first use: its import costs every command line 0.6 s."""
+    from scipy import signal
+
+    return signal
+
+
 def butterworth(cutoff_hz: float, order: int, fs_hz: float = KINEMATICS_HZ) -> np.ndarray:
     """Second-order sections ``[n_sections, 6]`` (``b0 b1 b2 1 a1 a2``) of the low-pass."""
-    return signal.butter(order, cutoff_hz, btype="low", fs=fs_hz, output="sos")
+    return _scipy_signal().butter(order, cutoff_hz, btype="low", fs=fs_hz, output="sos")
 
 
 def lowpass(x: np.ndarray, cutoff_hz: float, order: int, fs_hz: float = KINEMATICS_HZ) -> np.ndarray:
@@ -49,7 +55,7 @@ def lowpass(x: np.ndarray, cutoff_hz: float, order: int, fs_hz: float = KINEMATI
     ``x``: ``[n_frames, n_features]`` at ``fs_hz``; returns the same shape. Needs more frames than
     scipy's edge padding (15 for order 4).
     """
-    return signal.sosfiltfilt(butterworth(cutoff_hz, order, fs_hz), x, axis=0)
+    return _scipy_signal().sosfiltfilt(butterworth(cutoff_hz, order, fs_hz), x, axis=0)
 
 
 class CausalLowpass:
@@ -68,8 +74,8 @@ class CausalLowpass:
         """Filter the next frames ``[n, F]`` (``n`` >= 1) of the signal; returns ``[n, F]``."""
         x = np.asarray(x, dtype=np.float64)
         if self._state is None:
-            self._state = signal.sosfilt_zi(self.sos)[:, :, None] * x[0]
-        y, self._state = signal.sosfilt(self.sos, x, axis=0, zi=self._state)
+            self._state = _scipy_signal().sosfilt_zi(self.sos)[:, :, None] * x[0]
+        y, self._state = _scipy_signal().sosfilt(self.sos, x, axis=0, zi=self._state)
         return y
 
 

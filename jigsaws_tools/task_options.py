@@ -13,7 +13,7 @@ def add_task_options(parser: argparse.ArgumentParser | argparse._ArgumentGroup) 
                        help=f"a built-in JIGSAWS task (default: {PAPER_TASK}, the paper's)")
     group.add_argument("--task-file", metavar="PATH",
                        help="your own task definition (TOML; format in "
-                            "jigsaws_tools/task_definition.py)")
+                            "jigsaws_tools/task_definition.py; default: none, --task's)")
 
 
 def task_from_options(args: argparse.Namespace) -> TaskDefinition:

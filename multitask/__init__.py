@@ -5,11 +5,13 @@ Read first: ``variants.VARIANTS`` (A, APr, APc, APoc, Pr, Pc, Poc), then ``fold_
 run: ``trained_run.load_run`` (its ``predict`` labels a recording's kinematics).
 
 * ``heads``: the progress heads (regression, classification, ordered classification);
+  ``config``: the multi-task configuration (weightings, GradNorm; no TensorFlow import);
 * ``grid_spec``: TOML specs, presets, the runs they expand to; ``grid_record``: grid.json and
   the check of a grid folder; ``grid_job``: one worker's job; ``grid_executors``: the local process
   pool and Dask;
 * ``collect``, ``tables``, ``figures``: results of a grid as the paper's tables and figures;
-  ``paper_results``: the published numbers;
+  ``captions``: what the runs were trained with, for the tables' captions; ``latex``: pieces of
+  paste-ready tables; ``curves``: training curves; ``paper_results``: the published numbers;
 * ``paired``: paired statistics of two configurations over folds and seeds; ``claims``: the
   paper's claims as data, tested with them; ``claims_table``: ``claims.csv`` and ``claims.tex``.
 * ``trained_run``, ``predictions``: a run folder loaded for use, its predictions per frame;
@@ -30,7 +32,7 @@ _PUBLIC = {
     "export_run": "export",
     "train_variant": "fold_run",
     "variant_trainer": "fold_run",
-    "GradNormConfig": "gradnorm",
+    "GradNormConfig": "config",
     "VARIANTS": "variants",
     "Variant": "variants",
     "get_variant": "variants",

@@ -43,7 +43,7 @@ def claims_latex(table: pd.DataFrame, config: BootstrapConfig = BootstrapConfig(
     """``table`` (``claims.evaluate``) as a booktabs ``table*``: the claims grouped under the
     paper's words, one line per comparison and score."""
     lines = [r"% The paper's claims tested on our runs (multitask-tables, claims.csv).",
-             r"% Requires \usepackage{booktabs}.",
+             r"% Requires: \usepackage{booktabs}",
              r"\begin{table*}[t]", r"\centering", r"\footnotesize", r"\setlength{\tabcolsep}{4pt}",
              rf"\caption{{{_caption(table, config)}}}", r"\label{tab:claims}",
              rf"\begin{{tabular*}}{{\textwidth}}{{{_COLUMN_SPEC}}}", r"\toprule",

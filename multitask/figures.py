@@ -1,18 +1,23 @@
 """The paper's figures from a grid's runs, each saved as PNG and PDF.
 
-* ``per_gesture_accuracy``: accuracy of each gesture, A vs APoc (paper Fig. 4);
-* ``segmentation_example``: ground truth, A and APoc ribbons for one test trial (Fig. 5);
-* ``progress_example``: predicted vs true progress stage over time (Fig. 6);
-* ``fold_accuracy``: gesture vs progress accuracy per fold (Fig. 7);
+* ``per_gesture_accuracy``: accuracy of each gesture, A vs APoc (paper Fig. 4): the mean over the
+  folds whose test trials contain the gesture, their standard deviation as error bar; a gesture
+  that occurs but is never recognised shows as 0, one absent from every test set as n/a;
+* ``segmentation_example``: ground truth, A and APoc ribbons of one test trial (Fig. 5);
+* ``progress_example``: true progress and APr's regression output, APc's and APoc's predicted
+  stages over time (Fig. 6);
+* ``fold_accuracy``: gesture vs progress accuracy of each fold, APoc (Fig. 7; without APoc runs,
+  every two-task configuration);
 * ``gradnorm_weights``: task weights over training for the GradNorm runs.
 
-Figures read the revised-annotation, bidirectional runs of seed 0 where one run is needed. The
-gesture classes and progress stages are the grid's task's, read from the runs' own metric columns
-(``gesture_accuracy_<gesture>``, ``progress_accuracy_P<k>``), so any task's grid draws correctly.
+Figures read the revised-annotation, bidirectional runs of seed 0 where one run is needed; the
+example trial is a choice (``--example-trial``). Time is in seconds; class names come from the
+runs' predictions (their ``<task>_p_<class>`` columns), colours from ``jigsaws_tools.plots``.
 """
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Sequence
 
 import matplotlib
 
@@ -21,20 +26,24 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from jigsaws_tools.plots import draw_ribbon, legend_handles  # noqa: E402
+from jigsaws_tools.plots import (Ribbon, draw_ribbon, layout_with_legends,  # noqa: E402
+                                 task_colours)
+from jigsaws_tools.release import KINEMATICS_HZ  # noqa: E402
 
-from .collect import lookup  # noqa: E402
 from .grid_spec import RunKey  # noqa: E402
 from .tables import CONFIG_LABELS  # noqa: E402
 
 OFFLINE = {"annotations": "revised", "direction": "bidirectional"}
 COMPARED = ("A-fixed", "APoc-fixed", "APoc-gradnorm")
+#: Runs shown by the example figures: segmentation, then progress (regression output first).
+SEGMENTATION_RUNS = ("A-fixed", "APoc-fixed")
+PROGRESS_RUNS = ("APr-fixed", "APc-fixed", "APoc-fixed")
+FOLD_RUNS = ("APoc-fixed", "APoc-gradnorm")
 
 
 def save(fig: plt.Figure, out_dir: Path, name: str) -> list[Path]:
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = [out_dir / f"{name}.{ext}" for ext in ("png", "pdf")]
-    fig.tight_layout()
     for path in paths:
         fig.savefig(path, dpi=150, bbox_inches="tight")
     plt.close(fig)
@@ -45,124 +54,145 @@ def _label(config: str) -> str:
     return CONFIG_LABELS.get(config, config)
 
 
-def _offline(summary: pd.DataFrame, config: str) -> pd.Series | None:
-    return lookup(summary, OFFLINE["annotations"], OFFLINE["direction"], config)
+def _offline_folds(folds: pd.DataFrame, config: str) -> pd.DataFrame:
+    variant, weighting = config.rsplit("-", 1)
+    return folds[(folds.annotations == OFFLINE["annotations"])
+                 & (folds.direction == OFFLINE["direction"])
+                 & (folds.variant == variant) & (folds.weighting == weighting)]
 
 
-def class_names(table: pd.DataFrame, task: str) -> list[str]:
-    """The classes of ``task`` (``"gesture"`` or ``"progress"``) in the order of the runs' metric
-    columns ``<task>_accuracy_<class>[_mean]`` of ``table`` (a summary or per-fold table)."""
-    prefix = f"{task}_accuracy_"
-    names = [c.removeprefix(prefix).removesuffix("_mean") for c in table.columns
-             if c.startswith(prefix) and not c.endswith("_std")]
-    return list(dict.fromkeys(names))
-
-
-def per_gesture_accuracy(summary: pd.DataFrame, out_dir: Path) -> list[Path]:
-    """Grouped bars: mean over folds of each gesture's accuracy, one bar per compared model."""
-    rows = {c: r for c in COMPARED if (r := _offline(summary, c)) is not None}
-    gestures = class_names(summary, "gesture")
-    if not rows or not gestures:
+def per_gesture_accuracy(folds: pd.DataFrame, gestures: Sequence[str], out_dir: Path
+                         ) -> list[Path]:
+    """Grouped bars, one per compared model: each gesture's accuracy, mean and std over the folds
+    where it occurs (``folds``: ``collect.per_fold``); ``gestures`` in class order."""
+    rows = {c: r for c in COMPARED if not (r := _offline_folds(folds, c)).empty}
+    if not rows:
         return []
     fig, ax = plt.subplots(figsize=(8, 3.2))
     width = 0.8 / len(rows)
     x = np.arange(len(gestures))
-    for k, (config, row) in enumerate(rows.items()):
-        values = [row.get(f"gesture_accuracy_{g}_mean", np.nan) for g in gestures]
-        ax.bar(x + (k - (len(rows) - 1) / 2) * width, values, width, label=_label(config))
+    for k, (config, table) in enumerate(rows.items()):
+        values = table.reindex(columns=[f"gesture_accuracy_{g}" for g in gestures])
+        mean, std = values.mean(), values.std(ddof=1).fillna(0.0)
+        at = x + (k - (len(rows) - 1) / 2) * width
+        ax.bar(at, mean.fillna(0.0), width, yerr=std, capsize=2, label=_label(config),
+               error_kw={"elinewidth": 0.8})
+        for position, value in zip(at, mean):
+            if np.isnan(value) or value == 0:       # absent everywhere / never recognised
+                ax.text(position, 1.5, "n/a" if np.isnan(value) else "0", ha="center",
+                        va="bottom", fontsize=6, rotation=90, color="0.35")
     ax.set_xticks(x, gestures)
     ax.set_ylabel("accuracy [%]")
-    ax.set_ylim(0, 100)
-    ax.set_title("Recognition accuracy of individual gestures (mean over folds)", fontsize=9)
+    ax.set_ylim(0, 105)
+    ax.set_title("Recognition accuracy of individual gestures: mean and std over the folds where "
+                 "each occurs (0: never recognised, n/a: in no test set)", fontsize=8)
     ax.legend(fontsize=7, ncol=len(rows), loc="upper center", bbox_to_anchor=(0.5, -0.1))
     return save(fig, out_dir, "per_gesture_accuracy")
 
 
-def _predictions(grid_dir: Path, config: str, fold: str) -> dict[str, pd.DataFrame]:
-    """The last evaluation point's per-trial predictions of one run (seed 0): name -> frame."""
+def _run_dir(grid_dir: Path, config: str, fold: str) -> Path:
     variant, weighting = config.rsplit("-", 1)
-    run = grid_dir / RunKey(OFFLINE["annotations"], OFFLINE["direction"], variant, weighting, 0,
-                            fold).path()
-    points = sorted((run / "eval").glob("*/predictions"))
-    if not points:
-        return {}
-    return {p.stem: pd.read_csv(p) for p in sorted(points[-1].glob("*.csv"))}
+    return grid_dir / RunKey(OFFLINE["annotations"], OFFLINE["direction"], variant, weighting, 0,
+                             fold).path()
 
 
-def segmentation_example(grid_dir: Path, fold: str, gestures: list[str], out_dir: Path
-                         ) -> list[Path]:
-    """Ribbons of ground truth, A and APoc for the first test trial of ``fold`` in both runs.
+def _predictions(grid_dir: Path, config: str, fold: str) -> dict[str, Path]:
+    """The last evaluation point's per-trial prediction files of one run (seed 0)."""
+    points = sorted((_run_dir(grid_dir, config, fold) / "eval").glob("*/predictions"))
+    return {p.stem: p for p in sorted(points[-1].glob("*.csv"))} if points else {}
 
-    Args:
-        grid_dir: the grid's output folder.
-        fold: the test user whose trial is shown.
-        gestures: the task's gesture classes, in class order.
-        out_dir: where the figure goes.
-    """
-    runs = {c: _predictions(grid_dir, c, fold) for c in ("A-fixed", "APoc-fixed")}
-    common = sorted(set.intersection(*(set(r) for r in runs.values())))
-    if not common:
+
+def trial_folds(grid_dir: Path, folds: Sequence[str], config: str = SEGMENTATION_RUNS[0]
+                ) -> dict[str, str]:
+    """Every test trial of ``config``'s seed-0 runs (offline), in order: trial -> fold."""
+    return {trial: fold for fold in folds for trial in _predictions(grid_dir, config, fold)}
+
+
+def class_names(predictions: pd.DataFrame, task: str) -> tuple[str, ...]:
+    """A task's classes, in index order, from the score columns ``<task>_p_<class>`` of its
+    predictions; ``()`` for a task without them (regression, ordinal outputs)."""
+    prefix = f"{task}_p_"
+    return tuple(c.removeprefix(prefix) for c in predictions.columns if c.startswith(prefix))
+
+
+def _seconds(predictions: pd.DataFrame) -> np.ndarray:
+    """Time of each sample from the 30 Hz frame (1-based) it came from."""
+    return (predictions.frame.to_numpy() - 1) / KINEMATICS_HZ
+
+
+def segmentation_example(grid_dir: Path, trial: str, fold: str, out_dir: Path) -> list[Path]:
+    """Ribbons of ground truth, A and APoc for test trial ``trial`` of ``fold``."""
+    runs = {c: pd.read_csv(files[trial]) for c in SEGMENTATION_RUNS
+            if trial in (files := _predictions(grid_dir, c, fold))}
+    if not runs:
         return []
-    trial = common[0]
-    first = runs["A-fixed"][trial]
-    rows = [("ground truth", first.gesture_true.to_numpy())]
-    rows += [(_label(c), r[trial].gesture_pred.to_numpy()) for c, r in runs.items()]
-    fig, axes = plt.subplots(len(rows), 1, figsize=(10, 2.2), sharex=True)
-    for ax, (name, labels) in zip(axes, rows):
-        draw_ribbon(ax, labels, len(gestures), "tab10", name)
-    _time_axis(axes[-1], first.frame.to_numpy())
+    first = next(iter(runs.values()))
+    names = class_names(first, "gesture")
+    colours = task_colours(len(names), ordered=False)
+    times = _seconds(first)
+    ribbons = [Ribbon("ground truth", first.gesture_true.to_numpy(), times, names, colours)]
+    ribbons += [Ribbon(_label(c), p.gesture_pred.to_numpy(), times, names, colours)
+                for c, p in runs.items()]
+    fig, axes = plt.subplots(len(ribbons), 1, figsize=(10, 2.2), sharex=True)
+    for ax, ribbon in zip(axes, ribbons):
+        draw_ribbon(ax, ribbon)
+    axes[-1].set_xlabel("time [s]")
     axes[0].set_title(f"{trial}: gesture segmentation", fontsize=9)
-    fig.legend(handles=legend_handles(gestures, "tab10"), loc="lower center", ncol=10, fontsize=6,
-               bbox_to_anchor=(0.5, -0.08))
+    layout_with_legends(fig, ribbons)
     return save(fig, out_dir, "segmentation_example")
 
 
-def progress_example(grid_dir: Path, fold: str, num_stages: int, out_dir: Path) -> list[Path]:
-    """True and predicted progress stage (``0..num_stages-1``) over time, APc and APoc, first
-    common test trial."""
-    runs = {c: r for c in ("APc-fixed", "APoc-fixed") if (r := _predictions(grid_dir, c, fold))}
+def progress_example(grid_dir: Path, trial: str, fold: str, out_dir: Path) -> list[Path]:
+    """True progress of ``trial`` and the predictions over time: APr's raw regression output (a
+    line), APc's and APoc's stages (steps)."""
+    runs = {c: pd.read_csv(files[trial]) for c in PROGRESS_RUNS
+            if trial in (files := _predictions(grid_dir, c, fold))}
     if not runs:
         return []
-    trial = sorted(set.intersection(*(set(r) for r in runs.values())))[0]
     fig, ax = plt.subplots(figsize=(9, 2.8))
-    first = next(iter(runs.values()))[trial]
-    seconds = first.frame.to_numpy() / 30.0
-    ax.step(seconds, first.progress_true, where="post", color="k", lw=2, label="truth")
-    for config, preds in runs.items():
-        ax.step(seconds, preds[trial].progress_pred, where="post", alpha=0.8, label=_label(config))
-    ax.set_yticks(range(num_stages))
+    first = next(iter(runs.values()))
+    times = _seconds(first)
+    ax.step(times, first.progress_true, where="post", color="k", lw=2, label="truth")
+    for config, predictions in runs.items():
+        if "progress_value" in predictions:
+            ax.plot(times, predictions.progress_value, color="tab:red", lw=1,
+                    label=f"{_label(config)}: regression output")
+        else:
+            ax.step(times, predictions.progress_pred, where="post", alpha=0.8, label=_label(config))
+    names = next((n for p in runs.values() if (n := class_names(p, "progress"))), ())
+    stages = max(len(names), int(first.progress_true.max()) + 1)
+    ax.set_yticks(range(stages), names or range(stages))
     ax.set_ylabel("progress stage")
     ax.set_xlabel("time [s]")
+    ax.set_xlim(times[0], times[-1])
     ax.set_title(f"{trial}: progress prediction", fontsize=9)
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1))
     return save(fig, out_dir, "progress_example")
 
 
-def _time_axis(ax: plt.Axes, frames: np.ndarray) -> None:
-    ticks = np.linspace(0, len(frames) - 1, 6).astype(int)
-    ax.set_xticks(ticks, [f"{frames[t] / 30:.0f}" for t in ticks])
-    ax.set_xlabel("time [s]")
-
-
 def fold_accuracy(folds: pd.DataFrame, out_dir: Path) -> list[Path]:
-    """Scatter of gesture vs progress accuracy, one point per fold, per multi-task model."""
-    offline = folds[(folds.annotations == OFFLINE["annotations"])
-                    & (folds.direction == OFFLINE["direction"])]
-    if "progress_accuracy" not in offline or "gesture_accuracy" not in offline:
+    """Gesture vs progress accuracy, one point per fold labelled with its test user: APoc's (the
+    paper's Fig. 7), or every two-task configuration's if the grid ran no APoc."""
+    if not {"gesture_accuracy", "progress_accuracy"} <= set(folds):
         return []
-    both = offline.dropna(subset=["gesture_accuracy", "progress_accuracy"])
-    if both.empty:
+    both = folds.dropna(subset=["gesture_accuracy", "progress_accuracy"])
+    configs = [c for c in FOLD_RUNS if not _offline_folds(both, c).empty] or list(dict.fromkeys(
+        f"{r.variant}-{r.weighting}" for r in both.itertuples()))
+    tables = {c: t for c in configs if not (t := _offline_folds(both, c)).empty}
+    if not tables:
         return []
     fig, ax = plt.subplots(figsize=(4.5, 4))
-    for (variant, weighting), group in both.groupby(["variant", "weighting"]):
-        ax.scatter(group.gesture_accuracy, group.progress_accuracy, s=18,
-                   label=_label(f"{variant}-{weighting}"))
-        for row in group.itertuples():
-            ax.annotate(row.fold, (row.gesture_accuracy, row.progress_accuracy), fontsize=6)
+    for config, table in tables.items():
+        points = ax.scatter(table.gesture_accuracy, table.progress_accuracy, s=22,
+                            label=_label(config))
+        for row in table.itertuples():
+            ax.annotate(row.fold, (row.gesture_accuracy, row.progress_accuracy), fontsize=9,
+                        xytext=(4, 3), textcoords="offset points",
+                        color=points.get_facecolor()[0])
     ax.set_xlabel("gesture accuracy [%]")
     ax.set_ylabel("progress accuracy [%]")
-    ax.set_title("Per fold: gesture vs progress accuracy", fontsize=9)
-    ax.legend(fontsize=6)
+    ax.set_title("Per fold (test user): gesture vs progress accuracy", fontsize=9)
+    ax.legend(fontsize=7)
     return save(fig, out_dir, "fold_accuracy")
 
 
@@ -190,13 +220,28 @@ def gradnorm_weights(grid_dir: Path, out_dir: Path) -> list[Path]:
     return save(fig, out_dir, "gradnorm_weights")
 
 
-def all_figures(grid_dir: Path, summary: pd.DataFrame, folds: pd.DataFrame, out_dir: Path
-                ) -> list[Path]:
-    """Every figure the grid has the runs for; the example trial is from the first fold."""
-    first_fold = sorted(folds.fold.unique())[0]
-    return [*per_gesture_accuracy(summary, out_dir),
-            *segmentation_example(grid_dir, first_fold, class_names(summary, "gesture"), out_dir),
-            *progress_example(grid_dir, first_fold, len(class_names(summary, "progress")),
-                              out_dir),
-            *fold_accuracy(folds, out_dir),
-            *gradnorm_weights(grid_dir, out_dir)]
+def example_trial(grid_dir: Path, folds: pd.DataFrame, requested: str | None = None
+                  ) -> tuple[str, str] | None:
+    """``(trial, fold)`` of the example figures: ``requested`` (e.g. ``Suturing_B001``) or the
+    first test trial of the first fold; None if the grid has no run to show."""
+    trials = trial_folds(grid_dir, sorted(folds.fold.unique()))
+    if requested is None:
+        return next(iter(trials.items()), None)
+    if requested not in trials:
+        raise ValueError(f"example trial {requested!r} is not a test trial of the grid's "
+                         f"{SEGMENTATION_RUNS[0]} runs; choose one of {', '.join(trials)}")
+    return requested, trials[requested]
+
+
+def all_figures(grid_dir: Path, folds: pd.DataFrame, out_dir: Path,
+                example: tuple[str, str] | None) -> list[Path]:
+    """Every figure the grid has the runs for; ``example`` = ``(trial, fold)`` of the example
+    figures (``example_trial``), None for none."""
+    written = []
+    if example is not None:
+        trial, fold = example
+        predictions = pd.read_csv(_predictions(grid_dir, SEGMENTATION_RUNS[0], fold)[trial])
+        written += per_gesture_accuracy(folds, class_names(predictions, "gesture"), out_dir)
+        written += segmentation_example(grid_dir, trial, fold, out_dir)
+        written += progress_example(grid_dir, trial, fold, out_dir)
+    return written + fold_accuracy(folds, out_dir) + gradnorm_weights(grid_dir, out_dir)

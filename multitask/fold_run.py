@@ -3,19 +3,17 @@ from __future__ import annotations
 
 from functools import partial
 from pathlib import Path
-from typing import Callable, Literal
+from typing import Callable
 
 from baseline.builder import build_trainer, run_configs
 from baseline.config import RunConfig
 from jigsaws_tools.dataset import Dataset
 from rnn_seg.trainer import Trainer
 
+from .config import WEIGHTINGS, Weighting
 from .gradnorm import GradNormConfig, GradNormTrainer
 from .heads import HeadConfig
 from .variants import Variant
-
-Weighting = Literal["fixed", "gradnorm"]
-WEIGHTINGS = ("fixed", "gradnorm")
 
 
 def check_weighting(variant: Variant, weighting: Weighting) -> None:

@@ -18,34 +18,14 @@ and, by linearity, the weighted network gradient.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Literal
-
 import numpy as np
 import tensorflow as tf
 
 from rnn_seg.trainer import Trainer, append_csv_row
-from rnn_seg.validation import require_choice, require_number
+
+from .config import RELATIVE_RATES, GradNormConfig, RelativeRate  # noqa: F401 (re-exported)
 
 MIN_WEIGHT = 1e-3
-RelativeRate = Literal["chen", "paper"]
-RELATIVE_RATES = ("chen", "paper")
-
-
-@dataclass(frozen=True)
-class GradNormConfig:
-    """GradNorm's asymmetry ``alpha`` (0 = equal gradient norms), the task weights' learning rate,
-    and what the loss ratios ``L_i / L_i(0)`` are divided by: their mean (``chen``) or the mean
-    loss (``paper``)."""
-
-    alpha: float = 1.5
-    learning_rate: float = 0.025
-    relative_rate: RelativeRate = "chen"
-
-    def __post_init__(self):
-        require_number("GradNormConfig.alpha", self.alpha, low=0)
-        require_number("GradNormConfig.learning_rate", self.learning_rate, low=0, open_low=True)
-        require_choice("GradNormConfig.relative_rate", self.relative_rate, RELATIVE_RATES)
 
 
 def shared_layer_variables(model) -> list[tf.Variable]:

@@ -12,33 +12,43 @@ every run at once, resumably.
 from __future__ import annotations
 
 import argparse
-import logging
-import os
 import sys
 from pathlib import Path
 
-from jigsaws_tools.errors import JigsawsError
-from rnn_seg.folder_lock import hold_folder
+from baseline.options import add_threads_argument
+from jigsaws_tools.arg_types import positive_int
+from jigsaws_tools.cli_common import command_parser, deprecated_alias, run_command
+from jigsaws_tools.options import DEFAULT_DATA_DIR_TEXT
 from rnn_seg.provenance import set_command
-from rnn_seg.rundir import RunFolderError
 
-from .grid_executors import run_grid
-from .grid_record import prepare_grid
 from .grid_spec import (PRESETS, GridSpec, expand, load_spec, release_users, with_budget,
                         with_overrides)
 
+PROG = "multitask-grid"
+
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="multitask-grid", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--spec", type=Path, help="TOML grid spec (see multitask.grid_spec)")
-    parser.add_argument("--preset", choices=list(PRESETS), help="override the spec's preset")
-    parser.add_argument("--out", type=Path, required=True, help="grid folder (shared on Dask)")
-    parser.add_argument("--workers", type=int, default=1, help="local worker processes")
-    parser.add_argument("--scheduler", help="Dask scheduler address: run the jobs on that cluster")
-    parser.add_argument("--threads-per-job", type=int, default=0,
-                        help="cores per run (default: cores / workers locally, 1 on Dask)")
-    parser.add_argument("--stack", type=int, default=1,
+    parser = command_parser(PROG, __doc__)
+    parser.add_argument("--spec", type=Path, metavar="TOML",
+                        help="grid spec (keys in multitask/grid_spec.py; default: the preset's "
+                             "whole paper grid)")
+    parser.add_argument("--preset", choices=list(PRESETS),
+                        help="override the spec's preset (budget: width, schedule, seeds; "
+                             "default: the spec's, else quick)")
+    parser.add_argument("--data-dir", metavar="DIR",
+                        help="override the spec's data_dir: a release folder or 'synthetic' "
+                             f"(default: the spec's, else {DEFAULT_DATA_DIR_TEXT})")
+    parser.add_argument("--out", type=Path, required=True, metavar="DIR",
+                        help="grid folder (shared by every worker on Dask)")
+    parser.add_argument("--workers", type=positive_int, default=1, metavar="N",
+                        help="local worker processes")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="Dask scheduler address (tcp://host:8786): run the jobs on that "
+                             "cluster (default: none, local workers)")
+    threads = add_threads_argument(parser, "cores per run (default: 0 = the machine's cores / "
+                                           "--workers locally, 1 on Dask)")
+    deprecated_alias(parser, "--threads-per-job", threads)
+    parser.add_argument("--stack", type=positive_int, default=1, metavar="N",
                         help="train up to N runs of one configuration (folds, seeds) together in "
                              "one vectorised step per job; pays for small models "
                              "(docs/PERFORMANCE.md)")
@@ -51,25 +61,25 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "2")
-    logging.basicConfig(format="%(levelname)s: %(message)s", level=logging.WARNING)
     args = build_parser().parse_args(argv)
-    set_command(["multitask-grid", *(sys.argv[1:] if argv is None else argv)])
-    if min(args.workers, args.stack) < 1:
-        print("multitask-grid: error: --workers and --stack must be >= 1", file=sys.stderr)
-        return 2
-    try:
-        spec = load_spec(args.spec) if args.spec else GridSpec()
-        spec = with_overrides(spec, preset=args.preset)
-        spec = with_budget(spec.with_absolute_paths())              # as recorded, one path
-        keys = expand(spec, release_users(spec))
-    except (JigsawsError, ValueError, OSError) as error:
-        print(f"multitask-grid: error: {error}", file=sys.stderr)
-        return 2
+    set_command([PROG, *(sys.argv[1:] if argv is None else argv)])
+    return run_command(PROG, args.verbose, lambda: _run(args))
+
+
+def _run(args: argparse.Namespace) -> int:
+    from rnn_seg.folder_lock import hold_folder
+
+    from .grid_executors import run_grid
+    from .grid_record import prepare_grid
+
+    spec = load_spec(args.spec) if args.spec else GridSpec()
+    spec = with_overrides(spec, preset=args.preset, data_dir=args.data_dir)
+    spec = with_budget(spec.with_absolute_paths())              # as recorded, one path
+    keys = expand(spec, release_users(spec))
     budget = spec.budget
     print(f"grid: task {spec.task}, preset {spec.preset}, H={budget.hidden}, "
-          f"schedule x{budget.schedule_scale:g}, seeds {list(budget.seeds)}, data {spec.data}",
-          flush=True)
+          f"schedule x{budget.schedule_scale:g}, seeds {list(budget.seeds)}, "
+          f"data {spec.data_dir}", flush=True)
     if args.dry_run:
         for key in keys:
             print(key.path())
@@ -81,17 +91,14 @@ def main(argv: list[str] | None = None) -> int:
     try:
         with hold_folder(args.out, "grid folder"):
             prepare_grid(args.out, spec, keys, args.restart, log)
-            failed = run_grid(spec, keys, args.out, args.workers, args.scheduler,
-                              args.threads_per_job, args.stack, log=log)
-    except (JigsawsError, ValueError, OSError, RunFolderError) as error:
-        print(f"multitask-grid: error: {error}", file=sys.stderr)
-        return 2
+            failed = run_grid(spec, keys, args.out, args.workers, args.scheduler, args.threads,
+                              args.stack, log=log)
     except KeyboardInterrupt:
-        print("multitask-grid: interrupted: queued runs cancelled, running ones stopped; run the "
-              "same command again to resume", file=sys.stderr)
+        print(f"{PROG}: interrupted: queued runs cancelled, running ones stopped; run the same "
+              "command again to resume", file=sys.stderr)
         return 130
     if failed:
-        print(f"multitask-grid: {len(failed)} run(s) failed (re-run to retry):", file=sys.stderr)
+        print(f"{PROG}: {len(failed)} run(s) failed (re-run to retry):", file=sys.stderr)
         for key, message in failed:
             print(f"  {key.path()}: {message}", file=sys.stderr)
         return 1

@@ -1,24 +1,25 @@
 """One job of a grid, as a worker process runs it: a group of runs of one configuration.
 
 A job takes and returns plain data (so process pools and Dask can ship it), trains its runs
-together (``rnn_seg.stack``, which holds each run folder's lock) and logs each run to
-``<run dir>/train.log``.
+together (``rnn_seg.stack``) and logs each run to ``<run dir>/train.log``. This module imports
+TensorFlow only inside ``run_job``, after quieting it, so that a worker process that unpickles
+the job prints none of TensorFlow's start-up lines.
 """
 from __future__ import annotations
 
+import logging
 import time
 import traceback
-from contextlib import ExitStack
+from contextlib import ExitStack, contextmanager
 from pathlib import Path
-from typing import Callable, TextIO
+from typing import Callable, Iterator, TextIO
 
-from jigsaws_tools.dataset import load_dataset
+from jigsaws_tools.cli_common import import_tensorflow
 from rnn_seg.provenance import set_command
-from rnn_seg.stack import train_together
-from rnn_seg.threads import configure_threads
 
-from .fold_run import variant_trainer
 from .grid_spec import RunKey, run_arguments, spec_from_dict
+
+Log = Callable[[str], None]
 
 
 def run_job(spec: dict, keys: list[dict], out: str, cores: int, command: list[str] | None = None
@@ -28,8 +29,16 @@ def run_job(spec: dict, keys: list[dict], out: str, cores: int, command: list[st
     (``rnn_seg.stack``). ``command``: the grid's command line, recorded in each run's provenance.
 
     Takes and returns plain data so that process pools and Dask workers can ship it; each run's
-    log (and the traceback of a failure) goes to ``<run dir>/train.log``.
+    log (and the traceback of a failure) goes to ``<run dir>/train.log``, and so do the warnings
+    of the data layer (the submitting process has shown them once already).
     """
+    import_tensorflow()
+    from jigsaws_tools.dataset import load_dataset
+    from rnn_seg.stack import train_together
+    from rnn_seg.threads import configure_threads
+
+    from .fold_run import variant_trainer
+
     if command:
         set_command(command)
     grid, runs = spec_from_dict(spec), [RunKey(**key) for key in keys]
@@ -40,6 +49,7 @@ def run_job(spec: dict, keys: list[dict], out: str, cores: int, command: list[st
         for run_dir in run_dirs:
             run_dir.mkdir(parents=True, exist_ok=True)
             logs.append(_line_writer(files.enter_context(open(run_dir / "train.log", "a"))))
+        files.enter_context(_warnings_to(logs))
         try:
             arguments = [run_arguments(grid, run) for run in runs]
             began = time.perf_counter()
@@ -56,8 +66,32 @@ def run_job(spec: dict, keys: list[dict], out: str, cores: int, command: list[st
             raise
 
 
-def _line_writer(file: TextIO) -> Callable[[str], None]:
+def _line_writer(file: TextIO) -> Log:
     def write(message: str) -> None:
         file.write(message + "\n")
         file.flush()
     return write
+
+
+class _ToLogs(logging.Handler):
+    def __init__(self, logs: list[Log]):
+        super().__init__(logging.WARNING)
+        self.logs = logs
+
+    def emit(self, record: logging.LogRecord) -> None:
+        for log in self.logs:
+            log(f"{record.levelname}: {record.getMessage()}")
+
+
+@contextmanager
+def _warnings_to(logs: list[Log]) -> Iterator[None]:
+    """Send ``jigsaws_tools``' warnings to the runs' logs instead of the worker's terminal."""
+    logger = logging.getLogger("jigsaws_tools")
+    handler, propagate = _ToLogs(logs), logger.propagate
+    logger.addHandler(handler)
+    logger.propagate = False
+    try:
+        yield
+    finally:
+        logger.removeHandler(handler)
+        logger.propagate = propagate

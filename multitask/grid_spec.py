@@ -16,8 +16,8 @@ Example spec (every key optional)::
 
     preset = "quick"
     task = "Suturing"             # a built-in task (Knot_Tying, ...) or a definition file (*.toml)
-    data = "synthetic"            # or the task's JIGSAWS folder; default $JIGSAWS_DIR
-    folds = ["B", "C"]            # default: every user of the release
+    data_dir = "synthetic"        # or the task's JIGSAWS folder; default $JIGSAWS_DIR
+    test_users = ["B", "C"]       # the LOUO folds; default: every user of the release
     seeds = [0]
     hidden = 64                   # budget overrides
     epochs = 10                   # length of the gesture variants' schedule; P scaled alike
@@ -30,31 +30,34 @@ Example spec (every key optional)::
     weightings = ["fixed"]
     annotations = ["revised"]
     directions = ["bidirectional"]
+
+The keys ``data`` and ``folds`` of earlier versions are read as ``data_dir`` and ``test_users``,
+with a deprecation warning.
 """
 from __future__ import annotations
 
 import json
+import logging
 import tomllib
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 
-from baseline.config import RunConfig
+from baseline.config import DIRECTIONS, RunConfig
 from jigsaws_tools.annotations import ANNOTATION_VERSIONS
 from jigsaws_tools.dataset import DataConfig, default_cache_dir, default_data_dir
 from jigsaws_tools.release import discover
 from jigsaws_tools.synth import SynthConfig, ensure_release
 from jigsaws_tools.task_definition import PAPER_TASK, TaskDefinition, load_task
-from rnn_seg.lstm import PRECISIONS, EncoderConfig
-from rnn_seg.trainer import TrainConfig
+from rnn_seg.config import PRECISIONS, EncoderConfig, TrainConfig
 from rnn_seg.validation import require_choice, require_number
 
-from .fold_run import WEIGHTINGS
-from .gradnorm import RELATIVE_RATES, GradNormConfig
-from .heads import ORDINAL_LOSSES, HeadConfig
+from .config import ORDINAL_LOSSES, RELATIVE_RATES, WEIGHTINGS, GradNormConfig, HeadConfig
 from .variants import MULTITASK_EVAL, VARIANTS, get_variant
 
-DIRECTIONS = ("bidirectional", "forward")
+log = logging.getLogger(__name__)
 PAPER_EPOCHS = MULTITASK_EVAL[-1]
+#: Old spec key -> its name now.
+DEPRECATED_KEYS = {"data": "data_dir", "folds": "test_users"}
 
 
 def _tuple(value):
@@ -92,7 +95,7 @@ class RunKey:
 
 def expand(spec: GridSpec, users: tuple[str, ...]) -> list[RunKey]:
     """Every run of the grid, sorted, each once. ``users`` are the release's users."""
-    folds = spec.folds or users
+    folds = spec.test_users or users
     missing = sorted(set(folds) - set(users))
     if missing:
         raise ValueError(f"fold(s) {', '.join(missing)} not among the release's users "
@@ -108,7 +111,7 @@ def expand(spec: GridSpec, users: tuple[str, ...]) -> list[RunKey]:
 def release_users(spec: GridSpec) -> tuple[str, ...]:
     """The LOUO folds of the spec's release: every user with at least one complete trial of the
     spec's task (at least two, or there is no fold to train)."""
-    index = discover(spec.data_dir(), spec.task_definition())
+    index = discover(spec.release_dir(), spec.task_definition())
     if len(index.users) < 2:
         raise ValueError(f"{index.root}: only user {index.users[0]} has complete "
                          f"{index.task.name} trials; leave-one-user-out needs at least two users")
@@ -120,7 +123,7 @@ def run_config(spec: GridSpec, key: RunKey) -> RunConfig:
     budget = spec.budget
     optim, points = get_variant(key.variant).schedule(budget.schedule_scale)
     return RunConfig(
-        data=DataConfig(str(spec.data_dir()), annotations=key.annotations,
+        data=DataConfig(str(spec.release_dir()), annotations=key.annotations,
                         task=spec.task_definition()),
         test_user=key.fold,
         encoder=EncoderConfig(hidden=budget.hidden, bidirectional=key.direction == "bidirectional",
@@ -217,8 +220,8 @@ class GridSpec:
 
     preset: str = "quick"
     task: str = PAPER_TASK          # a built-in task's name or a definition file's path
-    data: str = ""                  # "" = $JIGSAWS_DIR or the default folder; "synthetic"
-    folds: tuple[str, ...] = ()     # () = every user of the release
+    data_dir: str = ""              # "" = $JIGSAWS_DIR or the default folder; "synthetic"
+    test_users: tuple[str, ...] = ()    # the LOUO folds; () = every user of the release
     seeds: tuple[int, ...] | None = None
     hidden: int | None = None
     epochs: int | None = None
@@ -235,13 +238,13 @@ class GridSpec:
         if not isinstance(self.task, str):
             raise ValueError(f"task must be a task's name or a definition file (got {self.task!r})")
         self.task_definition()          # a bad task fails here, not in every worker
-        if not isinstance(self.data, str):
-            raise ValueError(f"data must be a folder or \"synthetic\" (got {self.data!r})")
-        if self.folds:
-            _require_tuple("folds", self.folds, "a list of user letters")
-        for fold in self.folds:
-            if not isinstance(fold, str) or not fold:
-                raise ValueError(f"folds must be a list of user letters (got {fold!r})")
+        if not isinstance(self.data_dir, str):
+            raise ValueError(f"data_dir must be a folder or \"synthetic\" (got {self.data_dir!r})")
+        if self.test_users:
+            _require_tuple("test_users", self.test_users, "a list of user letters")
+        for user in self.test_users:
+            if not isinstance(user, str) or not user:
+                raise ValueError(f"test_users must be a list of user letters (got {user!r})")
         if self.seeds is not None:
             _require_tuple("seeds", self.seeds, "a non-empty list of integers >= 0")
             for seed in self.seeds:
@@ -277,16 +280,18 @@ class GridSpec:
     def task_definition(self) -> TaskDefinition:
         return load_task(self.task)
 
-    def data_dir(self) -> Path:
-        if self.data == "synthetic":
+    def release_dir(self) -> Path:
+        """The release folder ``data_dir`` names (the synthetic one written on first use)."""
+        if self.data_dir == "synthetic":
             return ensure_release(default_cache_dir(), SynthConfig(), self.task_definition())
-        return Path(self.data) if self.data else default_data_dir(self.task_definition().name)
+        return (Path(self.data_dir) if self.data_dir
+                else default_data_dir(self.task_definition().name))
 
     def with_absolute_paths(self) -> GridSpec:
         """This spec with its data folder and task file as absolute paths, so that every worker
         (and grid.json) sees the same ones."""
         task = str(Path(self.task).resolve()) if self.task.endswith(".toml") else self.task
-        return replace(self, data=str(self.data_dir().resolve()), task=task)
+        return replace(self, data_dir=str(self.release_dir().resolve()), task=task)
 
 
 def load_spec(path: Path | str) -> GridSpec:
@@ -301,7 +306,15 @@ def load_spec(path: Path | str) -> GridSpec:
 
 def spec_from_dict(raw: dict, source: str = "spec") -> GridSpec:
     """A ``GridSpec`` from plain data (a parsed TOML file, grid.json's ``spec``); every key's type
-    and range is checked here, errors naming ``source`` and the key."""
+    and range is checked here, errors naming ``source`` and the key; deprecated keys are read
+    under their new names with a warning."""
+    raw = dict(raw)
+    for old, new in DEPRECATED_KEYS.items():
+        if old in raw:
+            log.warning("%s: spec key %r is deprecated; use %r", source, old, new)
+            if new in raw:
+                raise ValueError(f"{source}: both {old!r} and {new!r} given; keep {new!r}")
+            raw[new] = raw.pop(old)
     known = {f.name for f in fields(GridSpec)}
     unknown = set(raw) - known
     if unknown:

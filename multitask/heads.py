@@ -7,8 +7,7 @@ default), named ``P0``, ``P1``, ...
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Literal, Sequence
+from typing import Sequence
 
 import numpy as np
 import tensorflow as tf
@@ -17,27 +16,9 @@ from jigsaws_tools.progress import ordinal_decode, ordinal_encode
 from jigsaws_tools.task_definition import SUTURING
 from rnn_seg.tasks import SoftmaxClassification, Task, step_mean
 
+from .config import ORDINAL_LOSSES, HeadConfig, OrdinalLoss  # noqa: F401 (re-exported)
+
 PAPER_STAGES = SUTURING.num_stages
-OrdinalLoss = Literal["sum", "mean"]
-ORDINAL_LOSSES = ("sum", "mean")
-
-
-@dataclass(frozen=True)
-class HeadConfig:
-    """How the progress heads score their outputs.
-
-    ``ordinal_loss``: the ordered head's binary cross-entropy ``sum``-med over its outputs, one
-    per stage (the paper's MCE, Eq. 2, with sigmoid outputs: "MBCE") or averaged over them
-    (``mean``, our earlier reading: for Suturing's 5 stages a 5x smaller gradient); either way
-    averaged over time steps.
-    """
-
-    ordinal_loss: OrdinalLoss = "sum"
-
-    def __post_init__(self):
-        if self.ordinal_loss not in ORDINAL_LOSSES:
-            raise ValueError(f"ordinal_loss must be one of {ORDINAL_LOSSES}, "
-                             f"not {self.ordinal_loss!r}")
 
 
 def stage_names(num_stages: int) -> tuple[str, ...]:

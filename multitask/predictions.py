@@ -13,12 +13,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from jigsaws_tools.plots import GESTURE_CMAP, PROGRESS_CMAP, plot_ribbon_rows
+from jigsaws_tools.plots import Ribbon, plot_ribbons, task_colours
+from jigsaws_tools.release import KINEMATICS_HZ
 from rnn_seg.rundir import write_atomic
 from rnn_seg.tasks import Task
-
-#: Ribbon colour map of each task the variants predict.
-RIBBON_CMAPS = {"gesture": GESTURE_CMAP, "progress": PROGRESS_CMAP}
 
 
 def hold(sample_frames: np.ndarray, frames: np.ndarray) -> np.ndarray:
@@ -111,10 +109,9 @@ class RecordingPrediction:
 
 
 def plot_predictions(prediction: RecordingPrediction, path: Path, title: str) -> Path:
-    """Ribbons of every task's predicted labels at the samples."""
-    cmaps = {t.name: RIBBON_CMAPS.get(t.name, GESTURE_CMAP) for t in prediction.tasks}
-    rows = [(t.name, prediction.sample_labels(t.name), t.num_classes, cmaps[t.name])
-            for t in prediction.tasks]
-    legends = [(t.class_names, cmaps[t.name]) for t in prediction.tasks]
-    return plot_ribbon_rows(rows, path, legends, title, prediction.sample_hz)
+    """Ribbons of every task's predicted labels at the samples, over the recording's time."""
+    times = (prediction.sample_frames - 1) / KINEMATICS_HZ
+    return plot_ribbons([Ribbon(t.name, prediction.sample_labels(t.name), times, t.class_names,
+                                task_colours(t.num_classes, t.ordered))
+                         for t in prediction.tasks], path, title)
 

@@ -1,30 +1,47 @@
-"""The paper's Tables I-III and the annotation ablation, as CSV and booktabs LaTeX.
+"""The paper's Tables I-III and the annotation ablation, as CSV and paste-ready LaTeX.
 
 Every table compares two sides metric by metric: ours against the paper's published numbers
 (Tables I-III), or revised against original labels (ablation). A table is a long frame with one
 row per (model, metric): ``left_mean, left_std, right_mean, right_std, diff`` (left - right) and
-``folds``. LaTeX cells are ``mean (std)``; the best value of each side and metric is bold, as in the
-paper (highest, lowest for MAE).
+``folds``.
+
+The LaTeX (``to_latex``) is laid out as the paper's Table I: one column per model, one block of
+rows per metric (the two sides and their difference, or ours alone with ``ours_only``), metrics
+grouped by task. Its width grows with the models, not the metrics, so Table I (10 models) fits an
+IEEE two-column page's text width (``table*``) at footnote size and the smaller tables a column,
+without scaling. Cells are ``mean (std)`` with true minus signs; the best value of each row is
+bold (highest, lowest for MAE; the paper's rows keep the paper's own bold), as a note under the
+table says. Each file starts with a comment naming the packages it needs (booktabs).
 """
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
+from itertools import groupby
 
 import pandas as pd
 
 from .collect import LOWER_IS_BETTER, METRICS, finite, lookup
+from .latex import bold, escape, mean_std, number, requires
 from .paper_results import TABLE_1, TABLE_2, TABLE_2_RELATED, TABLE_3, Number
 
+#: Metric -> the paper's name for it, after the letter of its task ("A" gestures, "P" progress).
 METRIC_LABELS = {"gesture_accuracy": "A Accuracy", "gesture_edit": "A Edit",
                  "gesture_f1@10": "A F1@10", "progress_mae": "P MAE",
                  "progress_mae_raw": "P MAE (raw)",
                  "progress_accuracy": "P Accuracy", "progress_edit": "P Edit",
                  "progress_f1@10": "P F1@10"}
+#: Task of a metric (its name's prefix) -> the heading of its rows (the paper's letter for it).
+TASK_HEADINGS = {"gesture": "Gesture recognition (A)", "progress": "Progress estimation (P)"}
 CONFIG_LABELS = {"A-fixed": "A", "APr-fixed": "APr (w1=w2=1)", "APr-gradnorm": "APr (alpha=1.5)",
                  "APc-fixed": "APc (w1=w2=1)", "APc-gradnorm": "APc (alpha=1.5)",
                  "APoc-fixed": "APoc (w1=w2=1)", "APoc-gradnorm": "APoc (alpha=1.5)",
                  "Pr-fixed": "Pr", "Pc-fixed": "Pc", "Poc-fixed": "Poc"}
-_LATEX_LABELS = {"(w1=w2=1)": "($w_1{=}w_2{=}1$)", "(alpha=1.5)": r"($\alpha{=}1.5$)"}
+#: Parenthesised detail of a model label -> its LaTeX in the column header's second line.
+_LATEX_DETAILS = {"w1=w2=1": "$w_1{=}w_2{=}1$", "alpha=1.5": r"$\alpha{=}1.5$"}
+#: Model columns up to which a table fits one IEEE column; wider ones span the page (table*).
+COLUMN_TABLE_MODELS = 4
+PACKAGES = ("booktabs",)
 
 
 @dataclass(frozen=True)
@@ -32,29 +49,58 @@ class PaperTable:
     """One of the paper's tables: which runs it reads and the published numbers."""
 
     name: str
-    caption: str
+    title: str                  # LaTeX: what it shows; the caption adds comparison and budget
+    source: str                 # the paper's name for it
     annotations: str
     direction: str
     paper: dict[str, dict[str, Number]]
     metrics: tuple[str, ...]
     labels: dict[str, str] = field(default_factory=dict)       # config -> row label override
     related: dict[str, dict[str, Number]] = field(default_factory=dict)   # paper-only rows
+    note: str = ""              # added to the caption when the paper's columns are shown
 
 
 PAPER_TABLES = (
-    PaperTable("table1", "Gesture recognition (A) and progress estimation (P), revised "
-               "annotations: mean (std) over folds, ours against the paper's Table I.",
-               "revised", "bidirectional", TABLE_1, tuple(METRICS)),
-    PaperTable("table2", "Original JIGSAWS annotations: ours against the paper's Table II "
-               "(w1 = w2 = 1; BiLSTM = our model A against DiPietro et al.'s published result).",
-               "original", "bidirectional", TABLE_2, ("gesture_accuracy", "gesture_edit"),
-               labels={"A-fixed": "BiLSTM (A)", "APoc-fixed": "APoc", "APc-fixed": "APc"},
-               related=TABLE_2_RELATED),
-    PaperTable("table3", "Online gesture recognition with a forward LSTM: ours against the "
-               "paper's Table III.", "revised", "forward", TABLE_3,
+    PaperTable("table1", "Gesture recognition (A) and progress estimation (P), revised annotations",
+               "Table I", "revised", "bidirectional", TABLE_1, tuple(METRICS)),
+    PaperTable("table2", "Gesture recognition with the original JIGSAWS annotations "
+               "($w_1{=}w_2{=}1$)",
+               "Table II", "original", "bidirectional", TABLE_2,
                ("gesture_accuracy", "gesture_edit"),
-               labels={"A-fixed": "LSTM (A)", "APc-fixed": "APc"}),
+               labels={"A-fixed": "BiLSTM (A)", "APoc-fixed": "APoc", "APc-fixed": "APc"},
+               related=TABLE_2_RELATED,
+               note="Paper's BiLSTM: DiPietro et al.'s published result; TCN, TCN+RL: the "
+                    "related work it lists, not reproduced here."),
+    PaperTable("table3", "Online gesture recognition with a forward LSTM, revised annotations",
+               "Table III", "revised", "forward", TABLE_3, ("gesture_accuracy", "gesture_edit"),
+               labels={"A-fixed": "LSTM (A)", "APc-fixed": "APc"},
+               note="Paper's LSTM: DiPietro et al.'s published result."),
 )
+
+
+def paper_caption(table: PaperTable, budget: str, ours_only: bool = False) -> str:
+    """The caption (LaTeX) of ``table``: what it shows, the comparison and ``budget`` (plain
+    text: data, folds, width, epochs, seeds, ``captions.RunsDescription.sentence``)."""
+    if ours_only:
+        return f"{table.title}: mean (std) over folds. {escape(budget)}"
+    note = f" {escape(table.note)}" if table.note else ""
+    return (f"{table.title}: ours against the paper's {table.source}, mean (std) over folds; "
+            rf"$\Delta$ = ours $-$ paper.{note} {escape(budget)}")
+
+
+def ablation_caption(budget: str) -> str:
+    """The caption (LaTeX) of the annotation ablation, with the runs' ``budget`` (plain text)."""
+    return ("Annotation versions: every configuration on the revised against the original "
+            rf"labels, mean (std) over folds; $\Delta$ = revised $-$ original. {escape(budget)}")
+
+
+def table_runs(runs: pd.DataFrame, frame: pd.DataFrame, annotations: tuple[str, ...],
+               direction: str) -> pd.DataFrame:
+    """The rows of ``runs`` (one per run) behind a comparison table ``frame``: its
+    configurations with the given annotation versions and direction."""
+    configs = set(frame.config)
+    return runs[runs.annotations.isin(annotations) & (runs.direction == direction)
+                & (runs.variant + "-" + runs.weighting).isin(configs)]
 
 
 def paper_comparison(summary: pd.DataFrame, table: PaperTable) -> pd.DataFrame:
@@ -132,43 +178,99 @@ def paper_best(table: PaperTable) -> dict[str, float]:
 
 
 def to_latex(frame: pd.DataFrame, caption: str, label: str, sides: tuple[str, str],
-             right_best: dict[str, float] | None = None) -> str:
-    """A booktabs table: one row per model, per metric three columns ``sides[0] | sides[1] |
-    Delta``; the best value per side and metric is bold (``right_best`` overrides the right
-    side's, e.g. the paper's bold over its full table)."""
-    metrics = [m for m in METRICS if m in set(frame.metric)]
+             right_best: dict[str, float] | None = None, ours_only: bool = False) -> str:
+    """A booktabs table of ``frame``: one column per model, per metric the rows ``sides[0]``,
+    ``sides[1]`` and Delta (``ours_only``: ``sides[0]`` alone, models without it left out).
+
+    Args:
+        frame: a comparison table (``paper_comparison``, ``annotation_ablation``).
+        caption: LaTeX (plain text goes through ``latex.escape``).
+        label: ``\\label{tab:<label>}``.
+        sides: the names of the left and right side (``("Ours", "Paper")``).
+        right_best: the value bold in the right side's rows, per metric (the paper's bold over
+            its whole table); default: the best of the row, as for the left side.
+        ours_only: leave out the right side and the difference.
+    """
+    if ours_only:
+        frame = frame[frame.left_mean.notna()]
     models = list(dict.fromkeys(frame.model))
+    rows = [("left", sides[0])] if ours_only else [("left", sides[0]), ("right", sides[1]),
+                                                    ("diff", r"$\Delta$")]
+    labels = 1 if ours_only else 2          # metric (and side) label columns
+    wide = len(models) > COLUMN_TABLE_MODELS
+    env = "table*" if wide else "table"
+    note = ("Bold: the best value of each row (lowest MAE, highest otherwise)"
+            + ("" if ours_only or right_best is None else
+               f"; in the {sides[1]} rows, as the paper prints it (best of its table)") + ".")
+    return "".join([
+        requires(*PACKAGES),
+        f"\\begin{{{env}}}[t]\n\\centering\n\\footnotesize\n",
+        f"\\caption{{{caption}}}\n\\label{{tab:{label}}}\n",
+        f"\\setlength{{\\tabcolsep}}{{{2 if wide else 4}pt}}\n",
+        f"\\begin{{tabular}}{{@{{}}{'l' * labels}@{{\\hspace{{6pt}}}}"
+        f"{'c' * len(models)}@{{}}}}\n\\toprule\n",
+        *(line + "\n" for line in _header(models, labels)), "\\midrule\n",
+        *(line + "\n" for line in _body(frame, models, rows, labels, right_best)),
+        "\\bottomrule\n\\end{tabular}\n",
+        f"\\par\\smallskip\n\\parbox{{\\linewidth}}{{\\footnotesize {note}}}\n",
+        f"\\end{{{env}}}\n"])
+
+
+def _body(frame: pd.DataFrame, models: list[str], rows: list[tuple[str, str]], labels: int,
+          right_best: dict[str, float] | None) -> list[str]:
+    """The table's rows: per task a heading, per metric one row per side."""
+    metrics = [m for m in METRICS if m in set(frame.metric)]
+    metrics += [m for m in dict.fromkeys(frame.metric) if m not in metrics]
     cells = {(r.model, r.metric): r for r in frame.itertuples(index=False)}
     best = {(m, side): _best(frame[frame.metric == m][f"{side}_mean"], m)
             for m in metrics for side in ("left", "right")}
     best.update({(m, "right"): v for m, v in (right_best or {}).items()})
-    lines = [r"\begin{table*}[t]", r"\centering", rf"\caption{{{_escape(caption)}}}",
-             rf"\label{{tab:{label}}}", r"\resizebox{\textwidth}{!}{%",
-             r"\begin{tabular}{l" + "rrr" * len(metrics) + "}", r"\toprule",
-             " & ".join(["Model"] + [rf"\multicolumn{{3}}{{c}}{{{METRIC_LABELS[m]}}}"
-                                     for m in metrics]) + r" \\",
-             " ".join(rf"\cmidrule(lr){{{2 + 3 * i}-{4 + 3 * i}}}" for i in range(len(metrics))),
-             " & ".join([""] + [rf"{sides[0]} & {sides[1]} & $\Delta$"] * len(metrics)) + r" \\",
-             r"\midrule"]
+    lines = []
+    for k, (task, group) in enumerate(groupby(metrics, key=lambda m: m.split("_", 1)[0])):
+        heading = TASK_HEADINGS.get(task, escape(task))
+        lines += [r"\midrule"] * bool(k) + [
+            rf"\multicolumn{{{labels + len(models)}}}{{@{{}}l}}{{\emph{{{heading}}}}} \\"]
+        for i, metric in enumerate(group):
+            lines += [r"\addlinespace"] * bool(i and len(rows) > 1)
+            for j, (side, side_label) in enumerate(rows):
+                row = [_metric_label(metric) if j == 0 else ""] + [side_label] * (labels - 1)
+                row += [_cell(cells.get((model, metric)), side, best) for model in models]
+                lines.append(" & ".join(row) + r" \\")
+    return lines
+
+
+def _header(models: list[str], labels: int) -> list[str]:
+    """The column headers: model names, and a second line for the details in parentheses
+    (``APr (w1=w2=1)`` -> ``APr`` over ``w_1 = w_2 = 1``)."""
+    names, details = [], []
     for model in models:
-        row = [_latex_label(model)]
-        for m in metrics:
-            cell = cells.get((model, m))
-            if cell is None:
-                row += ["--"] * 3
-                continue
-            row += [_cell(cell.left_mean, cell.left_std, cell.left_mean == best[(m, "left")]),
-                    _cell(cell.right_mean, cell.right_std, cell.right_mean == best[(m, "right")]),
-                    "--" if finite(cell.diff) is None else f"{cell.diff:+.1f}"]
-        lines.append(" & ".join(row) + r" \\")
-    lines += [r"\bottomrule", r"\end{tabular}}", r"\end{table*}"]
-    return "\n".join(lines) + "\n"
+        match = re.fullmatch(r"(.*?) \((.*)\)", model)
+        name, detail = (match.group(1), match.group(2)) if match else (model, "")
+        names.append(escape(name))
+        details.append(_LATEX_DETAILS.get(detail, f"({escape(detail)})" if detail else ""))
+    blank = [""] * labels
+    header = [" & ".join(blank + names) + r" \\"]
+    if any(details):
+        header.append(" & ".join(blank + details) + r" \\")
+    return header
 
 
-def _latex_label(text: str) -> str:
-    for plain, latex in _LATEX_LABELS.items():
-        text = text.replace(plain, latex)
-    return text
+def _metric_label(metric: str) -> str:
+    """A metric's row label within its task's rows: ``METRIC_LABELS`` without the task's letter
+    (``gesture_f1@10`` -> ``F1@10``), an unknown metric's name in words."""
+    if metric in METRIC_LABELS:
+        return METRIC_LABELS[metric].split(" ", 1)[1]
+    return escape(metric.split("_", 1)[1].replace("_", " "))
+
+
+def _cell(cell, side: str, best: dict) -> str:
+    if cell is None:
+        return "--"
+    if side == "diff":
+        return number(finite(cell.diff), signed=True)
+    mean = finite(getattr(cell, f"{side}_mean"))
+    text = mean_std(mean, finite(getattr(cell, f"{side}_std")))
+    return bold(text) if mean is not None and mean == best[(cell.metric, side)] else text
 
 
 def _best(values: pd.Series, metric: str) -> float | None:
@@ -176,14 +278,3 @@ def _best(values: pd.Series, metric: str) -> float | None:
     if values.empty:
         return None
     return float(values.min() if metric in LOWER_IS_BETTER else values.max())
-
-
-def _cell(mean, std, bold: bool) -> str:
-    if finite(mean) is None:
-        return "--"
-    text = f"{mean:.1f}" + ("" if finite(std) is None else f" ({std:.1f})")
-    return rf"\textbf{{{text}}}" if bold else text
-
-
-def _escape(text: str) -> str:
-    return text.replace("%", r"\%").replace("&", r"\&").replace("_", r"\_")

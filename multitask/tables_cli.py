@@ -4,10 +4,12 @@ Writes to ``--out`` (default ``GRID_DIR/tables``): ``runs.csv`` (one row per fin
 ``per_fold.csv`` (mean over seeds per configuration and fold), ``summary.csv`` (mean and std over
 folds), ``table1|2|3.csv/.tex`` (ours against the paper), ``ablation_annotations.csv/.tex``
 (revised against original labels), ``claims.csv/.tex`` (the paper's claims tested with paired
-statistics over folds and seeds, settings in ``claims_config.json``) and ``figures/*.png|pdf``.
-Unfinished runs are left out and listed. The paper's tables, the annotation ablation and its
-claims are Suturing's: a grid of another task gets instead the claims of the paper's conjecture
-(multi-task against model A on that task, ``claims.CONJECTURE_CLAIMS``).
+statistics over folds and seeds, settings in ``claims_config.json``), ``figures/*.png|pdf`` and,
+with ``--curves``, ``figures/curves/*.png|pdf`` (training curves). The paper's tables, the annotation ablation and its claims are Suturing's: a grid of
+another task gets instead the claims of the paper's conjecture (multi-task against model A on
+that task, ``claims.CONJECTURE_CLAIMS``).
+
+    multitask-tables runs/quick --out results --example-trial Suturing_D003 --curves
 
 A grid with missing or unfinished runs, NaN metrics, unreadable metrics or stray folders is an
 error naming them (``multitask.collect``); with ``--allow-incomplete`` they are listed, and the
@@ -26,59 +28,79 @@ import argparse
 import sys
 from pathlib import Path
 
-import pandas as pd
+from jigsaws_tools.cli_common import command_parser, run_command
 
-from rnn_seg.rundir import RunFolderError, write_atomic
-
-from jigsaws_tools.task_definition import PAPER_TASK
-
-from .claims import CONJECTURE_CLAIMS
-from .claims_table import write_claims
-from .collect import (CONFIG_COLUMNS, METRICS, completeness, expected_runs, grid_task_name,
-                      per_fold, recorded_runs, run_rows, summary)
-from .figures import all_figures
-from .paired import ConfigId, Contrast, NotPaired, config_labels, paired
-from .tables import PAPER_TABLES, annotation_ablation, paper_best, paper_comparison, to_latex
+PROG = "multitask-tables"
 
 
-def write_tables(grid_dir: Path, out: Path, figures: bool = True,
+def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: bool = False,
+                 example_trial: str | None = None, curves: bool = False,
                  allow_incomplete: bool = False) -> list[Path]:
-    """Everything ``multitask-tables`` writes; returns the paths. ``allow_incomplete``: mark
-    configurations with missing runs instead of refusing (``collect.run_rows``)."""
+    """Everything ``multitask-tables`` writes; returns the paths.
+
+    Args:
+        grid_dir: output folder of ``multitask-grid``.
+        out: where to write.
+        figures: also draw the figures.
+        ours_only: LaTeX tables without the paper's columns (the CSVs keep them).
+        example_trial: the test trial of the example figures (default: the first).
+        curves: also draw every configuration's training curves.
+        allow_incomplete: mark configurations with missing runs instead of refusing
+            (``collect.run_rows``).
+    """
+    from jigsaws_tools.task_definition import PAPER_TASK
+
+    from .claims import CONJECTURE_CLAIMS
+    from .claims_table import write_claims
+    from .collect import (CONFIG_COLUMNS, completeness, expected_runs, grid_task_name, per_fold,
+                          recorded_runs, run_rows, summary)
+    from .curves import training_curves
+    from .figures import all_figures, example_trial as choose_example
+
     runs, problems = run_rows(grid_dir, allow_incomplete)
     for problem in problems:
         print(f"incomplete: {problem}", file=sys.stderr)
     folds = per_fold(runs)
     expected = expected_runs(grid_dir, recorded_runs(Path(grid_dir))[0])
     stats = summary(folds).merge(completeness(runs, expected), on=CONFIG_COLUMNS, how="left")
+    example = choose_example(Path(grid_dir), folds, example_trial) if figures else None
     written = [_csv(runs, out / "runs.csv"), _csv(folds, out / "per_fold.csv"),
                _csv(stats, out / "summary.csv")]
     if grid_task_name(grid_dir) == PAPER_TASK:
-        written += _paper_tables(stats, out)
+        written += _paper_tables(grid_dir, runs, stats, out, ours_only)
         written += write_claims(runs, out)
     else:
         written += write_claims(runs, out, claims=CONJECTURE_CLAIMS)
     if figures:
-        written += all_figures(Path(grid_dir), stats, folds, out / "figures")
+        written += all_figures(Path(grid_dir), folds, out / "figures", example)
+    if curves:
+        written += training_curves(grid_dir, out / "figures" / "curves")
     return written
 
 
-def _paper_tables(stats: pd.DataFrame, out: Path) -> list[Path]:
+def _paper_tables(grid_dir: Path, runs, stats, out: Path, ours_only: bool) -> list[Path]:
     """Tables I-III against the paper and the annotation ablation (Suturing grids only)."""
+    from .captions import describe_runs
+    from .tables import (PAPER_TABLES, ablation_caption, annotation_ablation, paper_best,
+                         paper_caption, paper_comparison, table_runs, to_latex)
+
     written = []
     for table in PAPER_TABLES:
         frame = paper_comparison(stats, table)
         if frame.empty:
             continue
+        budget = describe_runs(grid_dir, table_runs(runs, frame, (table.annotations,),
+                                                    table.direction)).sentence()
         written.append(_csv(frame, out / f"{table.name}.csv"))
-        written.append(_tex(to_latex(frame, table.caption, table.name, ("Ours", "Paper"),
-                                     paper_best(table)), out / f"{table.name}.tex"))
+        written.append(_tex(to_latex(frame, paper_caption(table, budget, ours_only), table.name,
+                                     ("Ours", "Paper"), paper_best(table), ours_only),
+                            out / f"{table.name}.tex"))
     ablation = annotation_ablation(stats)
     if not ablation.empty:
-        caption = ("Annotation-version ablation: revised against original labels, mean (std) "
-                   "over folds; Delta = revised - original.")
+        budget = describe_runs(grid_dir, table_runs(runs, ablation, ("revised", "original"),
+                                                    "bidirectional")).sentence()
         written.append(_csv(ablation, out / "ablation_annotations.csv"))
-        written.append(_tex(to_latex(ablation, caption, "ablation_annotations",
+        written.append(_tex(to_latex(ablation, ablation_caption(budget), "ablation_annotations",
                                      ("Revised", "Original")), out / "ablation_annotations.tex"))
     return written
 
@@ -86,6 +108,9 @@ def _paper_tables(stats: pd.DataFrame, out: Path) -> list[Path]:
 def _compare(grid_dir: Path, compare: list[str], minus: list[str] | None, metric: str,
              allow_incomplete: bool) -> str:
     """The paired statistics of one comparison, as text."""
+    from .collect import run_rows
+    from .paired import ConfigId, Contrast, NotPaired, config_labels, paired
+
     x, y = map(ConfigId.parse, compare)
     contrast = Contrast(x, y, tuple(map(ConfigId.parse, minus)) if minus else None)
     runs, _ = run_rows(grid_dir, allow_incomplete)
@@ -96,45 +121,68 @@ def _compare(grid_dir: Path, compare: list[str], minus: list[str] | None, metric
 
 
 def _csv(frame, path: Path) -> Path:
+    from rnn_seg.rundir import write_atomic
+
     write_atomic(path, frame.to_csv(index=False, float_format="%.4f"))
     return path
 
 
 def _tex(text: str, path: Path) -> Path:
+    from rnn_seg.rundir import write_atomic
+
     write_atomic(path, text)
     return path
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="multitask-tables", description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("grid_dir", type=Path, help="output folder of multitask-grid")
-    parser.add_argument("--out", type=Path, help="where to write (default GRID_DIR/tables)")
-    parser.add_argument("--no-figures", action="store_true")
+def build_parser() -> argparse.ArgumentParser:
+    parser = command_parser(PROG, __doc__)
+    parser.add_argument("grid_dir", type=Path, metavar="GRID_DIR",
+                        help="output folder of multitask-grid")
+    parser.add_argument("--out", type=Path, metavar="DIR",
+                        help="where to write (default: GRID_DIR/tables)")
+    parser.add_argument("--no-figures", action="store_true", help="write the tables only")
+    parser.add_argument("--example-trial", metavar="TRIAL",
+                        help="test trial of the example figures, e.g. Suturing_D003 (default: "
+                             "the first test trial of the first fold)")
+    parser.add_argument("--curves", action="store_true",
+                        help="also draw training curves from every run's history.csv: per "
+                             "configuration the losses and test accuracies, a line per fold")
+    parser.add_argument("--ours-only", action="store_true",
+                        help="LaTeX tables with our numbers alone, without the paper's columns "
+                             "(the CSVs keep them)")
     parser.add_argument("--compare", nargs=2, metavar=("X", "Y"),
-                        help="print the paired statistics of X - Y instead of writing tables")
+                        help="print the paired statistics of X - Y instead of writing tables "
+                             "(default: write the tables)")
     parser.add_argument("--minus", nargs=2, metavar=("X2", "Y2"),
-                        help="with --compare: (X - Y) - (X2 - Y2), paired per fold")
-    parser.add_argument("--metric", help=f"with --compare: {', '.join(METRICS)}, ...")
+                        help="with --compare: (X - Y) - (X2 - Y2), paired per fold "
+                             "(default: X - Y alone)")
+    parser.add_argument("--metric",
+                        help="with --compare: a metric column of runs.csv, e.g. gesture_edit "
+                             "(required with --compare)")
     parser.add_argument("--allow-incomplete", action="store_true",
                         help="write tables although runs are missing, unfinished or unreadable, "
-                             "marking the configurations concerned incomplete")
+                             "marking the configurations concerned incomplete (default: refuse)")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
     args = parser.parse_args(argv)
     if bool(args.compare) != bool(args.metric) or (args.minus and not args.compare):
         parser.error("--compare needs --metric, and --metric and --minus need --compare")
-    try:
-        if args.compare:
-            print(_compare(args.grid_dir, args.compare, args.minus, args.metric,
-                           args.allow_incomplete))
-            return 0
-        paths = write_tables(args.grid_dir, args.out or args.grid_dir / "tables",
-                             figures=not args.no_figures, allow_incomplete=args.allow_incomplete)
-    except (ValueError, OSError, RunFolderError) as error:
-        print(f"multitask-tables: error: {error}", file=sys.stderr)
-        return 2
-    for path in paths:
+    return run_command(PROG, args.verbose, lambda: _run(args))
+
+
+def _run(args: argparse.Namespace) -> None:
+    if args.compare:
+        print(_compare(args.grid_dir, args.compare, args.minus, args.metric,
+                       args.allow_incomplete))
+        return
+    for path in write_tables(args.grid_dir, args.out or args.grid_dir / "tables",
+                             figures=not args.no_figures, ours_only=args.ours_only,
+                             example_trial=args.example_trial, curves=args.curves,
+                             allow_incomplete=args.allow_incomplete):
         print(path)
-    return 0
 
 
 if __name__ == "__main__":

@@ -21,7 +21,7 @@ from jigsaws_tools.features import feature_columns
 from jigsaws_tools.preprocessing import Normalisation, preprocess_recording
 from jigsaws_tools.release import NUM_KINEMATIC_COLUMNS, discover, read_kinematics
 from rnn_seg.model import SegmentationModel
-from rnn_seg.rundir import from_jsonable, is_finished, write_json
+from rnn_seg.rundir import RunFolderError, from_jsonable, is_finished, write_json
 from rnn_seg.tasks import Task
 from rnn_seg.trainer import predict
 
@@ -34,10 +34,6 @@ CONFIG_FILE = "config.json"
 STREAM_NORMALISATION_FILE = "stream_normalisation.json"
 
 log = logging.getLogger(__name__)
-
-
-class RunFolderError(ValueError):
-    """A run folder that cannot be loaded: no ``config.json``, no checkpoint, mismatched weights."""
 
 
 # -- the checkpoint layout of rnn_seg.trainer: the one place that reads it ------------------------

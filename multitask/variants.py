@@ -6,14 +6,15 @@ ordered classification; Pr / Pc / Poc = progress only. Optimiser defaults are th
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
 
-from baseline.builder import gesture_task
 from jigsaws_tools.task_definition import SUTURING, TaskDefinition
-from rnn_seg.optim import OptimConfig
-from rnn_seg.tasks import Task
-from rnn_seg.trainer import TrainConfig
+from rnn_seg.config import OptimConfig, TrainConfig
 
-from .heads import HeadConfig, OrdinalProgress, ProgressClassification, ProgressRegression
+from .config import HeadConfig
+
+if TYPE_CHECKING:
+    from rnn_seg.tasks import Task
 
 #: Paper: APr "GD with Momentum 0.9 ... initial learning rate 0.1"; APc/APoc "GD ... 1.0";
 #: decay 0.5 after 80 epochs, stop after 120, evaluate after 100, 110, 120.
@@ -35,7 +36,11 @@ class Variant:
     def tasks(self, task: TaskDefinition = SUTURING, heads: HeadConfig = HeadConfig()
               ) -> list[Task]:
         """The heads this variant trains on ``task``: its gestures and / or its progress stages,
-        the progress loss configured by ``heads``."""
+        the progress loss configured by ``heads`` (imports TensorFlow, the registry does not)."""
+        from baseline.builder import gesture_task
+
+        from .heads import OrdinalProgress, ProgressClassification, ProgressRegression
+
         tasks = [gesture_task(task)] if self.gestures else []
         if self.progress == "r":
             tasks.append(ProgressRegression(task.num_stages))
@@ -47,6 +52,7 @@ class Variant:
 
     @property
     def multitask(self) -> bool:
+        """Whether the variant has two tasks (gestures and progress)."""
         return self.gestures and self.progress is not None
 
     def optim(self) -> OptimConfig:

@@ -3,6 +3,7 @@
 Read first: ``trainer.Trainer`` (its docstring lists what one training sweep calls, in order),
 then ``model.SegmentationModel`` (a recurrent encoder shared by one dense head per task).
 
+* ``config``: the encoder, optimiser and training dataclasses (no TensorFlow import);
 * ``lstm``: DiPietro et al.'s peephole LSTM with resets and its hand-written backward pass;
 * ``model``, ``dense``: the encoder plus one head per ``tasks.Task``;
 * ``tasks``: what a head predicts (targets, loss, decoding);
@@ -18,22 +19,22 @@ from importlib import import_module
 
 #: Public name -> the submodule defining it.
 _PUBLIC = {
-    "EncoderConfig": "lstm",
+    "EncoderConfig": "config",
     "SegmentationModel": "model",
     "restore_weights": "checkpoints",
-    "OptimConfig": "optim",
+    "OptimConfig": "config",
     "SoftmaxClassification": "tasks",
     "Task": "tasks",
     "SequenceSet": "trainer",
-    "TrainConfig": "trainer",
+    "TrainConfig": "config",
     "Trainer": "trainer",
 }
 __all__ = sorted(_PUBLIC)
 
 
 def __getattr__(name: str):
-    """Import a public name's module on first use, so light submodules (``rundir, metrics``) do not
-    pull in TensorFlow."""
+    """Import a public name's module on first use, so light submodules (``config``, ``rundir``,
+    ``metrics``) do not pull in TensorFlow."""
     if name in _PUBLIC:
         return getattr(import_module(f".{_PUBLIC[name]}", __name__), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -18,15 +18,12 @@ import gc
 import re
 import shutil
 from pathlib import Path
-from typing import Callable, Collection, Literal
+from typing import Callable, Collection
 
 import tensorflow as tf
 
-from .optim import UNITS
+from .config import KEEP_CHECKPOINTS, UNITS, KeepCheckpoints  # noqa: F401 (re-exported)
 from .rundir import RunFolderError, point_dir, read_json
-
-KeepCheckpoints = Literal["final", "eval_points", "all"]
-KEEP_CHECKPOINTS = ("final", "eval_points", "all")
 FOLDER = "checkpoints"
 _NAME = re.compile(r"^ckpt-(\d+)\.index$")
 

@@ -26,46 +26,16 @@ bfloat16 arithmetic (AVX512_BF16 or AMX; ``require_native_precision``).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
-from typing import Literal, NamedTuple
+from typing import NamedTuple
 
 import tensorflow as tf
 
-from .validation import require_bool, require_choice, require_number
+from .config import (PRECISIONS, RESET_MODES, EncoderConfig, Precision,  # noqa: F401 (re-exported)
+                     ResetMode)
 
-ResetMode = Literal["original", "corrected"]
-RESET_MODES = ("original", "corrected")
-Precision = Literal["fp32", "bf16"]
-PRECISIONS = ("fp32", "bf16")
 _DTYPES = {"fp32": tf.float32, "bf16": tf.bfloat16}
-
-
-@dataclass(frozen=True)
-class EncoderConfig:
-    """Shape of the recurrent encoder."""
-
-    hidden: int = 1024
-    layers: int = 1
-    bidirectional: bool = True
-    keep_prob: float = 0.5          # dropout keep probability on each layer's inputs and outputs
-    init_scale: float = 0.1
-    reset_mode: ResetMode = "original"
-    precision: Precision = "fp32"   # of the LSTM's matrix products (see the module docstring)
-
-    def __post_init__(self):
-        require_number("EncoderConfig.hidden", self.hidden, integer=True, low=1)
-        require_number("EncoderConfig.layers", self.layers, integer=True, low=1)
-        require_bool("EncoderConfig.bidirectional", self.bidirectional)
-        require_number("EncoderConfig.keep_prob", self.keep_prob, low=0, high=1, open_low=True)
-        require_number("EncoderConfig.init_scale", self.init_scale, low=0, open_low=True)
-        require_choice("EncoderConfig.reset_mode", self.reset_mode, RESET_MODES)
-        require_choice("EncoderConfig.precision", self.precision, PRECISIONS)
-
-    @property
-    def output_size(self) -> int:
-        return self.hidden * (2 if self.bidirectional else 1)
 
 
 class LayerParams(NamedTuple):

@@ -5,51 +5,11 @@ Schedule lengths are counted in explicit units: ``"sweeps"`` (optimisation steps
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Literal, Sequence
+from typing import Sequence
 
 import tensorflow as tf
 
-from .validation import require_choice, require_number
-
-Unit = Literal["epochs", "sweeps"]
-UNITS = ("epochs", "sweeps")
-
-
-@dataclass(frozen=True)
-class OptimConfig:
-    """Optimiser and schedule: constant ``learning_rate`` for ``decay_start`` units, then multiplied
-    by ``decay_factor`` every ``decay_every`` units, until ``total`` units."""
-
-    learning_rate: float = 1.0
-    momentum: float = 0.0
-    clip_norm: float = 1.0
-    unit: Unit = "epochs"
-    total: int = 120
-    decay_start: int = 80
-    decay_every: int = 40
-    decay_factor: float = 0.5
-
-    def __post_init__(self):
-        require_number("OptimConfig.learning_rate", self.learning_rate, low=0, open_low=True)
-        require_number("OptimConfig.momentum", self.momentum, low=0, high=1, open_high=True)
-        require_number("OptimConfig.clip_norm", self.clip_norm, low=0, open_low=True)
-        require_choice("OptimConfig.unit", self.unit, UNITS)
-        require_number("OptimConfig.total", self.total, integer=True, low=1)
-        require_number("OptimConfig.decay_start", self.decay_start, integer=True, low=0)
-        require_number("OptimConfig.decay_every", self.decay_every, integer=True, low=1)
-        require_number("OptimConfig.decay_factor", self.decay_factor, low=0, high=1,
-                       open_low=True)
-
-    def sweeps(self, units: int, sweeps_per_epoch: int) -> int:
-        """Convert a count in this schedule's unit to sweeps."""
-        return units * (sweeps_per_epoch if self.unit == "epochs" else 1)
-
-    def learning_rate_at(self, sweep: int, sweeps_per_epoch: int) -> float:
-        """Learning rate of 0-based sweep ``sweep``."""
-        unit = sweep // sweeps_per_epoch if self.unit == "epochs" else sweep
-        decays = 0 if unit < self.decay_start else 1 + (unit - self.decay_start) // self.decay_every
-        return self.learning_rate * self.decay_factor ** decays
+from .config import UNITS, OptimConfig, Unit  # noqa: F401 (re-exported)
 
 
 class SGD(tf.Module):

@@ -30,8 +30,9 @@ RUN_OUTPUTS = ("checkpoints", "eval", "metrics.json", "timing.json", "tensorboar
                "evaluate", "stream_normalisation.json", FINISHED)
 
 
-class RunFolderError(Exception):
-    """A run or grid folder cannot be used as asked: other settings, in use, unreadable."""
+class RunFolderError(ValueError):
+    """A run or grid folder cannot be used as asked: other settings, in use, unreadable, no
+    weights to load."""
 
 
 def to_jsonable(obj: Any) -> Any:

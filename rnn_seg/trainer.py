@@ -30,14 +30,16 @@ import time
 from dataclasses import dataclass, field
 from datetime import timedelta
 from pathlib import Path
-from typing import Callable, ClassVar, Literal, Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 import pandas as pd
 import tensorflow as tf
 from tensorflow.core.framework import summary_pb2
 
-from .checkpoints import KEEP_CHECKPOINTS, CheckpointStore, KeepCheckpoints, checkpoint_sweeps
+from .checkpoints import CheckpointStore, checkpoint_sweeps
+from .config import (PLOT_POINTS, PREDICTION_MODES, PlotPoints,  # noqa: F401 (re-exported)
+                     PredictionMode, TrainConfig, check_eval_points)
 from .convergence import history_convergence
 from .folder_lock import hold_folder
 from .lstm import require_native_precision
@@ -51,72 +53,15 @@ from .tasks import Task, task_metrics
 from .provenance import now, provenance
 from .settings import SettingsMismatchError, check_run_dir, settings_hash
 from .timing import PhaseClock
-from .validation import require_bool, require_choice, require_number
 
 #: What TensorBoard's scalar plugin reads (written without the tensorboard package).
 _SCALAR_METADATA = summary_pb2.SummaryMetadata(
     plugin_data=summary_pb2.SummaryMetadata.PluginData(plugin_name="scalars"),
     data_class=summary_pb2.DATA_CLASS_SCALAR).SerializeToString()
 
-PredictionMode = Literal["sweep", "per_sequence"]
-PREDICTION_MODES = ("sweep", "per_sequence")
-PlotPoints = Literal["last", "all", "none"]
-PLOT_POINTS = ("last", "all", "none")
-
-
-@dataclass(frozen=True)
-class TrainConfig:
-    """Batching, seeding and what a run writes."""
-
-    #: Fields that change what a run writes, not what it computes: left out of the settings its
-    #: folder is checked against (``rnn_seg.settings``), so a run may resume with other values.
-    output_fields: ClassVar[tuple[str, ...]] = (
-        "log_every", "checkpoint_every", "plots", "keep_checkpoints", "monitor_every",
-        "monitor_train", "tensorboard")
-
-    batch_size: int = 5
-    seed: int = 0
-    eval_points: tuple[int, ...] = (100, 110, 120)   # in the schedule's unit; () = at the end
-    prediction: PredictionMode = "sweep"
-    log_every: int = 1                               # units between progress lines
-    monitor_every: int = 10                          # units between test scores on them
-    monitor_train: bool = False                      # also score the training set (slow)
-    checkpoint_every: int = 1                        # units between checkpoints
-    plots: PlotPoints = "last"                       # evaluation points with per-sequence figures
-    tensorboard: bool = False                        # also write progress scalars there
-    keep_checkpoints: KeepCheckpoints = "final"      # kept by a finished run (rnn_seg.checkpoints)
-
-    def __post_init__(self):
-        require_number("TrainConfig.batch_size", self.batch_size, integer=True, low=1)
-        require_number("TrainConfig.seed", self.seed, integer=True, low=0)
-        if not isinstance(self.eval_points, tuple):
-            raise ValueError(f"TrainConfig.eval_points must be a tuple of integers >= 1 "
-                             f"(got {self.eval_points!r})")
-        for point in self.eval_points:
-            require_number("TrainConfig.eval_points", point, integer=True, low=1)
-        if list(self.eval_points) != sorted(set(self.eval_points)):
-            raise ValueError(f"TrainConfig.eval_points must increase (got {self.eval_points!r})")
-        require_choice("TrainConfig.prediction", self.prediction, PREDICTION_MODES)
-        require_number("TrainConfig.log_every", self.log_every, integer=True, low=1)
-        require_number("TrainConfig.monitor_every", self.monitor_every, integer=True, low=0)
-        require_bool("TrainConfig.monitor_train", self.monitor_train)
-        require_number("TrainConfig.checkpoint_every", self.checkpoint_every, integer=True, low=1)
-        require_choice("TrainConfig.plots", self.plots, PLOT_POINTS)
-        require_bool("TrainConfig.tensorboard", self.tensorboard)
-        require_choice("TrainConfig.keep_checkpoints", self.keep_checkpoints, KEEP_CHECKPOINTS)
-
-
-def check_eval_points(points: Sequence[int], optim: OptimConfig) -> None:
-    """Raise unless every evaluation point lies within the schedule (1..``optim.total``)."""
-    beyond = [p for p in points if p > optim.total]
-    if beyond:
-        raise ValueError(f"evaluation point(s) {', '.join(map(str, beyond))} beyond the "
-                         f"{optim.total} {optim.unit} of training (TrainConfig.eval_points must "
-                         f"lie in 1..OptimConfig.total)")
-
-
 class TrainingDiverged(RuntimeError):
     """A training loss became NaN or infinite; nothing after the last checkpoint was saved."""
+
 
 
 @dataclass

@@ -254,7 +254,7 @@ def test_release_with_one_user(release, tmp_path, capsys):
     err = capsys.readouterr().err
     assert "at least two users" in err and str(release) in err and "Traceback" not in err
     spec = tmp_path / "one.toml"
-    spec.write_text(f'data = "{release}"\n')
+    spec.write_text(f'data_dir = "{release}"\n')
     from multitask.grid_cli import main as grid_main
 
     assert grid_main(["--spec", str(spec), "--out", str(tmp_path / "grid"), "--dry-run"]) == 2

@@ -3,7 +3,6 @@ from __future__ import annotations
 
 import json
 import os
-import re
 import signal
 import subprocess
 import sys
@@ -23,8 +22,8 @@ from multitask.variants import get_variant
 
 TINY = """
 preset = "quick"
-data = "{data}"
-folds = ["B", "C"]
+data_dir = "{data}"
+test_users = ["B", "C"]
 seeds = [0]
 hidden = 16
 epochs = 3
@@ -64,17 +63,17 @@ def test_spec_errors_name_the_file_and_key(tmp_path):
 
 
 def test_expand_skips_gradnorm_for_single_task_and_checks_folds():
-    spec = GridSpec(folds=("B",), seeds=(0, 1),
+    spec = GridSpec(test_users=("B",), seeds=(0, 1),
                     experiments=(Experiment(("A", "APc", "Pc"), ("fixed", "gradnorm")),))
     keys = expand(spec, ("B", "C"))
     assert {k.config_name for k in keys} == {"A-fixed", "APc-fixed", "APc-gradnorm", "Pc-fixed"}
     assert len(keys) == 4 * 2
     with pytest.raises(ValueError, match="Z"):
-        expand(GridSpec(folds=("Z",)), ("B", "C"))
+        expand(GridSpec(test_users=("Z",)), ("B", "C"))
 
 
 def test_paper_preset_run_configs(synth_dir):
-    spec = GridSpec(preset="paper", data=str(synth_dir))
+    spec = GridSpec(preset="paper", data_dir=str(synth_dir))
     keys = expand(spec, ("B", "C", "D", "E", "F", "G", "H", "I"))
     assert len(keys) == 22 * 8 * 3
     online_apc = run_config(spec, RunKey("revised", "forward", "APc", "fixed", 2, "G"))
@@ -122,13 +121,16 @@ def test_table_csv_matches_the_per_fold_numbers(tiny_grid):
 def test_latex_table_shape(tiny_grid):
     tables_main([str(tiny_grid), "--no-figures"])
     tex = (tiny_grid / "tables" / "table1.tex").read_text()
-    for env in ("table*", "tabular"):
+    for env in ("table", "tabular"):
         assert tex.count(rf"\begin{{{env}}}") == tex.count(rf"\end{{{env}}}") == 1
     assert tex.count("{") == tex.count("}")
-    body = tex.split(r"\midrule")[1].split(r"\bottomrule")[0].strip().splitlines()
-    assert [line.split(" & ")[0] for line in body] == ["A", "APc ($w_1{=}w_2{=}1$)"]
-    columns = len(re.search(r"\\begin\{tabular\}\{(\w+)\}", tex).group(1))
-    assert all(line.count(" & ") == columns - 1 for line in body)
+    header = tex.split("\\toprule\n")[1].split(r"\midrule")[0].splitlines()
+    assert [c.strip() for c in header[0].removesuffix(r"\\").split("&")] == ["", "", "A", "APc"]
+    columns = 2 + 2                          # metric and side labels, then the models A and APc
+    rows = [line for line in tex.split(r"\midrule", 1)[1].split(r"\bottomrule")[0].splitlines()
+            if line.endswith(r"\\") and r"\multicolumn" not in line]
+    assert [row.split(" & ")[1] for row in rows[:3]] == ["Ours", "Paper", r"$\Delta$"]
+    assert all(row.count(" & ") == columns - 1 for row in rows)
 
 
 def test_killed_grid_resumes_without_redoing_finished_runs(tmp_path, tiny_spec):
@@ -211,7 +213,8 @@ def test_annotation_ablation_reports_revised_minus_original():
     assert list(table.config) == ["A-fixed"]            # APc ran on one version only
     assert table.iloc[0]["diff"] == pytest.approx(2.0)
     tex = to_latex(table, "caption", "ablation", ("Revised", "Original"))
-    assert r"\textbf{85.0 (1.0)} & \textbf{83.0 (1.0)} & +2.0" in tex
+    assert r"Accuracy & Revised & \textbf{85.0 (1.0)} \\" in tex
+    assert r" & Original & \textbf{83.0 (1.0)} \\" in tex and r" & $\Delta$ & $+$2.0 \\" in tex
 
 
 def test_runs_table_records_convergence(tiny_grid):

@@ -132,15 +132,15 @@ def test_frame_labels_mark_gaps_unlabelled(synth_dir):
 def test_cli_commands(synth_dir, tmp_path, capsys):
     from jigsaws_tools.cli import main
 
-    assert main(["synth", str(tmp_path / "s"), "--seed", "3"]) == 0
-    assert main(["inspect", str(synth_dir)]) == 0
+    assert main(["synth", "--out", str(tmp_path / "s"), "--synthetic-seed", "3"]) == 0
+    assert main(["inspect", "--data-dir", str(synth_dir)]) == 0
     out = capsys.readouterr().out
     assert "40 complete trials" in out and "missing kinematics: none" in out
-    assert main(["amendments", str(synth_dir)]) == 0
+    assert main(["amendments", "--data-dir", str(synth_dir)]) == 0
     assert "skipped: trial absent" not in capsys.readouterr().out  # synthetic trials all exist
-    assert main(["plot", str(synth_dir), "--out", str(tmp_path / "l.png")]) == 0
+    assert main(["plot", "--data-dir", str(synth_dir), "--out", str(tmp_path / "l.png")]) == 0
     assert (tmp_path / "l.png").stat().st_size > 10_000
-    assert main(["inspect", str(tmp_path / "missing")]) == 2
+    assert main(["inspect", "--data-dir", str(tmp_path / "missing")]) == 2
     assert "not found" in capsys.readouterr().err
 
 

@@ -287,7 +287,7 @@ def test_knot_tying_grid_tables_and_figures(tmp_path, capsys):
     release = write_release(tmp_path / "Knot_Tying", SynthConfig(users=("B", "C", "D"),
                                                                  trials_per_user=2),
                             load_task("Knot_Tying"))
-    spec = _write(tmp_path, f'task = "Knot_Tying"\ndata = "{release}"\nfolds = ["B"]\n'
+    spec = _write(tmp_path, f'task = "Knot_Tying"\ndata_dir = "{release}"\ntest_users = ["B"]\n'
                             'seeds = [0]\nhidden = 8\nepochs = 1\n'
                             '[[experiments]]\nvariants = ["A", "APc"]\n', "knot.toml")
     grid = tmp_path / "grid"
@@ -308,8 +308,8 @@ def test_knot_tying_grid_tables_and_figures(tmp_path, capsys):
 
 
 def test_grid_spec_takes_a_task(tmp_path):
-    spec = GridSpec(task="Knot_Tying", data="synthetic", folds=("B",), seeds=(0,))
-    assert spec.data_dir().name == "Knot_Tying"
+    spec = GridSpec(task="Knot_Tying", data_dir="synthetic", test_users=("B",), seeds=(0,))
+    assert spec.release_dir().name == "Knot_Tying"
     keys = expand(spec, release_users(spec))
     config = run_config(spec, keys[0])
     assert config.data.task.name == "Knot_Tying" and config.data.task.num_stages == 4

@@ -1,0 +1,114 @@
+"""A finished grid written without training: every file ``multitask-tables`` reads (config.json,
+metrics.json, predictions, history.csv, gradnorm.csv, finished.json), with made-up but seeded
+scores, so that tables, captions, curves and figures are tested in a second instead of a training
+run per fold."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from multitask.grid_spec import PAPER_EXPERIMENTS, Experiment, GridSpec, expand, run_config
+from rnn_seg.rundir import to_jsonable
+
+GESTURES = ("G1", "G2", "G3", "G4", "G5", "G6", "G8", "G9", "G10", "G11")
+STAGES = ("P0", "P1", "P2", "P3", "P4")
+FOLDS = ("B", "C", "D", "E", "F", "G", "H", "I")
+#: Test trials per fold: user G has one trial fewer, as in the real release.
+TRIALS = {fold: 4 if fold == "G" else 5 for fold in FOLDS}
+#: Gestures that never occur in a fold's test trials (their accuracy is NaN there), and one that
+#: occurs but is never recognised (accuracy 0).
+ABSENT = {"G10"}
+NEVER_RECOGNISED = "G9"
+SAMPLES = 60                       # per test trial, at 5 Hz
+
+
+def write_fake_grid(root: Path, seeds: tuple[int, ...] = (0, 1), hidden: int = 16,
+                    epochs: int = 12,
+                    experiments: tuple[Experiment, ...] = PAPER_EXPERIMENTS) -> Path:
+    """Every run of a grid (default: the paper's, 22 configurations) over 8 folds and ``seeds``
+    under ``root``."""
+    spec = GridSpec(data_dir=str(root / "data" / "Suturing"), seeds=seeds, hidden=hidden,
+                    epochs=epochs, experiments=experiments)
+    rng = np.random.default_rng(0)
+    keys = expand(spec, FOLDS)
+    for key in keys:
+        run_dir = root / key.path()
+        config = run_config(spec, key)
+        tasks = (["gesture"] if key.variant.startswith("A") else []) + (
+            ["progress"] if "P" in key.variant else [])
+        _write_json(run_dir / "config.json", {"run": to_jsonable(config), "tasks": tasks,
+                                              "variant": key.variant,
+                                              "weighting": key.weighting})
+        point = config.train.eval_points[-1]
+        predictions = run_dir / "eval" / f"epoch{point:04d}" / "predictions"
+        predictions.mkdir(parents=True)
+        for trial in range(1, TRIALS[key.fold] + 1):
+            _predictions(rng, tasks, key.variant).to_csv(
+                predictions / f"Suturing_{key.fold}{trial:03d}.csv", index=False)
+        _history(rng, tasks, config.optim.total).to_csv(run_dir / "history.csv", index=False)
+        if key.weighting == "gradnorm":
+            n = np.arange(1, config.optim.total + 1)
+            w = 1 + 0.3 * np.tanh(n / 5)
+            pd.DataFrame({"sweep": 7 * n, "unit": n, "w_end_gesture": w,
+                          "w_end_progress": 2 - w}).to_csv(run_dir / "gradnorm.csv", index=False)
+        mean = {task: _scores(rng, task, key.variant) for task in tasks}
+        _write_json(run_dir / "metrics.json", {"points": {str(point): mean}, "mean": mean,
+                                               "unit": "epochs"})
+        _write_json(run_dir / "finished.json", {"sweeps": 7 * config.optim.total})
+    return root
+
+
+def _write_json(path: Path, obj) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(obj, indent=1))
+
+
+def _scores(rng: np.random.Generator, task: str, variant: str) -> dict[str, float]:
+    scores = {name: float(rng.uniform(70, 95)) for name in ("accuracy", "edit", "f1@10")}
+    if task == "gesture":
+        for g in GESTURES:
+            scores[f"accuracy_{g}"] = (float("nan") if g in ABSENT else
+                                       0.0 if g == NEVER_RECOGNISED else float(rng.uniform(40, 99)))
+    elif variant.endswith("Pr"):
+        scores["mae_normalised"] = float(rng.uniform(4, 12))
+    return scores
+
+
+def _labels(rng: np.random.Generator, classes: int) -> np.ndarray:
+    lengths = rng.integers(4, 12, size=SAMPLES)
+    labels = np.repeat(rng.integers(0, classes, size=SAMPLES), lengths)
+    return labels[:SAMPLES]
+
+
+def _predictions(rng: np.random.Generator, tasks: list[str], variant: str) -> pd.DataFrame:
+    columns: dict[str, np.ndarray] = {"frame": 1 + 6 * np.arange(SAMPLES)}
+    for task, names in (("gesture", GESTURES), ("progress", STAGES)):
+        if task not in tasks:
+            continue
+        true = _labels(rng, len(names))
+        pred = np.where(rng.random(SAMPLES) < 0.8, true, _labels(rng, len(names)))
+        columns[f"{task}_true"], columns[f"{task}_pred"] = true, pred
+        if task == "progress" and variant.endswith("Pr"):          # regression: the raw output
+            columns["progress_value"] = true + rng.normal(0, 0.4, SAMPLES)
+        elif task == "progress" and variant.endswith("oc"):        # ordinal: sigmoid outputs
+            columns.update({f"progress_y{k}": (pred >= k) * 0.9 for k in range(len(names))})
+        else:                                                       # softmax probabilities
+            columns.update({f"{task}_p_{n}": (pred == k) * 0.9 + 0.01
+                            for k, n in enumerate(names)})
+    return pd.DataFrame(columns)
+
+
+def _history(rng: np.random.Generator, tasks: list[str], epochs: int) -> pd.DataFrame:
+    """One row per epoch; test scores only every third epoch and at the end (empty otherwise)."""
+    n = np.arange(1, epochs + 1)
+    table = pd.DataFrame({"unit": "epochs", "n": n.astype(float), "sweep": 7 * n, "lr": 1.0})
+    for task in tasks:
+        table[f"loss_{task}"] = 2.0 / n + rng.uniform(0, 0.1, epochs)
+    table["seconds"] = rng.uniform(1.0, 1.5, epochs)
+    scored = (n % 3 == 0) | (n == epochs)
+    for task in tasks:
+        table[f"test_{task}_acc"] = np.where(scored, 60 + 30 * (1 - 1 / n), np.nan)
+    return table

@@ -1,0 +1,207 @@
+"""The five commands: quick, quiet start, --version, help and default for every option,
+range-checked values, deprecated spellings that still work, each warning printed once."""
+from __future__ import annotations
+
+import argparse
+import importlib
+import os
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from jigsaws_tools import arg_types
+from jigsaws_tools.cli_common import _TF_NOISE, configure_output, package_version
+
+ROOT = Path(__file__).resolve().parents[1]
+COMMANDS = {"jigsaws-tools": "jigsaws_tools.cli", "baseline-train": "baseline.cli",
+            "multitask-train": "multitask.train_cli", "multitask-grid": "multitask.grid_cli",
+            "multitask-tables": "multitask.tables_cli"}
+HEAVY = ("tensorflow", "scipy", "pandas", "matplotlib")
+#: The lines TensorFlow, absl and oneDNN print: glog-style C++ lines, absl's banner, oneDNN's
+#: notices, TensorFlow's Python warnings.
+TF_LINE = re.compile(r"^[IWEF]\d{4} |absl::|oneDNN|^WARNING:tensorflow|To enable the following",
+                     re.MULTILINE)
+
+
+def _python(*args: str, **kwargs) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    env.pop("TF_CPP_MIN_LOG_LEVEL", None)           # as a user's shell has it
+    return subprocess.run([sys.executable, *args], capture_output=True, text=True, env=env,
+                          timeout=600, **kwargs)
+
+
+@pytest.mark.parametrize("module,args", [(m, ["--help"]) for m in COMMANDS.values()]
+                         + [("multitask.train_cli", ["--variant", "Pc", "--help"]),
+                            ("jigsaws_tools.cli", ["inspect", "--help"])])
+def test_help_loads_no_heavy_module_and_prints_no_tensorflow_line(module, args):
+    script = (f"import sys\nfrom {module} import main\ntry:\n    main({args!r})\n"
+              f"except SystemExit:\n    pass\n"
+              f"print('loaded:', [m for m in {HEAVY!r} if m in sys.modules])")
+    result = _python("-c", script)
+    assert result.returncode == 0, result.stderr
+    assert "loaded: []" in result.stdout
+    assert "usage:" in result.stdout
+    assert not TF_LINE.search(result.stdout + result.stderr)
+
+
+@pytest.mark.parametrize("prog,module", COMMANDS.items())
+def test_version_on_every_command(prog, module):
+    result = _python("-m", module, "--version")
+    assert result.returncode == 0, result.stderr
+    assert result.stdout == f"{prog} {package_version()}\n"
+
+
+def _parsers() -> list[argparse.ArgumentParser]:
+    parsers = []
+    for name in COMMANDS.values():
+        parser = importlib.import_module(name).build_parser()
+        parsers.append(parser)
+        for action in parser._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                parsers.extend(action.choices.values())
+    return parsers
+
+
+@pytest.mark.parametrize("parser", _parsers(), ids=lambda p: p.prog)
+def test_every_option_has_help_and_shows_its_default(parser):
+    formatter = parser._get_formatter()
+    for action in parser._actions:
+        if action.help == argparse.SUPPRESS or isinstance(action, argparse._SubParsersAction):
+            continue
+        assert action.help, f"{parser.prog} {action.option_strings or action.dest}: no help"
+        shown = formatter._get_help_string(action)
+        flag = action.nargs == 0
+        states_default = ("default" in shown or "required" in shown or action.required
+                          or not action.option_strings)
+        assert flag or states_default, f"{parser.prog} {action.option_strings}: no default shown"
+
+
+@pytest.mark.parametrize("module,args,message", [
+    ("multitask.train_cli", ["--hidden", "0"], "--hidden: expected an integer >= 1, got '0'"),
+    ("multitask.train_cli", ["--keep-prob", "0"], "--keep-prob: expected a number in (0, 1]"),
+    ("multitask.train_cli", ["--momentum", "1"], "--momentum: expected a number in [0, 1)"),
+    ("multitask.train_cli", ["--lr", "nan"], "--lr: expected a finite number > 0, got 'nan'"),
+    ("multitask.train_cli", ["--alpha", "-1"], "--alpha: expected a finite number >= 0"),
+    ("baseline.cli", ["--epochs", "0"], "--epochs: expected an integer >= 1, got '0'"),
+    ("baseline.cli", ["--eval-at", "10,0"], "--eval-at: expected an integer >= 1, got '0'"),
+    ("baseline.cli", ["--threads", "-1"], "--threads: expected an integer >= 0, got '-1'"),
+    ("multitask.grid_cli", ["--workers", "0"], "--workers: expected an integer >= 1, got '0'"),
+    ("multitask.grid_cli", ["--stack", "two"], "--stack: expected an integer >= 1, got 'two'"),
+])
+def test_out_of_range_values_are_argparse_errors_naming_the_range(module, args, message, capsys):
+    with pytest.raises(SystemExit) as exit_:
+        importlib.import_module(module).main(args + ["--out", "unused"])
+    assert exit_.value.code == 2
+    assert message in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("parse,good,bad", [
+    (arg_types.positive_int, {"1": 1, "120": 120}, ["0", "-3", "1.5", "x", ""]),
+    (arg_types.non_negative_int, {"0": 0, "7": 7}, ["-1", "2.0"]),
+    (arg_types.probability, {"1": 1.0, "0.5": 0.5}, ["0", "1.01", "nan", "-0.2"]),
+    (arg_types.momentum, {"0": 0.0, "0.9": 0.9}, ["1", "-0.1", "inf"]),
+    (arg_types.positive_float, {"1e-3": 1e-3}, ["0", "-1", "inf", "nan"]),
+    (arg_types.finite_float, {"-2.5": -2.5}, ["inf", "-inf", "nan", "one"]),
+    (arg_types.positive_int_list, {"100,110, 120": (100, 110, 120), "5": (5,)},
+     ["", "1,,2", "0,1", "a"]),
+])
+def test_range_checked_types(parse, good, bad):
+    for text, value in good.items():
+        assert parse(text) == value
+    for text in bad:
+        with pytest.raises(argparse.ArgumentTypeError, match="expected"):
+            parse(text)
+
+
+def test_deprecated_spellings_still_work_and_say_so_once(synth_dir, tmp_path, capsys, caplog):
+    from jigsaws_tools.cli import main as tools_main
+    from multitask.grid_cli import main as grid_main
+
+    assert tools_main(["synth", str(tmp_path / "s"), "--seed", "2"]) == 0
+    err = capsys.readouterr().err
+    assert "the positional DIR is deprecated; use --out DIR" in err
+    assert err.count("--seed is deprecated; use --synthetic-seed") == 1
+    assert (tmp_path / "s" / "meta_file_Suturing.txt").is_file()
+    assert tools_main(["amendments", str(synth_dir), "--version", "original"]) == 0
+    captured = capsys.readouterr()
+    assert "0 amendments" in captured.out
+    assert captured.err.count("deprecated") == 2
+    assert "--version is deprecated; use --annotations" in captured.err
+    spec = tmp_path / "old.toml"
+    spec.write_text(f'data = "{synth_dir}"\nfolds = ["C"]\nhidden = 8\nepochs = 1\n'
+                    '[[experiments]]\nvariants = ["A"]\n')
+    assert grid_main(["--spec", str(spec), "--out", str(tmp_path / "g"), "--threads-per-job", "1",
+                      "--dry-run"]) == 0
+    captured = capsys.readouterr()
+    assert captured.err.count("--threads-per-job is deprecated; use --threads") == 1
+    warnings = [r.getMessage() for r in caplog.records]
+    assert sum("spec key 'data' is deprecated; use 'data_dir'" in w for w in warnings) == 1
+    assert sum("spec key 'folds' is deprecated; use 'test_users'" in w for w in warnings) == 1
+    assert "seed0/C" in captured.out and "1 runs" in captured.out
+
+
+def test_old_and_new_spec_keys_give_the_same_grid(synth_dir, tmp_path):
+    from multitask.grid_spec import load_spec
+
+    old, new = tmp_path / "old.toml", tmp_path / "new.toml"
+    old.write_text(f'data = "{synth_dir}"\nfolds = ["C", "D"]\n')
+    new.write_text(f'data_dir = "{synth_dir}"\ntest_users = ["C", "D"]\n')
+    assert load_spec(old) == load_spec(new)
+    both = tmp_path / "both.toml"
+    both.write_text(f'data = "{synth_dir}"\ndata_dir = "{synth_dir}"\n')
+    with pytest.raises(ValueError, match=r"both\.toml: both 'data' and 'data_dir'"):
+        load_spec(both)
+
+
+def test_tensorflow_start_up_lines_are_recognised():
+    noise = ["WARNING: All log messages before absl::InitializeLog() is called are written to "
+             "STDERR\n",
+             "I0000 00:00:1795276466.592615    8348 port.cc:153] oneDNN custom operations on.\n",
+             "E0000 00:00:1795276493.637004    8808 util.cc:131] oneDNN supports DT_BOOL only\n",
+             "To enable the following instructions: AVX2 FMA, in other operations, rebuild\n"]
+    kept = ["WARNING: Suturing_G001: transcription present but no kinematics; trial skipped\n",
+            "/usr/lib/python3/site-packages/x.py:3: DeprecationWarning: old\n"]
+    assert all(_TF_NOISE.match(line) for line in noise)
+    assert not any(_TF_NOISE.match(line) for line in kept)
+
+
+def test_verbose_shows_tensorflow_logs_and_default_respects_the_environment(monkeypatch):
+    monkeypatch.delenv("TF_CPP_MIN_LOG_LEVEL", raising=False)
+    configure_output(verbose=False)
+    assert os.environ["TF_CPP_MIN_LOG_LEVEL"] == "3"
+    monkeypatch.setenv("TF_CPP_MIN_LOG_LEVEL", "1")
+    configure_output(verbose=False)
+    assert os.environ["TF_CPP_MIN_LOG_LEVEL"] == "1"
+    configure_output(verbose=True)
+    assert os.environ["TF_CPP_MIN_LOG_LEVEL"] == "0"
+
+
+def test_training_prints_no_tensorflow_line(synth_dir, tmp_path):
+    result = _python("-m", "multitask.train_cli", "--data-dir", str(synth_dir), "--variant",
+                     "APc", "--hidden", "8", "--epochs", "1", "--test-user", "C", "--no-plots",
+                     "--out", str(tmp_path / "run"))
+    assert result.returncode == 0, result.stderr
+    assert "done: gesture: accuracy" in result.stdout
+    assert not TF_LINE.search(result.stdout), result.stdout
+    assert result.stderr == ""
+
+
+def test_grid_prints_each_warning_once_and_logs_no_stray_message(synth_dir, tmp_path):
+    release = shutil.copytree(synth_dir, tmp_path / "Suturing")
+    (release / "kinematics" / "AllGestures" / "Suturing_B001.txt").unlink()
+    spec = tmp_path / "spec.toml"
+    spec.write_text(f'data_dir = "{release}"\ntest_users = ["C"]\nhidden = 8\nepochs = 1\n'
+                    '[[experiments]]\nvariants = ["A"]\n')
+    result = _python("-m", "multitask.grid_cli", "--spec", str(spec), "--out",
+                     str(tmp_path / "grid"))
+    assert result.returncode == 0, result.stderr
+    warnings = [line for line in result.stderr.splitlines() if "Suturing_B001" in line]
+    assert len(warnings) == 1 and "no kinematics" in warnings[0], result.stderr
+    assert not TF_LINE.search(result.stdout + result.stderr)
+    log = next((tmp_path / "grid").glob("runs/*/*/*/seed0/C/train.log")).read_text()
+    assert warnings[0] in log
+    assert "already finished" not in log

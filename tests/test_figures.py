@@ -1,0 +1,154 @@
+"""Figures: one colour per class in ribbons and legends (read back from the pixels), time in
+seconds, per-gesture error bars with absent and never-recognised gestures told apart, the example
+trial chosen, training curves from history.csv."""
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+import pytest  # noqa: E402
+from matplotlib.container import ErrorbarContainer  # noqa: E402
+
+from jigsaws_tools.plots import (Ribbon, class_colours, draw_ribbon,  # noqa: E402
+                                 layout_with_legends, task_colours)
+from multitask import curves, figures  # noqa: E402
+from multitask.collect import per_fold, run_rows  # noqa: E402
+from multitask.grid_spec import Experiment  # noqa: E402
+from multitask.tables_cli import main as tables_main  # noqa: E402
+from tests.fake_grid import (ABSENT, FOLDS, GESTURES, NEVER_RECOGNISED,  # noqa: E402
+                             write_fake_grid)
+
+SECONDS_PER_CLASS = 2.0
+
+
+@pytest.fixture(scope="module")
+def grid(tmp_path_factory):
+    return write_fake_grid(tmp_path_factory.mktemp("grid"))
+
+
+@pytest.fixture()
+def captured(monkeypatch):
+    """The figures ``multitask.figures.save`` is given, by file name, instead of files."""
+    shown: dict[str, plt.Figure] = {}
+
+    def keep(fig, out_dir, name):
+        shown[name] = fig
+        return [out_dir / f"{name}.png"]
+    monkeypatch.setattr(figures, "save", keep)
+    monkeypatch.setattr(curves, "save", keep)
+    yield shown
+    plt.close("all")
+
+
+def _pixel(buffer: np.ndarray, fig: plt.Figure, x: float, y: float) -> np.ndarray:
+    """RGB at display coordinates (x, y) of a drawn figure (origin bottom left)."""
+    return buffer[int(fig.bbox.height - y), int(x), :3].astype(int)
+
+
+@pytest.mark.parametrize("classes,ordered", [(5, True), (10, False), (6, False), (15, False)])
+def test_ribbon_and_legend_show_each_class_in_one_colour(classes, ordered):
+    names = tuple(f"C{k}" for k in range(classes))
+    colours = task_colours(classes, ordered)
+    labels = np.repeat(np.arange(classes), 10)
+    ribbon = Ribbon("row", labels, np.arange(len(labels)) / 5.0, names, colours)
+    fig, ax = plt.subplots(figsize=(10, 1.5))
+    draw_ribbon(ax, ribbon)
+    layout_with_legends(fig, [ribbon])
+    fig.canvas.draw()
+    buffer = np.asarray(fig.canvas.buffer_rgba())
+    expected = np.round(colours[:, :3] * 255).astype(int)
+    for k in range(classes):                      # left quarter of each run: no class name there
+        x, y = ax.transData.transform((k * SECONDS_PER_CLASS + 0.3, 0.2))
+        assert np.abs(_pixel(buffer, fig, x, y) - expected[k]).max() <= 2, f"ribbon class {k}"
+    legend = fig.legends[0]
+    for k, handle in enumerate(legend.legend_handles):
+        box = handle.get_window_extent()
+        centre = ((box.x0 + box.x1) / 2, (box.y0 + box.y1) / 2)
+        assert np.abs(_pixel(buffer, fig, *centre) - expected[k]).max() <= 2, f"legend {k}"
+    plt.close(fig)
+
+
+def test_stage_colours_span_the_map_and_qualitative_maps_are_not_stretched():
+    stages = class_colours(5, "viridis")
+    assert np.allclose(stages[-1], matplotlib.colormaps["viridis"](1.0))
+    assert np.allclose(class_colours(6)[:, :3], matplotlib.colormaps["tab10"].colors[:6])
+    with pytest.raises(ValueError, match="Set2 has 8 colours for 10 classes"):
+        class_colours(10, "Set2")
+
+
+def test_per_gesture_accuracy_has_error_bars_and_tells_absent_from_never_recognised(
+        grid, captured):
+    folds = per_fold(run_rows(grid)[0])
+    figures.per_gesture_accuracy(folds, GESTURES, grid / "figures")
+    ax = captured["per_gesture_accuracy"].axes[0]
+    assert [t.get_text() for t in ax.get_xticklabels()] == list(GESTURES)
+    assert sum(isinstance(c, ErrorbarContainer) for c in ax.containers) == 3
+    a = folds[(folds.variant == "A") & (folds.annotations == "revised")
+              & (folds.direction == "bidirectional")]
+    heights = [p.get_height() for p in ax.containers[1].patches]      # model A's bars
+    expected = a[[f"gesture_accuracy_{g}" for g in GESTURES]].mean().fillna(0.0)
+    np.testing.assert_allclose(heights, expected.to_numpy())
+    marks = [t.get_text() for t in ax.texts]
+    assert marks.count("n/a") == 3 * len(ABSENT) and marks.count("0") == 3
+    assert NEVER_RECOGNISED in GESTURES
+
+
+def test_example_figures_take_the_chosen_trial_and_show_seconds(grid, captured):
+    folds = per_fold(run_rows(grid)[0])
+    example = figures.example_trial(grid, folds, "Suturing_D003")
+    assert example == ("Suturing_D003", "D")
+    figures.all_figures(grid, folds, grid / "figures", example)
+    segmentation = captured["segmentation_example"]
+    assert "Suturing_D003" in segmentation.axes[0].get_title()
+    assert segmentation.axes[-1].get_xlabel() == "time [s]"
+    predictions = pd.read_csv(next(grid.glob(
+        "runs/revised/bidirectional/A-fixed/seed0/D/eval/*/predictions/Suturing_D003.csv")))
+    end = segmentation.axes[-1].get_xlim()[1]
+    assert end == pytest.approx((predictions.frame.iloc[-1] - 1 + 6) / 30)
+    progress = captured["progress_example"].axes[0]
+    assert "Suturing_D003" in progress.get_title()
+    assert any("APr" in t.get_text() for t in progress.get_legend().get_texts())
+    assert figures.example_trial(grid, folds) == ("Suturing_B001", "B")
+    with pytest.raises(ValueError, match="Suturing_Z001.*Suturing_B001"):
+        figures.example_trial(grid, folds, "Suturing_Z001")
+
+
+def test_fold_letters_label_the_points(grid, captured):
+    figures.fold_accuracy(per_fold(run_rows(grid)[0]), grid / "figures")
+    letters = [t.get_text() for t in captured["fold_accuracy"].axes[0].texts]
+    assert sorted(letters) == sorted(FOLDS * 2)
+    assert min(t.get_fontsize() for t in captured["fold_accuracy"].axes[0].texts) >= 8
+
+
+@pytest.mark.filterwarnings("ignore:More than 20 figures")
+def test_training_curves_one_figure_per_configuration_a_line_per_run(grid, captured):
+    curves.training_curves(grid, grid / "curves")
+    assert len(captured) == 22
+    fig = captured["revised-bidirectional-APoc-gradnorm"]
+    titles = [ax.get_title() for ax in fig.axes]
+    assert titles == ["gesture loss", "progress loss", "gesture test accuracy [%]",
+                      "progress test accuracy [%]"]
+    history = pd.read_csv(next(grid.glob(
+        "runs/revised/bidirectional/APoc-gradnorm/seed0/B/history.csv")))
+    lines = fig.axes[2].get_lines()
+    assert len(lines) == len(FOLDS) * 2                        # one per run: 8 folds x 2 seeds
+    scored = history.n[history.test_gesture_acc.notna()].to_numpy()
+    np.testing.assert_array_equal(lines[0].get_xdata(), scored)
+    assert fig.axes[0].get_xlabel() == "epoch"
+
+
+def test_tables_command_draws_curves_and_the_chosen_trial(tmp_path, capsys):
+    grid = write_fake_grid(tmp_path / "grid", seeds=(0,), experiments=(
+        Experiment(("A", "APr", "APc", "APoc"), ("fixed", "gradnorm")),))
+    out = tmp_path / "tables"
+    assert tables_main([str(grid), "--out", str(out), "--example-trial", "nope"]) == 2
+    assert "example trial 'nope'" in capsys.readouterr().err and not out.exists()
+    assert tables_main([str(grid), "--out", str(out), "--curves",
+                        "--example-trial", "Suturing_C002"]) == 0
+    assert len(list((out / "figures" / "curves").glob("*.pdf"))) == 7
+    for name in ("per_gesture_accuracy", "segmentation_example", "progress_example",
+                 "fold_accuracy", "gradnorm_weights"):
+        assert (out / "figures" / f"{name}.png").stat().st_size > 0

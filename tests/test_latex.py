@@ -1,0 +1,137 @@
+"""Paste-ready LaTeX: every table multitask-tables writes compiles with the packages it names, fits
+an IEEE two-column page without scaling, uses true minus signs and states its budget."""
+from __future__ import annotations
+
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from multitask.grid_spec import Experiment
+from multitask.latex import escape, mean_std, number, required_packages
+from multitask.tables_cli import main as tables_main
+from tests.fake_grid import FOLDS, TRIALS, write_fake_grid
+
+#: IEEE conference page (IEEEtran): 43pc text width, two 21pc columns.
+IEEE_TWO_COLUMN = (r"\documentclass[10pt,twocolumn]{article}" "\n"
+                   r"\setlength{\textwidth}{43pc}\setlength{\columnsep}{1pc}" "\n"
+                   r"\setlength{\textheight}{56pc}\setlength{\oddsidemargin}{0pt}" "\n")
+
+
+@pytest.fixture(scope="module")
+def tables(tmp_path_factory) -> dict[str, Path]:
+    """Every .tex file of a fake paper grid, with the paper's columns and ``--ours-only``."""
+    grid = write_fake_grid(tmp_path_factory.mktemp("grid"))
+    written = {}
+    for flags, suffix in (([], ""), (["--ours-only"], "_ours")):
+        out = grid / f"tables{suffix}"
+        assert tables_main([str(grid), "--no-figures", "--out", str(out)] + flags) == 0
+        written.update({f"{p.stem}{suffix}": p for p in sorted(out.glob("*.tex"))})
+    return written
+
+
+PAPER_TABLES = ("table1", "table2", "table3", "ablation_annotations")
+
+
+@pytest.fixture(scope="module")
+def paper_tables(tables) -> dict[str, Path]:
+    return {name: path for name, path in tables.items() if not name.startswith("claims")}
+
+
+def test_every_table_is_written(tables):
+    assert set(tables) == {f"{name}{suffix}" for suffix in ("", "_ours")
+                           for name in (*PAPER_TABLES, "claims")}
+
+
+def test_tables_name_their_packages_and_never_scale(tables):
+    for name, path in tables.items():
+        tex = path.read_text()
+        assert required_packages(tex) == [r"\usepackage{booktabs}"], name
+        assert r"\resizebox" not in tex and r"\scalebox" not in tex, name
+
+
+def test_numbers_have_true_minus_signs(paper_tables):
+    for name, path in paper_tables.items():
+        body = path.read_text().split(r"\begin{tabular}")[1]
+        assert not re.search(r"(?<![\w$-])-\d", body), name       # a hyphen before a digit
+        assert "$-$" in body or "ours" in name, name            # some difference is negative
+
+
+def test_captions_state_data_folds_budget_and_seeds(paper_tables, tables):
+    trials = sum(TRIALS.values())
+    for name, path in paper_tables.items():
+        caption = re.search(r"\\caption\{(.*)\}\n", path.read_text()).group(1)
+        assert f"JIGSAWS Suturing kinematics, {trials} trials" in caption, name
+        assert f"leave-one-user-out over {len(FOLDS)} folds (B, C, D, E, F, G, H, I)" in caption
+        assert "16 hidden units" in caption and "2 seeds (0, 1)" in caption, name
+    assert "12 epochs (8 for Pr, Pc, Poc)" in tables["table1"].read_text()
+    assert "12 epochs," in tables["table3"].read_text()          # no P model in Table III
+
+
+def test_captions_say_only_what_the_runs_record(tmp_path):
+    """Runs without config.json (or predictions) still get tables; the caption leaves out what
+    it cannot read instead of guessing."""
+    grid = write_fake_grid(tmp_path / "grid", seeds=(0,), experiments=(Experiment(("A",)),))
+    for config in grid.glob("runs/**/config.json"):
+        config.unlink()
+    assert tables_main([str(grid), "--no-figures", "--out", str(tmp_path / "out")]) == 0
+    caption = (tmp_path / "out" / "table1.tex").read_text()
+    assert f"{sum(TRIALS.values())} trials" in caption and "Models: 1 seed (0)." in caption
+    assert "hidden units" not in caption and "epochs" not in caption
+
+
+def test_ours_only_leaves_out_the_paper(tables):
+    ours, both = tables["table2_ours"].read_text(), tables["table2"].read_text()
+    assert "Paper" in both and "TCN" in both and r"$\Delta$" in both
+    assert "Paper" not in ours and "TCN" not in ours and r"$\Delta$" not in ours
+
+
+def test_bold_is_explained_in_a_note(paper_tables):
+    for name, path in paper_tables.items():
+        tex = path.read_text()
+        assert r"\textbf{" in tex and "Bold: the best value of each row" in tex, name
+
+
+def test_number_formatting():
+    assert number(-1.25) == "$-$1.2" and number(0.04, signed=True) == "0.0"
+    assert number(2.0, signed=True) == "$+$2.0" and number(float("nan")) == "--"
+    assert mean_std(84.83, 6.31) == "84.8 (6.3)" and mean_std(83.3, None) == "83.3"
+    assert escape("a_b & 5%") == r"a\_b \& 5\%"
+
+
+def _pdflatex(folder: Path, name: str, document: str) -> str:
+    (folder / f"{name}.tex").write_text(document)
+    result = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error",
+                             f"{name}.tex"], cwd=folder, capture_output=True, text=True,
+                            timeout=120)
+    log = (folder / f"{name}.log").read_text(errors="replace")
+    assert result.returncode == 0, log[-3000:]
+    return log
+
+
+needs_pdflatex = pytest.mark.skipif(
+    shutil.which("pdflatex") is None,
+    reason="pdflatex is not installed (Debian: apt-get install texlive-latex-base "
+           "texlive-latex-recommended; .ci/run installs them)")
+
+
+@needs_pdflatex
+def test_every_table_compiles_in_a_minimal_article(tables, tmp_path):
+    for name, path in tables.items():
+        tex = path.read_text()
+        document = "\n".join([r"\documentclass{article}", *required_packages(tex),
+                              r"\begin{document}", tex, r"\end{document}", ""])
+        _pdflatex(tmp_path, name, document)
+
+
+@needs_pdflatex
+def test_every_table_fits_an_ieee_two_column_page(tables, tmp_path):
+    """``table`` floats fit the column width and ``table*`` the text width, unscaled."""
+    for name, path in tables.items():
+        tex = path.read_text()
+        document = "\n".join([IEEE_TWO_COLUMN, *required_packages(tex), r"\begin{document}",
+                              tex, r"\end{document}", ""])
+        log = _pdflatex(tmp_path, f"ieee_{name}", document)
+        assert "Overfull \\hbox" not in log, f"{name} is wider than its column or page"
