@@ -17,7 +17,8 @@ from pathlib import Path
 
 from baseline.options import add_threads_argument
 from jigsaws_tools.arg_types import positive_int
-from jigsaws_tools.cli_common import command_parser, deprecated_alias, run_command
+from jigsaws_tools.cli_common import (command_parser, deprecated_alias, import_tensorflow,
+                                      run_command)
 from jigsaws_tools.options import DEFAULT_DATA_DIR_TEXT
 from rnn_seg.provenance import set_command
 
@@ -67,6 +68,7 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
+    import_tensorflow()          # quietly: checking run folders builds the runs' tasks
     from rnn_seg.folder_lock import hold_folder
 
     from .grid_executors import run_grid
