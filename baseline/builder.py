@@ -8,7 +8,7 @@ from typing import Callable, Sequence
 
 from jigsaws_tools.dataset import DataConfig, Dataset, Trial, cache_key, load_dataset
 from jigsaws_tools.release import discover
-from jigsaws_tools.task_definition import TaskDefinition
+from jigsaws_tools.task_definition import SUTURING, TaskDefinition
 from rnn_seg.model import SegmentationModel
 from rnn_seg.tasks import SoftmaxClassification, Task
 from rnn_seg.trainer import SequenceSet, Trainer
@@ -19,8 +19,9 @@ from .config import RunConfig
 LABEL_FIELDS = {"gesture": "gestures", "progress": "progress"}
 
 
-def gesture_task(task: TaskDefinition) -> Task:
-    """Softmax over ``task``'s gestures (Suturing: 10-way, G1-G6, G8-G11), mean cross-entropy."""
+def gesture_task(task: TaskDefinition = SUTURING) -> Task:
+    """Softmax over ``task``'s gestures (Suturing, the default: 10-way, G1-G6, G8-G11), mean
+    cross-entropy."""
     return SoftmaxClassification("gesture", task.gestures)
 
 

@@ -20,6 +20,7 @@ from baseline.config import RunConfig
 from jigsaws_tools.features import feature_columns
 from jigsaws_tools.preprocessing import Normalisation, preprocess_recording
 from jigsaws_tools.release import NUM_KINEMATIC_COLUMNS, discover, read_kinematics
+from rnn_seg.checkpoints import checkpoint_prefix, checkpoint_sweeps
 from rnn_seg.model import SegmentationModel
 from rnn_seg.rundir import RunFolderError, from_jsonable, is_finished, write_json
 from rnn_seg.tasks import Task
@@ -37,13 +38,6 @@ log = logging.getLogger(__name__)
 
 
 # -- the checkpoint layout of rnn_seg.trainer: the one place that reads it ------------------------
-def checkpoints(run_dir: Path) -> dict[int, str]:
-    """Checkpoints of a run: sweep count -> checkpoint prefix (``checkpoints/ckpt-<sweeps>``)."""
-    return {int(p.name[len("ckpt-"):-len(".index")]): str(p.with_suffix(""))
-            for p in (Path(run_dir) / "checkpoints").glob("ckpt-*.index")
-            if p.name[len("ckpt-"):-len(".index")].isdigit()}
-
-
 def restore_weights(model: SegmentationModel, run_dir: Path, checkpoint: int | None = None
                     ) -> int:
     """Load a run's saved weights into ``model`` (optimiser and other training state are not read).
@@ -51,24 +45,26 @@ def restore_weights(model: SegmentationModel, run_dir: Path, checkpoint: int | N
     Args:
         model: built from the run's configuration and tasks.
         run_dir: the run folder.
-        checkpoint: the sweep count after which the weights were saved (None = the latest).
+        checkpoint: the sweep count after which the weights were saved (``checkpoints/ckpt-N``;
+            None = the latest: a finished run's final weights).
 
     Returns:
         The sweep count of the checkpoint read.
     """
-    saved = checkpoints(run_dir)
+    saved = checkpoint_sweeps(run_dir)
     if not saved:
         raise RunFolderError(f"{Path(run_dir) / 'checkpoints'}: no checkpoint (has the run "
                              "trained for at least one checkpoint interval?)")
     sweep = max(saved) if checkpoint is None else checkpoint
     if sweep not in saved:
         raise RunFolderError(f"{run_dir}: no checkpoint after sweep {checkpoint} (have "
-                             f"{', '.join(map(str, sorted(saved)))})")
+                             f"{', '.join(map(str, saved))}; a run keeps its evaluation points' "
+                             "weights with --keep-checkpoints eval_points)")
+    prefix = checkpoint_prefix(run_dir, sweep)
     try:
-        status = tf.train.Checkpoint(model=model).restore(saved[sweep]).expect_partial()
-        status.assert_existing_objects_matched()
+        tf.train.Checkpoint(model=model).read(str(prefix)).assert_existing_objects_matched()
     except (AssertionError, ValueError, tf.errors.OpError) as error:
-        raise RunFolderError(f"{saved[sweep]}: the weights do not fit the model described by "
+        raise RunFolderError(f"{prefix}: the weights do not fit the model described by "
                              f"config.json ({str(error).splitlines()[0]})") from None
     return sweep
 

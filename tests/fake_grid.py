@@ -1,17 +1,17 @@
-"""A finished grid written without training: every file ``multitask-tables`` reads (config.json,
-metrics.json, predictions, history.csv, gradnorm.csv, finished.json), with made-up but seeded
+"""A finished grid written without training: every file ``multitask-tables`` reads (grid.json,
+config.json, metrics.json, predictions, history.csv, gradnorm.csv, finished.json), with made-up but
+seeded
 scores, so that tables, captions, curves and figures are tested in a second instead of a training
 run per fold."""
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from multitask.grid_spec import PAPER_EXPERIMENTS, Experiment, GridSpec, expand, run_config
-from rnn_seg.rundir import to_jsonable
+from rnn_seg.rundir import to_jsonable, write_json
 
 GESTURES = ("G1", "G2", "G3", "G4", "G5", "G6", "G8", "G9", "G10", "G11")
 STAGES = ("P0", "P1", "P2", "P3", "P4")
@@ -58,12 +58,13 @@ def write_fake_grid(root: Path, seeds: tuple[int, ...] = (0, 1), hidden: int = 1
         _write_json(run_dir / "metrics.json", {"points": {str(point): mean}, "mean": mean,
                                                "unit": "epochs"})
         _write_json(run_dir / "finished.json", {"sweeps": 7 * config.optim.total})
+    _write_json(root / "grid.json", {"runs": [str(key.path()) for key in keys]})
     return root
 
 
 def _write_json(path: Path, obj) -> None:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(obj, indent=1))
+    """Strict JSON (NaN as null), as every file of a real run."""
+    write_json(path, obj)
 
 
 def _scores(rng: np.random.Generator, task: str, variant: str) -> dict[str, float]:
@@ -74,6 +75,7 @@ def _scores(rng: np.random.Generator, task: str, variant: str) -> dict[str, floa
                                        0.0 if g == NEVER_RECOGNISED else float(rng.uniform(40, 99)))
     elif variant.endswith("Pr"):
         scores["mae_normalised"] = float(rng.uniform(4, 12))
+        scores["mae_normalised_rounded"] = 0.8 * scores["mae_normalised"]   # no extra draw
     return scores
 
 

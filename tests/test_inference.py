@@ -23,7 +23,8 @@ from multitask.fold_run import train_variant
 from multitask.predict_cli import kinematics_files
 from multitask.predict_cli import main as predict_main
 from multitask.streaming import StreamingPredictor, stream_recording
-from multitask.trained_run import STREAM_NORMALISATION_FILE, checkpoints, load_run
+from multitask.trained_run import STREAM_NORMALISATION_FILE, load_run
+from rnn_seg.checkpoints import checkpoint_sweeps
 from multitask.variants import get_variant
 from rnn_seg.lstm import EncoderConfig
 from rnn_seg.optim import OptimConfig
@@ -273,6 +274,6 @@ def test_an_unfinished_run_loads_with_a_warning(bi_run, tmp_path, caplog):
     run_dir = tmp_path / "run"
     shutil.copytree(bi_run, run_dir)
     (run_dir / "finished.json").unlink()
-    run = load_run(run_dir, checkpoint=min(checkpoints(run_dir)))
-    assert not run.finished and run.checkpoint == min(checkpoints(run_dir))
+    run = load_run(run_dir, checkpoint=min(checkpoint_sweeps(run_dir)))
+    assert not run.finished and run.checkpoint == min(checkpoint_sweeps(run_dir))
     assert "unfinished" in caplog.text

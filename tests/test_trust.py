@@ -375,13 +375,13 @@ EPOCHS = ["--epochs", "2"]
 
 
 @pytest.mark.parametrize("options,named", [
-    (["--epochs", "0"], "OptimConfig.total must be an integer >= 1 (got 0)"),
-    (["--sweeps", "0"], "OptimConfig.total must be an integer >= 1 (got 0)"),
+    (["--epochs", "0"], "--epochs: expected an integer >= 1, got '0'"),
+    (["--sweeps", "0"], "--sweeps: expected an integer >= 1, got '0'"),
     (["--hidden", "0", *EPOCHS], ">= 1"),
     (["--hidden", "-4", *EPOCHS], ">= 1"),
     (["--layers", "0", *EPOCHS], ">= 1"),
     (["--keep-prob", "1.5", *EPOCHS], "(0, 1]"),
-    (["--lr", "nan", *EPOCHS], "learning_rate"),
+    (["--lr", "nan", *EPOCHS], "--lr: expected a finite number > 0, got 'nan'"),
     (["--batch-size", "0", *EPOCHS], ">= 1"),
     (["--eval-at", "0", *EPOCHS], ">= 1"),
     (["--eval-at", "3", *EPOCHS], "beyond the 2 epochs"),
@@ -409,7 +409,7 @@ def test_a_non_finite_loss_stops_the_run_resumably(tmp_path):
     data = _nan_data()
     trainer = Trainer(SegmentationModel(4, EncoderConfig(hidden=8), tasks, 0), tasks,
                       OptimConfig(unit="sweeps", total=4, decay_start=4), TrainConfig(
-                          batch_size=2, eval_points=(4,), plots=False), data, data,
+                          batch_size=2, eval_points=(4,), plots="none"), data, data,
                       tmp_path / "run", {}, 5.0, log=lambda m: None)
     with pytest.raises(TrainingDiverged, match=r"loss gesture nan"):
         trainer.run()
@@ -482,7 +482,7 @@ def _tiny(run_dir: Path, eval_points: tuple[int, ...] = (6,), keep: str = "final
     data = _data(0)
     return Trainer(SegmentationModel(F, EncoderConfig(hidden=8), tasks, 0), tasks,
                    OptimConfig(unit="sweeps", total=6, decay_start=3, decay_every=2),
-                   TrainConfig(eval_points=eval_points, plots=False, keep_checkpoints=keep),
+                   TrainConfig(eval_points=eval_points, plots="none", keep_checkpoints=keep),
                    data, data, run_dir, {}, 5.0, log=lambda m: None)
 
 
