@@ -107,9 +107,12 @@ class Dataset:
 
 
 def default_data_dir(task_name: str = PAPER_TASK) -> Path:
-    """``$JIGSAWS_DIR`` if set, else ``../shared/jigsaws/<task_name>`` relative to the project."""
+    """The release folder of a task: ``$JIGSAWS_DIR`` (the Suturing folder) for Suturing, the
+    folder named after the task beside it for another task; without ``$JIGSAWS_DIR``,
+    ``../shared/jigsaws/<task_name>`` relative to the project."""
     if os.environ.get(JIGSAWS_ENV):
-        return Path(os.environ[JIGSAWS_ENV])
+        path = Path(os.environ[JIGSAWS_ENV])
+        return path if task_name in (PAPER_TASK, path.name) else path.parent / task_name
     return Path(__file__).resolve().parents[2] / "shared" / "jigsaws" / task_name
 
 

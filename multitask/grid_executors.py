@@ -30,7 +30,7 @@ from rnn_seg.provenance import command
 from rnn_seg.rundir import is_finished
 
 from .grid_job import run_job
-from .grid_spec import GridSpec, RunKey, spec_payload, stack_groups
+from .grid_spec import GridSpec, RunKey, job_groups, spec_payload
 
 Log = Callable[[str], None]
 
@@ -76,7 +76,7 @@ def run_grid(spec: GridSpec, keys: list[RunKey], out: Path, workers: int = 1,
     if not pending:
         return []
     payload = spec_payload(spec)
-    groups = stack_groups(pending, stack)
+    groups = job_groups(pending, stack)
     progress = Progress(len(keys), len(keys) - len(pending), log)
     if scheduler:
         _run_dask(payload, groups, out, scheduler, cores_per_job or 1, progress)

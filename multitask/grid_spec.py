@@ -3,9 +3,16 @@
 A spec names experiments (each a product of variants x weightings x annotation versions x
 directions), the LOUO folds, the seeds and a budget. Presets give the budget:
 
-* ``paper``: H=1024, the paper's schedules (120 epochs, 80 for Pr/Pc/Poc), seeds 0, 1, 2;
-* ``quick``: H=128 and every schedule compressed 4x (30 epochs, 20 for P), seed 0: the whole
-  default grid (22 configurations x 8 folds) takes about 80 minutes on 2 cores (results/README.md).
+* ``converged`` (the default): H=128 and the paper's schedules (120 epochs, 80 for Pr/Pc/Poc),
+  seed 0: the shortest schedules whose runs pass the convergence diagnostic
+  (``rnn_seg.convergence``; the measurements are in docs/REPRODUCTION.md, "The converged preset");
+* ``paper``: H=1024, the paper's schedules, seeds 0, 1, 2;
+* ``quick``: H=128 and every schedule compressed 4x (30 epochs, 20 for P), seed 0: a smoke test
+  of the whole pipeline; its progress heads have not converged.
+
+An experiment may name its own ``seeds`` (e.g. three for the configurations the paper's claims
+compare, one for the rest); grids run every configuration's first seed before any second one,
+so a grid cut short still has complete single-seed tables.
 
 Every run has its own directory ``runs/<annotations>/<direction>/<variant>-<weighting>/seed<k>/<user>``
 and is resumable on its own; ``finished.json`` marks it complete (``rnn_seg.rundir``). The path
@@ -14,7 +21,7 @@ Every key's type and range is checked when the spec is read (``GridSpec.__post_i
 
 Example spec (every key optional)::
 
-    preset = "quick"
+    preset = "converged"
     task = "Suturing"             # a built-in task (Knot_Tying, ...) or a definition file (*.toml)
     data_dir = "synthetic"        # or the task's JIGSAWS folder; default $JIGSAWS_DIR
     test_users = ["B", "C"]       # the LOUO folds; default: every user of the release
@@ -30,6 +37,7 @@ Example spec (every key optional)::
     weightings = ["fixed"]
     annotations = ["revised"]
     directions = ["bidirectional"]
+    seeds = [0, 1, 2]             # this experiment's seeds; default: the spec's
 
 The keys ``data`` and ``folds`` of earlier versions are read as ``data_dir`` and ``test_users``,
 with a deprecation warning.
@@ -63,6 +71,16 @@ DEPRECATED_KEYS = {"data": "data_dir", "folds": "test_users"}
 def _tuple(value):
     """A list (TOML array) as a tuple; anything else unchanged, for the dataclasses to check."""
     return tuple(value) if isinstance(value, list) else value
+
+
+def _require_seeds(name: str, seeds) -> None:
+    """Raise unless ``seeds`` is a non-empty tuple of distinct integers >= 0."""
+    _require_tuple(name, seeds, "a non-empty list of integers >= 0")
+    for seed in seeds:
+        if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+            raise ValueError(f"{name} must be a list of integers >= 0 (got {seed!r})")
+    if len(set(seeds)) < len(seeds):
+        raise ValueError(f"{name} must not repeat (got {list(seeds)})")
 
 
 def _require_tuple(name: str, value, what: str) -> None:
@@ -103,7 +121,7 @@ def expand(spec: GridSpec, users: tuple[str, ...]) -> list[RunKey]:
     keys = {RunKey(a, d, v, w, s, f)
             for e in spec.experiments
             for v in e.variants for w in e.weightings for a in e.annotations for d in e.directions
-            for s in spec.budget.seeds for f in folds
+            for s in spec.seeds_of(e) for f in folds
             if w == "fixed" or get_variant(v).multitask}
     return sorted(keys)
 
@@ -149,6 +167,13 @@ def stack_groups(keys: list[RunKey], size: int) -> list[list[RunKey]]:
     return [runs[i:i + size] for runs in by_config.values() for i in range(0, len(runs), size)]
 
 
+def job_groups(keys: list[RunKey], size: int) -> list[list[RunKey]]:
+    """``stack_groups`` in the order a grid runs them: every configuration's first seed before
+    any second one, so a grid cut short still has complete single-seed tables (configurations
+    keep their order within a seed)."""
+    return sorted(stack_groups(keys, size), key=lambda group: min(k.seed for k in group))
+
+
 def spec_payload(spec: GridSpec) -> dict:
     """``spec`` as plain data that ``spec_from_dict`` reads back (for workers and grid.json)."""
     data = asdict(spec)
@@ -178,8 +203,10 @@ class Budget:
     seeds: tuple[int, ...]
 
 
-PRESETS = {"paper": Budget(hidden=1024, schedule_scale=1.0, seeds=(0, 1, 2)),
+PRESETS = {"converged": Budget(hidden=128, schedule_scale=1.0, seeds=(0,)),
+           "paper": Budget(hidden=1024, schedule_scale=1.0, seeds=(0, 1, 2)),
            "quick": Budget(hidden=128, schedule_scale=0.25, seeds=(0,))}
+DEFAULT_PRESET = "converged"
 
 
 @dataclass(frozen=True)
@@ -191,8 +218,11 @@ class Experiment:
     weightings: tuple[str, ...] = ("fixed",)
     annotations: tuple[str, ...] = ("revised",)
     directions: tuple[str, ...] = ("bidirectional",)
+    seeds: tuple[int, ...] | None = None    # None = the spec's (its budget's) seeds
 
     def __post_init__(self):
+        if self.seeds is not None:
+            _require_seeds("experiments.seeds", self.seeds)
         for name, allowed, what in (("variants", VARIANTS, "variant"),
                                     ("weightings", WEIGHTINGS, "weighting"),
                                     ("annotations", ANNOTATION_VERSIONS, "annotation version"),
@@ -218,7 +248,7 @@ PAPER_EXPERIMENTS = (
 class GridSpec:
     """A whole grid; ``None`` budget fields take the preset's value."""
 
-    preset: str = "quick"
+    preset: str = DEFAULT_PRESET
     task: str = PAPER_TASK          # a built-in task's name or a definition file's path
     data_dir: str = ""              # "" = $JIGSAWS_DIR or the default folder; "synthetic"
     test_users: tuple[str, ...] = ()    # the LOUO folds; () = every user of the release
@@ -246,12 +276,7 @@ class GridSpec:
             if not isinstance(user, str) or not user:
                 raise ValueError(f"test_users must be a list of user letters (got {user!r})")
         if self.seeds is not None:
-            _require_tuple("seeds", self.seeds, "a non-empty list of integers >= 0")
-            for seed in self.seeds:
-                if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-                    raise ValueError(f"seeds must be a list of integers >= 0 (got {seed!r})")
-            if len(set(self.seeds)) < len(self.seeds):
-                raise ValueError(f"seeds must not repeat (got {list(self.seeds)})")
+            _require_seeds("seeds", self.seeds)
         for name in ("hidden", "epochs"):
             if getattr(self, name) is not None:
                 require_number(name, getattr(self, name), integer=True, low=1)
@@ -276,6 +301,10 @@ class GridSpec:
     @property
     def gradnorm(self) -> GradNormConfig:
         return GradNormConfig(relative_rate=self.relative_rate)
+
+    def seeds_of(self, experiment: Experiment) -> tuple[int, ...]:
+        """The seeds ``experiment`` runs: its own, else the budget's."""
+        return self.budget.seeds if experiment.seeds is None else experiment.seeds
 
     def task_definition(self) -> TaskDefinition:
         return load_task(self.task)

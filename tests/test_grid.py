@@ -13,8 +13,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from multitask.grid_spec import (Experiment, GridSpec, RunKey, expand, load_spec, run_config,
-                            stack_groups)
+from multitask.grid_spec import (Experiment, GridSpec, RunKey, expand, job_groups, load_spec,
+                                 run_config, stack_groups)
 from multitask.grid_cli import main as grid_main
 from multitask.grid_executors import run_grid
 from multitask.tables_cli import main as tables_main
@@ -237,3 +237,21 @@ def test_tables_carry_rounded_and_raw_mae():
     assert table.loc["progress_mae", "left_mean"] == 5.0
     assert table.loc["progress_mae_raw", "left_mean"] == 7.0
     assert pd.isna(table.loc["progress_mae_raw", "right_mean"])       # the paper has no raw MAE
+
+
+def test_experiments_may_name_their_own_seeds_and_first_seeds_run_first(tmp_path):
+    spec = GridSpec(seeds=(0,), experiments=(
+        Experiment(("A", "APc"), annotations=("revised",), seeds=(0, 1, 2)),
+        Experiment(("A",), annotations=("original",))))
+    keys = expand(spec, ("B", "C"))
+    seeds = {(k.annotations, k.variant): sorted({x.seed for x in keys if
+                                                 (x.annotations, x.variant) == (k.annotations,
+                                                                                k.variant)})
+             for k in keys}
+    assert seeds == {("revised", "A"): [0, 1, 2], ("revised", "APc"): [0, 1, 2],
+                     ("original", "A"): [0]}
+    assert GridSpec().preset == "converged" and GridSpec().budget.schedule_scale == 1.0
+    with pytest.raises(ValueError, match="experiments.seeds"):
+        Experiment(("A",), seeds=(0, 0))
+    order = [min(k.seed for k in group) for group in job_groups(keys, 2)]
+    assert order == sorted(order) and order[0] == 0
