@@ -34,7 +34,14 @@ def shared_layer_variables(model) -> list[tf.Variable]:
 
 
 class GradNormTrainer(Trainer):
-    """``Trainer`` whose task weights follow GradNorm; logs ``gradnorm.csv`` at each progress line."""
+    """``Trainer`` whose task weights follow GradNorm; logs ``gradnorm.csv`` at each progress line.
+
+    Uses the four hooks of ``rnn_seg.trainer.Trainer`` (its docstring lists a sweep's calls in
+    order): ``per_task_gradients`` (one gradient list per task), ``update`` (the network step
+    with the current weights, then GradNorm's weight step), ``record`` (the losses, keeping
+    G_i, r_i and w_i for the log), ``_on_log`` (gradnorm.csv), and ``extra_state`` checkpoints
+    the weights and the first sweep's losses.
+    """
 
     def __init__(self, *args, gradnorm: GradNormConfig, **kwargs):
         super().__init__(*args, **kwargs)
@@ -80,7 +87,7 @@ class GradNormTrainer(Trainer):
         if not self._stats:
             return
         G, r, w = np.mean(self._stats, axis=0)
-        row = {"sweep": done, "unit": round(done / self.optim.sweeps(1, self.spe), 3)}
+        row = {"sweep": done, "unit": round(done / self.sweeps_per_unit, 3)}
         for i, task in enumerate(self.tasks):
             row.update({f"w_{task.name}": w[i], f"G_{task.name}": G[i], f"r_{task.name}": r[i]})
         row.update({f"w_end_{t.name}": float(v) for t, v in zip(self.tasks, self.weights.numpy())})

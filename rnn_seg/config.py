@@ -47,6 +47,11 @@ Unit = Literal["epochs", "sweeps"]
 UNITS = ("epochs", "sweeps")
 
 
+def unit_name(unit: Unit) -> str:
+    """One of a unit, as a label reads it: ``"epochs"`` -> ``"epoch"``."""
+    return {"epochs": "epoch", "sweeps": "sweep"}[unit]
+
+
 @dataclass(frozen=True)
 class OptimConfig:
     """Optimiser and schedule: constant ``learning_rate`` for ``decay_start`` units, then multiplied
@@ -71,6 +76,11 @@ class OptimConfig:
         require_number("OptimConfig.decay_every", self.decay_every, integer=True, low=1)
         require_number("OptimConfig.decay_factor", self.decay_factor, low=0, high=1,
                        open_low=True)
+
+    @property
+    def unit_name(self) -> str:
+        """The schedule's unit in the singular, for labels (``"epoch"``)."""
+        return unit_name(self.unit)
 
     def sweeps(self, units: int, sweeps_per_epoch: int) -> int:
         """Convert a count in this schedule's unit to sweeps."""

@@ -21,6 +21,8 @@ from typing import Any, Iterator, Literal, TypeVar, Union
 
 import numpy as np
 
+from .config import unit_name
+
 CONFIG = "config.json"
 FINISHED = "finished.json"
 T = TypeVar("T")
@@ -208,7 +210,7 @@ def read_json(path: Path) -> Any:
 
 def point_dir(run_dir: Path, unit: str, point: int) -> Path:
     """``eval/<unit><N>`` folder of evaluation point N, e.g. ``eval/epoch0100``."""
-    return Path(run_dir) / "eval" / f"{unit[:-1]}{point:04d}"
+    return Path(run_dir) / "eval" / f"{unit_name(unit)}{point:04d}"
 
 
 def is_finished(run_dir: Path) -> bool:

@@ -81,7 +81,7 @@ class TrainerStack:
             total = self.trainers[0].total_sweeps
             for sweep in range(min(starts, default=total), total):
                 members = tuple(k for k, start in enumerate(starts) if start <= sweep)
-                lrs = [active[k].optim.learning_rate_at(sweep, active[k].spe) for k in members]
+                lrs = [active[k].optim.learning_rate_at(sweep, active[k].sweeps_per_epoch) for k in members]
                 began = time.perf_counter()
                 if len(members) == 1:         # the plain step is faster than a stack of one
                     outs = [active[members[0]].step(sweep, lrs[0])]

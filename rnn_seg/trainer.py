@@ -105,13 +105,33 @@ class Trainer:
     """Trains ``model`` on ``train`` with a weighted sum of task losses; evaluates on ``test``.
 
     ``configs`` is what ``config.json`` records (configuration dataclasses and plain values): its
-    settings (``rnn_seg.settings``) are checked against a folder already in use. ``run`` holds the
-    folder's lock, prepares it (``prepare``), resumes from the newest checkpoint (``resume``),
-    trains sweep by sweep (``step`` then ``after_sweep``) and writes the results (``finish``).
+    settings (``rnn_seg.settings``) are checked against a folder already in use.
 
-    Subclasses change how task weights are chosen by overriding ``update`` (and ``record``; with
-    ``per_task_gradients`` they get each task's gradient instead of the sum's), may register
-    further checkpointed state in ``extra_state`` and write their own per-unit logs in ``_on_log``.
+    A run, top to bottom (``run``)::
+
+        hold the folder's lock              rnn_seg.folder_lock
+        prepare()                           check or clear the folder, write config.json
+        resume()                            restore the newest checkpoint -> first sweep
+        compile()                           trace the training step and ``model.infer`` once
+        for every sweep:
+            step(sweep, lr)                 one training sweep (graph code):
+                batch(sweep)                    inputs, resets, targets of the sweep
+                loss_gradients(...)             task losses and gradients      [hook: per_task_gradients]
+                update(losses, grads, lr)       apply them, return what to log [hook: update]
+            after_sweep(sweep, lr, out)     book-keeping:
+                record(out)                     the task losses of the sweep   [hook: record]
+                _log_progress(...)              every ``log_every`` units: history.csv, the
+                                                progress line, test scores every
+                                                ``monitor_every`` units          [hook: _on_log]
+                _evaluate(point)                at the evaluation points
+                checkpoint                      every ``checkpoint_every`` units
+        finish()                            metrics.json, timing.json, finished.json
+
+    Subclasses change how task weights are chosen by overriding ``update`` and ``record`` (with
+    ``per_task_gradients`` they get each task's gradient instead of the sum's), register further
+    checkpointed state in ``extra_state`` and write their own per-unit logs in ``_on_log``;
+    ``multitask.gradnorm.GradNormTrainer`` does all four. ``rnn_seg.stack.TrainerStack`` replaces
+    only ``step`` (several members in one vectorised step) and calls the rest per member.
     """
 
     per_task_gradients = False
@@ -127,11 +147,11 @@ class Trainer:
         self.sgd = SGD(self.variables, optim.momentum, optim.clip_norm)
         self.dropout_rng = tf.random.Generator.from_seed(config.seed + 1_000_003)
         self.sweep = tf.Variable(0, dtype=tf.int64, trainable=False, name="sweep")
-        self.spe = sweeps_per_epoch(len(train), config.batch_size)
-        self.total_sweeps = optim.sweeps(optim.total, self.spe)
+        self.sweeps_per_epoch = sweeps_per_epoch(len(train), config.batch_size)
+        self.total_sweeps = optim.sweeps(optim.total, self.sweeps_per_epoch)
         points = config.eval_points or (optim.total,)
         check_eval_points(points, optim)
-        self.eval_sweeps = {optim.sweeps(p, self.spe): p for p in points}
+        self.eval_sweeps = {optim.sweeps(p, self.sweeps_per_epoch): p for p in points}
         self.configs = configs
         self.settings_hash = settings_hash(configs)     # config.json's, once ``prepare`` ran
         self._saved_hash = tf.Variable("", dtype=tf.string, trainable=False, name="settings")
@@ -146,6 +166,11 @@ class Trainer:
         self._summaries: tf.summary.SummaryWriter | None = None     # with config.tensorboard
         self._started = time.time()
         self._last_line = (0, self._started)                       # (sweeps done, time)
+
+    @property
+    def sweeps_per_unit(self) -> int:
+        """Sweeps in one unit of the schedule (an epoch, or one sweep)."""
+        return self.optim.sweeps(1, self.sweeps_per_epoch)
 
     # -- state ---------------------------------------------------------------------------------
     def extra_state(self) -> dict:
@@ -226,7 +251,7 @@ class Trainer:
                 with self.clock.phase("trace"):
                     self.compile()
                 for sweep in range(start, self.total_sweeps):
-                    lr = self.optim.learning_rate_at(sweep, self.spe)
+                    lr = self.optim.learning_rate_at(sweep, self.sweeps_per_epoch)
                     with self.clock.phase("train"):
                         out = self.step(sweep, lr)
                     self.after_sweep(sweep, lr, out)
@@ -290,8 +315,7 @@ class Trainer:
             self._diverged(done, losses)
         self._losses.append(losses)
         self.sweep.assign(done)
-        unit_sweeps = self.optim.sweeps(1, self.spe)
-        if done % (unit_sweeps * self.config.log_every) == 0 or done == self.total_sweeps:
+        if done % (self.sweeps_per_unit * self.config.log_every) == 0 or done == self.total_sweeps:
             with self.clock.phase("monitor"):
                 self._log_progress(done, lr, np.mean(self._losses, axis=0))
             self._losses = []
@@ -299,38 +323,38 @@ class Trainer:
             with self.clock.phase("evaluate"):
                 self._evaluate(self.eval_sweeps[done])
         if (done in self.eval_sweeps or done == self.total_sweeps
-                or done % (unit_sweeps * self.config.checkpoint_every) == 0):
+                or done % (self.sweeps_per_unit * self.config.checkpoint_every) == 0):
             with self.clock.phase("checkpoint"):
                 self._store.save(done)
 
     def _diverged(self, done: int, losses: np.ndarray) -> None:
         bad = ", ".join(f"{t.name} {v}" for t, v in zip(self.tasks, losses) if not np.isfinite(v))
-        unit = done / self.optim.sweeps(1, self.spe)
+        unit = done / self.sweeps_per_unit
         last = max(self.checkpoint_sweeps(), default=0)
         raise TrainingDiverged(
-            f"{self.run_dir}: training diverged at sweep {done} ({self.optim.unit[:-1]} {unit:g}): "
+            f"{self.run_dir}: training diverged at sweep {done} ({self.optim.unit_name} {unit:g}): "
             f"loss {bad}. Nothing after the last checkpoint (sweep {last}) was saved; lower the "
             f"learning rate and restart the run (e.g. --restart).")
 
     def _monitored(self, done: int) -> bool:
         """Whether the progress line after ``done`` sweeps scores the model: every
         ``monitor_every`` units and at the end."""
-        every = self.optim.sweeps(self.config.monitor_every, self.spe)
+        every = self.optim.sweeps(self.config.monitor_every, self.sweeps_per_epoch)
         return done == self.total_sweeps or (every > 0 and done % every == 0)
 
     def _log_progress(self, done: int, lr: float, losses: np.ndarray) -> None:
         """One ``history.csv`` row and one short progress line: the training losses of the sweeps
         since the last line (free), time per unit and ETA, and every ``monitor_every`` units the
         test set's scores (and the training set's with ``monitor_train``)."""
-        unit_sweeps = self.optim.sweeps(1, self.spe)
         now = time.time()
-        unit_seconds = (now - self._last_line[1]) * unit_sweeps / max(1, done - self._last_line[0])
+        unit_seconds = ((now - self._last_line[1]) * self.sweeps_per_unit
+                        / max(1, done - self._last_line[0]))
         self._last_line = (done, now)
         scores = {}
         if self.config.monitor_train:
             scores.update({f"train_{k}": v for k, v in self._scores(self.train, done).items()})
         scores.update({f"test_{k}": v for k, v in self._scores(self.test, done).items()})
-        row = {"unit": self.optim.unit, "n": round(done / unit_sweeps, 3), "sweep": done,
+        row = {"unit": self.optim.unit, "n": round(done / self.sweeps_per_unit, 3), "sweep": done,
                "lr": lr, **{f"loss_{t.name}": float(v) for t, v in zip(self.tasks, losses)},
                **scores, "unit_seconds": round(unit_seconds, 3),
                "elapsed_seconds": round(now - self._started, 1)}
@@ -342,7 +366,7 @@ class Trainer:
     def _progress_line(self, row: dict) -> str:
         """``[B] epoch 12/30  loss gesture 0.412 progress 0.233  test gesture 84.1/80.2
         1.8 s/epoch  ETA 0:00:32`` (test: accuracy / edit)."""
-        unit = self.optim.unit[:-1]
+        unit = self.optim.unit_name
         losses = " ".join(f"{t.name} {row[f'loss_{t.name}']:.3f}" for t in self.tasks)
         parts = [f"[{self.run_dir.name}] {unit} {row['n']:g}/{self.optim.total}", f"loss {losses}"]
         for split in ("train", "test"):
@@ -350,7 +374,7 @@ class Trainer:
                 parts.append(f"{split} " + " ".join(
                     f"{t.name} {row[f'{split}_{t.name}_acc']:.1f}/{row[f'{split}_{t.name}_edit']:.1f}"
                     for t in self.tasks))
-        left = (self.total_sweeps - row["sweep"]) / self.optim.sweeps(1, self.spe)
+        left = (self.total_sweeps - row["sweep"]) / self.sweeps_per_unit
         parts.append(f"{row['unit_seconds']:.1f} s/{unit}  ETA "
                      f"{timedelta(seconds=round(left * row['unit_seconds']))}")
         return "  ".join(parts)
@@ -396,7 +420,7 @@ class Trainer:
 
     def _evaluate(self, point: int) -> None:
         """Write predictions, plots and metrics of the test set at evaluation point ``point``."""
-        label = f"{self.optim.unit[:-1]} {point}"
+        label = f"{self.optim.unit_name} {point}"
         metrics = write_evaluation(point_dir(self.run_dir, self.optim.unit, point), self.tasks,
                                    self.test, self._test_outputs(),
                                    {"point": point, "unit": self.optim.unit,

@@ -73,7 +73,7 @@ def test_resume_after_interruption_matches_uninterrupted(synth_dir, tmp_path, mo
 
     def crash_at_epoch_3(self, done, *args):
         original(self, done, *args)
-        if done == 3 * self.spe:     # after the progress row, before the checkpoint
+        if done == 3 * self.sweeps_per_epoch:     # after the progress row, before the checkpoint
             raise _Interrupt
 
     monkeypatch.setattr(Trainer, "_log_progress", crash_at_epoch_3)

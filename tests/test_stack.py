@@ -72,7 +72,7 @@ def test_stack_resumes_from_the_common_checkpoint(tmp_path):
     for t, reached in zip(first, (3, 2)):         # as if killed while saving checkpoints
         t.resume()
         for sweep in range(reached):
-            lr = t.optim.learning_rate_at(sweep, t.spe)
+            lr = t.optim.learning_rate_at(sweep, t.sweeps_per_epoch)
             t.after_sweep(sweep, lr, t.step(sweep, lr))
     assert [t.checkpoint_sweeps()[-1] for t in first] == [3, 2]
     again = [_trainer(tmp_path / f"m{s}", s, False) for s in (0, 1)]

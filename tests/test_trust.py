@@ -432,7 +432,7 @@ def _train_until(trainer: Trainer, sweeps: int) -> None:
     """Train ``sweeps`` sweeps and stop, as if killed right after the checkpoint."""
     start = trainer.resume()
     for sweep in range(start, sweeps):
-        lr = trainer.optim.learning_rate_at(sweep, trainer.spe)
+        lr = trainer.optim.learning_rate_at(sweep, trainer.sweeps_per_epoch)
         trainer.after_sweep(sweep, lr, trainer.step(sweep, lr))
 
 
