@@ -135,12 +135,21 @@ def _delete(prefix: Path) -> None:
 
 
 def restore_weights(model: tf.Module, run_dir: Path | str, point: int | None = None) -> int:
-    """Load a run's weights into ``model`` (built with the run's configuration and tasks).
+    """Load a run's weights into ``model``.
 
-    ``point``: an evaluation point in the run's schedule unit (e.g. epoch 100, as in
-    ``eval/epoch0100``), whose weights a run keeps with ``keep_checkpoints`` ``eval_points`` or
-    ``all``; None = the newest checkpoint (a finished run's final weights). Returns the sweep count
-    of the weights loaded; raises ``RunFolderError`` naming what is missing.
+    Args:
+        model: built with the run's configuration and tasks (e.g. a ``SegmentationModel``).
+        run_dir: the run folder.
+        point: an evaluation point in the run's schedule unit (e.g. epoch 100, as in
+            ``eval/epoch0100``), whose weights a run keeps with ``keep_checkpoints``
+            ``eval_points`` or ``all``; None = the newest checkpoint (a finished run's final
+            weights).
+
+    Returns:
+        The sweep count of the weights loaded.
+
+    Raises:
+        RunFolderError: naming what is missing.
     """
     run_dir = Path(run_dir)
     saved = checkpoint_sweeps(run_dir)

@@ -52,8 +52,18 @@ def loss_drop(units: np.ndarray, losses: np.ndarray, total: float,
 
 def convergence(units: np.ndarray, losses: dict[str, np.ndarray], total: float,
                 criterion: ConvergenceCriterion = ConvergenceCriterion()) -> dict:
-    """``{"loss_drop": {task: drop}, "max_loss_drop": worst, "converged": bool | None}``:
-    every task's ``loss_drop`` and whether all are below the tolerance (None: too few units)."""
+    """Every task's ``loss_drop`` and whether all are below the tolerance.
+
+    Args:
+        units: ``[N]`` position of each loss in the schedule's unit (e.g. epoch 1..total).
+        losses: per task name, ``[N]`` training loss of each unit.
+        total: length of the schedule, in the same unit.
+        criterion: window, horizon and tolerance.
+
+    Returns:
+        ``{"loss_drop": {task: drop}, "max_loss_drop": worst, "converged": bool | None,
+        "criterion": {...}}``; ``worst`` and ``converged`` are None when a task has too few units.
+    """
     drops = {task: loss_drop(units, values, total, criterion) for task, values in losses.items()}
     known = [d for d in drops.values() if d is not None]
     worst = max(known) if len(known) == len(drops) else None
@@ -65,6 +75,13 @@ def convergence(units: np.ndarray, losses: dict[str, np.ndarray], total: float,
 
 def history_convergence(history, task_names: Sequence[str], total: float,
                         criterion: ConvergenceCriterion = ConvergenceCriterion()) -> dict:
-    """``convergence`` of a run's ``history.csv`` table (columns ``n`` and ``loss_<task>``)."""
+    """``convergence`` of a run's ``history.csv`` table.
+
+    Args:
+        history: the table as a pandas DataFrame: columns ``n`` (the unit) and ``loss_<task>``.
+        task_names: the tasks whose losses are checked.
+        total: length of the schedule (``OptimConfig.total``), in ``n``'s unit.
+        criterion: window, horizon and tolerance.
+    """
     return convergence(history["n"].to_numpy(),
                        {t: history[f"loss_{t}"].to_numpy() for t in task_names}, total, criterion)

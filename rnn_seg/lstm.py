@@ -86,7 +86,19 @@ def native_bf16() -> bool:
 
 
 def product(a: tf.Tensor, b: tf.Tensor, dtype: tf.DType = tf.float32, **matmul) -> tf.Tensor:
-    """``a @ b`` (``tf.matmul`` options) with both operands in ``dtype``; a float32 result."""
+    """``a @ b`` (``tf.matmul`` options) with both operands in ``dtype``; a float32 result.
+
+    Args:
+        a: left operand, e.g. ``[B, H]`` hidden state or ``[B, 4H]`` gate gradients, float32.
+        b: right operand, e.g. ``[H, 4H]`` recurrent weights or their ``[4H, H]`` transpose,
+            float32 or already in ``dtype``.
+        dtype: the operands' dtype in the product: float32, or bfloat16 for ``bf16`` precision
+            (module docstring).
+        **matmul: ``tf.matmul`` options, e.g. ``transpose_a=True``.
+
+    Returns:
+        The product, float32.
+    """
     return tf.cast(tf.matmul(tf.cast(a, dtype), tf.cast(b, dtype), **matmul), tf.float32)
 
 
@@ -120,6 +132,7 @@ def _bptt_in(dtype: tf.DType):
     """
     @tf.custom_gradient
     def bptt(x_proj, keep, W_h, peep):
+        """``lstm_scan`` and its gradient; arguments as ``lstm_scan``'s, ``keep = 1 - resets``."""
         W = tf.cast(W_h, dtype)                          # once per call, not per step
         state = _forward(x_proj, keep, W, peep)                      # h, c, g, i, f, o [T, B, H]
 
@@ -182,6 +195,7 @@ def _forward(x_proj, keep, W_h, peep):
     peepholes = (peep[0], peep[1], peep[2])
 
     def body(t, c_prev, h_prev, records):
+        """Step ``t`` (``lstm_cell``, state ``[B, H]``); records ``(h, c, g, i, f, o)``."""
         k = keep[t]
         c, h, g, i, f, o = lstm_cell(x_proj[t], c_prev * k, h_prev * k, W_h, peepholes)
         return t + 1, c, h, [r.write(t, v) for r, v in zip(records, (h, c, g, i, f, o))]
@@ -225,6 +239,7 @@ def _backward(dh_out, keep, factors, W_h):
     W_t = tf.transpose(W_h)                                          # [4H, H]
 
     def body(t, dh_next, dc_next, records):
+        """Step ``t`` back; ``dh_next``, ``dc_next`` ``[B, H]`` reach h_t, c_t from step t + 1."""
         dh = dh_out[t] + dh_next
         dc = dc_next + dh * out_c[t]
         dz = tf.reshape(dc[:, None] * gates_dc[t] + dh[:, None] * gates_dh[t], [batch, -1])
@@ -380,8 +395,17 @@ def _flip(direction: str, x: tf.Tensor) -> tf.Tensor:
 
 
 def dropout(x: tf.Tensor, keep_prob: float, seed: tf.Tensor | None) -> tf.Tensor:
-    """Inverted dropout with an independent mask per element and time step (never across time);
-    ``seed`` ``[2]`` int64 stateless seed, None = no dropout."""
+    """Inverted dropout with an independent mask per element and time step (never across time).
+
+    Args:
+        x: time-major ``[T, B, F]`` (or ``[T, B, H]``) float32 layer inputs or outputs.
+        keep_prob: probability of keeping an element, in (0, 1]; kept elements are scaled by
+            ``1 / keep_prob``, and 1.0 means no dropout.
+        seed: ``[2]`` int64 stateless seed; None = no dropout.
+
+    Returns:
+        ``x``'s shape, float32.
+    """
     if seed is None or keep_prob >= 1.0:
         return x
     return tf.nn.experimental.stateless_dropout(x, rate=1.0 - keep_prob, seed=seed)

@@ -85,8 +85,14 @@ class SegmentCounts:
 
 
 def overlap_counts(pred: np.ndarray, true: np.ndarray, k: float) -> SegmentCounts:
-    """TP / FP / FN of the overlap matching at IoU threshold ``k`` percent (e.g. 10), on the
-    segments of ``pred`` and ``true`` (not checked for equal lengths: see ``f1_score``)."""
+    """TP / FP / FN of the overlap matching (module docstring) on the segments of ``pred`` and
+    ``true``.
+
+    Args:
+        pred: ``[T]`` int64 predicted labels, one per time step.
+        true: ``[T]`` int64 true labels (not checked for equal lengths: see ``f1_score``).
+        k: IoU threshold in percent (e.g. 10).
+    """
     overlap = k / 100.0
     p_label, p_start, p_end = segments(pred)
     y_label, y_start, y_end = segments(true)
@@ -106,14 +112,29 @@ def overlap_counts(pred: np.ndarray, true: np.ndarray, k: float) -> SegmentCount
 
 
 def f1_score(pred: np.ndarray, true: np.ndarray, k: int) -> float:
-    """F1@k (k in percent IoU) of ``[T]`` predicted against ``[T]`` true labels."""
+    """F1@k of predicted against true labels, in percent.
+
+    Args:
+        pred: ``[T]`` int64 predicted labels, one per time step.
+        true: ``[T]`` int64 true labels; a different length raises ``ValueError``.
+        k: IoU threshold in percent (e.g. 10 for F1@10).
+    """
     check_same_length(pred, true)
     return overlap_counts(pred, true, k).f1
 
 
 def class_accuracy(preds: Sequence[np.ndarray], trues: Sequence[np.ndarray], num_classes: int
                    ) -> np.ndarray:
-    """``[num_classes]`` percent of each true class's frames labelled correctly; NaN if absent."""
+    """Percent of each true class's frames labelled correctly, pooled over the sequences.
+
+    Args:
+        preds: one ``[T_i]`` int64 array of predicted labels per sequence.
+        trues: the ``[T_i]`` int64 true labels, in 0..num_classes-1, in the order of ``preds``.
+        num_classes: number of classes K.
+
+    Returns:
+        ``[num_classes]`` float64 percent; NaN for a class with no true frame.
+    """
     for p, y in zip(preds, trues, strict=True):
         check_same_length(p, y)
     pred, true = np.concatenate(preds), np.concatenate(trues)

@@ -67,7 +67,19 @@ class SegmentationModel(tf.Module):
     def apply(self, params: ModelParams, inputs: tf.Tensor, resets: tf.Tensor,
               dropout_seeds: tf.Tensor | None = None, valid: tf.Tensor | None = None
               ) -> dict[str, tf.Tensor]:
-        """``resets`` ``[B, T]`` bool; ``dropout_seeds`` ``[dropout_calls, 2]`` int64 or None
-        (evaluation: no dropout); ``valid`` ``[B, T]`` bool for sweeps padded at the end."""
+        """The model with weights ``params`` (this model's own, or any of the same structure).
+
+        Args:
+            params: the encoder's and every head's weights (``params()``'s structure).
+            inputs: ``[B, T, F]`` float32.
+            resets: ``[B, T]`` bool, True where the state restarts before the step.
+            dropout_seeds: ``[dropout_calls, 2]`` int64 stateless seeds, or None (evaluation: no
+                dropout).
+            valid: ``[B, T]`` bool for sweeps padded at the end (``RecurrentEncoder.apply``);
+                None = all valid.
+
+        Returns:
+            ``{task name: raw outputs [B, T, K_task] float32}``.
+        """
         features = self.encoder.apply(params["encoder"], inputs, resets, dropout_seeds, valid)
         return {name: Dense.apply(params["heads"][name], features) for name in self.heads}

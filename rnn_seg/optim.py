@@ -24,7 +24,16 @@ class SGD(tf.Module):
 
     def apply(self, grads: Sequence[tf.Tensor], variables: Sequence[tf.Variable],
               learning_rate: tf.Tensor) -> tf.Tensor:
-        """Update ``variables`` in place; returns the global norm before clipping."""
+        """Update ``variables`` in place.
+
+        Args:
+            grads: one float32 gradient per variable, in the order of ``variables``.
+            variables: the variables this ``SGD`` was built with, in the same order (momentum).
+            learning_rate: scalar float32, the sweep's learning rate.
+
+        Returns:
+            Scalar float32, the gradients' global norm before clipping.
+        """
         clipped, norm = tf.clip_by_global_norm(grads, self.clip_norm)
         if self.momentum:
             for v, g, var in zip(self.velocities, clipped, variables):

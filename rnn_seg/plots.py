@@ -18,8 +18,20 @@ from .tasks import Task  # noqa: E402
 
 def plot_sequence(title: str, tasks: Sequence[Task], true: dict[str, np.ndarray],
                   pred: dict[str, np.ndarray], path: Path | str, sample_hz: float) -> Path:
-    """Save truth/prediction ribbons (``[T]`` labels per task, samples at ``sample_hz``) and
-    ordered tasks' stage lines, over time in seconds, with the tasks' class names."""
+    """Save truth/prediction ribbons and ordered tasks' stage lines, over time in seconds, with
+    the tasks' class names.
+
+    Args:
+        title: the figure's title, e.g. ``"<sequence> - epoch 120"``.
+        tasks: the tasks drawn, top to bottom.
+        true: ``{task name: [T] int64 true labels}``.
+        pred: ``{task name: [T] int64 predicted labels}``.
+        path: the PNG written (folders created).
+        sample_hz: rate of the labels' samples in Hz (5 Hz after the default preprocessing).
+
+    Returns:
+        ``path``.
+    """
     times = np.arange(len(next(iter(true.values())))) / sample_hz
     ribbons = [Ribbon(f"{task.name} {kind}", labels[task.name], times, task.class_names,
                       task_colours(task.num_classes, task.ordered))

@@ -209,7 +209,13 @@ def read_json(path: Path) -> Any:
 
 
 def point_dir(run_dir: Path, unit: str, point: int) -> Path:
-    """``eval/<unit><N>`` folder of evaluation point N, e.g. ``eval/epoch0100``."""
+    """``eval/<unit><N>`` folder of evaluation point N, e.g. ``eval/epoch0100``.
+
+    Args:
+        run_dir: the run folder.
+        unit: the schedule's unit, ``"epochs"`` or ``"sweeps"``.
+        point: the evaluation point N, in that unit.
+    """
     return Path(run_dir) / "eval" / f"{unit_name(unit)}{point:04d}"
 
 

@@ -19,6 +19,15 @@ def sweep_indices(num_seqs: int, batch_size: int, seed: int, sweep: int) -> list
     The sweeps read consecutive ``batch_size`` positions of an endless stream that visits every
     sequence once per pass in a fresh random order; pass ``p``'s order depends only on ``(seed, p)``
     so any sweep can be rebuilt after a resume without replaying the ones before it.
+
+    Args:
+        num_seqs: number of training sequences.
+        batch_size: sequences per sweep (``B``).
+        seed: the run's seed (``TrainConfig.seed``).
+        sweep: 0-based sweep number.
+
+    Returns:
+        ``batch_size`` indices into the training sequences.
     """
     positions = np.arange(sweep * batch_size, (sweep + 1) * batch_size)
     passes = positions // num_seqs

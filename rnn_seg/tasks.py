@@ -36,8 +36,13 @@ class Task:
 
     def loss(self, outputs: tf.Tensor, targets: tf.Tensor, mask: tf.Tensor | None = None
              ) -> tf.Tensor:
-        """Scalar mean loss over the steps of ``outputs`` ``[B, T, K]`` where ``mask`` ``[B, T]``
-        (bool) is set; None = every step."""
+        """Scalar float32 mean loss over the steps where ``mask`` is set.
+
+        Args:
+            outputs: ``[B, T, K]`` float32 raw head outputs.
+            targets: ``[B, T, num_outputs]`` float32 targets (``encode``).
+            mask: ``[B, T]`` bool, the steps that count; None = every step.
+        """
         raise NotImplementedError
 
     def scores(self, outputs: np.ndarray) -> np.ndarray:
@@ -73,6 +78,7 @@ class SoftmaxClassification(Task):
         return np.eye(self.num_classes, dtype=np.float32)[labels]
 
     def loss(self, outputs, targets, mask=None):
+        """``Task.loss``: the mean softmax cross-entropy."""
         return step_mean(tf.nn.softmax_cross_entropy_with_logits(targets, outputs), mask)
 
     def scores(self, outputs):
@@ -102,7 +108,17 @@ def step_mean(values: tf.Tensor, mask: tf.Tensor | None) -> tf.Tensor:
 
 def task_metrics(task: Task, outputs: Sequence[np.ndarray], labels: Sequence[np.ndarray]
                  ) -> dict[str, float]:
-    """Segmentation metrics of decoded outputs against labels, plus the task's own extras."""
+    """Segmentation metrics of decoded outputs against labels, plus the task's own extras.
+
+    Args:
+        task: decodes the outputs and names the classes.
+        outputs: one ``[T_i, K]`` float32 array of raw head outputs per sequence.
+        labels: the ``[T_i]`` int64 true labels, in the order of ``outputs``.
+
+    Returns:
+        ``segmentation_metrics``' scores, ``accuracy_<class>`` per class (NaN if absent) and
+        ``task.extra_metrics``; all in percent except ``edit_distance`` (segments).
+    """
     from .metrics import class_accuracy, segmentation_metrics
 
     preds = [task.decode(o) for o in outputs]

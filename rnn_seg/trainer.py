@@ -86,6 +86,14 @@ def predict(model: SegmentationModel, inputs: Sequence[np.ndarray], mode: Predic
     ``original`` reset mode the reverse direction of a shorter sequence then enters its last frames
     with the state of the wrapped copy after them. ``per_sequence``: each sequence alone, no
     wrapping. (Either way, ``original`` mode restarts the reverse state before each first frame.)
+
+    Args:
+        model: the model to run (its compiled ``infer`` pass).
+        inputs: one ``[T_i, F]`` float32 array per sequence.
+        mode: ``"sweep"`` or ``"per_sequence"`` (above).
+
+    Returns:
+        ``{task name: one [T_i, K] float32 array per sequence}``, in the order of ``inputs``.
     """
     groups = [list(range(len(inputs)))] if mode == "sweep" else [[i] for i in range(len(inputs))]
     out: dict[str, list[np.ndarray]] = {name: [None] * len(inputs) for name in model.heads}
@@ -188,9 +196,17 @@ class Trainer:
 
     def update(self, losses: tf.Tensor, grads: list[list[tf.Tensor]], learning_rate: tf.Tensor
                ) -> tf.Tensor:
-        """Apply one sweep's gradients (graph code). ``grads`` holds one gradient list (in
-        ``self.variables`` order) per objective of ``loss_gradients``. Returns what ``record``
-        reads back: here the task losses ``[n_tasks]``."""
+        """Apply one sweep's gradients (graph code).
+
+        Args:
+            losses: ``[n_tasks]`` float32 task losses of the sweep, in task order.
+            grads: one gradient list (in ``self.variables`` order) per objective of
+                ``loss_gradients``: the sum of the losses, or with ``per_task_gradients`` each task.
+            learning_rate: scalar float32, the sweep's learning rate.
+
+        Returns:
+            What ``record`` reads back: here the task losses ``[n_tasks]``.
+        """
         self.sgd.apply(grads[0], self.variables, learning_rate)
         return losses
 
@@ -307,8 +323,13 @@ class Trainer:
         return done
 
     def after_sweep(self, sweep: int, lr: float, out: np.ndarray) -> None:
-        """Book-keeping after 0-based sweep ``sweep`` (``out`` from ``update``): loss check,
-        progress line, evaluation point, checkpoint."""
+        """Book-keeping after a sweep: loss check, progress line, evaluation point, checkpoint.
+
+        Args:
+            sweep: 0-based number of the sweep just trained.
+            lr: its learning rate (``OptimConfig.learning_rate_at``).
+            out: ``update``'s result for it, as numpy (read by ``record``).
+        """
         losses = self.record(out)
         done = sweep + 1
         if not np.all(np.isfinite(losses)):
@@ -511,10 +532,27 @@ def loss_gradients(model: SegmentationModel, tasks: Sequence[Task], per_task: bo
                    params: ModelParams, inputs: tf.Tensor, resets: tf.Tensor,
                    targets: Sequence[tf.Tensor], dropout_seeds: tf.Tensor,
                    valid: tf.Tensor | None = None) -> tuple[tf.Tensor, list[list[tf.Tensor]]]:
-    """Task losses ``[n_tasks]`` of ``model`` run with weights ``params`` on one sweep, and their
-    gradients with respect to ``tf.nest.flatten(params)``: one list for the sum of the losses, or
-    with ``per_task`` one per task. A pure function of its arguments, so ``tf.vectorized_map`` can
-    run it for several models' stacked weights at once. ``valid`` ``[B, T]`` bool masks padding.
+    """Task losses of ``model`` run with weights ``params`` on one sweep, and their gradients.
+
+    A pure function of its arguments, so ``tf.vectorized_map`` can run it for several models'
+    stacked weights at once (``rnn_seg.stack``).
+
+    Args:
+        model: the model whose ``apply`` runs (its own weights are not used).
+        tasks: the tasks of the model's heads, in the order of ``targets``.
+        per_task: differentiate each task's loss instead of the sum of the losses.
+        params: the weights run and differentiated (``model.params()``'s structure).
+        inputs: ``[B, T, F]`` float32 inputs of the sweep.
+        resets: ``[B, T]`` bool, True where the state restarts before the step.
+        targets: one ``[B, T, K_task]`` float32 array per task (``Task.encode``).
+        dropout_seeds: ``[dropout_calls, 2]`` int64 stateless seeds of the sweep's masks.
+        valid: ``[B, T]`` bool marking the steps of a sweep padded at the end (None = all
+            valid): padding counts in no loss and never reaches a valid step.
+
+    Returns:
+        ``(losses, gradients)``: the task losses ``[n_tasks]`` float32 and one gradient list with
+        respect to ``tf.nest.flatten(params)`` for the sum of the losses, or with ``per_task``
+        one per task.
     """
     flat = tf.nest.flatten(params)
     with tf.GradientTape(persistent=per_task, watch_accessed_variables=False) as tape:

@@ -38,7 +38,13 @@ def require_number(name: str, value: Any, integer: bool = False, low: float | No
 
 
 def require_choice(name: str, value: Any, choices: Collection) -> None:
-    """Raise unless ``value`` is one of ``choices``."""
+    """Raise ``ValueError`` unless ``value`` is one of ``choices``.
+
+    Args:
+        name: what the message calls the value, e.g. ``"OptimConfig.unit"``.
+        value: the value to check; a bool is never a choice (``True == 1``).
+        choices: the allowed values, listed in the message.
+    """
     if isinstance(value, bool) or value not in choices:
         raise ValueError(f"{name} must be one of {', '.join(map(repr, choices))} (got {value!r})")
 
