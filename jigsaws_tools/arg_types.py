@@ -36,8 +36,19 @@ def int_range(low: int, high: int | None = None) -> Callable[[str], int]:
 
 def float_range(low: float = -math.inf, high: float = math.inf, *, low_open: bool = False,
                 high_open: bool = False) -> Callable[[str], float]:
-    """A type accepting finite floats between ``low`` and ``high``; ``low_open`` / ``high_open``
-    exclude the bound itself. NaN and infinities are always rejected."""
+    """A type accepting finite floats between ``low`` and ``high``. NaN and infinities are
+    always rejected.
+
+    Args:
+        low: the smallest value allowed; -inf = no lower bound.
+        high: the largest value allowed; inf = no upper bound.
+        low_open: exclude ``low`` itself.
+        high_open: exclude ``high`` itself.
+
+    Returns:
+        An argparse ``type``: text -> float, raising ``argparse.ArgumentTypeError`` that names
+        the allowed range and the text.
+    """
     allowed = _describe(low, high, low_open, high_open)
 
     def parse(text: str) -> float:

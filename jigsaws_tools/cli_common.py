@@ -138,8 +138,14 @@ class _DeprecatedAlias(argparse.Action):
 
 
 def deprecated_alias(parser: argparse.ArgumentParser, old: str, new: argparse.Action) -> None:
-    """Accept option ``old`` (hidden from help) as a deprecated spelling of the option ``new``
-    (the action ``add_argument`` returned): same value type and destination."""
+    """Accept option ``old`` (hidden from help) as a deprecated spelling of the option ``new``:
+    same value type and destination, and a warning naming ``new`` when used.
+
+    Args:
+        parser: the command's parser, which already holds ``new``.
+        old: the deprecated option string, e.g. ``"--seed"``.
+        new: the action ``parser.add_argument`` returned for the current option.
+    """
     parser.add_argument(old, action=_DeprecatedAlias, target=new.dest,
                         replacement=new.option_strings[-1], dest=f"deprecated_{new.dest}",
                         type=new.type, choices=new.choices, metavar=new.metavar,
@@ -204,8 +210,18 @@ def _replay(captured, keep: Callable[[str], bool]) -> None:
 
 
 def run_command(prog: str, verbose: bool, body: Callable[[], int | None]) -> int:
-    """Run a command's work with the shared output setup; returns its exit code: ``body``'s, 0
-    if it returns None, 2 after a user error (one line), 130 after Ctrl-C."""
+    """Run a command's work with the shared output setup (``configure_output``).
+
+    Args:
+        prog: the command's name, first word of every error line.
+        verbose: log at INFO level, show TensorFlow's start-up lines and print a user error's
+            traceback too.
+        body: the command's work; returns its exit code or None.
+
+    Returns:
+        The exit code: ``body``'s, 0 if it returns None, 2 after a user error (``USER_ERRORS``:
+        one line ``<prog>: error: ...``), 130 after Ctrl-C.
+    """
     configure_output(verbose)
     try:
         code = body()

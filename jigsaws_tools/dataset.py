@@ -121,7 +121,17 @@ def default_cache_dir() -> Path:
 
 
 def load_trial(files: TrialFiles, skill: str, config: DataConfig) -> Trial:
-    """Read, relabel, derive progress and preprocess one trial of ``config.task``."""
+    """Read, relabel, derive progress and preprocess one trial of ``config.task``.
+
+    Args:
+        files: the trial's kinematics and transcription files (``discover``).
+        skill: the user's self-proclaimed skill level from the meta file (E, I, N; ``"?"`` if
+            absent).
+        config: release, features, annotation version, preprocessing and task.
+
+    Returns:
+        The trial's samples at ``config.preprocessing.sample_hz`` (5 Hz by default).
+    """
     task = config.task
     kinematics = read_kinematics(files.kinematics)
     segments = read_transcription(files.transcription, len(kinematics), task)
@@ -137,7 +147,13 @@ def load_trial(files: TrialFiles, skill: str, config: DataConfig) -> Trial:
 def load_dataset(config: DataConfig, cache_dir: Path | str | None = None,
                  use_cache: bool = True) -> Dataset:
     """Load every complete trial of ``config.task`` in ``config.data_dir``, from the cache when
-    it holds a verified entry for the files' current content."""
+    it holds a verified entry for the files' current content.
+
+    Args:
+        config: release, features, annotation version, preprocessing and task.
+        cache_dir: the cache folder; None = ``$JIGSAWS_CACHE_DIR`` or ``~/.cache/mtrnn-jigsaws``.
+        use_cache: read and write the cache; False = always read the release, write nothing.
+    """
     index = discover(config.data_dir, config.task)
     cache_dir = Path(cache_dir) if cache_dir is not None else default_cache_dir()
     key = cache_key(config, index)

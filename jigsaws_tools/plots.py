@@ -115,7 +115,16 @@ def layout_with_legends(fig: plt.Figure, ribbons: Sequence[Ribbon]) -> None:
 
 
 def plot_ribbons(ribbons: Sequence[Ribbon], path: Path | str, title: str = "") -> Path:
-    """Save a figure of stacked ribbons (time in seconds) with a legend of their classes."""
+    """Save a figure of stacked ribbons (time in seconds) with a legend of their classes.
+
+    Args:
+        ribbons: the label sequences, top to bottom.
+        path: the PNG written (folders created).
+        title: the figure's title; empty = none.
+
+    Returns:
+        ``path``.
+    """
     legends = len({r.names for r in ribbons})
     fig, axes = plt.subplots(len(ribbons), 1, sharex=True, squeeze=False,
                              figsize=(10, 0.4 * len(ribbons) + 0.8 + LEGEND_ROW_INCHES * legends))
@@ -130,7 +139,16 @@ def plot_ribbons(ribbons: Sequence[Ribbon], path: Path | str, title: str = "") -
 
 
 def save_png(fig: plt.Figure, path: Path | str, dpi: int = 110) -> Path:
-    """Write ``fig`` to ``path`` (folders created) and close it."""
+    """Write ``fig`` to ``path`` (folders created) and close it.
+
+    Args:
+        fig: the figure.
+        path: the PNG written.
+        dpi: resolution, in dots per inch.
+
+    Returns:
+        ``path`` as a ``Path``.
+    """
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=dpi)

@@ -45,15 +45,31 @@ def _scipy_signal():
 
 
 def butterworth(cutoff_hz: float, order: int, fs_hz: float = KINEMATICS_HZ) -> np.ndarray:
-    """Second-order sections ``[n_sections, 6]`` (``b0 b1 b2 1 a1 a2``) of the low-pass."""
+    """Second-order sections of a Butterworth low-pass.
+
+    Args:
+        cutoff_hz: cut-off frequency, in Hz.
+        order: the filter's order (of one pass; ``lowpass``'s two passes double it).
+        fs_hz: sampling rate of the signal, in Hz (the kinematics' 30 Hz by default).
+
+    Returns:
+        ``[n_sections, 6]`` float64 (``b0 b1 b2 1 a1 a2``), ``n_sections = ceil(order / 2)``.
+    """
     return _scipy_signal().butter(order, cutoff_hz, btype="low", fs=fs_hz, output="sos")
 
 
 def lowpass(x: np.ndarray, cutoff_hz: float, order: int, fs_hz: float = KINEMATICS_HZ) -> np.ndarray:
     """Zero-phase Butterworth low-pass (forward-backward, second-order sections).
 
-    ``x``: ``[n_frames, n_features]`` at ``fs_hz``; returns the same shape. Needs more frames than
-    scipy's edge padding (15 for order 4).
+    Args:
+        x: ``[n_frames, n_features]`` float at ``fs_hz``; needs more frames than scipy's edge
+            padding (15 for order 4).
+        cutoff_hz: cut-off frequency, in Hz.
+        order: Butterworth order of one pass (the forward-backward filter doubles it).
+        fs_hz: sampling rate of ``x``, in Hz (30 Hz frames by default).
+
+    Returns:
+        ``[n_frames, n_features]`` float64.
     """
     return _scipy_signal().sosfiltfilt(butterworth(cutoff_hz, order, fs_hz), x, axis=0)
 
@@ -81,7 +97,17 @@ class CausalLowpass:
 
 def causal_lowpass(x: np.ndarray, cutoff_hz: float, order: int, fs_hz: float = KINEMATICS_HZ
                    ) -> np.ndarray:
-    """``CausalLowpass`` over a whole signal ``[n_frames, F]``: what frame-by-frame use gives."""
+    """``CausalLowpass`` over a whole signal: what frame-by-frame use gives.
+
+    Args:
+        x: ``[n_frames, F]`` float at ``fs_hz``.
+        cutoff_hz: cut-off frequency, in Hz.
+        order: Butterworth order (one forward pass, not doubled).
+        fs_hz: sampling rate of ``x``, in Hz (30 Hz frames by default).
+
+    Returns:
+        ``[n_frames, F]`` float64.
+    """
     return CausalLowpass(cutoff_hz, order, fs_hz)(x)
 
 

@@ -82,7 +82,13 @@ class ReleaseIndex:
 
 
 def trial_name(user: str, trial: int, task: TaskDefinition = SUTURING) -> str:
-    """``("B", 1) -> "Suturing_B001"``."""
+    """A trial's file name without extension: ``("B", 1) -> "Suturing_B001"``.
+
+    Args:
+        user: the user's letter, e.g. ``"B"``.
+        trial: the trial's number, 1-based.
+        task: whose name prefixes the file name.
+    """
     return f"{task.name}_{user}{trial:03d}"
 
 
@@ -326,8 +332,16 @@ def read_meta(path: Path | str) -> dict[str, TrialMeta]:
 
 def frame_labels(segments: list[Segment], n_frames: int, task: TaskDefinition = SUTURING
                  ) -> np.ndarray:
-    """Per-frame class indices of ``task``'s vocabulary, ``[n_frames]`` int64 at 30 Hz; uncovered
-    frames are -1."""
+    """Per-frame class indices of ``task``'s vocabulary; uncovered frames are -1.
+
+    Args:
+        segments: the trial's transcription lines (``read_transcription``).
+        n_frames: number of 30 Hz kinematic frames of the trial.
+        task: whose gesture vocabulary gives the class indices.
+
+    Returns:
+        ``[n_frames]`` int64 at 30 Hz.
+    """
     labels = np.full(n_frames, UNLABELLED, dtype=np.int64)
     for s in segments:
         labels[s.start - 1:s.end] = task.gesture_index[s.gesture]

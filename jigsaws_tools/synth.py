@@ -179,7 +179,14 @@ def write_release(out: Path | str, config: SynthConfig = SynthConfig(),
                   task: TaskDefinition = SUTURING) -> Path:
     """Write a complete synthetic release of ``task`` under ``out`` and return ``out``.
 
-    ``out`` must not exist or be an empty folder: the generator never overwrites data.
+    Args:
+        out: the release folder (e.g. ``.../Suturing``); must not exist or be an empty folder:
+            the generator never overwrites data.
+        config: the generator's seed, users, trials per user and noise.
+        task: the task written; its definition must have a synthetic grammar.
+
+    Returns:
+        ``out`` as a ``Path``.
     """
     out = Path(out)
     grammar(task)
@@ -212,6 +219,14 @@ def ensure_release(cache_dir: Path | str, config: SynthConfig = SynthConfig(),
 
     The folder name carries ``GENERATOR_VERSION`` and a hash of ``config`` and of the task's whole
     definition, so a changed generator, option or grammar never reuses an older release.
+
+    Args:
+        cache_dir: the cache folder holding the synthetic releases.
+        config: the generator's seed, users, trials per user and noise.
+        task: the task written; its definition must have a synthetic grammar.
+
+    Returns:
+        The release folder, ``<cache_dir>/synthetic-seed<seed>-<hash>/<task name>``.
     """
     definition = json.dumps(asdict(task), sort_keys=True)
     key = hashlib.sha256(repr((GENERATOR_VERSION, config, definition)).encode()).hexdigest()[:12]
