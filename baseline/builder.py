@@ -51,9 +51,15 @@ def data_fingerprint(data: DataConfig) -> str:
 
 def run_configs(config: RunConfig, tasks: Sequence[Task], extra_configs: dict | None = None,
                 fingerprint: str | None = None) -> dict:
-    """What a run's config.json records and its folder is checked against: the run
-    configuration, the task names, ``extra_configs`` (variant, weighting, ...) and the data
-    fingerprint (computed unless given)."""
+    """What a run's config.json records and its folder is checked against.
+
+    Args:
+        config: the run's configuration.
+        tasks: the model's tasks; their names are recorded.
+        extra_configs: further entries (variant, weighting, ...); None = none.
+        fingerprint: the data fingerprint (``data_fingerprint``); None = compute it, which
+            reads the release files.
+    """
     return {"run": config, "tasks": [t.name for t in tasks], **(extra_configs or {}),
             "data_fingerprint": fingerprint or data_fingerprint(config.data)}
 
@@ -62,7 +68,18 @@ def build_trainer(config: RunConfig, tasks: Sequence[Task], run_dir: Path,
                   dataset: Dataset | None = None, trainer: TrainerFactory = Trainer,
                   extra_configs: dict | None = None, log: Callable[[str], None] = print) -> Trainer:
     """Load the fold's data (unless ``dataset`` is given), build the model and return a ready
-    ``Trainer`` for ``run_dir``; the loading time goes to the trainer's ``data`` phase."""
+    ``Trainer`` for ``run_dir``; the loading time goes to the trainer's ``data`` phase.
+
+    Args:
+        config: the run's configuration (data, fold, encoder, schedule, training).
+        tasks: one head per task, in this order.
+        run_dir: the run folder.
+        dataset: ``config.data``'s dataset, already loaded; None = load it.
+        trainer: the class (or a factory with ``Trainer``'s parameters) to build, e.g.
+            ``GradNormTrainer`` with its configuration bound.
+        extra_configs: further entries of config.json (``run_configs``); None = none.
+        log: where the trainer's progress lines go.
+    """
     began = time.perf_counter()
     dataset = dataset or load_dataset(config.data)
     loading = time.perf_counter() - began
@@ -77,7 +94,17 @@ def build_trainer(config: RunConfig, tasks: Sequence[Task], run_dir: Path,
 
 def train_baseline(config: RunConfig, run_dir: Path, dataset: Dataset | None = None,
                    log: Callable[[str], None] = print, restart: bool = False) -> dict:
-    """Train model A on one fold; returns the run's metrics (see ``rnn_seg.trainer``).
-    ``restart``: delete a previous run's config and results in ``run_dir`` first."""
+    """Train model A on one fold.
+
+    Args:
+        config: the run's configuration.
+        run_dir: the run folder; an unfinished run there resumes.
+        dataset: ``config.data``'s dataset, already loaded; None = load it.
+        log: where progress lines go.
+        restart: delete a previous run's config and results in ``run_dir`` first.
+
+    Returns:
+        The run's metrics (``metrics.json``'s content, see ``rnn_seg.trainer``).
+    """
     return build_trainer(config, [gesture_task(config.data.task)], run_dir, dataset,
                          log=log).run(restart)

@@ -24,8 +24,13 @@ from .config import DIRECTIONS, RunConfig
 
 def add_run_arguments(parser: argparse.ArgumentParser, optim: OptimConfig,
                       eval_points: tuple[int, ...] = TrainConfig.eval_points) -> None:
-    """Options shared by every training CLI; ``optim`` and ``eval_points`` supply the schedule's
-    defaults shown (a variant's)."""
+    """Options shared by every training CLI.
+
+    Args:
+        parser: the command's parser; the options go into groups data, model, optimisation, run.
+        optim: the schedule whose values the options show as defaults (a variant's).
+        eval_points: the default evaluation points shown by ``--eval-at``, in epochs.
+    """
     encoder, train = EncoderConfig(), TrainConfig()
     data = add_data_arguments(parser)
     add_test_user_argument(data)
@@ -121,10 +126,17 @@ def add_threads_argument(parser: argparse.ArgumentParser | argparse._ArgumentGro
 
 def run_config_from_args(args: argparse.Namespace, optim: OptimConfig,
                          eval_points: tuple[int, ...] = TrainConfig.eval_points) -> RunConfig:
-    """Build the run's configuration from parsed options over the defaults in ``optim``;
-    ``eval_points`` apply when the schedule keeps its default length, else the last unit. Every
-    value is checked by the configuration dataclasses (``ValueError`` naming field, range and
-    value) before the data is read."""
+    """Build the run's configuration from parsed options. Every value is checked by the
+    configuration dataclasses (``ValueError`` naming field, range and value) before the data is
+    read.
+
+    Args:
+        args: options parsed by a parser built with ``add_run_arguments``.
+        optim: the default schedule the options override (the one given to
+            ``add_run_arguments``).
+        eval_points: evaluation points, in epochs, used without ``--eval-at`` when the schedule
+            keeps ``optim``'s length in epochs; otherwise the last unit is the only point.
+    """
     task = task_from_options(args)
     if args.sweeps is not None:
         unit, total = "sweeps", args.sweeps
