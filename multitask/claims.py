@@ -79,8 +79,16 @@ class Claim:
 
 
 def verdict(ci_low: float, ci_high: float, mean: float, expect: int, margin: float = 0.0) -> str:
-    """One of ``VERDICTS`` for a difference with confidence interval ``[ci_low, ci_high]``
-    (rules in the module docstring)."""
+    """One of ``VERDICTS`` for a paired difference (rules in the module docstring).
+
+    Args:
+        ci_low: lower bound of the difference's confidence interval, in the metric's unit
+            (percentage points for scores in percent).
+        ci_high: upper bound of that interval, same unit.
+        mean: the mean difference over folds, same unit.
+        expect: the claimed sign, +1 or -1, or 0 for an equivalence claim.
+        margin: half-width of the equivalence interval (``expect`` 0), same unit; 0 otherwise.
+    """
     if expect == 0:
         if -margin <= ci_low and ci_high <= margin:
             return "reproduced"

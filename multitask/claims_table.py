@@ -25,8 +25,17 @@ _NUMBER_OF_COLUMNS = 9
 def write_claims(runs: pd.DataFrame, out: Path,
                  config: BootstrapConfig = BootstrapConfig(),
                  claims: tuple[Claim, ...] | None = None) -> list[Path]:
-    """Evaluate ``claims`` (default: the paper's, ``claims.CLAIMS``) on ``runs``
-    (``collect.run_rows``) and write the three files into ``out``; returns their paths."""
+    """Evaluate the claims on ``runs`` and write the three files into ``out``.
+
+    Args:
+        runs: one row per finished run (``collect.run_rows``).
+        out: the folder written into.
+        config: bootstrap settings of every comparison.
+        claims: the claims to test; None = the paper's (``claims.CLAIMS``).
+
+    Returns:
+        The paths of ``claims.csv``, ``claims.tex`` and ``claims_config.json``.
+    """
     table = evaluate(runs, claims, config)
     paths = [out / "claims.csv", out / "claims.tex", out / "claims_config.json"]
     write_atomic(paths[0], table.to_csv(index=False, float_format="%.4f"))

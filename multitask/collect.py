@@ -187,7 +187,14 @@ def summary(folds: pd.DataFrame) -> pd.DataFrame:
 
 def lookup(summary_table: pd.DataFrame, annotations: str, direction: str, config: str
            ) -> pd.Series | None:
-    """The summary row of one configuration, or None if the grid did not run it."""
+    """The summary row of one configuration, or None if the grid did not run it.
+
+    Args:
+        summary_table: one row per configuration (``summary``).
+        annotations: the annotation version, ``"revised"`` or ``"original"``.
+        direction: the encoder's, ``"bidirectional"`` or ``"forward"``.
+        config: ``<variant>-<weighting>``, e.g. ``"APc-gradnorm"``.
+    """
     variant, weighting = config.rsplit("-", 1)
     rows = summary_table[(summary_table.annotations == annotations)
                          & (summary_table.direction == direction)

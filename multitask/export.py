@@ -41,6 +41,7 @@ def _sosfilt(sos: np.ndarray, x: tf.Tensor, state: tf.Tensor) -> tf.Tensor:
     sections = [tuple(float(v) for v in row) for row in sos]
 
     def body(t, z, out):
+        """Frame ``t`` ``[F]`` through every section; ``z`` holds each one's two state rows."""
         value, new = x[t], []
         for (b0, b1, b2, _, a1, a2), (z0, z1) in zip(sections, z):
             y = b0 * value + z0

@@ -42,6 +42,16 @@ FOLD_RUNS = ("APoc-fixed", "APoc-gradnorm")
 
 
 def save(fig: plt.Figure, out_dir: Path, name: str) -> list[Path]:
+    """Write ``fig`` as ``<name>.png`` (150 dpi) and ``<name>.pdf`` and close it.
+
+    Args:
+        fig: the figure.
+        out_dir: the folder written into (created if needed).
+        name: the files' name without extension, e.g. ``"fold_accuracy"``.
+
+    Returns:
+        The two paths, PNG first.
+    """
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = [out_dir / f"{name}.{ext}" for ext in ("png", "pdf")]
     for path in paths:
@@ -63,8 +73,18 @@ def _offline_folds(folds: pd.DataFrame, config: str) -> pd.DataFrame:
 
 def per_gesture_accuracy(folds: pd.DataFrame, gestures: Sequence[str], out_dir: Path
                          ) -> list[Path]:
-    """Grouped bars, one per compared model: each gesture's accuracy, mean and std over the folds
-    where it occurs (``folds``: ``collect.per_fold``); ``gestures`` in class order."""
+    """Grouped bars, one per compared model: each gesture's accuracy (percent), mean and std over
+    the folds where it occurs.
+
+    Args:
+        folds: one row per configuration and fold (``collect.per_fold``), with the columns
+            ``gesture_accuracy_<gesture>``.
+        gestures: the gesture class names, in class order.
+        out_dir: the folder written into.
+
+    Returns:
+        The PNG and PDF written; empty when the grid ran none of the compared models.
+    """
     rows = {c: r for c in COMPARED if not (r := _offline_folds(folds, c)).empty}
     if not rows:
         return []
@@ -104,7 +124,13 @@ def _predictions(grid_dir: Path, config: str, fold: str) -> dict[str, Path]:
 
 def trial_folds(grid_dir: Path, folds: Sequence[str], config: str = SEGMENTATION_RUNS[0]
                 ) -> dict[str, str]:
-    """Every test trial of ``config``'s seed-0 runs (offline), in order: trial -> fold."""
+    """Every test trial of ``config``'s seed-0 runs (offline), in order: trial -> fold.
+
+    Args:
+        grid_dir: the grid's folder.
+        folds: the folds (test users) to look in, e.g. ``["B", "C"]``.
+        config: ``<variant>-<weighting>`` whose runs are read.
+    """
     return {trial: fold for fold in folds for trial in _predictions(grid_dir, config, fold)}
 
 
@@ -121,7 +147,17 @@ def _seconds(predictions: pd.DataFrame) -> np.ndarray:
 
 
 def segmentation_example(grid_dir: Path, trial: str, fold: str, out_dir: Path) -> list[Path]:
-    """Ribbons of ground truth, A and APoc for test trial ``trial`` of ``fold``."""
+    """Ribbons of ground truth, A and APoc for one test trial, over time in seconds.
+
+    Args:
+        grid_dir: the grid's folder.
+        trial: the trial's name, e.g. ``"Suturing_B001"``.
+        fold: the fold (test user) whose runs predicted it.
+        out_dir: the folder written into.
+
+    Returns:
+        The PNG and PDF written; empty when no run predicted the trial.
+    """
     runs = {c: pd.read_csv(files[trial]) for c in SEGMENTATION_RUNS
             if trial in (files := _predictions(grid_dir, c, fold))}
     if not runs:
@@ -143,8 +179,18 @@ def segmentation_example(grid_dir: Path, trial: str, fold: str, out_dir: Path) -
 
 
 def progress_example(grid_dir: Path, trial: str, fold: str, out_dir: Path) -> list[Path]:
-    """True progress of ``trial`` and the predictions over time: APr's raw regression output (a
-    line), APc's and APoc's stages (steps)."""
+    """True progress of one test trial and the predictions over time in seconds: APr's raw
+    regression output (a line), APc's and APoc's stages (steps).
+
+    Args:
+        grid_dir: the grid's folder.
+        trial: the trial's name, e.g. ``"Suturing_B001"``.
+        fold: the fold (test user) whose runs predicted it.
+        out_dir: the folder written into.
+
+    Returns:
+        The PNG and PDF written; empty when no run predicted the trial.
+    """
     runs = {c: pd.read_csv(files[trial]) for c in PROGRESS_RUNS
             if trial in (files := _predictions(grid_dir, c, fold))}
     if not runs:
@@ -222,8 +268,14 @@ def gradnorm_weights(grid_dir: Path, out_dir: Path) -> list[Path]:
 
 def example_trial(grid_dir: Path, folds: pd.DataFrame, requested: str | None = None
                   ) -> tuple[str, str] | None:
-    """``(trial, fold)`` of the example figures: ``requested`` (e.g. ``Suturing_B001``) or the
-    first test trial of the first fold; None if the grid has no run to show."""
+    """``(trial, fold)`` of the example figures; None if the grid has no run to show.
+
+    Args:
+        grid_dir: the grid's folder.
+        folds: one row per configuration and fold (``collect.per_fold``).
+        requested: a test trial's name (e.g. ``Suturing_B001``); None = the first test trial of
+            the first fold. One that no run tested raises ``ValueError`` listing the choices.
+    """
     trials = trial_folds(grid_dir, sorted(folds.fold.unique()))
     if requested is None:
         return next(iter(trials.items()), None)
@@ -235,8 +287,18 @@ def example_trial(grid_dir: Path, folds: pd.DataFrame, requested: str | None = N
 
 def all_figures(grid_dir: Path, folds: pd.DataFrame, out_dir: Path,
                 example: tuple[str, str] | None) -> list[Path]:
-    """Every figure the grid has the runs for; ``example`` = ``(trial, fold)`` of the example
-    figures (``example_trial``), None for none."""
+    """Every figure the grid has the runs for.
+
+    Args:
+        grid_dir: the grid's folder.
+        folds: one row per configuration and fold (``collect.per_fold``).
+        out_dir: the folder written into.
+        example: ``(trial, fold)`` of the example figures (``example_trial``); None = no
+            per-gesture and example figures.
+
+    Returns:
+        Every PNG and PDF written.
+    """
     written = []
     if example is not None:
         trial, fold = example

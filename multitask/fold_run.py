@@ -26,8 +26,16 @@ def check_weighting(variant: Variant, weighting: Weighting) -> None:
 
 def variant_extra(variant: Variant, weighting: Weighting, gradnorm: GradNormConfig,
                   heads: HeadConfig) -> dict:
-    """What config.json records of a variant beyond its ``RunConfig`` and tasks: the GradNorm
-    settings of a GradNorm run, the head settings of an ordered progress head."""
+    """What config.json records of a variant beyond its ``RunConfig`` and tasks: its name and
+    weighting, the GradNorm settings of a GradNorm run, the head settings of an ordered progress
+    head.
+
+    Args:
+        variant: the model variant (``variants.VARIANTS``).
+        weighting: ``"fixed"`` or ``"gradnorm"`` (checked against the variant).
+        gradnorm: GradNorm's settings, recorded with ``"gradnorm"``.
+        heads: the progress heads' settings, recorded for an ordered progress head.
+    """
     check_weighting(variant, weighting)
     extra = {"variant": variant.name, "weighting": weighting}
     if weighting == "gradnorm":
@@ -41,7 +49,16 @@ def variant_configs(variant: Variant, weighting: Weighting, config: RunConfig,
                     gradnorm: GradNormConfig = GradNormConfig(),
                     fingerprint: str | None = None, heads: HeadConfig = HeadConfig()) -> dict:
     """The record (and settings) of a run of ``variant``, as ``variant_trainer`` writes it to
-    config.json; ``fingerprint``: the data's, computed unless given."""
+    config.json.
+
+    Args:
+        variant: the model variant.
+        weighting: ``"fixed"`` or ``"gradnorm"``.
+        config: the run's configuration.
+        gradnorm: GradNorm's settings (with ``"gradnorm"``).
+        fingerprint: the data's (``baseline.builder.data_fingerprint``); None = compute it.
+        heads: the progress heads' settings.
+    """
     return run_configs(config, variant.tasks(config.data.task, heads),
                        variant_extra(variant, weighting, gradnorm, heads), fingerprint)
 
@@ -50,9 +67,19 @@ def variant_trainer(variant: Variant, weighting: Weighting, config: RunConfig, r
                     gradnorm: GradNormConfig = GradNormConfig(), dataset: Dataset | None = None,
                     log: Callable[[str], None] = print, heads: HeadConfig = HeadConfig()
                     ) -> Trainer:
-    """A ready trainer of ``variant`` on ``run_dir``'s fold; ``fixed`` uses w1 = w2 = 1 (the
-    baseline's trainer, unchanged), ``gradnorm`` the GradNorm trainer; ``heads`` configures the
-    progress head's loss."""
+    """A ready trainer of ``variant`` on ``run_dir``'s fold.
+
+    Args:
+        variant: the model variant.
+        weighting: ``"fixed"``, w1 = w2 = 1 (the baseline's trainer, unchanged), or
+            ``"gradnorm"``, the GradNorm trainer.
+        config: the run's configuration.
+        run_dir: the run folder.
+        gradnorm: GradNorm's settings (with ``"gradnorm"``).
+        dataset: ``config.data``'s dataset, already loaded; None = load it.
+        log: where progress lines go.
+        heads: the progress head's loss.
+    """
     extra = variant_extra(variant, weighting, gradnorm, heads)
     trainer = partial(GradNormTrainer, gradnorm=gradnorm) if weighting == "gradnorm" else Trainer
     return build_trainer(config, variant.tasks(config.data.task, heads), run_dir, dataset,
@@ -63,7 +90,21 @@ def train_variant(variant: Variant, weighting: Weighting, config: RunConfig, run
                   gradnorm: GradNormConfig = GradNormConfig(), dataset: Dataset | None = None,
                   log: Callable[[str], None] = print, heads: HeadConfig = HeadConfig(),
                   restart: bool = False) -> dict:
-    """Train ``variant`` on one fold (see ``variant_trainer``); returns the run's metrics.
-    ``restart``: delete a previous run's config and results in ``run_dir`` first."""
+    """Train ``variant`` on one fold.
+
+    Args:
+        variant: the model variant.
+        weighting: ``"fixed"`` or ``"gradnorm"`` (``variant_trainer``).
+        config: the run's configuration.
+        run_dir: the run folder; an unfinished run there resumes.
+        gradnorm: GradNorm's settings (with ``"gradnorm"``).
+        dataset: ``config.data``'s dataset, already loaded; None = load it.
+        log: where progress lines go.
+        heads: the progress head's loss.
+        restart: delete a previous run's config and results in ``run_dir`` first.
+
+    Returns:
+        The run's metrics (``metrics.json``'s content).
+    """
     return variant_trainer(variant, weighting, config, run_dir, gradnorm, dataset, log,
                            heads).run(restart)

@@ -58,7 +58,17 @@ class GradNormTrainer(Trainer):
     per_task_gradients = True
 
     def update(self, losses, grads, learning_rate):
-        """Returns ``[4, n_tasks]``: losses, G_i, r_i, and the weights used for this sweep."""
+        """``Trainer.update``: the network step with the current weights, then GradNorm's
+        weight step (graph code).
+
+        Args:
+            losses: ``[n_tasks]`` float32 task losses L_i of the sweep.
+            grads: one gradient list (in ``self.variables`` order) per task.
+            learning_rate: scalar float32, the network's learning rate for the sweep.
+
+        Returns:
+            ``[4, n_tasks]`` float32: losses, G_i, r_i, and the weights used for this sweep.
+        """
         weights = tf.identity(self.weights)
         network = [tf.add_n([weights[i] * g[k] for i, g in enumerate(grads)])
                    for k in range(len(self.variables))]

@@ -62,12 +62,22 @@ class Progress:
 def run_grid(spec: GridSpec, keys: list[RunKey], out: Path, workers: int = 1,
              scheduler: str | None = None, cores_per_job: int = 0, stack: int = 1,
              log: Log = print) -> list[tuple[RunKey, str]]:
-    """Run every unfinished run of ``keys`` under ``out``; returns the failures (key, message).
-    Check the folders first (``grid_record.prepare_grid``): a finished run counts as done here.
+    """Run every unfinished run of ``keys`` under ``out``. Check the folders first
+    (``grid_record.prepare_grid``): a finished run counts as done here.
 
-    ``scheduler``: address of a Dask scheduler (``tcp://host:8786``); ``out`` must then be a folder
-    every worker sees at the same path. ``cores_per_job`` 0 = this machine's cores / ``workers``
-    locally, 1 on Dask (start workers with one thread each). ``stack``: runs per job.
+    Args:
+        spec: the grid's budget, data and experiments.
+        keys: the runs to train (``grid_spec.expand``).
+        out: the grid's folder; on Dask, a folder every worker sees at the same path.
+        workers: local worker processes (ignored with ``scheduler``).
+        scheduler: address of a Dask scheduler (``tcp://host:8786``); None = a local pool.
+        cores_per_job: TensorFlow threads of each job; 0 = this machine's cores / ``workers``
+            locally, 1 on Dask (start workers with one thread each).
+        stack: runs of one configuration per job, trained in one vectorised step.
+        log: where the progress lines go.
+
+    Returns:
+        The failures, ``(key, "ExceptionType: message")`` each.
     """
     out = Path(out).resolve()
     pending = [k for k in keys if not is_finished(out / k.path())]

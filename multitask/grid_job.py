@@ -26,11 +26,19 @@ def run_job(spec: dict, keys: list[dict], out: str, cores: int, command: list[st
             ) -> list[dict]:
     """Train a group of runs of one configuration (resuming interrupted ones) and return each
     one's ``metrics.json`` content; several runs train together in one vectorised step
-    (``rnn_seg.stack``). ``command``: the grid's command line, recorded in each run's provenance.
+    (``rnn_seg.stack``).
 
     Takes and returns plain data so that process pools and Dask workers can ship it; each run's
     log (and the traceback of a failure) goes to ``<run dir>/train.log``, and so do the warnings
     of the data layer (the submitting process has shown them once already).
+
+    Args:
+        spec: the grid's spec as plain data (``grid_spec.spec_payload``).
+        keys: the group's runs, each a ``RunKey`` as a dict (``dataclasses.asdict``).
+        out: the grid's folder.
+        cores: TensorFlow threads of the job (0 = all of this machine's cores).
+        command: the grid's command line, recorded in each run's provenance; None = this
+            process's.
     """
     import_tensorflow()
     from jigsaws_tools.dataset import load_dataset

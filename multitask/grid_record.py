@@ -34,8 +34,16 @@ def record_runs(out: Path) -> list[str] | None:
 
 def prepare_grid(out: Path, spec: GridSpec, keys: list[RunKey], restart: bool = False,
                  log: Callable[[str], None] = print) -> None:
-    """Check (or with ``restart``, replace) ``out``'s record and run folders for ``spec``'s runs
-    ``keys``, before any work; raise ``SettingsMismatchError`` naming every difference."""
+    """Check (or with ``restart``, replace) ``out``'s record and run folders for ``spec``'s runs,
+    before any work; raise ``SettingsMismatchError`` naming every difference.
+
+    Args:
+        out: the grid's folder.
+        spec: the grid's budget, data and experiments.
+        keys: the grid's runs (``grid_spec.expand``).
+        restart: make ``spec`` the grid's record and clear run folders of other settings.
+        log: where the notes of a restart go.
+    """
     out = Path(out)
     runs = [str(key.path()) for key in keys]
     path = out / GRID_RECORD

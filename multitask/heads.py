@@ -45,6 +45,7 @@ class ProgressRegression(Task):
         return labels[..., None].astype(np.float32)
 
     def loss(self, outputs, targets, mask=None):
+        """``Task.loss``: the mean absolute error, in stages."""
         return step_mean(tf.abs(outputs - targets), mask)
 
     def scores(self, outputs):
@@ -99,6 +100,7 @@ class OrdinalProgress(Task):
         return ordinal_encode(labels.reshape(-1), self.num_classes).reshape(labels.shape + (-1,))
 
     def loss(self, outputs, targets, mask=None):
+        """``Task.loss``: binary cross-entropy summed or averaged over the outputs (above)."""
         per_output = tf.nn.sigmoid_cross_entropy_with_logits(targets, outputs)     # [B, T, K]
         if self.reduction == "sum":
             return step_mean(tf.reduce_sum(per_output, axis=-1), mask)

@@ -24,8 +24,14 @@ def required_packages(tex: str) -> list[str]:
 
 
 def number(value: float | None, digits: int = 1, signed: bool = False) -> str:
-    """``value`` with ``digits`` decimals and a true minus sign (``$-$``), ``$+$`` in front of
-    positive values when ``signed``; a value that rounds to zero has no sign; ``--`` if missing."""
+    """``value`` as LaTeX with a true minus sign (``$-$``); a value that rounds to zero has no
+    sign; ``--`` if missing.
+
+    Args:
+        value: the number, in the table's unit (e.g. percent); None or NaN = missing.
+        digits: decimals shown.
+        signed: put ``$+$`` in front of positive values (differences).
+    """
     if value is None or math.isnan(value):
         return "--"
     text = f"{abs(value):.{digits}f}"
@@ -37,7 +43,14 @@ def number(value: float | None, digits: int = 1, signed: bool = False) -> str:
 
 
 def mean_std(mean: float | None, std: float | None, digits: int = 1) -> str:
-    """``mean (std)``, or the mean alone when there is no std; ``--`` without a mean."""
+    """``mean (std)`` as LaTeX (``number``), or the mean alone when there is no std; ``--``
+    without a mean.
+
+    Args:
+        mean: the mean, in the table's unit; None or NaN = missing.
+        std: its standard deviation, same unit; None or NaN = none.
+        digits: decimals shown of both.
+    """
     if mean is None or math.isnan(mean):
         return "--"
     if std is None or math.isnan(std):

@@ -109,7 +109,17 @@ class RecordingPrediction:
 
 
 def plot_predictions(prediction: RecordingPrediction, path: Path, title: str) -> Path:
-    """Ribbons of every task's predicted labels at the samples, over the recording's time."""
+    """Ribbons of every task's predicted labels at the samples, over the recording's time in
+    seconds (from its 30 Hz frames).
+
+    Args:
+        prediction: the recording's predictions.
+        path: the PNG written (folders created).
+        title: the figure's title.
+
+    Returns:
+        ``path``.
+    """
     times = (prediction.sample_frames - 1) / KINEMATICS_HZ
     return plot_ribbons([Ribbon(t.name, prediction.sample_labels(t.name), times, t.class_names,
                                 task_colours(t.num_classes, t.ordered))

@@ -30,7 +30,13 @@ log = logging.getLogger(__name__)
 
 
 def default_evaluation_dir(run: TrainedRun, test_user: str, stream: bool) -> Path:
-    """``<run>/evaluate/ckpt-<sweeps>_<user>[_stream]``."""
+    """``<run>/evaluate/ckpt-<sweeps>_<user>[_stream]``: where ``evaluate_run`` writes by default.
+
+    Args:
+        run: the loaded run; ``<sweeps>`` is its checkpoint's sweep count.
+        test_user: whose trials are scored, e.g. ``"B"``.
+        stream: the scores are of the streaming preprocessing.
+    """
     return run.run_dir / "evaluate" / (f"ckpt-{run.checkpoint}_{test_user}"
                                        + ("_stream" if stream else ""))
 

@@ -88,8 +88,17 @@ def _step(model, x, state):
 
 def stream_recording(predictor: StreamingPredictor, kinematics: np.ndarray,
                      where: str = "kinematics") -> RecordingPrediction:
-    """Push every frame of a recording ``[n_frames, 76]`` (named ``where`` in errors) through
-    ``predictor`` from a fresh state and collect its predictions per sample and frame."""
+    """Push every frame of a recording through ``predictor`` from a fresh state and collect
+    its predictions per sample and frame.
+
+    Args:
+        predictor: the streaming model; it is reset first.
+        kinematics: ``[n_frames, 76]`` float at 30 Hz, in the JIGSAWS column layout.
+        where: what errors call the recording, e.g. its file name.
+
+    Returns:
+        The predictions at the 5 Hz samples, and per frame by holding the last sample's.
+    """
     predictor.run.features(kinematics, where)           # checks the shape
     predictor.reset()
     samples = [s for s in map(predictor.push, kinematics) if s is not None]

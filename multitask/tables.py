@@ -79,8 +79,14 @@ PAPER_TABLES = (
 
 
 def paper_caption(table: PaperTable, budget: str, ours_only: bool = False) -> str:
-    """The caption (LaTeX) of ``table``: what it shows, the comparison and ``budget`` (plain
-    text: data, folds, width, epochs, seeds, ``captions.RunsDescription.sentence``)."""
+    """The caption (LaTeX) of ``table``: what it shows, the comparison and the runs' budget.
+
+    Args:
+        table: the paper's table.
+        budget: plain text (escaped here): data, folds, width, epochs, seeds
+            (``captions.RunsDescription.sentence``).
+        ours_only: the table shows our numbers alone, without the paper's columns.
+    """
     if ours_only:
         return f"{table.title}: mean (std) over folds. {escape(budget)}"
     note = f" {escape(table.note)}" if table.note else ""
@@ -96,8 +102,16 @@ def ablation_caption(budget: str) -> str:
 
 def table_runs(runs: pd.DataFrame, frame: pd.DataFrame, annotations: tuple[str, ...],
                direction: str) -> pd.DataFrame:
-    """The rows of ``runs`` (one per run) behind a comparison table ``frame``: its
-    configurations with the given annotation versions and direction."""
+    """The rows of ``runs`` behind a comparison table: its configurations with the given
+    annotation versions and direction.
+
+    Args:
+        runs: one row per run (``collect.run_rows``).
+        frame: the comparison table (``paper_comparison``, ``annotation_ablation``); its
+            ``config`` column names the configurations.
+        annotations: the annotation versions compared, e.g. ``("revised", "original")``.
+        direction: the encoder's, ``"bidirectional"`` or ``"forward"``.
+    """
     configs = set(frame.config)
     return runs[runs.annotations.isin(annotations) & (runs.direction == direction)
                 & (runs.variant + "-" + runs.weighting).isin(configs)]

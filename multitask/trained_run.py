@@ -99,7 +99,13 @@ def _upgraded(run: dict) -> dict:
 def run_tasks(saved: dict, config: RunConfig, where: str) -> tuple[str, list[Task]]:
     """``(variant name, tasks)`` of a run's config.json: its variant's tasks on the run's task
     definition with its head settings, or model A's for a ``baseline-train`` run (which records
-    no variant)."""
+    no variant).
+
+    Args:
+        saved: the parsed config.json.
+        config: its ``run`` entry, as a ``RunConfig``.
+        where: the place named in errors (``RunFolderError``), e.g. the config.json's path.
+    """
     variant = saved.get("variant", "A")
     heads = from_jsonable(HeadConfig, saved.get("heads", {}), f"{where}: heads")
     try:
