@@ -89,7 +89,9 @@ def worker(impl: str, hidden: int, steps: int, repeats: int, plan: str | None = 
         tf.config.threading.set_inter_op_parallelism_threads(inter)
         threads = (intra, inter)
     else:
-        threads = configure_threads(0, hidden) if impl.startswith("rnn_seg") else "TF default"
+        precision = "bf16" if impl.endswith("bf16") else "fp32"
+        threads = (configure_threads(0, hidden, precision) if impl.startswith("rnn_seg")
+                   else "TF default")
 
     rng = np.random.default_rng(0)
     x = tf.constant(rng.normal(size=(B, steps, F)).astype(np.float32))

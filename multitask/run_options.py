@@ -50,7 +50,8 @@ def load_for_command(args: argparse.Namespace) -> TrainedRun:
 
     from .trained_run import load_run, read_run_config
 
-    configure_threads(args.threads, read_run_config(args.run_dir)[0].encoder.hidden)
+    encoder = read_run_config(args.run_dir)[0].encoder
+    configure_threads(args.threads, encoder.hidden, encoder.precision)
     return load_run(args.run_dir, args.checkpoint)
 
 

@@ -74,7 +74,7 @@ def _train(args: argparse.Namespace, variant: Variant) -> int:
                                   relative_rate=args.relative_rate)
         heads = HeadConfig(ordinal_loss=args.ordinal_loss)
         check_weighting(variant, args.weighting)
-        configure_threads(args.threads, args.hidden)
+        configure_threads(args.threads, args.hidden, args.precision)
         print(f"variant: {variant.name} ({args.weighting})\n{config.describe()}", flush=True)
         return config, gradnorm, heads
 

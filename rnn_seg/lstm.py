@@ -28,7 +28,7 @@ from __future__ import annotations
 
 from functools import lru_cache
 from pathlib import Path
-from typing import NamedTuple
+from typing import Callable, NamedTuple
 
 import tensorflow as tf
 
@@ -102,6 +102,28 @@ def product(a: tf.Tensor, b: tf.Tensor, dtype: tf.DType = tf.float32, **matmul) 
     return tf.cast(tf.matmul(tf.cast(a, dtype), tf.cast(b, dtype), **matmul), tf.float32)
 
 
+class RecurrentProducts(NamedTuple):
+    """One layer's two per-step products with its recurrent weights, in the products' dtype and
+    the operand layout oneDNN runs fastest for that dtype at a batch of 5 rows (measured,
+    docs/PERFORMANCE.md): float32 ``h W`` and ``dz W^T`` with ``W^T`` stored; bfloat16
+    ``(W^T h^T)^T`` and ``dz W^T`` read through ``transpose_b``."""
+
+    forward: Callable[[tf.Tensor], tf.Tensor]      # h [B, H] -> h W_h [B, 4H] float32
+    backward: Callable[[tf.Tensor], tf.Tensor]     # dz [B, 4H] -> dz W_h^T [B, H] float32
+
+
+def recurrent_products(W_h: tf.Tensor, dtype: tf.DType = tf.float32) -> RecurrentProducts:
+    """The per-step products with ``W_h`` ``[H, 4H]``, its copies cast and transposed once."""
+    W = tf.cast(W_h, dtype)
+    W_t = tf.transpose(W)                                                        # [4H, H]
+    if dtype == tf.float32:
+        return RecurrentProducts(lambda h: tf.matmul(h, W), lambda dz: tf.matmul(dz, W_t))
+    return RecurrentProducts(
+        lambda h: tf.cast(tf.transpose(tf.matmul(W_t, tf.cast(h, dtype), transpose_b=True)),
+                          tf.float32),
+        lambda dz: tf.cast(tf.matmul(tf.cast(dz, dtype), W, transpose_b=True), tf.float32))
+
+
 def lstm_scan(x_proj: tf.Tensor, resets: tf.Tensor, W_h: tf.Variable, peep: tf.Variable,
               precision: Precision = "fp32") -> tf.Tensor:
     """Run the cell over time, with a hand-written backward pass through time.
@@ -133,15 +155,15 @@ def _bptt_in(dtype: tf.DType):
     @tf.custom_gradient
     def bptt(x_proj, keep, W_h, peep):
         """``lstm_scan`` and its gradient; arguments as ``lstm_scan``'s, ``keep = 1 - resets``."""
-        W = tf.cast(W_h, dtype)                          # once per call, not per step
-        state = _forward(x_proj, keep, W, peep)                      # h, c, g, i, f, o [T, B, H]
+        products = recurrent_products(W_h, dtype)        # once per call, not per step
+        state = _forward(x_proj, keep, products.forward, peep)       # h, c, g, i, f, o [T, B, H]
 
         def grad(dh_out):
             h, c = state[0], state[1]
             hidden = tf.shape(W_h)[0]
             h_prev, c_prev = keep * _shift(h), keep * _shift(c)      # state entering each step
             factors = _backward_factors(state, c_prev, keep, peep)
-            dz = _backward(dh_out, keep, factors, W)                             # [T, B, 4H]
+            dz = _backward(dh_out, keep, factors, products.backward)            # [T, B, 4H]
             dW_h = product(tf.reshape(h_prev, [-1, hidden]), tf.reshape(dz, [-1, 4 * hidden]),
                            dtype, transpose_a=True)
             _, dz_i, dz_f, dz_o = tf.split(dz, 4, axis=2)
@@ -162,7 +184,8 @@ def _shift(x: tf.Tensor) -> tf.Tensor:
     return tf.concat([tf.zeros_like(x[:1]), x[:-1]], axis=0)
 
 
-def lstm_cell(z_x: tf.Tensor, c_prev: tf.Tensor, h_prev: tf.Tensor, W_h: tf.Tensor,
+def lstm_cell(z_x: tf.Tensor, c_prev: tf.Tensor, h_prev: tf.Tensor,
+              recurrent: Callable[[tf.Tensor], tf.Tensor],
               peepholes: tuple[tf.Tensor, tf.Tensor, tf.Tensor]) -> tuple[tf.Tensor, ...]:
     """One step of the cell (the module docstring's equations) for a batch.
 
@@ -170,14 +193,15 @@ def lstm_cell(z_x: tf.Tensor, c_prev: tf.Tensor, h_prev: tf.Tensor, W_h: tf.Tens
         z_x: ``[B, 4H]`` the input's share of the gate inputs, ``x W_x + b``.
         c_prev: ``[B, H]`` cell state entering the step (after any reset).
         h_prev: ``[B, H]`` hidden state entering the step (after any reset).
-        W_h: ``[H, 4H]`` recurrent weights, in the products' dtype.
+        recurrent: the product ``h W_h`` of a state ``[B, H]``, float32 ``[B, 4H]``
+            (``RecurrentProducts.forward``).
         peepholes: ``(w_ic, w_fc, w_oc)``, ``[H]`` each.
 
     Returns:
         ``(c, h, g, i, f, o)``, each ``[B, H]``.
     """
     w_ic, w_fc, w_oc = peepholes
-    z = z_x + product(h_prev, W_h, W_h.dtype)
+    z = z_x + recurrent(h_prev)
     z_g, z_i, z_f, z_o = tf.split(z, 4, axis=1)
     g = tf.tanh(z_g)
     i = tf.sigmoid(z_i + w_ic * c_prev)
@@ -188,19 +212,20 @@ def lstm_cell(z_x: tf.Tensor, c_prev: tf.Tensor, h_prev: tf.Tensor, W_h: tf.Tens
     return c, h, g, i, f, o
 
 
-def _forward(x_proj, keep, W_h, peep):
-    """The cell over time; returns ``(h, c, g, i, f, o)``, each ``[T, B, H]`` float32. ``W_h``
-    is in the products' dtype."""
+def _forward(x_proj, keep, recurrent, peep):
+    """The cell over time; returns ``(h, c, g, i, f, o)``, each ``[T, B, H]`` float32.
+    ``recurrent`` is the step's product ``h W_h`` (``RecurrentProducts.forward``)."""
     steps = tf.shape(x_proj)[0]
+    hidden = tf.shape(peep)[1]
     peepholes = (peep[0], peep[1], peep[2])
 
     def body(t, c_prev, h_prev, records):
         """Step ``t`` (``lstm_cell``, state ``[B, H]``); records ``(h, c, g, i, f, o)``."""
         k = keep[t]
-        c, h, g, i, f, o = lstm_cell(x_proj[t], c_prev * k, h_prev * k, W_h, peepholes)
+        c, h, g, i, f, o = lstm_cell(x_proj[t], c_prev * k, h_prev * k, recurrent, peepholes)
         return t + 1, c, h, [r.write(t, v) for r, v in zip(records, (h, c, g, i, f, o))]
 
-    zeros = tf.zeros(tf.stack([tf.shape(x_proj)[1], tf.shape(W_h)[0]]))
+    zeros = tf.zeros(tf.stack([tf.shape(x_proj)[1], hidden]))
     records = [tf.TensorArray(tf.float32, size=steps) for _ in range(6)]
     *_, records = tf.while_loop(lambda t, *_: t < steps, body, (0, zeros, zeros, records),
                                 parallel_iterations=1)
@@ -228,22 +253,22 @@ def _backward_factors(state, c_prev, keep, peep):
     return out_c, gates_dc, gates_dh, to_prev
 
 
-def _backward(dh_out, keep, factors, W_h):
+def _backward(dh_out, keep, factors, recurrent):
     """Reverse loop over time; returns ``dz`` ``[T, B, 4H]``, the gradient of the gate inputs.
 
     ``dh_out`` ``[T, B, H]`` is the gradient arriving at the outputs; the state passed back one
-    step is ``dc * to_prev`` and ``keep * dz W_h^T`` (``W_h`` in the products' dtype).
+    step is ``dc * to_prev`` and ``keep * dz W_h^T`` (``recurrent``: the product ``dz W_h^T``,
+    ``RecurrentProducts.backward``).
     """
     steps, batch = tf.shape(dh_out)[0], tf.shape(dh_out)[1]
     out_c, gates_dc, gates_dh, to_prev = factors
-    W_t = tf.transpose(W_h)                                          # [4H, H]
 
     def body(t, dh_next, dc_next, records):
         """Step ``t`` back; ``dh_next``, ``dc_next`` ``[B, H]`` reach h_t, c_t from step t + 1."""
         dh = dh_out[t] + dh_next
         dc = dc_next + dh * out_c[t]
         dz = tf.reshape(dc[:, None] * gates_dc[t] + dh[:, None] * gates_dh[t], [batch, -1])
-        return t - 1, keep[t] * product(dz, W_t, W_t.dtype), dc * to_prev[t], records.write(t, dz)
+        return t - 1, keep[t] * recurrent(dz), dc * to_prev[t], records.write(t, dz)
 
     zeros = tf.zeros_like(dh_out[0])
     records = tf.TensorArray(tf.float32, size=steps)
@@ -321,7 +346,8 @@ class RecurrentEncoder(tf.Module):
         states = []
         for layer, p in enumerate(params["fw"]):
             c, h, *_ = lstm_cell(tf.matmul(x, p.W_x) + p.b, state[layer, 0], state[layer, 1],
-                                 p.W_h, (p.peep[0], p.peep[1], p.peep[2]))
+                                 recurrent_products(p.W_h).forward,
+                                 (p.peep[0], p.peep[1], p.peep[2]))
             states.append(tf.stack([c, h]))
             x = h
         return x, tf.stack(states)

@@ -1,27 +1,62 @@
 """How a training process spreads over its cores (TensorFlow's two thread pools).
 
-The recurrent loops are sequences of small operations. Measured on 2 cores (docs/PERFORMANCE.md):
+A bidirectional layer runs two independent recurrent loops, one per direction, each a sequence of
+small products ``[5, H] x [H, 4H]``. Two plans (``bench/thread_plan.py``, docs/PERFORMANCE.md):
 
-* large layers (the paper's H=1024): each recurrent product is big enough to share between cores,
-  and two directions' weights (2 x 16 MB) running side by side evict each other from the cache,
-  so one op at a time with every core inside it is fastest;
-* small layers (H=256 and below): one product cannot use two cores well, so the two directions'
-  independent loops run side by side, one core each.
+* one core per direction, ``(intra 1, inter cores)``: the two loops run side by side. Fastest
+  whenever both directions' recurrent weights stay in the last-level cache together: on the
+  2-core Xeon with a 480 MB L3 it beat the other plans at H=256 and H=1024, float32 and bfloat16,
+  quiet and next to a competing load (1.92 s against 2.52 s per paper-size sweep);
+* every core inside each product, ``(cores, 1)``: one op at a time. Fastest when the two
+  directions' weights would evict each other: measured on a 2-core AMD EPYC with a 32 MB L3 at
+  H=1024 in float32 (2 x 16 MB of weights).
+
+``thread_plan`` picks by that criterion: one core per direction when both directions' weights
+fill at most half of the last-level cache.
 """
 from __future__ import annotations
 
 import os
+import re
+from functools import lru_cache
+from pathlib import Path
 
-SHARED_PRODUCT_FROM = 512      # hidden size from which products share the cores
+#: Last-level cache assumed when the machine does not report it (the EPYC above).
+DEFAULT_CACHE_BYTES = 32 * 2**20
+_BYTES = {"fp32": 4, "bf16": 2}
 
 
-def thread_plan(cores: int, hidden: int) -> tuple[int, int]:
-    """``(intra_op, inter_op)`` thread counts for ``cores`` cores and LSTM width ``hidden``."""
+def thread_plan(cores: int, hidden: int, precision: str = "fp32",
+                cache_bytes: int | None = None) -> tuple[int, int]:
+    """``(intra_op, inter_op)`` thread counts for a bidirectional LSTM layer.
+
+    Args:
+        cores: cores this process may use (>= 1).
+        hidden: LSTM width H.
+        precision: ``"fp32"`` or ``"bf16"``, the products' operand type (weight bytes).
+        cache_bytes: last-level cache size; default: this machine's (``last_level_cache``).
+    """
     cores = max(1, cores)
-    return (cores, 1) if hidden >= SHARED_PRODUCT_FROM else (1, cores)
+    cache = last_level_cache() if cache_bytes is None else cache_bytes
+    weights = 2 * hidden * 4 * hidden * _BYTES[precision]             # both directions' W_h
+    return (1, cores) if weights <= cache // 2 else (cores, 1)
 
 
-def configure_threads(cores: int, hidden: int) -> tuple[int, int]:
+@lru_cache(maxsize=1)
+def last_level_cache() -> int:
+    """Bytes of this CPU's largest cache level (Linux sysfs), else ``DEFAULT_CACHE_BYTES``."""
+    sizes = []
+    for index in Path("/sys/devices/system/cpu/cpu0/cache").glob("index*"):
+        try:
+            text = (index / "size").read_text().strip()
+            number, unit = re.fullmatch(r"(\d+)([KMG]?)", text).groups()
+        except (OSError, AttributeError):
+            continue
+        sizes.append(int(number) * {"": 1, "K": 2**10, "M": 2**20, "G": 2**30}[unit])
+    return max(sizes, default=DEFAULT_CACHE_BYTES)
+
+
+def configure_threads(cores: int, hidden: int, precision: str = "fp32") -> tuple[int, int]:
     """Apply ``thread_plan`` (``cores`` 0 = all of this machine's) and return it.
 
     TensorFlow fixes its pools when the first op runs; called later in the same process (a
@@ -29,7 +64,7 @@ def configure_threads(cores: int, hidden: int) -> tuple[int, int]:
     """
     import tensorflow as tf
 
-    intra, inter = thread_plan(cores or os.cpu_count() or 1, hidden)
+    intra, inter = thread_plan(cores or os.cpu_count() or 1, hidden, precision)
     try:
         tf.config.threading.set_intra_op_parallelism_threads(intra)
         tf.config.threading.set_inter_op_parallelism_threads(inter)

@@ -86,3 +86,14 @@ def test_tensorboard_scalars_are_optional(tmp_path, tensorboard):
         assert len(losses) == EPOCHS
         assert losses[0].metadata.plugin_data.plugin_name == "scalars"
         assert np.isfinite(tf.make_ndarray(losses[0].tensor))
+
+
+def test_thread_plan_gives_each_direction_a_core_when_the_weights_fit_the_cache():
+    from rnn_seg.threads import thread_plan
+
+    small_cache, large_cache = 32 * 2**20, 480 * 2**20
+    assert thread_plan(2, 1024, "fp32", small_cache) == (2, 1)      # 2 x 16 MB would evict
+    assert thread_plan(2, 1024, "bf16", small_cache) == (1, 2)      # 2 x 8 MB fit half of it
+    assert thread_plan(2, 1024, "fp32", large_cache) == (1, 2)
+    assert thread_plan(2, 128, "fp32", small_cache) == (1, 2)
+    assert thread_plan(1, 128) == (1, 1)
