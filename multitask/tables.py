@@ -175,13 +175,19 @@ def _row(label: str, config: str, metric: str, left: Number, right: Number, fold
 
 
 def _marked(label: str, *summary_rows: pd.Series) -> str:
-    """``label``, followed by "(incomplete: n/m runs)" when a configuration's summary row says it
-    lacks runs (``multitask-tables --allow-incomplete``)."""
-    if all(row.get("complete", True) for row in summary_rows):
-        return label
-    runs = sum(int(row["runs"]) for row in summary_rows)
-    expected = sum(int(row["runs_expected"]) for row in summary_rows)
-    return f"{label} (incomplete: {runs}/{expected} runs)"
+    """``label``, followed by what its summary rows say against the evidence: "(incomplete: n/m
+    runs)" when a configuration lacks runs (``multitask-tables --allow-incomplete``),
+    "(unconverged: n runs)" when some of its runs' training loss was still falling
+    (``rnn_seg.convergence``)."""
+    notes = []
+    if not all(row.get("complete", True) for row in summary_rows):
+        runs = sum(int(row["runs"]) for row in summary_rows)
+        expected = sum(int(row["runs_expected"]) for row in summary_rows)
+        notes.append(f"incomplete: {runs}/{expected} runs")
+    unconverged = sum(int(row.get("unconverged", 0)) for row in summary_rows)
+    if unconverged:
+        notes.append(f"unconverged: {unconverged} run{'s' if unconverged > 1 else ''}")
+    return f"{label} ({'; '.join(notes)})" if notes else label
 
 
 def paper_best(table: PaperTable) -> dict[str, float]:

@@ -255,3 +255,14 @@ def test_experiments_may_name_their_own_seeds_and_first_seeds_run_first(tmp_path
         Experiment(("A",), seeds=(0, 0))
     order = [min(k.seed for k in group) for group in job_groups(keys, 2)]
     assert order == sorted(order) and order[0] == 0
+
+
+def test_tables_mark_configurations_with_unconverged_runs():
+    from multitask.tables import PAPER_TABLES, paper_comparison
+
+    row = {"annotations": "revised", "direction": "bidirectional", "weighting": "fixed",
+           "folds": 8, "gesture_accuracy_mean": 85.0, "gesture_accuracy_std": 5.0}
+    summary = pd.DataFrame([{**row, "variant": "A", "unconverged": 0},
+                            {**row, "variant": "APc", "unconverged": 2}])
+    labels = set(paper_comparison(summary, PAPER_TABLES[0]).model)
+    assert labels == {"A", "APc (w1=w2=1) (unconverged: 2 runs)"}
