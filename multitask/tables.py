@@ -222,6 +222,10 @@ def to_latex(frame: pd.DataFrame, caption: str, label: str, sides: tuple[str, st
     note = ("Bold: the best value of each row (lowest MAE, highest otherwise)"
             + ("" if ours_only or right_best is None else
                f"; in the {sides[1]} rows, as the paper prints it (best of its table)") + ".")
+    marked = [(name, evidence) for name, evidence in map(_split_evidence, models) if evidence]
+    if marked:
+        note += (r" $^\dagger$\," + "; ".join(f"{_latex_model(name)}: {escape(evidence)}"
+                                              for name, evidence in marked) + ".")
     return "".join([
         requires(*PACKAGES),
         f"\\begin{{{env}}}[t]\n\\centering\n\\footnotesize\n",
@@ -259,15 +263,43 @@ def _body(frame: pd.DataFrame, models: list[str], rows: list[tuple[str, str]], l
     return lines
 
 
+#: What ``_marked`` appends to a model's label about its evidence, split off for LaTeX.
+_EVIDENCE = re.compile(r"(.*) \(((?:incomplete|unconverged): [^()]*)\)")
+
+
+def _split_evidence(model: str) -> tuple[str, str]:
+    """``"APc (w1=w2=1) (unconverged: 2 runs)"`` -> ``("APc (w1=w2=1)", "unconverged: 2 runs")``;
+    an unmarked label -> ``(label, "")``."""
+    match = _EVIDENCE.fullmatch(model)
+    return (match.group(1), match.group(2)) if match else (model, "")
+
+
+def _name_and_detail(model: str) -> tuple[str, str]:
+    """``"APr (w1=w2=1)"`` -> ``("APr", "w1=w2=1")``."""
+    match = re.fullmatch(r"(.*?) \((.*)\)", model)
+    return (match.group(1), match.group(2)) if match else (model, "")
+
+
+def _latex_detail(detail: str) -> str:
+    return _LATEX_DETAILS.get(detail, f"({escape(detail)})" if detail else "")
+
+
+def _latex_model(model: str) -> str:
+    """A model label in running LaTeX text: ``APr ($w_1{=}w_2{=}1$)``."""
+    name, detail = _name_and_detail(model)
+    return escape(name) + (f" {_latex_detail(detail)}" if detail else "")
+
+
 def _header(models: list[str], labels: int) -> list[str]:
-    """The column headers: model names, and a second line for the details in parentheses
-    (``APr (w1=w2=1)`` -> ``APr`` over ``w_1 = w_2 = 1``)."""
+    """The column headers: model names (a dagger where ``_marked`` noted the evidence), and a
+    second line for the details in parentheses (``APr (w1=w2=1)`` -> ``APr`` over
+    ``w_1 = w_2 = 1``)."""
     names, details = [], []
     for model in models:
-        match = re.fullmatch(r"(.*?) \((.*)\)", model)
-        name, detail = (match.group(1), match.group(2)) if match else (model, "")
-        names.append(escape(name))
-        details.append(_LATEX_DETAILS.get(detail, f"({escape(detail)})" if detail else ""))
+        base, evidence = _split_evidence(model)
+        name, detail = _name_and_detail(base)
+        names.append(escape(name) + (r"$^\dagger$" if evidence else ""))
+        details.append(_latex_detail(detail))
     blank = [""] * labels
     header = [" & ".join(blank + names) + r" \\"]
     if any(details):

@@ -258,11 +258,15 @@ def test_experiments_may_name_their_own_seeds_and_first_seeds_run_first(tmp_path
 
 
 def test_tables_mark_configurations_with_unconverged_runs():
-    from multitask.tables import PAPER_TABLES, paper_comparison
+    from multitask.tables import PAPER_TABLES, paper_comparison, to_latex
 
     row = {"annotations": "revised", "direction": "bidirectional", "weighting": "fixed",
            "folds": 8, "gesture_accuracy_mean": 85.0, "gesture_accuracy_std": 5.0}
     summary = pd.DataFrame([{**row, "variant": "A", "unconverged": 0},
                             {**row, "variant": "APc", "unconverged": 2}])
-    labels = set(paper_comparison(summary, PAPER_TABLES[0]).model)
-    assert labels == {"A", "APc (w1=w2=1) (unconverged: 2 runs)"}
+    table = paper_comparison(summary, PAPER_TABLES[0])
+    assert set(table.model) == {"A", "APc (w1=w2=1) (unconverged: 2 runs)"}
+    tex = to_latex(table, "caption", "table1", ("Ours", "Paper"))
+    header = tex.split(r"\toprule")[1].split(r"\midrule")[0]
+    assert r"APc$^\dagger$" in header and "unconverged" not in header
+    assert r"$^\dagger$\,APc $w_1{=}w_2{=}1$: unconverged: 2 runs" in tex
