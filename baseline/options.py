@@ -17,7 +17,7 @@ from jigsaws_tools.options import add_data_arguments, data_dir_from_args
 from jigsaws_tools.task_options import task_from_options
 from rnn_seg.config import (KEEP_CHECKPOINTS, PLOT_POINTS, PRECISIONS, PREDICTION_MODES,
                             RESET_MODES, EncoderConfig, OptimConfig, TrainConfig,
-                            check_eval_points)
+                            check_eval_points, require_native_precision)
 
 from .config import DIRECTIONS, RunConfig
 
@@ -161,6 +161,7 @@ def run_config_from_args(args: argparse.Namespace, optim: OptimConfig,
                         monitor_every=args.monitor_every, monitor_train=args.monitor_train,
                         tensorboard=args.tensorboard, keep_checkpoints=args.keep_checkpoints)
     check_eval_points(eval_points, optim)
+    require_native_precision(encoder.precision)
     data = DataConfig(str(data_dir_from_args(args, task)), feature_set=args.features,
                       annotations=args.annotations, task=task)
     return RunConfig(data=data, test_user=args.test_user, encoder=encoder, optim=optim,

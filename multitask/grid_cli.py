@@ -1,7 +1,7 @@
 """``multitask-grid``: run the leave-one-user-out grid of a spec, resumably, locally or on Dask.
 
     multitask-grid --spec results/quick.toml --out runs/quick --workers 2 --stack 4
-    multitask-grid --preset quick --out runs/quick                   # the default paper grid
+    multitask-grid --out runs/converged                # the paper's grid at the default preset
     multitask-grid --spec S.toml --out /shared/grid --scheduler tcp://head:8786
 
 Re-running the same command skips finished runs and resumes interrupted ones; tables come from
@@ -12,6 +12,7 @@ every run at once, resumably.
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import sys
 from pathlib import Path
 
@@ -20,10 +21,11 @@ from jigsaws_tools.arg_types import positive_int
 from jigsaws_tools.cli_common import (command_parser, deprecated_alias, import_tensorflow,
                                       run_command)
 from jigsaws_tools.options import DEFAULT_DATA_DIR_TEXT
+from rnn_seg.config import require_native_precision
 from rnn_seg.provenance import set_command
 
-from .grid_spec import (PRESETS, GridSpec, expand, load_spec, release_users, with_budget,
-                        with_overrides)
+from .grid_spec import (DEFAULT_PRESET, PRESETS, GridSpec, expand, load_spec, release_users,
+                        with_budget, with_overrides)
 
 PROG = "multitask-grid"
 
@@ -35,7 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
                              "whole paper grid)")
     parser.add_argument("--preset", choices=list(PRESETS),
                         help="override the spec's preset (budget: width, schedule, seeds; "
-                             "default: the spec's, else quick)")
+                             f"default: the spec's, else {DEFAULT_PRESET})")
     parser.add_argument("--data-dir", metavar="DIR",
                         help="override the spec's data_dir: a release folder or 'synthetic' "
                              f"(default: the spec's, else {DEFAULT_DATA_DIR_TEXT})")
@@ -62,7 +64,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.scheduler and importlib.util.find_spec("distributed") is None:
+        parser.error("--scheduler needs Dask: pip install 'mtrnn-jigsaws[dask]'")
     set_command([PROG, *(sys.argv[1:] if argv is None else argv)])
     return run_command(PROG, args.verbose, lambda: _run(args))
 
@@ -77,6 +82,8 @@ def _run(args: argparse.Namespace) -> int:
     spec = load_spec(args.spec) if args.spec else GridSpec()
     spec = with_overrides(spec, preset=args.preset, data_dir=args.data_dir)
     spec = with_budget(spec.with_absolute_paths())              # as recorded, one path
+    if not args.scheduler:                       # a cluster's workers have their own CPUs
+        require_native_precision(spec.precision)
     keys = expand(spec, release_users(spec))
     budget = spec.budget
     print(f"grid: task {spec.task}, preset {spec.preset}, H={budget.hidden}, "

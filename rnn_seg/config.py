@@ -7,6 +7,8 @@ export them under their old names.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
 from typing import ClassVar, Literal, Sequence
 
 from .validation import require_bool, require_choice, require_number
@@ -150,3 +152,22 @@ def check_eval_points(points: Sequence[int], optim: OptimConfig) -> None:
         raise ValueError(f"evaluation point(s) {', '.join(map(str, beyond))} beyond the "
                          f"{optim.total} {optim.unit} of training (TrainConfig.eval_points must "
                          f"lie in 1..OptimConfig.total)")
+
+
+def require_native_precision(precision: Precision) -> None:
+    """Refuse ``bf16`` on a CPU without native bfloat16 arithmetic (TensorFlow would emulate it,
+    several times slower than float32)."""
+    if precision == "bf16" and not native_bf16():
+        raise ValueError("--precision bf16 needs a CPU with native bfloat16 arithmetic "
+                         "(x86 AVX512_BF16 or AMX_BF16, or Arm BF16); this one has none: use "
+                         "--precision fp32")
+
+
+@lru_cache(maxsize=1)
+def native_bf16() -> bool:
+    """Whether this CPU reports native bfloat16 instructions (Linux ``/proc/cpuinfo``)."""
+    try:
+        flags = Path("/proc/cpuinfo").read_text().split()
+    except OSError:
+        return False
+    return bool({"avx512_bf16", "amx_bf16", "bf16"} & set(flags))

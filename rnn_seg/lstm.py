@@ -26,14 +26,12 @@ bfloat16 arithmetic (AVX512_BF16 or AMX; ``require_native_precision``).
 """
 from __future__ import annotations
 
-from functools import lru_cache
-from pathlib import Path
 from typing import Callable, NamedTuple
 
 import tensorflow as tf
 
 from .config import (PRECISIONS, RESET_MODES, EncoderConfig, Precision,  # noqa: F401 (re-exported)
-                     ResetMode)
+                     ResetMode, native_bf16, require_native_precision)
 
 _DTYPES = {"fp32": tf.float32, "bf16": tf.bfloat16}
 
@@ -64,25 +62,6 @@ class LSTMCellWeights(tf.Module):
 
     def params(self) -> LayerParams:
         return LayerParams(self.W_x, self.W_h, self.peep, self.b)
-
-
-def require_native_precision(precision: Precision) -> None:
-    """Refuse ``bf16`` on a CPU without native bfloat16 arithmetic (TensorFlow would emulate it,
-    several times slower than float32)."""
-    if precision == "bf16" and not native_bf16():
-        raise ValueError("--precision bf16 needs a CPU with native bfloat16 arithmetic "
-                         "(x86 AVX512_BF16 or AMX_BF16, or Arm BF16); this one has none: use "
-                         "--precision fp32")
-
-
-@lru_cache(maxsize=1)
-def native_bf16() -> bool:
-    """Whether this CPU reports native bfloat16 instructions (Linux ``/proc/cpuinfo``)."""
-    try:
-        flags = Path("/proc/cpuinfo").read_text().split()
-    except OSError:
-        return False
-    return bool({"avx512_bf16", "amx_bf16", "bf16"} & set(flags))
 
 
 def product(a: tf.Tensor, b: tf.Tensor, dtype: tf.DType = tf.float32, **matmul) -> tf.Tensor:

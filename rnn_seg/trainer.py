@@ -39,10 +39,10 @@ from tensorflow.core.framework import summary_pb2
 
 from .checkpoints import CheckpointStore, checkpoint_sweeps
 from .config import (PLOT_POINTS, PREDICTION_MODES, PlotPoints,  # noqa: F401 (re-exported)
-                     PredictionMode, TrainConfig, check_eval_points)
+                     PredictionMode, TrainConfig, check_eval_points,
+                     require_native_precision)
 from .convergence import history_convergence
 from .folder_lock import hold_folder
-from .lstm import require_native_precision
 from .model import ModelParams, SegmentationModel
 from .optim import SGD, OptimConfig
 from .plots import plot_sequence

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import tensorflow as tf
 
-from rnn_seg import lstm
+from rnn_seg import config
 from rnn_seg.lstm import EncoderConfig, require_native_precision
 from rnn_seg.model import SegmentationModel
 from rnn_seg.sweeps import make_sweep, reset_flags
@@ -46,7 +46,7 @@ def test_bf16_gradients_agree_with_fp32(bidirectional):
 
 
 def test_bf16_is_refused_without_native_support(monkeypatch):
-    monkeypatch.setattr(lstm, "native_bf16", lambda: False)
+    monkeypatch.setattr(config, "native_bf16", lambda: False)
     with pytest.raises(ValueError, match="native bfloat16"):
         require_native_precision("bf16")
     require_native_precision("fp32")
@@ -55,3 +55,14 @@ def test_bf16_is_refused_without_native_support(monkeypatch):
 def test_unknown_precision_is_an_error():
     with pytest.raises(ValueError, match="precision must be one of"):
         replace(EncoderConfig(), precision="fp16")
+
+
+def test_training_refuses_bf16_before_reading_data(monkeypatch, tmp_path, capsys):
+    from baseline.cli import main
+
+    monkeypatch.setattr(config, "native_bf16", lambda: False)
+    missing = tmp_path / "no-release"
+    assert main(["--precision", "bf16", "--data-dir", str(missing), "--out",
+                 str(tmp_path / "run")]) == 2
+    err = capsys.readouterr().err
+    assert "native bfloat16" in err and "not found" not in err       # refused before the data
