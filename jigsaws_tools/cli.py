@@ -66,7 +66,8 @@ def _amendments(args: argparse.Namespace) -> None:
     task = task_from_options(args)
     report = amendment_report(discover(data_dir_from_args(args, task), task), args.annotations)
     total = 0
-    print(f"{'trial':15} {'start':>6} {'end':>6} {'new':>4} {'changed':>8}  previous labels / status")
+    print(f"{'trial':15} {'start':>6} {'end':>6} {'new':>4} {'changed':>8}  "
+          "previous labels / status")
     for name, e in report:
         a = e.amendment
         previous = ", ".join(f"{k}:{v}" for k, v in e.previous.items())

@@ -94,9 +94,10 @@ class Dataset:
         return self.trials[0].inputs.shape[1]
 
     def louo_split(self, test_user: str) -> tuple[list[Trial], list[Trial]]:
-        """Leave-one-user-out: ``(train trials, test trials)`` with ``test_user``'s trials held out."""
+        """Leave-one-user-out: ``(train trials, test trials)``, ``test_user``'s trials held out."""
         if test_user not in self.users:
-            raise JigsawsError(f"unknown test user {test_user!r}; users are {', '.join(self.users)}")
+            raise JigsawsError(f"unknown test user {test_user!r}; users are "
+                               f"{', '.join(self.users)}")
         if len(self.users) < 2:
             raise JigsawsError(f"{self.config.data_dir}: only user {test_user} has complete "
                                f"{self.config.task.name} trials; leave-one-user-out needs at "

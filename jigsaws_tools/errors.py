@@ -8,7 +8,8 @@ OBTAIN_HINT = (
     "(https://cirl.lcsr.jhu.edu/research/hmm/datasets/jigsaws_release/). Point the tools at the "
     "task folder, which must contain kinematics/AllGestures/<Task>_<User><Trial>.txt, "
     "transcriptions/<Task>_<User><Trial>.txt and meta_file_<Task>.txt (e.g. Suturing_B001.txt); "
-    "or run `jigsaws-tools synth --out DIR --task <Task>` to write a synthetic release in that layout."
+    "or run `jigsaws-tools synth --out DIR --task <Task>` to write a synthetic release in that "
+    "layout."
 )
 
 

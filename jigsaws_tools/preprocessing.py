@@ -58,7 +58,8 @@ def butterworth(cutoff_hz: float, order: int, fs_hz: float = KINEMATICS_HZ) -> n
     return _scipy_signal().butter(order, cutoff_hz, btype="low", fs=fs_hz, output="sos")
 
 
-def lowpass(x: np.ndarray, cutoff_hz: float, order: int, fs_hz: float = KINEMATICS_HZ) -> np.ndarray:
+def lowpass(x: np.ndarray, cutoff_hz: float, order: int, fs_hz: float = KINEMATICS_HZ
+            ) -> np.ndarray:
     """Zero-phase Butterworth low-pass (forward-backward, second-order sections).
 
     Args:

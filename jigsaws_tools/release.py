@@ -3,7 +3,7 @@
 Layout::
 
     <root>/kinematics/AllGestures/<Task>_<User><Trial>.txt   76 columns, 30 Hz, one line per frame
-    <root>/transcriptions/<Task>_<User><Trial>.txt           "start end G<k>", 1-based inclusive frames
+    <root>/transcriptions/<Task>_<User><Trial>.txt           "start end G<k>", 1-based inclusive
     <root>/meta_file_<Task>.txt                              name, skill level, GRS, 6 GRS items
 
 ``<Task>`` is ``TaskDefinition.name``; every function that depends on it takes the task (default:
@@ -33,7 +33,8 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class Segment:
-    """One transcription line: frames ``start..end`` (1-based, inclusive, 30 Hz) carry ``gesture``."""
+    """One transcription line: frames ``start..end`` (1-based, inclusive, 30 Hz) are
+    ``gesture``."""
 
     start: int
     end: int
@@ -221,7 +222,8 @@ def read_kinematics(path: Path | str) -> np.ndarray:
         _diagnose_kinematics(path)
     if not np.isfinite(data).all():
         row = int(np.argwhere(~np.isfinite(data))[0, 0])
-        raise FormatError(path, _data_line_number(path, row), "nan/inf", "non-finite kinematic value")
+        raise FormatError(path, _data_line_number(path, row), "nan/inf",
+                          "non-finite kinematic value")
     return data
 
 
@@ -325,7 +327,8 @@ def read_meta(path: Path | str) -> dict[str, TrialMeta]:
             try:
                 scores = [int(v) for v in fields[2:]]
             except ValueError:
-                raise FormatError(path, number, " ".join(fields[2:]), "non-integer GRS score") from None
+                raise FormatError(path, number, " ".join(fields[2:]),
+                                  "non-integer GRS score") from None
             meta[name] = TrialMeta(skill, scores[0], tuple(scores[1:]))
     return meta
 

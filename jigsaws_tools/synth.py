@@ -83,7 +83,8 @@ def _prototypes(seed: int, task: TaskDefinition) -> dict[str, dict[str, np.ndarr
         protos[g] = {"pose": rng.normal(0.0, 1.0, (2, 3)), "grip": rng.uniform(-0.3, 1.2, 2),
                      "wobble": rng.normal(0.0, 0.6, (2, 3)), "rate": rng.uniform(0.3, 1.5),
                      "turn": rng.normal(0.0, 0.5, (2, 3))}
-    # Related gestures look alike (Suturing: the two adjustments, tightening / loosening vs pulling).
+    # Related gestures look alike (Suturing: the two adjustments, tightening / loosening vs
+    # pulling).
     for timing in grammar(task).gestures:
         if timing.like:
             for key in ("pose", "wobble", "turn"):

@@ -294,7 +294,7 @@ def _int_pair(value: Any, key: str) -> tuple[int, int]:
     return value[0], value[1]
 
 
-# -- invariants -------------------------------------------------------------------------------------
+# -- invariants ------------------------------------------------------------------------------
 def _check_task(task: TaskDefinition) -> None:
     """Raise ``DefinitionError`` (key, value, problem) at the first broken invariant."""
     if not _NAME.match(task.name):

@@ -1,6 +1,6 @@
 """The multi-task configuration: how a run weights its task losses (fixed w1 = w2 = 1, or
-GradNorm), GradNorm's settings and the progress heads' loss. Free of TensorFlow, so that command lines and the grid read it
-without loading it; ``gradnorm.GradNormTrainer`` trains with it."""
+GradNorm), GradNorm's settings and the progress heads' loss. Free of TensorFlow, so that command
+lines and the grid read it without loading it; ``gradnorm.GradNormTrainer`` trains with it."""
 from __future__ import annotations
 
 from dataclasses import dataclass

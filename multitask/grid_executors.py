@@ -82,7 +82,8 @@ def run_grid(spec: GridSpec, keys: list[RunKey], out: Path, workers: int = 1,
     out = Path(out).resolve()
     pending = [k for k in keys if not is_finished(out / k.path())]
     log(f"[grid] {len(keys)} runs, {len(keys) - len(pending)} already finished, "
-        f"{len(pending)} to run" + (f" on {scheduler}" if scheduler else f" with {workers} worker(s)"))
+        f"{len(pending)} to run"
+        + (f" on {scheduler}" if scheduler else f" with {workers} worker(s)"))
     if not pending:
         return []
     payload = spec_payload(spec)

@@ -14,7 +14,8 @@ An experiment may name its own ``seeds`` (e.g. three for the configurations the 
 compare, one for the rest); grids run every configuration's first seed before any second one,
 so a grid cut short still has complete single-seed tables.
 
-Every run has its own directory ``runs/<annotations>/<direction>/<variant>-<weighting>/seed<k>/<user>``
+Every run has its own directory
+``runs/<annotations>/<direction>/<variant>-<weighting>/seed<k>/<user>``
 and is resumable on its own; ``finished.json`` marks it complete (``rnn_seg.rundir``). The path
 does not name the budget: the grid's record (``grid_record``) and each run's config.json do.
 Every key's type and range is checked when the spec is read (``GridSpec.__post_init__``).

@@ -5,11 +5,11 @@ Writes to ``--out`` (default ``GRID_DIR/tables``): ``runs.csv`` (one row per fin
 folds), ``table1|2|3.csv/.tex`` (ours against the paper), ``ablation_annotations.csv/.tex``
 (revised against original labels), ``claims.csv/.tex`` (the paper's claims tested with paired
 statistics over folds and seeds, settings in ``claims_config.json``), ``figures/*.png|pdf`` and,
-with ``--curves``, ``figures/curves/*.png|pdf`` (training curves). The paper's tables, the annotation ablation and its claims are Suturing's: a grid of
-another task gets instead the claims of the paper's conjecture (multi-task against model A on
-that task, ``claims.CONJECTURE_CLAIMS``).
+with ``--curves``, ``figures/curves/*.png|pdf`` (training curves). The paper's tables, the
+annotation ablation and its claims are Suturing's: a grid of another task gets instead the claims
+of the paper's conjecture (multi-task against model A on that task, ``claims.CONJECTURE_CLAIMS``).
 
-    multitask-tables runs/quick --out results --example-trial Suturing_D003 --curves
+    multitask-tables runs/converged --out results --example-trial Suturing_D003 --curves
 
 A grid with missing or unfinished runs, NaN metrics, unreadable metrics or stray folders is an
 error naming them (``multitask.collect``); with ``--allow-incomplete`` they are listed, and the

@@ -23,7 +23,8 @@ class Dense(tf.Module):
     def __init__(self, input_size: int, output_size: int, init_scale: float,
                  rng: tf.random.Generator, name: str):
         super().__init__(name=name)
-        self.W = tf.Variable(rng.uniform([input_size, output_size], -init_scale, init_scale), name="W")
+        self.W = tf.Variable(rng.uniform([input_size, output_size], -init_scale, init_scale),
+                             name="W")
         self.b = tf.Variable(rng.uniform([output_size], -init_scale, init_scale), name="b")
 
     def params(self) -> DenseParams:

@@ -11,7 +11,8 @@ Cell, for each time step t (``*`` elementwise, ``sigma`` the logistic function):
 
 Where the reset flag of step t is set, ``(c_{t-1}, h_{t-1})`` is replaced by the zero initial state
 before the step. The four gate matrices are stored fused, in gate order (g, i, f, o): ``W_x``
-``[F, 4H]``, ``W_h`` ``[H, 4H]``, ``b`` ``[4H]``; peepholes ``w_ic, w_fc, w_oc`` ``[H]`` each. All weights
+``[F, 4H]``, ``W_h`` ``[H, 4H]``, ``b`` ``[4H]``; peepholes ``w_ic, w_fc, w_oc`` ``[H]`` each. All
+weights
 start uniform in ``[-init_scale, init_scale]``, biases at zero, as in the original code.
 
 Shapes: batch-major ``[B, T, ...]`` at the API, time-major inside the scan. A forward-only encoder

@@ -13,7 +13,8 @@ from .config import UNITS, OptimConfig, Unit  # noqa: F401 (re-exported)
 
 
 class SGD(tf.Module):
-    """``v <- momentum * v + g;  w <- w - lr * v`` after clipping all gradients to one global norm."""
+    """``v <- momentum * v + g;  w <- w - lr * v`` after clipping all gradients to one global
+    norm."""
 
     def __init__(self, variables: Sequence[tf.Variable], momentum: float, clip_norm: float):
         super().__init__(name="sgd")

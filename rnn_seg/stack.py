@@ -43,7 +43,8 @@ tf.get_logger().addFilter(_NoFallbackWarnings())
 
 
 class TrainerStack:
-    """Train ``trainers`` (same model shapes, tasks, trainer class and number of sweeps) together."""
+    """Train ``trainers`` (same model shapes, tasks, trainer class and number of sweeps)
+    together."""
 
     def __init__(self, trainers: Sequence[Trainer]):
         self.trainers = list(trainers)
@@ -81,7 +82,8 @@ class TrainerStack:
             total = self.trainers[0].total_sweeps
             for sweep in range(min(starts, default=total), total):
                 members = tuple(k for k, start in enumerate(starts) if start <= sweep)
-                lrs = [active[k].optim.learning_rate_at(sweep, active[k].sweeps_per_epoch) for k in members]
+                lrs = [active[k].optim.learning_rate_at(sweep, active[k].sweeps_per_epoch)
+                       for k in members]
                 began = time.perf_counter()
                 if len(members) == 1:         # the plain step is faster than a stack of one
                     outs = [active[members[0]].step(sweep, lrs[0])]

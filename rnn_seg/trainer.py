@@ -124,7 +124,8 @@ class Trainer:
         for every sweep:
             step(sweep, lr)                 one training sweep (graph code):
                 batch(sweep)                    inputs, resets, targets of the sweep
-                loss_gradients(...)             task losses and gradients      [hook: per_task_gradients]
+                loss_gradients(...)             task losses and gradients
+                                                                [hook: per_task_gradients]
                 update(losses, grads, lr)       apply them, return what to log [hook: update]
             after_sweep(sweep, lr, out)     book-keeping:
                 record(out)                     the task losses of the sweep   [hook: record]
@@ -393,7 +394,8 @@ class Trainer:
         for split in ("train", "test"):
             if row.get(f"{split}_{self.tasks[0].name}_acc") is not None:
                 parts.append(f"{split} " + " ".join(
-                    f"{t.name} {row[f'{split}_{t.name}_acc']:.1f}/{row[f'{split}_{t.name}_edit']:.1f}"
+                    f"{t.name} {row[f'{split}_{t.name}_acc']:.1f}/"
+                    f"{row[f'{split}_{t.name}_edit']:.1f}"
                     for t in self.tasks))
         left = (self.total_sweeps - row["sweep"]) / self.sweeps_per_unit
         parts.append(f"{row['unit_seconds']:.1f} s/{unit}  ETA "

@@ -163,8 +163,8 @@ def test_trainer_constructor_writes_nothing(small_dir, tmp_path):
 # -- 1 + 2 + 3. the grid -------------------------------------------------------------------------
 GRID = """
 preset = "quick"
-data = "{data}"
-folds = ["B"]
+data_dir = "{data}"
+test_users = ["B"]
 seeds = [0]
 hidden = {hidden}
 epochs = {epochs}
@@ -237,7 +237,7 @@ def test_grid_record_carries_provenance(finished_grid):
 ])
 def test_bad_spec_values_fail_at_load_time(tmp_path, small_dir, capsys, line, named):
     spec = tmp_path / "bad.toml"
-    spec.write_text(f'data = "{small_dir}"\nfolds = ["B"]\n{line}\n')
+    spec.write_text(f'data_dir = "{small_dir}"\ntest_users = ["B"]\n{line}\n')
     code, _, err = _cli(grid_main, ["--spec", str(spec), "--out", str(tmp_path / "out")], capsys)
     _assert_clean_error(code, err, str(spec), named)
     assert not (tmp_path / "out").exists()
