@@ -36,7 +36,8 @@ def _train(args: argparse.Namespace) -> int:
 
     def configure() -> RunConfig:
         config = run_config_from_args(args, OptimConfig())
-        configure_threads(args.threads, args.hidden, args.precision)
+        configure_threads(args.threads, args.hidden, args.precision,
+                          bidirectional=args.direction == "bidirectional")
         print(config.describe(), flush=True)
         return config
 

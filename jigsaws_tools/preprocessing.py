@@ -32,6 +32,21 @@ class PreprocessConfig:
     resample_factor: int = 6       # 30 Hz / 6 = 5 Hz; 1 disables resampling
     normalise: bool = True
 
+    def __post_init__(self):
+        nyquist = KINEMATICS_HZ / 2
+        for name in ("lowpass", "drop_unlabelled", "normalise"):
+            if not isinstance(getattr(self, name), bool):
+                raise ValueError(f"PreprocessConfig.{name} must be true or false "
+                                 f"(got {getattr(self, name)!r})")
+        if not (isinstance(self.cutoff_hz, (int, float)) and 0 < self.cutoff_hz < nyquist):
+            raise ValueError(f"PreprocessConfig.cutoff_hz must be a number in (0, {nyquist:g}) Hz "
+                             f"(got {self.cutoff_hz!r})")
+        for name in ("filter_order", "resample_factor"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+                raise ValueError(f"PreprocessConfig.{name} must be an integer >= 1 "
+                                 f"(got {value!r})")
+
     @property
     def sample_hz(self) -> float:
         return KINEMATICS_HZ / self.resample_factor

@@ -11,6 +11,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from jigsaws_tools.task_definition import PAPER_TASK
+
 from .grid_spec import RunKey
 from .variants import VARIANTS
 
@@ -65,7 +67,7 @@ def describe_runs(grid_dir: Path | str, runs: pd.DataFrame) -> RunsDescription:
     first = next(iter(configs.values()), None)
     trials = _test_trials(root, keys)
     return RunsDescription(
-        data=_data_name(first["data"]["data_dir"] if first else "", trials),
+        data=_data_name(first["data"] if first else {}),
         trials=len(trials),
         folds=tuple(sorted({key.fold for key in keys})),
         seeds=tuple(sorted({key.seed for key in keys})),
@@ -85,10 +87,10 @@ def _test_trials(root: Path, keys: list[RunKey]) -> set[str]:
     return trials
 
 
-def _data_name(data_dir: str, trials: set[str]) -> str:
-    """``JIGSAWS <Task> kinematics`` (the task from the trial names, ``Suturing_B001``), or the
-    synthetic release's name."""
-    task = next(iter(trials), "Suturing").split("_")[0]
-    if Path(data_dir).parent.name.startswith(_SYNTHETIC_PREFIX):
+def _data_name(data: dict) -> str:
+    """``JIGSAWS <Task> kinematics``, or the synthetic release's name, from a run's recorded data
+    configuration (``config.json``'s ``run.data``; runs from before tasks were data: Suturing)."""
+    task = data.get("task", {}).get("name", PAPER_TASK).replace("_", " ")
+    if Path(data.get("data_dir", "")).parent.name.startswith(_SYNTHETIC_PREFIX):
         return f"the synthetic {task} release"
     return f"JIGSAWS {task} kinematics"

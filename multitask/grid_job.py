@@ -50,7 +50,8 @@ def run_job(spec: dict, keys: list[dict], out: str, cores: int, command: list[st
     if command:
         set_command(command)
     grid, runs = spec_from_dict(spec), [RunKey(**key) for key in keys]
-    configure_threads(cores, grid.budget.hidden, grid.precision)
+    configure_threads(cores, grid.budget.hidden, grid.precision,
+                      bidirectional=runs[0].direction == "bidirectional")
     run_dirs = [Path(out) / run.path() for run in runs]
     with ExitStack() as files:
         logs = []

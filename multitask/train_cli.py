@@ -74,7 +74,8 @@ def _train(args: argparse.Namespace, variant: Variant) -> int:
                                   relative_rate=args.relative_rate)
         heads = HeadConfig(ordinal_loss=args.ordinal_loss)
         check_weighting(variant, args.weighting)
-        configure_threads(args.threads, args.hidden, args.precision)
+        configure_threads(args.threads, args.hidden, args.precision,
+                          bidirectional=args.direction == "bidirectional")
         print(f"variant: {variant.name} ({args.weighting})\n{config.describe()}", flush=True)
         return config, gradnorm, heads
 

@@ -12,7 +12,8 @@ small products ``[5, H] x [H, 4H]``. Two plans (``bench/thread_plan.py``, docs/P
   H=1024 in float32 (2 x 16 MB of weights).
 
 ``thread_plan`` picks by that criterion: one core per direction when both directions' weights
-fill at most half of the last-level cache.
+fill at most half of the last-level cache. A forward-only (online) model has one loop: every core
+goes inside its products.
 """
 from __future__ import annotations
 
@@ -27,16 +28,19 @@ _BYTES = {"fp32": 4, "bf16": 2}
 
 
 def thread_plan(cores: int, hidden: int, precision: str = "fp32",
-                cache_bytes: int | None = None) -> tuple[int, int]:
-    """``(intra_op, inter_op)`` thread counts for a bidirectional LSTM layer.
+                cache_bytes: int | None = None, bidirectional: bool = True) -> tuple[int, int]:
+    """``(intra_op, inter_op)`` thread counts for an LSTM layer.
 
     Args:
         cores: cores this process may use (>= 1).
         hidden: LSTM width H.
         precision: ``"fp32"`` or ``"bf16"``, the products' operand type (weight bytes).
         cache_bytes: last-level cache size; default: this machine's (``last_level_cache``).
+        bidirectional: two directions' loops (else one, forward only).
     """
     cores = max(1, cores)
+    if not bidirectional:
+        return cores, 1
     cache = last_level_cache() if cache_bytes is None else cache_bytes
     weights = 2 * hidden * 4 * hidden * _BYTES[precision]             # both directions' W_h
     return (1, cores) if weights <= cache // 2 else (cores, 1)
@@ -56,7 +60,8 @@ def last_level_cache() -> int:
     return max(sizes, default=DEFAULT_CACHE_BYTES)
 
 
-def configure_threads(cores: int, hidden: int, precision: str = "fp32") -> tuple[int, int]:
+def configure_threads(cores: int, hidden: int, precision: str = "fp32",
+                      bidirectional: bool = True) -> tuple[int, int]:
     """Apply ``thread_plan`` (``cores`` 0 = all of this machine's) and return it.
 
     TensorFlow fixes its pools when the first op runs; called later in the same process (a
@@ -64,7 +69,8 @@ def configure_threads(cores: int, hidden: int, precision: str = "fp32") -> tuple
     """
     import tensorflow as tf
 
-    intra, inter = thread_plan(cores or os.cpu_count() or 1, hidden, precision)
+    intra, inter = thread_plan(cores or os.cpu_count() or 1, hidden, precision,
+                               bidirectional=bidirectional)
     try:
         tf.config.threading.set_intra_op_parallelism_threads(intra)
         tf.config.threading.set_inter_op_parallelism_threads(inter)

@@ -97,3 +97,4 @@ def test_thread_plan_gives_each_direction_a_core_when_the_weights_fit_the_cache(
     assert thread_plan(2, 1024, "fp32", large_cache) == (1, 2)
     assert thread_plan(2, 128, "fp32", small_cache) == (1, 2)
     assert thread_plan(1, 128) == (1, 1)
+    assert thread_plan(2, 128, bidirectional=False) == (2, 1)           # one loop: both cores in it
