@@ -1,6 +1,6 @@
 """``multitask-grid``: run the leave-one-user-out grid of a spec, resumably, locally or on Dask.
 
-    multitask-grid --spec results/quick.toml --out runs/quick --workers 2 --stack 4
+    multitask-grid --spec results/quick.toml --out runs/quick --workers 2
     multitask-grid --out runs/converged                # the paper's grid at the default preset
     multitask-grid --spec S.toml --out /shared/grid --scheduler tcp://head:8786
 
