@@ -2,8 +2,9 @@
 
 Shared by ``baseline-train`` and ``multitask-train``, inside ``cli_common.run_command``: errors a
 user can act on (bad values or data, a folder in use or holding other settings) propagate to it,
-which prints one line ``prog: error: ...`` (and the traceback with ``-v``) and exits with 2. Handled here: a loss that diverged (one line, exit 1) and Ctrl-C during training,
-which leaves a resumable run (exit 130 and how to resume).
+which prints one line ``prog: error: ...`` (and the traceback with ``-v``) and exits with 2.
+Handled here: a loss that diverged (one line, exit 1) and Ctrl-C during training, which leaves a
+resumable run (exit 130 and how to resume).
 """
 from __future__ import annotations
 

@@ -611,6 +611,8 @@ def test_tables_of_a_complete_grid(tmp_path, capsys):
     (lambda run: (run / "metrics.json").write_text('{"mean": {"gesture": {"accuracy": NaN}}}'),
      "metrics.json"),
     (lambda run: (run / "metrics.json").write_text('{"mean": {"gest'), "metrics.json"),
+    (lambda run: write_json(run / "metrics.json", {"metrics": {}}),
+     "metrics.json: no 'mean' metrics per task"),
 ])
 def test_tables_refuse_incomplete_evidence(tmp_path, capsys, damage, named):
     run = _fake_grid(tmp_path)
@@ -618,6 +620,21 @@ def test_tables_refuse_incomplete_evidence(tmp_path, capsys, damage, named):
     code, err = _tables(tmp_path, capsys)
     _assert_clean_error(code, err, named)
     assert not (tmp_path / "tables").exists()
+
+
+def test_a_malformed_grid_record_is_one_line_naming_it(tmp_path, capsys):
+    _fake_grid(tmp_path)
+    write_json(tmp_path / "grid.json", {"spec": {}, "run": []})
+    code, err = _tables(tmp_path, capsys)
+    _assert_clean_error(code, err, f"{tmp_path / 'grid.json'}: not a grid record: no 'runs' list")
+    assert code == 2 and err.count("\n") == 1
+
+
+def test_collecting_results_imports_no_tensorflow():
+    script = "import sys, multitask.collect\nprint('tensorflow' in sys.modules)"
+    result = subprocess.run([sys.executable, "-c", script], env=ENV, capture_output=True,
+                            text=True, check=True)
+    assert result.stdout.strip() == "False"
 
 
 def test_allow_incomplete_marks_the_configuration(tmp_path, capsys):
