@@ -5,9 +5,9 @@ Read first: ``builder.train_baseline`` (one LOUO fold from a ``config.RunConfig`
 options every training CLI shares, ``launch`` how they run (lock, errors, Ctrl-C); ``cli`` is
 ``baseline-train``.
 """
-from importlib import import_module
+from jigsaws_tools.lazy import lazy_exports
 
-#: Public name -> the submodule defining it.
+#: Public name -> the submodule defining it, imported on first use (``jigsaws_tools.lazy``).
 _PUBLIC = {
     "build_trainer": "builder",
     "gesture_task": "builder",
@@ -15,11 +15,4 @@ _PUBLIC = {
     "RunConfig": "config",
 }
 __all__ = sorted(_PUBLIC)
-
-
-def __getattr__(name: str):
-    """Import a public name's module on first use, so light submodules (``options``) do not
-    pull in TensorFlow."""
-    if name in _PUBLIC:
-        return getattr(import_module(f".{_PUBLIC[name]}", __name__), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__ = lazy_exports(__name__, _PUBLIC)

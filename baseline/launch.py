@@ -1,8 +1,10 @@
 """Running one training command: configuration first, then the run folder's lock, then training.
 
-Shared by ``baseline-train`` and ``multitask-train``: errors a user can act on are one line on
-stderr (``prog: error: ...``) with a non-zero exit, never a traceback; Ctrl-C leaves a resumable
-run and exits with 130.
+Shared by ``baseline-train`` and ``multitask-train``, inside ``cli_common.run_command``: errors a
+user can act on (bad values or data, a folder in use or holding other settings) propagate to it,
+which prints one line ``prog: error: ...`` (and the traceback with ``-v``) and exits with 2.
+Handled here: a loss that diverged (one line, exit 1) and Ctrl-C during training, which leaves a
+resumable run (exit 130 and how to resume).
 """
 from __future__ import annotations
 
@@ -10,14 +12,12 @@ import sys
 from pathlib import Path
 from typing import Callable, TypeVar
 
-from jigsaws_tools.errors import JigsawsError
 from rnn_seg.folder_lock import hold_folder
-from rnn_seg.rundir import RunFolderError
 from rnn_seg.trainer import TrainingDiverged
 
 Config = TypeVar("Config")
 
-EXIT_ERROR, EXIT_FAILED, EXIT_INTERRUPTED = 2, 1, 130
+EXIT_FAILED, EXIT_INTERRUPTED = 1, 130
 
 
 def run_training(prog: str, out: Path, configure: Callable[[], Config],
@@ -25,18 +25,19 @@ def run_training(prog: str, out: Path, configure: Callable[[], Config],
     """``train(configure())`` holding ``out``'s lock; returns ``(exit code, metrics or None)``.
 
     Args:
-        prog: the command's name, first word of every error line.
+        prog: the command's name, first word of every message.
         out: the run folder, locked after ``configure`` and before ``train``.
         configure: builds (and so validates) the configuration; reads no data.
         train: trains a run of that configuration in ``out`` and returns its metrics.
+
+    Raises:
+        The errors of ``configure``, ``train`` and the lock (``FolderLockedError``) other than
+        ``TrainingDiverged``, for ``run_command`` to report.
     """
+    config = configure()
     try:
-        config = configure()
         with hold_folder(out):
             return 0, train(config)
-    except (JigsawsError, ValueError, RunFolderError, OSError) as error:
-        print(f"{prog}: error: {error}", file=sys.stderr)
-        return EXIT_ERROR, None
     except TrainingDiverged as error:
         print(f"{prog}: failed: {error}", file=sys.stderr)
         return EXIT_FAILED, None

@@ -5,9 +5,9 @@ Also what every command of the package shares: ``cli_common`` (``--version``, ``
 TensorFlow, one-line errors), ``arg_types`` (range-checked option types), ``options`` and
 ``task_options`` (the options that choose a release and its task); ``plots`` draws label ribbons.
 """
-from importlib import import_module
+from .lazy import lazy_exports
 
-#: Public name -> the submodule defining it.
+#: Public name -> the submodule defining it, imported on first use (``jigsaws_tools.lazy``).
 _PUBLIC = {
     "DataConfig": "dataset",
     "Dataset": "dataset",
@@ -20,11 +20,4 @@ _PUBLIC = {
     "load_task": "task_definition",
 }
 __all__ = sorted(_PUBLIC)
-
-
-def __getattr__(name: str):
-    """Import a public name's module on first use, so that command lines (``cli_common``,
-    ``arg_types``) start without loading NumPy and SciPy."""
-    if name in _PUBLIC:
-        return getattr(import_module(f".{_PUBLIC[name]}", __name__), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__ = lazy_exports(__name__, _PUBLIC)

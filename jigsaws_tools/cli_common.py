@@ -1,7 +1,7 @@
 """What every command of this package shares: ``--version``, ``-v``, quiet TensorFlow, errors.
 
-A command is a module with ``build_parser()`` and ``main(argv) -> int``; a new one (e.g.
-``multitask-predict``) follows the same steps::
+A command is a module with ``build_parser()`` and ``main(argv) -> int``; a new one follows these
+steps (``multitask/predict_cli.py`` takes them, its parser and run loading in ``run_options``)::
 
     from jigsaws_tools.cli_common import command_parser, import_tensorflow, run_command
 
@@ -16,7 +16,7 @@ A command is a module with ``build_parser()`` and ``main(argv) -> int``; a new o
 
     def _predict(args) -> None:
         import_tensorflow()                 # quietly, only in commands that need it
-        from .inference import load_run    # modules that import TensorFlow come after it
+        from .trained_run import load_run  # modules that import TensorFlow come after it
         ...
 
 Conventions:

@@ -20,9 +20,9 @@ run: ``trained_run.load_run`` (its ``predict`` labels a recording's kinematics).
 * ``predict_cli``, ``evaluate_cli``, ``export_cli``: their commands (``run_options``: what the
   three share).
 """
-from importlib import import_module
+from jigsaws_tools.lazy import lazy_exports
 
-#: Public name -> the submodule defining it.
+#: Public name -> the submodule defining it, imported on first use (``jigsaws_tools.lazy``).
 _PUBLIC = {
     "load_run": "trained_run",
     "TrainedRun": "trained_run",
@@ -38,11 +38,4 @@ _PUBLIC = {
     "get_variant": "variants",
 }
 __all__ = sorted(_PUBLIC)
-
-
-def __getattr__(name: str):
-    """Import a public name's module on first use, so light submodules (``collect, tables``) do not
-    pull in TensorFlow."""
-    if name in _PUBLIC:
-        return getattr(import_module(f".{_PUBLIC[name]}", __name__), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__ = lazy_exports(__name__, _PUBLIC)

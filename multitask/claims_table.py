@@ -12,6 +12,7 @@ import pandas as pd
 from rnn_seg.rundir import write_atomic, write_json
 
 from .claims import FRAME_ACCURACY_MARGIN, MIN_PAIRS, Claim, evaluate
+from .latex import escape, number, requires
 from .paired import UNIT_OF_PAIRING, BootstrapConfig, ConfigId
 from .tables import METRIC_LABELS
 from .variants import get_variant
@@ -52,7 +53,7 @@ def claims_latex(table: pd.DataFrame, config: BootstrapConfig = BootstrapConfig(
     """``table`` (``claims.evaluate``) as a booktabs ``table*``: the claims grouped under the
     paper's words, one line per comparison and score."""
     lines = [r"% The paper's claims tested on our runs (multitask-tables, claims.csv).",
-             r"% Requires: \usepackage{booktabs}",
+             requires("booktabs").rstrip("\n"),
              r"\begin{table*}[t]", r"\centering", r"\footnotesize", r"\setlength{\tabcolsep}{4pt}",
              rf"\caption{{{_caption(table, config)}}}", r"\label{tab:claims}",
              rf"\begin{{tabular*}}{{\textwidth}}{{{_COLUMN_SPEC}}}", r"\toprule",
@@ -65,7 +66,7 @@ def claims_latex(table: pd.DataFrame, config: BootstrapConfig = BootstrapConfig(
                 lines.append(r"\addlinespace")
             quote = row.quote
             lines.append(rf"\multicolumn{{{_NUMBER_OF_COLUMNS}}}{{@{{}}p{{0.98\textwidth}}}}"
-                         rf"{{\emph{{``{_escape(quote)}''}}}} \\")
+                         rf"{{\emph{{``{escape(quote)}''}}}} \\")
         lines.append(" & ".join(_cells(row)) + r" \\")
     lines += [r"\bottomrule", r"\end{tabular*}", r"\end{table*}"]
     return "\n".join(lines) + "\n"
@@ -73,12 +74,12 @@ def claims_latex(table: pd.DataFrame, config: BootstrapConfig = BootstrapConfig(
 
 def _cells(row) -> list[str]:
     tested = not pd.isna(row.ours_diff)
-    ci = (rf"[{_number(row.ci_low)}, {_number(row.ci_high)}]"
+    ci = (rf"[{number(row.ci_low)}, {number(row.ci_high)}]"
           if tested and not pd.isna(row.ci_low) else "--")
-    return [_comparison(row.comparison), METRIC_LABELS.get(row.metric, _escape(row.metric)),
+    return [_comparison(row.comparison), METRIC_LABELS.get(row.metric, escape(row.metric)),
             _direction(row.direction),
-            "--" if pd.isna(row.paper_diff) else _number(row.paper_diff, signed=True),
-            _number(row.ours_diff, signed=True) if tested else "--", ci,
+            number(row.paper_diff, signed=True),
+            number(row.ours_diff, signed=True), ci,
             f"{row.p_value:.3f}" if tested else "--",
             rf"{row.folds}$\times${row.seeds}" if tested else "--",
             "not run" if not tested else "--" if pd.isna(row.verdict) else row.verdict]
@@ -141,12 +142,3 @@ def _direction(text: str) -> str:
     """``> 0 (lower is better)`` -> ``$>0$``; ``|diff| <= 1`` -> ``$|\\Delta| \\le 1$``."""
     text = text.replace(" (lower is better)", "").replace("|diff| <=", r"|\Delta| \le")
     return f"${text}$"
-
-
-def _number(value: float, signed: bool = False) -> str:
-    text = f"{value:+.1f}" if signed else f"{value:.1f}"
-    return text.replace("-", "$-$")
-
-
-def _escape(text: str) -> str:
-    return text.replace("%", r"\%").replace("&", r"\&").replace("_", r"\_")

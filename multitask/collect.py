@@ -30,6 +30,7 @@ import pandas as pd
 from jigsaws_tools.task_definition import PAPER_TASK
 from rnn_seg.rundir import RunFolderError, is_finished, read_json
 
+from .grid_folder import GRID_RECORD, record_runs
 from .grid_spec import RunKey
 
 KEY_COLUMNS = [f.name for f in fields(RunKey)]
@@ -79,13 +80,14 @@ def run_rows(grid_dir: Path | str, allow_incomplete: bool = False
 
 def recorded_runs(root: Path) -> tuple[list[Path], list[str]]:
     """The run folders (relative to ``root``) grid.json records, and problems: without a record,
-    the folders found that look like runs, and a problem saying so."""
-    record = root / "grid.json"
-    if record.is_file():
-        return [Path(run) for run in read_json(record)["runs"]], []
+    the folders found that look like runs, and a problem saying so. A record that cannot be read
+    is a ``RunFolderError`` naming it."""
+    runs = record_runs(root)
+    if runs is not None:
+        return [Path(run) for run in runs], []
     found = [p.relative_to(root) for p in sorted((root / "runs").glob("*/*/*/seed*/*"))
              if p.is_dir()]
-    return found, [f"{record} missing: which runs the grid should have is unknown"]
+    return found, [f"{root / GRID_RECORD} missing: which runs the grid should have is unknown"]
 
 
 def expected_runs(root: Path | str, recorded: list[Path]) -> pd.DataFrame:
@@ -110,11 +112,15 @@ def _run_row(root: Path, run: Path, problems: list[str]) -> dict | None:
     if not is_finished(run_dir):
         problems.append(f"not finished: {run_dir}")
         return None
+    path = run_dir / "metrics.json"
     try:
-        metrics = read_json(run_dir / "metrics.json")
-        mean = metrics["mean"]
-    except (RunFolderError, KeyError, TypeError) as error:
+        metrics = read_json(path)
+    except RunFolderError as error:
         problems.append(f"unreadable metrics: {error}")
+        return None
+    mean = metrics.get("mean") if isinstance(metrics, dict) else None
+    if not isinstance(mean, dict) or not all(isinstance(v, dict) for v in mean.values()):
+        problems.append(f"unreadable metrics: {path}: no 'mean' metrics per task")
         return None
     row = asdict(key_from_path(run_dir, root))
     convergence = metrics.get("convergence") or {}
@@ -123,8 +129,7 @@ def _run_row(root: Path, run: Path, problems: list[str]) -> dict | None:
         for name, value in values.items():
             value = math.nan if value is None else value
             if not isinstance(value, (int, float)) or (math.isnan(value) and not _per_class(name)):
-                problems.append(f"{task}_{name} is {value!r}, not a number: "
-                                f"{run_dir / 'metrics.json'}")
+                problems.append(f"{task}_{name} is {value!r}, not a number: {path}")
                 return None
             row[f"{task}_{_RENAME.get(name, name)}"] = value
     return row

@@ -11,7 +11,9 @@ import argparse
 import sys
 from pathlib import Path
 
-from .run_options import load_for_command, run_command, trained_run_parser
+from jigsaws_tools.cli_common import run_command
+
+from .run_options import load_for_command, trained_run_parser
 
 PROG = "multitask-evaluate"
 
@@ -19,8 +21,9 @@ PROG = "multitask-evaluate"
 def build_parser() -> argparse.ArgumentParser:
     parser = trained_run_parser(PROG, __doc__)
     parser.add_argument("--data-dir", type=Path, default=None,
-                        help="JIGSAWS Suturing folder to read (default: the run's data folder, "
-                             "as recorded in its config.json)")
+                        help="the release folder of the run's task (e.g. JIGSAWS Suturing) whose "
+                             "trials are scored (default: the run's data folder, as recorded in "
+                             "its config.json)")
     parser.add_argument("--test-user", default=None,
                         help="user whose trials are scored (default: the user the run held out)")
     parser.add_argument("--out", type=Path, default=None,
@@ -34,11 +37,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _evaluate(args: argparse.Namespace) -> None:
+    run = load_for_command(args)                 # imports TensorFlow quietly, first
     from rnn_seg.trainer import metrics_summary
 
     from .run_evaluation import default_evaluation_dir, evaluate_run
 
-    run = load_for_command(args)
     user = args.test_user or run.config.test_user
     out = args.out or default_evaluation_dir(run, user, args.stream)
     metrics = evaluate_run(run, out, args.data_dir, user, args.stream, not args.no_plots,
@@ -49,7 +52,8 @@ def _evaluate(args: argparse.Namespace) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    return run_command(PROG, _evaluate, build_parser().parse_args(argv))
+    args = build_parser().parse_args(argv)
+    return run_command(PROG, args.verbose, lambda: _evaluate(args))
 
 
 if __name__ == "__main__":

@@ -12,7 +12,9 @@ import argparse
 import sys
 from pathlib import Path
 
-from .run_options import load_for_command, run_command, trained_run_parser
+from jigsaws_tools.cli_common import run_command
+
+from .run_options import load_for_command, trained_run_parser
 
 PROG = "multitask-export"
 
@@ -34,7 +36,8 @@ def _export(args: argparse.Namespace) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    return run_command(PROG, _export, build_parser().parse_args(argv))
+    args = build_parser().parse_args(argv)
+    return run_command(PROG, args.verbose, lambda: _export(args))
 
 
 if __name__ == "__main__":

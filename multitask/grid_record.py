@@ -7,7 +7,8 @@ unless the launch restarts (``--restart``). Run paths do not encode the budget; 
 and every run's config.json records that run's settings (``rnn_seg.settings``): a spec with another
 width or length never finds runs "already finished".
 
-``multitask-tables`` reads the record's run list to tell missing runs and stray folders.
+``multitask-tables`` reads the record's run list to tell missing runs and stray folders; the
+record's file name and reader are ``grid_folder``'s, which imports no TensorFlow.
 """
 from __future__ import annotations
 
@@ -16,20 +17,14 @@ from typing import Callable
 
 from rnn_seg.folder_lock import hold_folder
 from rnn_seg.provenance import now, provenance
-from rnn_seg.rundir import clear_run_dir, read_json, write_json
+from rnn_seg.rundir import clear_run_dir, write_json
 from rnn_seg.settings import SettingsMismatchError, check_run_dir, differences
 
 from .fold_run import variant_configs
+from .grid_folder import GRID_RECORD, read_record, record_runs
 from .grid_spec import GridSpec, RunKey, run_arguments, spec_payload
 
-GRID_RECORD = "grid.json"
 SHOWN = 5           # mismatching runs named in full in an error
-
-
-def record_runs(out: Path) -> list[str] | None:
-    """The run paths (``runs/...``) of the grid in ``out``, None when it has no record."""
-    path = Path(out) / GRID_RECORD
-    return read_json(path)["runs"] if path.is_file() else None
 
 
 def prepare_grid(out: Path, spec: GridSpec, keys: list[RunKey], restart: bool = False,
@@ -48,7 +43,7 @@ def prepare_grid(out: Path, spec: GridSpec, keys: list[RunKey], restart: bool = 
     runs = [str(key.path()) for key in keys]
     path = out / GRID_RECORD
     if path.is_file() and not restart:
-        _check_record(path, spec, runs)
+        _check_record(out, spec, runs)
     mismatched = _mismatched_runs(out, spec, keys)
     if mismatched and not restart:
         shown = "\n".join(details for _, details in mismatched[:SHOWN])
@@ -71,16 +66,17 @@ def prepare_grid(out: Path, spec: GridSpec, keys: list[RunKey], restart: bool = 
                 "spec; multitask-tables reports them until they are removed")
 
 
-def _check_record(path: Path, spec: GridSpec, runs: list[str]) -> None:
-    recorded = read_json(path)
+def _check_record(out: Path, spec: GridSpec, runs: list[str]) -> None:
+    recorded = read_record(out)
     changed = differences({"spec": recorded.get("spec")}, {"spec": spec_payload(spec)})
-    old_runs = recorded.get("runs", [])
+    old_runs = recorded["runs"]
     if old_runs != runs:
         changed.append(f"runs: {len(old_runs)} -> {len(runs)} ({len(set(runs) - set(old_runs))} "
                        f"new, {len(set(old_runs) - set(runs))} no longer in the grid)")
     if changed:
         raise SettingsMismatchError(
-            f"{path} records another grid (recorded -> requested):\n  " + "\n  ".join(changed),
+            f"{out / GRID_RECORD} records another grid (recorded -> requested):\n  "
+            + "\n  ".join(changed),
             "Use another --out, or --restart to make this spec the grid's (runs of other "
             "settings are trained afresh; finished runs of the same settings are kept).")
 

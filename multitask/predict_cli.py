@@ -16,9 +16,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from jigsaws_tools.cli_common import run_command
 from jigsaws_tools.release import kinematics_dir
 
-from .run_options import load_for_command, run_command, trained_run_parser
+from .run_options import load_for_command, trained_run_parser
 
 if TYPE_CHECKING:
     from jigsaws_tools.preprocessing import Normalisation
@@ -130,7 +131,8 @@ def _predict_all(run: TrainedRun, recordings: dict[Path, np.ndarray], args: argp
 
 
 def main(argv: list[str] | None = None) -> int:
-    return run_command(PROG, _predict, build_parser().parse_args(argv))
+    args = build_parser().parse_args(argv)
+    return run_command(PROG, args.verbose, lambda: _predict(args))
 
 
 if __name__ == "__main__":

@@ -14,13 +14,12 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
-import tensorflow as tf
 
 from baseline.config import RunConfig
 from jigsaws_tools.features import feature_columns
 from jigsaws_tools.preprocessing import Normalisation, preprocess_recording
 from jigsaws_tools.release import NUM_KINEMATIC_COLUMNS, discover, read_kinematics
-from rnn_seg.checkpoints import checkpoint_prefix, checkpoint_sweeps
+from rnn_seg.checkpoints import restore_weights
 from rnn_seg.model import SegmentationModel
 from rnn_seg.rundir import RunFolderError, from_jsonable, is_finished, write_json
 from rnn_seg.tasks import Task
@@ -35,38 +34,6 @@ CONFIG_FILE = "config.json"
 STREAM_NORMALISATION_FILE = "stream_normalisation.json"
 
 log = logging.getLogger(__name__)
-
-
-# -- the checkpoint layout of rnn_seg.trainer: the one place that reads it ------------------------
-def restore_weights(model: SegmentationModel, run_dir: Path, checkpoint: int | None = None
-                    ) -> int:
-    """Load a run's saved weights into ``model`` (optimiser and other training state are not read).
-
-    Args:
-        model: built from the run's configuration and tasks.
-        run_dir: the run folder.
-        checkpoint: the sweep count after which the weights were saved (``checkpoints/ckpt-N``;
-            None = the latest: a finished run's final weights).
-
-    Returns:
-        The sweep count of the checkpoint read.
-    """
-    saved = checkpoint_sweeps(run_dir)
-    if not saved:
-        raise RunFolderError(f"{Path(run_dir) / 'checkpoints'}: no checkpoint (has the run "
-                             "trained for at least one checkpoint interval?)")
-    sweep = max(saved) if checkpoint is None else checkpoint
-    if sweep not in saved:
-        raise RunFolderError(f"{run_dir}: no checkpoint after sweep {checkpoint} (have "
-                             f"{', '.join(map(str, saved))}; a run keeps its evaluation points' "
-                             "weights with --keep-checkpoints eval_points)")
-    prefix = checkpoint_prefix(run_dir, sweep)
-    try:
-        tf.train.Checkpoint(model=model).read(str(prefix)).assert_existing_objects_matched()
-    except (AssertionError, ValueError, tf.errors.OpError) as error:
-        raise RunFolderError(f"{prefix}: the weights do not fit the model described by "
-                             f"config.json ({str(error).splitlines()[0]})") from None
-    return sweep
 
 
 # -- configuration ------------------------------------------------------------------------------
@@ -235,13 +202,14 @@ def training_normalisation(config: RunConfig, data_dir: Path | str | None = None
 
 def load_run(path: Path | str, checkpoint: int | None = None) -> TrainedRun:
     """Load a run folder with the weights of its latest checkpoint (normally the final one) or of
-    the checkpoint saved after sweep ``checkpoint``."""
+    the checkpoint saved after sweep ``checkpoint`` (``rnn_seg.checkpoints.restore_weights``;
+    a ``RunFolderError`` names what is missing or does not fit)."""
     run_dir = Path(path)
     config, saved = read_run_config(run_dir)
     variant, tasks = run_tasks(saved, config, str(run_dir / CONFIG_FILE))
     model = SegmentationModel(len(feature_columns(config.data.feature_set)), config.encoder,
                               tasks, config.train.seed)
-    sweep = restore_weights(model, run_dir, checkpoint)
+    sweep = restore_weights(model, run_dir, sweep=checkpoint)
     run = TrainedRun(run_dir, config, variant, tuple(tasks), model, sweep)
     if not run.finished:
         log.warning("%s: the run is unfinished; using its checkpoint after sweep %d", run_dir,

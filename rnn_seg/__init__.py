@@ -15,9 +15,9 @@ then ``model.SegmentationModel`` (a recurrent encoder shared by one dense head p
   folder is checked against), ``checkpoints`` (save, fall back, prune, ``restore_weights``),
   ``folder_lock`` (one writer per folder), ``provenance``; ``validation``: configuration checks.
 """
-from importlib import import_module
+from jigsaws_tools.lazy import lazy_exports
 
-#: Public name -> the submodule defining it.
+#: Public name -> the submodule defining it, imported on first use (``jigsaws_tools.lazy``).
 _PUBLIC = {
     "EncoderConfig": "config",
     "SegmentationModel": "model",
@@ -30,11 +30,4 @@ _PUBLIC = {
     "Trainer": "trainer",
 }
 __all__ = sorted(_PUBLIC)
-
-
-def __getattr__(name: str):
-    """Import a public name's module on first use, so light submodules (``config``, ``rundir``,
-    ``metrics``) do not pull in TensorFlow."""
-    if name in _PUBLIC:
-        return getattr(import_module(f".{_PUBLIC[name]}", __name__), name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+__getattr__ = lazy_exports(__name__, _PUBLIC)

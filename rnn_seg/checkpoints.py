@@ -6,7 +6,8 @@ fall-back when the newest cannot be read (cut short by a full disk, say), which 
 and skips. What a finished run keeps is ``TrainConfig.keep_checkpoints``:
 
 * ``final``: the final weights only (the default);
-* ``eval_points``: also the checkpoint of every evaluation point (``restore_weights(..., point)``);
+* ``eval_points``: also the checkpoint of every evaluation point
+  (``restore_weights(..., point=N)``);
 * ``all``: every checkpoint saved.
 
 Temporary leftovers of an interrupted save (``ckpt-N_temp/``, a data file without its index) are
@@ -83,7 +84,7 @@ class CheckpointStore:
             try:
                 self.checkpoint.read(str(prefix)).assert_existing_objects_matched()
             except Exception as error:          # truncated, corrupt, another model's
-                problem = f"{type(error).__name__}: {error}".splitlines()[0]
+                problem = _first_line(error)
                 failures.append(f"{prefix}: {problem}")
                 self.log(f"warning: cannot read checkpoint {prefix} ({problem}); trying the one "
                          "before")
@@ -134,39 +135,76 @@ def _delete(prefix: Path) -> None:
         data.unlink(missing_ok=True)
 
 
-def restore_weights(model: tf.Module, run_dir: Path | str, point: int | None = None) -> int:
-    """Load a run's weights into ``model``.
+def restore_weights(model: tf.Module, run_dir: Path | str, *, sweep: int | None = None,
+                    point: int | None = None) -> int:
+    """Load a run's saved weights into ``model`` (the optimiser and other training state are not
+    read). Give at most one of ``sweep`` and ``point``; neither = the newest checkpoint (a
+    finished run's final weights).
 
     Args:
         model: built with the run's configuration and tasks (e.g. a ``SegmentationModel``).
         run_dir: the run folder.
+        sweep: the sweep count after which the weights were saved (``checkpoints/ckpt-<sweep>``).
         point: an evaluation point in the run's schedule unit (e.g. epoch 100, as in
             ``eval/epoch0100``), whose weights a run keeps with ``keep_checkpoints``
-            ``eval_points`` or ``all``; None = the newest checkpoint (a finished run's final
-            weights).
+            ``eval_points`` or ``all``.
 
     Returns:
         The sweep count of the weights loaded.
 
     Raises:
-        RunFolderError: naming what is missing.
+        RunFolderError: naming the folder or file, when the checkpoint asked for is missing, its
+            files cannot be read or its weights do not fit ``model``.
+        ValueError: both ``sweep`` and ``point`` given.
     """
+    if sweep is not None and point is not None:
+        raise ValueError(f"restore_weights: give sweep ({sweep}) or point ({point}), not both")
     run_dir = Path(run_dir)
+    sweep = _chosen_sweep(run_dir, sweep, point)
+    prefix = checkpoint_prefix(run_dir, sweep)
+    try:
+        status = tf.train.Checkpoint(model=model).read(str(prefix))
+        status.expect_partial()                 # the checkpoint also holds the training state
+        status.assert_existing_objects_matched()
+    except Exception as error:                  # truncated, corrupt, another model's
+        gc.collect()            # drop the failed read's restore state while TensorFlow is alive
+        problem = ("its weights do not fit the model built from the run's configuration"
+                   if isinstance(error, (AssertionError, ValueError))
+                   else "unreadable (cut short or corrupt?)")
+        raise RunFolderError(f"{prefix}: {problem} ({_first_line(error)})") from None
+    return sweep
+
+
+def _chosen_sweep(run_dir: Path, sweep: int | None, point: int | None) -> int:
+    """The sweep count of the checkpoint ``restore_weights`` reads; ``RunFolderError`` when it
+    was not kept."""
     saved = checkpoint_sweeps(run_dir)
-    if point is None:
-        if not saved:
-            raise RunFolderError(f"{run_dir}: no checkpoint in {run_dir / FOLDER}")
-        sweep = saved[-1]
-    else:
+    if not saved:
+        raise RunFolderError(f"{run_dir}: no checkpoint in {run_dir / FOLDER} (has the run "
+                             "trained for at least one checkpoint interval?)")
+    if point is not None:
         sweep = _point_sweep(run_dir, point)
         if sweep not in saved:
             raise RunFolderError(
                 f"{run_dir}: the weights of evaluation point {point} (sweep {sweep}) were not kept "
-                f"(checkpoints after sweeps {saved}); train with keep_checkpoints='eval_points' "
-                "(--keep-checkpoints eval_points) to keep them")
-    status = tf.train.Checkpoint(model=model).read(str(checkpoint_prefix(run_dir, sweep)))
-    status.assert_existing_objects_matched().expect_partial()
+                f"(checkpoints after sweeps {_listed(saved)}); train with "
+                "keep_checkpoints='eval_points' (--keep-checkpoints eval_points) to keep them")
+        return sweep
+    if sweep is None:
+        return saved[-1]
+    if sweep not in saved:
+        raise RunFolderError(f"{run_dir}: no checkpoint after sweep {sweep} (checkpoints after "
+                             f"sweeps {_listed(saved)}; a run keeps its evaluation points' "
+                             "weights with --keep-checkpoints eval_points)")
     return sweep
+
+
+def _listed(sweeps: list[int]) -> str:
+    return ", ".join(map(str, sweeps))
+
+
+def _first_line(error: Exception) -> str:
+    return f"{type(error).__name__}: {error}".splitlines()[0]
 
 
 def _point_sweep(run_dir: Path, point: int) -> int:
@@ -174,5 +212,10 @@ def _point_sweep(run_dir: Path, point: int) -> int:
     for unit in UNITS:
         metrics = point_dir(run_dir, unit, point) / "metrics.json"
         if metrics.is_file():
-            return int(read_json(metrics)["sweep"])
+            recorded = read_json(metrics)
+            sweep = recorded.get("sweep") if isinstance(recorded, dict) else None
+            if not isinstance(sweep, int) or isinstance(sweep, bool):
+                raise RunFolderError(f"{metrics}: no sweep count of the evaluation point "
+                                     f"(value: {sweep!r})")
+            return sweep
     raise RunFolderError(f"{run_dir}: no evaluation point {point} (no eval/<unit>{point:04d}/)")

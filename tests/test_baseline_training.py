@@ -107,4 +107,10 @@ def test_cli_paper_size_two_sweeps(synth_dir, tmp_path, monkeypatch, capsys):
 
 def test_cli_reports_bad_input(tmp_path, capsys):
     assert baseline_main(["--data-dir", str(tmp_path / "nope"), "--out", str(tmp_path / "r")]) == 2
-    assert "not found" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert err.startswith("baseline-train: error: ") and "not found" in err
+    assert "Traceback" not in err
+    assert baseline_main(["-v", "--data-dir", str(tmp_path / "nope"), "--out",
+                          str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err                 # -v: the traceback, then the same line
+    assert "Traceback" in err and "baseline-train: error: " in err and "not found" in err

@@ -13,6 +13,7 @@ from multitask.claims import (CLAIMS, COLUMNS, MIN_PAIRS, VERDICTS, Claim, evalu
                               paper_difference, paper_value, verdict)
 from multitask.claims_table import claims_latex
 from multitask.collect import LOWER_IS_BETTER, METRICS
+from multitask.latex import escape, required_packages
 from multitask.paired import BootstrapConfig, ConfigId, Contrast, NotPaired, paired
 from multitask.tables_cli import main as tables_main
 
@@ -240,6 +241,18 @@ def test_claims_latex_is_a_well_formed_booktabs_table():
     assert len(rows) == len(table)
     assert all(line.count(" & ") == 8 for line in rows)
     assert not re.search(r"(?<!\$)-\d", tex)            # minus signs are $-$
+
+
+def test_claims_latex_writes_numbers_and_quotes_as_the_tables_do():
+    table = evaluate(_full_grid(np.random.default_rng(12), seeds=1), config=FAST).iloc[:1].copy()
+    table["quote"] = r"50% of G1 & a_b ~ {x}^2 $# \ in words"
+    table[["ours_diff", "ci_low", "ci_high", "paper_diff"]] = [-0.04, -1.25, 0.6, float("nan")]
+    tex = claims_latex(table, FAST)
+    assert escape(table.quote.iloc[0]) in tex
+    row = next(line for line in tex.splitlines() if " & " in line and "Comparison" not in line)
+    cells = row.removesuffix(r" \\").split(" & ")
+    assert cells[3:6] == ["--", "0.0", "[$-$1.2, 0.6]"]
+    assert required_packages(tex) == [r"\usepackage{booktabs}"]
 
 
 def _write_grid(root, runs: pd.DataFrame) -> None:

@@ -1,4 +1,4 @@
-"""The five commands: quick, quiet start, --version, help and default for every option,
+"""The eight commands: quick, quiet start, --version, help and default for every option,
 range-checked values, deprecated spellings that still work, each warning printed once."""
 from __future__ import annotations
 
@@ -19,7 +19,10 @@ from jigsaws_tools.cli_common import _TF_NOISE, configure_output, package_versio
 ROOT = Path(__file__).resolve().parents[1]
 COMMANDS = {"jigsaws-tools": "jigsaws_tools.cli", "baseline-train": "baseline.cli",
             "multitask-train": "multitask.train_cli", "multitask-grid": "multitask.grid_cli",
-            "multitask-tables": "multitask.tables_cli"}
+            "multitask-tables": "multitask.tables_cli",
+            "multitask-predict": "multitask.predict_cli",
+            "multitask-evaluate": "multitask.evaluate_cli",
+            "multitask-export": "multitask.export_cli"}
 HEAVY = ("tensorflow", "scipy", "pandas", "matplotlib")
 #: The lines TensorFlow, absl and oneDNN print: glog-style C++ lines, absl's banner, oneDNN's
 #: notices, TensorFlow's Python warnings.
@@ -91,6 +94,11 @@ def test_every_option_has_help_and_shows_its_default(parser):
     ("baseline.cli", ["--threads", "-1"], "--threads: expected an integer >= 0, got '-1'"),
     ("multitask.grid_cli", ["--workers", "0"], "--workers: expected an integer >= 1, got '0'"),
     ("multitask.grid_cli", ["--stack", "two"], "--stack: expected an integer >= 1, got 'two'"),
+    ("multitask.predict_cli", ["--threads", "-1"], "--threads: expected an integer >= 0, got '-1'"),
+    ("multitask.evaluate_cli", ["--checkpoint", "0"],
+     "--checkpoint: expected an integer >= 1, got '0'"),
+    ("multitask.export_cli", ["--checkpoint", "last"],
+     "--checkpoint: expected an integer >= 1, got 'last'"),
 ])
 def test_out_of_range_values_are_argparse_errors_naming_the_range(module, args, message, capsys):
     with pytest.raises(SystemExit) as exit_:
@@ -180,12 +188,19 @@ def test_verbose_shows_tensorflow_logs_and_default_respects_the_environment(monk
     assert os.environ["TF_CPP_MIN_LOG_LEVEL"] == "0"
 
 
-def test_training_prints_no_tensorflow_line(synth_dir, tmp_path):
+def test_training_and_prediction_print_no_tensorflow_line(synth_dir, tmp_path):
     result = _python("-m", "multitask.train_cli", "--data-dir", str(synth_dir), "--variant",
                      "APc", "--hidden", "8", "--epochs", "1", "--test-user", "C", "--no-plots",
                      "--out", str(tmp_path / "run"))
     assert result.returncode == 0, result.stderr
     assert "done: gesture: accuracy" in result.stdout
+    assert not TF_LINE.search(result.stdout), result.stdout
+    assert result.stderr == ""
+    recording = synth_dir / "kinematics" / "AllGestures" / "Suturing_C001.txt"
+    result = _python("-m", "multitask.predict_cli", str(tmp_path / "run"), str(recording),
+                     "--no-plots", "--out", str(tmp_path / "labels"))
+    assert result.returncode == 0, result.stderr
+    assert "done: 1 recording(s)" in result.stdout
     assert not TF_LINE.search(result.stdout), result.stdout
     assert result.stderr == ""
 

@@ -1,6 +1,8 @@
-"""The package describes itself: licence, citation, metadata and one version everywhere."""
+"""The package describes itself: licence, citation, metadata and one version everywhere; each
+subpackage's public names."""
 from __future__ import annotations
 
+import importlib
 import re
 import subprocess
 import sys
@@ -48,3 +50,14 @@ def test_metadata_is_complete_and_dependencies_have_upper_bounds():
     requirements = re.search(r"install_requires=\[(.*?)\]", setup, re.S).group(1)
     for requirement in re.findall(r'"([^"]+)"', requirements):
         assert re.search(r">=[\d.]+,<\d+", requirement), requirement
+
+
+@pytest.mark.parametrize("package", ["jigsaws_tools", "rnn_seg", "baseline", "multitask"])
+def test_every_public_name_of_a_package_is_found_on_first_use(package):
+    module = importlib.import_module(package)
+    for name, submodule in module._PUBLIC.items():
+        defined = importlib.import_module(f"{package}.{submodule}")
+        assert getattr(module, name) is getattr(defined, name)
+    assert module.__all__ == sorted(module._PUBLIC)
+    with pytest.raises(AttributeError, match=f"module '{package}' has no attribute 'nope'"):
+        module.nope

@@ -508,15 +508,46 @@ def test_restore_weights_of_the_final_and_an_evaluation_point(finished_run, tmp_
 
     def model():
         return SegmentationModel(14, EncoderConfig(hidden=config["encoder"]["hidden"]), tasks, 99)
-    final, point1 = model(), model()
+    final, point1, sweep2 = model(), model(), model()
     assert restore_weights(final, finished_run) == _strict(finished_run / "finished.json")["sweeps"]
     assert restore_weights(point1, finished_run, point=1) == 2
+    assert restore_weights(sweep2, finished_run, sweep=2) == 2
     assert not np.allclose(final.variables[0].numpy(), point1.variables[0].numpy())
+    for a, b in zip(point1.variables, sweep2.variables, strict=True):
+        np.testing.assert_array_equal(a.numpy(), b.numpy())
+    with pytest.raises(ValueError, match="not both"):
+        restore_weights(model(), finished_run, sweep=2, point=1)
     final_only = _tiny(tmp_path / "final", eval_points=(3, 6))
     final_only.run()
     assert final_only.checkpoint_sweeps() == [6]
     with pytest.raises(RunFolderError, match="were not kept"):
         restore_weights(final_only.model, final_only.run_dir, point=3)
+
+
+def test_restore_weights_names_the_folder_of_every_failure(tmp_path):
+    trainer = _tiny(tmp_path / "run")
+    trainer.run()
+    run, tasks = trainer.run_dir, trainer.tasks
+    model = SegmentationModel(F, EncoderConfig(hidden=8), tasks, 0)
+    with pytest.raises(RunFolderError, match=rf"{tmp_path / 'run'}: no checkpoint after sweep 5 "
+                                             r"\(checkpoints after sweeps 6;"):
+        restore_weights(model, run, sweep=5)
+    with pytest.raises(RunFolderError, match="no evaluation point 4"):
+        restore_weights(model, run, point=4)
+    with pytest.raises(RunFolderError, match=rf"{tmp_path / 'empty'}: no checkpoint in"):
+        restore_weights(model, tmp_path / "empty")
+    wider = SegmentationModel(F, EncoderConfig(hidden=16), tasks, 0)
+    with pytest.raises(RunFolderError, match=rf"{checkpoint_prefix(run, 6)}: its weights do not "
+                                             "fit the model"):
+        restore_weights(wider, run)
+    other_task = [SoftmaxClassification("progress", ["p0", "p1"])]
+    with pytest.raises(RunFolderError, match=rf"{checkpoint_prefix(run, 6)}: its weights do not "
+                                             "fit the model"):
+        restore_weights(SegmentationModel(F, EncoderConfig(hidden=8), other_task, 0), run)
+    for data in run.glob("checkpoints/ckpt-6.data-*"):
+        data.write_bytes(data.read_bytes()[:40])                 # cut short, as by a full disk
+    with pytest.raises(RunFolderError, match=rf"{checkpoint_prefix(run, 6)}: unreadable"):
+        restore_weights(model, run)
 
 
 # -- 6. provenance, strict JSON, umask ----------------------------------------------------------
@@ -580,6 +611,8 @@ def test_tables_of_a_complete_grid(tmp_path, capsys):
     (lambda run: (run / "metrics.json").write_text('{"mean": {"gesture": {"accuracy": NaN}}}'),
      "metrics.json"),
     (lambda run: (run / "metrics.json").write_text('{"mean": {"gest'), "metrics.json"),
+    (lambda run: write_json(run / "metrics.json", {"metrics": {}}),
+     "metrics.json: no 'mean' metrics per task"),
 ])
 def test_tables_refuse_incomplete_evidence(tmp_path, capsys, damage, named):
     run = _fake_grid(tmp_path)
@@ -587,6 +620,21 @@ def test_tables_refuse_incomplete_evidence(tmp_path, capsys, damage, named):
     code, err = _tables(tmp_path, capsys)
     _assert_clean_error(code, err, named)
     assert not (tmp_path / "tables").exists()
+
+
+def test_a_malformed_grid_record_is_one_line_naming_it(tmp_path, capsys):
+    _fake_grid(tmp_path)
+    write_json(tmp_path / "grid.json", {"spec": {}, "run": []})
+    code, err = _tables(tmp_path, capsys)
+    _assert_clean_error(code, err, f"{tmp_path / 'grid.json'}: not a grid record: no 'runs' list")
+    assert code == 2 and err.count("\n") == 1
+
+
+def test_collecting_results_imports_no_tensorflow():
+    script = "import sys, multitask.collect\nprint('tensorflow' in sys.modules)"
+    result = subprocess.run([sys.executable, "-c", script], env=ENV, capture_output=True,
+                            text=True, check=True)
+    assert result.stdout.strip() == "False"
 
 
 def test_allow_incomplete_marks_the_configuration(tmp_path, capsys):
