@@ -45,7 +45,8 @@ CONVERGENCE_COLUMNS = ["converged", "loss_drop"]
 
 
 def key_from_path(run_dir: Path, root: Path) -> RunKey:
-    """Inverse of ``RunKey.path``: ``runs/<annotations>/<direction>/<variant>-<weighting>/seed<k>/<fold>``."""
+    """Inverse of ``RunKey.path``:
+    ``runs/<annotations>/<direction>/<variant>-<weighting>/seed<k>/<fold>``."""
     annotations, direction, config, seed, fold = run_dir.relative_to(root / "runs").parts
     variant, weighting = config.rsplit("-", 1)
     return RunKey(annotations, direction, variant, weighting, int(seed.removeprefix("seed")), fold)

@@ -18,6 +18,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from rnn_seg.config import unit_name  # noqa: E402
+
 from .collect import key_from_path  # noqa: E402
 from .figures import save  # noqa: E402
 from .grid_spec import RunKey  # noqa: E402
@@ -81,4 +83,4 @@ def _unit(runs: list[tuple[RunKey, pd.DataFrame]]) -> str:
     """``epoch`` or ``sweep``: the histories' unit, singular."""
     units = {str(u) for _, history in runs
              for u in (history["unit"].unique() if "unit" in history else ["epochs"])}
-    return "/".join(sorted(u.removesuffix("s") for u in units))
+    return "/".join(sorted(unit_name(u) for u in units))

@@ -40,5 +40,6 @@ def load_for_command(args: argparse.Namespace) -> TrainedRun:
     from .trained_run import load_run, read_run_config
 
     encoder = read_run_config(args.run_dir)[0].encoder
-    configure_threads(args.threads, encoder.hidden, encoder.precision)
+    configure_threads(args.threads, encoder.hidden, encoder.precision,
+                      bidirectional=encoder.bidirectional)
     return load_run(args.run_dir, args.checkpoint)

@@ -16,7 +16,8 @@ from functools import lru_cache
 from importlib import metadata
 from pathlib import Path
 
-DISTRIBUTION = "mtrnn-jigsaws"
+from jigsaws_tools.cli_common import DISTRIBUTION
+
 _command: list[str] | None = None
 
 
