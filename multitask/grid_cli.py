@@ -24,8 +24,8 @@ from jigsaws_tools.options import DEFAULT_DATA_DIR_TEXT
 from rnn_seg.config import require_native_precision
 from rnn_seg.provenance import set_command
 
-from .grid_spec import (DEFAULT_PRESET, PRESETS, GridSpec, expand, load_spec, release_users,
-                        with_budget, with_overrides)
+from .grid_spec import (DEFAULT_PRESET, PRESETS, GridSpec, expand, job_groups, load_spec,
+                        release_users, with_budget, with_overrides)
 
 PROG = "multitask-grid"
 
@@ -55,7 +55,8 @@ def build_parser() -> argparse.ArgumentParser:
                         help="train up to N runs of one configuration (folds, seeds) together in "
                              "one vectorised step per job; pays for small models "
                              "(docs/PERFORMANCE.md)")
-    parser.add_argument("--dry-run", action="store_true", help="list the runs and stop")
+    parser.add_argument("--dry-run", action="store_true",
+                        help="list the runs in the order they run, and stop")
     parser.add_argument("--restart", action="store_true",
                         help="make this spec the grid's even if grid.json records another; run "
                              "folders of other settings are trained afresh, finished runs of "
@@ -90,8 +91,9 @@ def _run(args: argparse.Namespace) -> int:
           f"schedule x{budget.schedule_scale:g}, seeds {list(budget.seeds)}, "
           f"data {spec.data_dir}", flush=True)
     if args.dry_run:
-        for key in keys:
-            print(key.path())
+        for group in job_groups(keys, args.stack):              # in the order they run
+            for key in group:
+                print(key.path())
         print(f"{len(keys)} runs")
         return 0
     def log(message: str) -> None:

@@ -70,7 +70,7 @@ def _check_record(out: Path, spec: GridSpec, runs: list[str]) -> None:
     recorded = read_record(out)
     changed = differences({"spec": recorded.get("spec")}, {"spec": spec_payload(spec)})
     old_runs = recorded["runs"]
-    if old_runs != runs:
+    if set(old_runs) != set(runs):                  # the order of the runs is not the grid's
         changed.append(f"runs: {len(old_runs)} -> {len(runs)} ({len(set(runs) - set(old_runs))} "
                        f"new, {len(set(old_runs) - set(runs))} no longer in the grid)")
     if changed:

@@ -11,8 +11,9 @@ directions), the LOUO folds, the seeds and a budget. Presets give the budget:
   of the whole pipeline; its progress heads have not converged.
 
 An experiment may name its own ``seeds`` (e.g. three for the configurations the paper's claims
-compare, one for the rest); grids run every configuration's first seed before any second one,
-so a grid cut short still has complete single-seed tables.
+compare, one for the rest). Grids run every configuration's first seed before any second one,
+so a grid cut short still has complete single-seed tables, and within a seed the experiments in
+the order the spec lists them: list first what you need first (e.g. Table I).
 
 Every run has its own directory
 ``runs/<annotations>/<direction>/<variant>-<weighting>/seed<k>/<user>``
@@ -113,18 +114,19 @@ class RunKey:
 
 
 def expand(spec: GridSpec, users: tuple[str, ...]) -> list[RunKey]:
-    """Every run of the grid, sorted, each once. ``users`` are the release's users."""
+    """Every run of the grid, each once, in the spec's order: experiment by experiment, then
+    variant, weighting, annotations, direction, seed, fold. ``users`` are the release's users."""
     folds = spec.test_users or users
     missing = sorted(set(folds) - set(users))
     if missing:
         raise ValueError(f"fold(s) {', '.join(missing)} not among the release's users "
                          f"{', '.join(users)}")
-    keys = {RunKey(a, d, v, w, s, f)
+    keys = (RunKey(a, d, v, w, s, f)
             for e in spec.experiments
             for v in e.variants for w in e.weightings for a in e.annotations for d in e.directions
             for s in spec.seeds_of(e) for f in folds
-            if w == "fixed" or get_variant(v).multitask}
-    return sorted(keys)
+            if w == "fixed" or get_variant(v).multitask)
+    return list(dict.fromkeys(keys))
 
 
 def release_users(spec: GridSpec) -> tuple[str, ...]:
@@ -171,7 +173,7 @@ def stack_groups(keys: list[RunKey], size: int) -> list[list[RunKey]]:
 def job_groups(keys: list[RunKey], size: int) -> list[list[RunKey]]:
     """``stack_groups`` in the order a grid runs them: every configuration's first seed before
     any second one, so a grid cut short still has complete single-seed tables (configurations
-    keep their order within a seed)."""
+    keep the spec's order within a seed)."""
     return sorted(stack_groups(keys, size), key=lambda group: min(k.seed for k in group))
 
 

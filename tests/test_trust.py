@@ -12,6 +12,7 @@ import signal
 import subprocess
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -215,6 +216,16 @@ def test_grid_checks_every_run_folder_and_restart_retrains_only_those(finished_g
     run = copy / keys[0].path()
     assert not (run / "config.json").exists() and not (run / "checkpoints").exists()
     assert _strict(copy / "grid.json")["spec"]["hidden"] == 16
+
+
+def test_a_record_listing_the_runs_in_another_order_is_the_same_grid(small_dir, tmp_path):
+    spec = with_budget(replace(load_spec(_spec(tmp_path, small_dir)), test_users=("B", "C")))
+    keys = expand(spec, ("B", "C", "D"))
+    assert len(keys) == 2
+    prepare_grid(tmp_path / "out", spec, keys, log=lambda m: None)
+    record = _strict(tmp_path / "out" / "grid.json")
+    write_json(tmp_path / "out" / "grid.json", {**record, "runs": sorted(record["runs"])[::-1]})
+    prepare_grid(tmp_path / "out", spec, keys, log=lambda m: None)       # no mismatch raised
 
 
 def test_grid_record_carries_provenance(finished_grid):
