@@ -142,6 +142,18 @@ def test_changed_data_is_a_changed_setting(small_dir, tmp_path, capsys):
     _assert_clean_error(code, err, "data_fingerprint:")
 
 
+def test_the_same_data_at_another_path_is_the_same_setting(finished_run, small_dir, tmp_path,
+                                                           capsys):
+    """The fingerprint holds the data; its folder (moved, a relative path) is not a setting."""
+    moved = shutil.copytree(small_dir, tmp_path / "elsewhere" / "Suturing")
+    before = _snapshot(finished_run)
+    code, out, err = _cli(multitask_main, [*TINY, "--data-dir", str(moved), "--test-user", "B",
+                                           "--keep-checkpoints", "eval_points", "--eval-at", "1,2",
+                                           "--out", str(finished_run)], capsys)
+    assert code == 0 and "already finished" in out, err
+    assert _snapshot(finished_run) == before
+
+
 def test_settings_hash_in_config_checkpoints_and_finished(finished_run):
     config = _strict(finished_run / "config.json")
     finished = _strict(finished_run / "finished.json")
