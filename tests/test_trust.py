@@ -213,6 +213,23 @@ def test_another_budget_over_a_grid_is_not_already_finished(finished_grid, small
     assert (out / "grid.json").read_bytes() == record
 
 
+def test_a_grid_resumes_on_its_data_moved_but_not_changed(finished_grid, small_dir, tmp_path,
+                                                          capsys):
+    folder, out = finished_grid
+    record = (out / "grid.json").read_bytes()
+    moved = shutil.copytree(small_dir, tmp_path / "elsewhere" / "Suturing")
+    spec = str(_spec(folder, small_dir))
+    code, stdout, err = _cli(grid_main, ["--spec", spec, "--data-dir", str(moved),
+                                         "--out", str(out)], capsys)
+    assert code == 0 and "1 already finished" in stdout, err
+    assert (out / "grid.json").read_bytes() == record
+    transcription = next((moved / "transcriptions").glob("*.txt"))
+    transcription.write_text(transcription.read_text().replace(" G2 ", " G3 ", 1))
+    code, _, err = _cli(grid_main, ["--spec", spec, "--data-dir", str(moved), "--out", str(out)],
+                        capsys)
+    _assert_clean_error(code, err, "data_fingerprint:", "--restart")
+
+
 def test_grid_checks_every_run_folder_and_restart_retrains_only_those(finished_grid, small_dir,
                                                                       tmp_path, capsys):
     _, out = finished_grid
