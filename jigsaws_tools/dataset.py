@@ -17,6 +17,7 @@ import zipfile
 import zlib
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import ClassVar
 
 import numpy as np
 
@@ -43,6 +44,11 @@ class DataConfig:
     ``task`` accepts a built-in task's name or a definition file's path too, and holds the
     definition itself after construction (so ``config.json`` records the vocabulary and grammar).
     """
+
+    #: Left out of the settings a run folder is checked against (``rnn_seg.settings``): where the
+    #: release is, not what it holds, which the run's data fingerprint (``cache_key``) hashes. A run
+    #: resumes with its release reached by another path (relative, moved, a node's local copy).
+    output_fields: ClassVar[tuple[str, ...]] = ("data_dir",)
 
     data_dir: str
     feature_set: str = DEFAULT_FEATURE_SET

@@ -4,7 +4,7 @@ The SavedModel loads with ``tf.saved_model.load(DIR)`` alone, without this packa
 ``serving_default`` signature takes one recording's raw kinematics ([n_frames, 76] float64, JIGSAWS
 columns at 30 Hz), preprocesses them as the run did and returns per-frame predictions equal to
 multitask-predict's; ``features`` takes preprocessed 5 Hz samples. DIR/assets.extra/model.json
-documents both, the class names and the preprocessing (README, "Exported models").
+documents both, the class names and the preprocessing (README, "Using a trained model").
 """
 from __future__ import annotations
 

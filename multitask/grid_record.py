@@ -3,9 +3,10 @@
 ``grid.json`` holds the spec (budget, data, folds, seeds, experiments), the path of every run and
 the provenance of the launch that wrote it. It is written once and never rewritten with another
 spec: launching a spec whose values or runs differ stops before any work, naming each difference,
-unless the launch restarts (``--restart``). Run paths do not encode the budget; the record does,
-and every run's config.json records that run's settings (``rnn_seg.settings``): a spec with another
-width or length never finds runs "already finished".
+unless the launch restarts (``--restart``); the data's folder may change (``LOCATION_KEYS``). Run
+paths do not encode the budget; the record does, and every run's config.json records that run's
+settings (``rnn_seg.settings``): a spec with another width or length never finds runs "already
+finished".
 
 ``multitask-tables`` reads the record's run list to tell missing runs and stray folders; the
 record's file name and reader are ``grid_folder``'s, which imports no TensorFlow.
@@ -25,6 +26,9 @@ from .grid_folder import GRID_RECORD, read_record, record_runs
 from .grid_spec import GridSpec, RunKey, run_arguments, spec_payload
 
 SHOWN = 5           # mismatching runs named in full in an error
+#: Spec keys saying where the data is, not what it holds: not compared with grid.json's, since
+#: every run folder's check compares the data fingerprint (a grid may resume on moved data).
+LOCATION_KEYS = ("data_dir",)
 
 
 def prepare_grid(out: Path, spec: GridSpec, keys: list[RunKey], restart: bool = False,
@@ -68,7 +72,8 @@ def prepare_grid(out: Path, spec: GridSpec, keys: list[RunKey], restart: bool = 
 
 def _check_record(out: Path, spec: GridSpec, runs: list[str]) -> None:
     recorded = read_record(out)
-    changed = differences({"spec": recorded.get("spec")}, {"spec": spec_payload(spec)})
+    changed = differences({"spec": _without_location(recorded.get("spec"))},
+                          {"spec": _without_location(spec_payload(spec))})
     old_runs = recorded["runs"]
     if set(old_runs) != set(runs):                  # the order of the runs is not the grid's
         changed.append(f"runs: {len(old_runs)} -> {len(runs)} ({len(set(runs) - set(old_runs))} "
@@ -79,6 +84,11 @@ def _check_record(out: Path, spec: GridSpec, runs: list[str]) -> None:
             + "\n  ".join(changed),
             "Use another --out, or --restart to make this spec the grid's (runs of other "
             "settings are trained afresh; finished runs of the same settings are kept).")
+
+
+def _without_location(spec: dict | None) -> dict:
+    """A grid.json spec less its ``LOCATION_KEYS``."""
+    return {key: value for key, value in (spec or {}).items() if key not in LOCATION_KEYS}
 
 
 def _mismatched_runs(out: Path, spec: GridSpec, keys: list[RunKey]

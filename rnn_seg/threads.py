@@ -62,7 +62,13 @@ def last_level_cache() -> int:
 
 def configure_threads(cores: int, hidden: int, precision: str = "fp32",
                       bidirectional: bool = True) -> tuple[int, int]:
-    """Apply ``thread_plan`` (``cores`` 0 = all of this machine's) and return it.
+    """Apply ``thread_plan`` to TensorFlow's thread pools and return ``(intra_op, inter_op)``.
+
+    Args:
+        cores: cores this process may use; 0 = all of this machine's.
+        hidden: LSTM width H.
+        precision: ``"fp32"`` or ``"bf16"``, the products' operand type (weight bytes).
+        bidirectional: two directions' loops (else one, forward only).
 
     TensorFlow fixes its pools when the first op runs; called later in the same process (a
     notebook, a test) this keeps the pools as they are and returns their sizes (0 = default).

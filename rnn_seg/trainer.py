@@ -386,14 +386,14 @@ class Trainer:
         self.log(self._progress_line(row))
 
     def _progress_line(self, row: dict) -> str:
-        """``[B] epoch 12/30  loss gesture 0.412 progress 0.233  test gesture 84.1/80.2
-        1.8 s/epoch  ETA 0:00:32`` (test: accuracy / edit)."""
+        """``[B] epoch 12/30  loss gesture 0.412 progress 0.233  test acc/edit gesture 84.1/80.2
+        1.8 s/epoch  ETA 0:00:32``."""
         unit = self.optim.unit_name
         losses = " ".join(f"{t.name} {row[f'loss_{t.name}']:.3f}" for t in self.tasks)
         parts = [f"[{self.run_dir.name}] {unit} {row['n']:g}/{self.optim.total}", f"loss {losses}"]
         for split in ("train", "test"):
             if row.get(f"{split}_{self.tasks[0].name}_acc") is not None:
-                parts.append(f"{split} " + " ".join(
+                parts.append(f"{split} acc/edit " + " ".join(
                     f"{t.name} {row[f'{split}_{t.name}_acc']:.1f}/"
                     f"{row[f'{split}_{t.name}_edit']:.1f}"
                     for t in self.tasks))

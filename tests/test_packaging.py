@@ -61,3 +61,14 @@ def test_every_public_name_of_a_package_is_found_on_first_use(package):
     assert module.__all__ == sorted(module._PUBLIC)
     with pytest.raises(AttributeError, match=f"module '{package}' has no attribute 'nope'"):
         module.nope
+
+
+@pytest.mark.parametrize("package", ["jigsaws_tools", "rnn_seg", "baseline", "multitask"])
+def test_the_readme_package_table_names_every_module(package):
+    table = (ROOT / "README.md").read_text().split("## Packages")[1].split("Imports flow")[0]
+    row, = [line for line in table.splitlines() if line.startswith(f"| `{package}`")]
+    named = set(re.findall(r"`([\w/]+\.py)`", row))
+    if "their CLIs" in row:                      # predict_cli.py, evaluate_cli.py, export_cli.py
+        named |= {f"{command}_cli.py" for command in ("predict", "evaluate", "export")}
+    modules = {path.name for path in (ROOT / package).glob("*.py")} - {"__init__.py"}
+    assert modules == named, (sorted(modules - named), sorted(named - modules))

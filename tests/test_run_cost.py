@@ -98,3 +98,15 @@ def test_thread_plan_gives_each_direction_a_core_when_the_weights_fit_the_cache(
     assert thread_plan(2, 128, "fp32", small_cache) == (1, 2)
     assert thread_plan(1, 128) == (1, 1)
     assert thread_plan(2, 128, bidirectional=False) == (2, 1)           # one loop: both cores in it
+
+
+def test_progress_lines_say_what_their_numbers_are(tmp_path):
+    lines = []
+    trainer = _trainer(tmp_path / "run", monitor_every=2, monitor_train=True)
+    trainer.log = lines.append
+    trainer.run()
+    progress = [line for line in lines if line.startswith("[run] epoch")]
+    assert len(progress) == EPOCHS
+    assert "loss gesture" in progress[0] and "acc/edit" not in progress[0]
+    assert "train acc/edit gesture" in progress[1] and "test acc/edit gesture" in progress[1]
+    assert all(" s/epoch  ETA " in line for line in progress)

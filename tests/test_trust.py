@@ -143,6 +143,18 @@ def test_changed_data_is_a_changed_setting(small_dir, tmp_path, capsys):
     _assert_clean_error(code, err, "data_fingerprint:")
 
 
+def test_the_same_data_at_another_path_is_the_same_setting(finished_run, small_dir, tmp_path,
+                                                           capsys):
+    """The fingerprint holds the data; its folder (moved, a relative path) is not a setting."""
+    moved = shutil.copytree(small_dir, tmp_path / "elsewhere" / "Suturing")
+    before = _snapshot(finished_run)
+    code, out, err = _cli(multitask_main, [*TINY, "--data-dir", str(moved), "--test-user", "B",
+                                           "--keep-checkpoints", "eval_points", "--eval-at", "1,2",
+                                           "--out", str(finished_run)], capsys)
+    assert code == 0 and "already finished" in out, err
+    assert _snapshot(finished_run) == before
+
+
 def test_settings_hash_in_config_checkpoints_and_finished(finished_run):
     config = _strict(finished_run / "config.json")
     finished = _strict(finished_run / "finished.json")
@@ -200,6 +212,23 @@ def test_another_budget_over_a_grid_is_not_already_finished(finished_grid, small
     _assert_clean_error(code, err, named, "--restart")
     assert "already finished" not in stdout
     assert (out / "grid.json").read_bytes() == record
+
+
+def test_a_grid_resumes_on_its_data_moved_but_not_changed(finished_grid, small_dir, tmp_path,
+                                                          capsys):
+    folder, out = finished_grid
+    record = (out / "grid.json").read_bytes()
+    moved = shutil.copytree(small_dir, tmp_path / "elsewhere" / "Suturing")
+    spec = str(_spec(folder, small_dir))
+    code, stdout, err = _cli(grid_main, ["--spec", spec, "--data-dir", str(moved),
+                                         "--out", str(out)], capsys)
+    assert code == 0 and "1 already finished" in stdout, err
+    assert (out / "grid.json").read_bytes() == record
+    transcription = next((moved / "transcriptions").glob("*.txt"))
+    transcription.write_text(transcription.read_text().replace(" G2 ", " G3 ", 1))
+    code, _, err = _cli(grid_main, ["--spec", spec, "--data-dir", str(moved), "--out", str(out)],
+                        capsys)
+    _assert_clean_error(code, err, "data_fingerprint:", "--restart")
 
 
 def test_grid_checks_every_run_folder_and_restart_retrains_only_those(finished_grid, small_dir,
