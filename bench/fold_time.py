@@ -1,4 +1,4 @@
-"""End-to-end time of LOUO folds at the ``quick`` preset, and the throughput of running several at once.
+"""End-to-end time of LOUO folds at the ``quick`` preset, and the throughput of several at once.
 
 Runs ``multitask-grid`` on fresh folders (real data if present, else the synthetic release) in
 several layouts, each repeated, medians printed with the time per fold and the throughput against
@@ -43,6 +43,18 @@ def data_source() -> str:
 FOLDS = ["B", "C", "D", "E", "F", "G", "H", "I"]
 
 
+def run_parser(description: str) -> argparse.ArgumentParser:
+    """The options every run-timing bench shares: repeats, and the run's variant, width and
+    length (the quick preset's APc by default)."""
+    parser = argparse.ArgumentParser(description=description,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--repeats", type=int, default=3)
+    parser.add_argument("--variant", default="APc")
+    parser.add_argument("--hidden", type=int, default=128)
+    parser.add_argument("--epochs", type=int, default=30)
+    return parser
+
+
 def timed_grid(folds: list[str], workers: int, stack: int, args) -> float:
     """Seconds for ``multitask-grid`` to finish ``folds`` with ``workers`` workers, from scratch."""
     with tempfile.TemporaryDirectory() as tmp:
@@ -57,12 +69,7 @@ def timed_grid(folds: list[str], workers: int, stack: int, args) -> float:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--variant", default="APc")
-    parser.add_argument("--hidden", type=int, default=128)
-    parser.add_argument("--epochs", type=int, default=30)
+    parser = run_parser(__doc__)
     parser.add_argument("--stack", type=int, default=8, help="folds trained together (<= 8)")
     args = parser.parse_args()
     n = args.stack

@@ -13,7 +13,6 @@ checkpoints; what is left is configuration, final writes and exit. Repeats and p
 """
 from __future__ import annotations
 
-import argparse
 import json
 import statistics
 import subprocess
@@ -23,7 +22,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from fold_time import data_source  # noqa: E402
+from fold_time import data_source, run_parser  # noqa: E402
 
 PHASES = ("data", "trace", "train", "monitor", "evaluate", "checkpoint")
 
@@ -55,12 +54,7 @@ def one_run(args, extra: list[str]) -> dict[str, float]:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__,
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--repeats", type=int, default=3)
-    parser.add_argument("--variant", default="APc")
-    parser.add_argument("--hidden", type=int, default=128)
-    parser.add_argument("--epochs", type=int, default=30)
+    parser = run_parser(__doc__)
     parser.add_argument("--eval-at", default="25,28,30")
     parser.add_argument("--threads", type=int, default=1)
     args, extra = parser.parse_known_args()

@@ -122,6 +122,14 @@ def _predictions(grid_dir: Path, config: str, fold: str) -> dict[str, Path]:
     return {p.stem: p for p in sorted(points[-1].glob("*.csv"))} if points else {}
 
 
+def _trial_predictions(grid_dir: Path, configs: Sequence[str], trial: str, fold: str
+                       ) -> dict[str, pd.DataFrame]:
+    """The predictions of ``trial`` (one row per 5 Hz sample) by each of ``configs`` whose run on
+    ``fold`` predicted it, by configuration."""
+    return {c: pd.read_csv(files[trial]) for c in configs
+            if trial in (files := _predictions(grid_dir, c, fold))}
+
+
 def trial_folds(grid_dir: Path, folds: Sequence[str], config: str = SEGMENTATION_RUNS[0]
                 ) -> dict[str, str]:
     """Every test trial of ``config``'s seed-0 runs (offline), in order: trial -> fold.
@@ -158,8 +166,7 @@ def segmentation_example(grid_dir: Path, trial: str, fold: str, out_dir: Path) -
     Returns:
         The PNG and PDF written; empty when no run predicted the trial.
     """
-    runs = {c: pd.read_csv(files[trial]) for c in SEGMENTATION_RUNS
-            if trial in (files := _predictions(grid_dir, c, fold))}
+    runs = _trial_predictions(grid_dir, SEGMENTATION_RUNS, trial, fold)
     if not runs:
         return []
     first = next(iter(runs.values()))
@@ -180,19 +187,10 @@ def segmentation_example(grid_dir: Path, trial: str, fold: str, out_dir: Path) -
 
 def progress_example(grid_dir: Path, trial: str, fold: str, out_dir: Path) -> list[Path]:
     """True progress of one test trial and the predictions over time in seconds: APr's raw
-    regression output (a line), APc's and APoc's stages (steps).
-
-    Args:
-        grid_dir: the grid's folder.
-        trial: the trial's name, e.g. ``"Suturing_B001"``.
-        fold: the fold (test user) whose runs predicted it.
-        out_dir: the folder written into.
-
-    Returns:
-        The PNG and PDF written; empty when no run predicted the trial.
+    regression output (a line), APc's and APoc's stages (steps). Arguments and return value as
+    ``segmentation_example``'s.
     """
-    runs = {c: pd.read_csv(files[trial]) for c in PROGRESS_RUNS
-            if trial in (files := _predictions(grid_dir, c, fold))}
+    runs = _trial_predictions(grid_dir, PROGRESS_RUNS, trial, fold)
     if not runs:
         return []
     fig, ax = plt.subplots(figsize=(9, 2.8))
