@@ -53,10 +53,16 @@ def test_tables_name_their_packages_and_never_scale(tables):
 
 
 def test_numbers_have_true_minus_signs(paper_tables):
+    differences = 0
     for name, path in paper_tables.items():
         body = path.read_text().split(r"\begin{tabular}")[1]
         assert not re.search(r"(?<![\w$-])-\d", body), name       # a hyphen before a digit
-        assert "$-$" in body or "ours" in name, name            # some difference is negative
+        for row in re.findall(r"\$\\Delta\$ &(.*)\\\\", body):     # differences: signed
+            cells = [cell.strip() for cell in row.split("&")]
+            assert all(re.fullmatch(r"(\$[+-]\$)?\d+\.\d|0\.0|--", c) for c in cells), (name, row)
+            assert all(c.startswith("$") for c in cells if c not in ("--", "0.0")), (name, row)
+            differences += len(cells)
+    assert differences, "no difference rows found"
 
 
 def test_captions_state_data_folds_budget_and_seeds(paper_tables, tables):
