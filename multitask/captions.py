@@ -36,7 +36,8 @@ class RunsDescription:
         """E.g. ``Data: JIGSAWS Suturing kinematics, 38 trials, leave-one-user-out over 8 folds
         (B, ..., I). Models: 128 hidden units, 30 epochs (20 for Pr, Pc, Poc), 1 seed (0).``"""
         data = [f"Data: {self.data}"] + ([f"{self.trials} trials"] if self.trials else [])
-        data.append(f"leave-one-user-out over {len(self.folds)} folds ({', '.join(self.folds)})")
+        data.append(f"leave-one-user-out over {len(self.folds)} fold{'s' * (len(self.folds) != 1)} "
+                    f"({', '.join(self.folds)})")
         models = [f"{', '.join(map(str, self.hidden))} hidden units"] if self.hidden else []
         models += [self._schedule()] if self.lengths else []
         models.append(f"{len(self.seeds)} seed{'s' * (len(self.seeds) != 1)} "

@@ -25,7 +25,7 @@ _NUMBER_OF_COLUMNS = 9
 
 def write_claims(runs: pd.DataFrame, out: Path,
                  config: BootstrapConfig = BootstrapConfig(),
-                 claims: tuple[Claim, ...] | None = None) -> list[Path]:
+                 claims: tuple[Claim, ...] | None = None, budget: str = "") -> list[Path]:
     """Evaluate the claims on ``runs`` and write the three files into ``out``.
 
     Args:
@@ -33,6 +33,8 @@ def write_claims(runs: pd.DataFrame, out: Path,
         out: the folder written into.
         config: bootstrap settings of every comparison.
         claims: the claims to test; None = the paper's (``claims.CLAIMS``).
+        budget: the runs' data and budget, ending the LaTeX caption
+            (``captions.RunsDescription.sentence``); empty = not stated.
 
     Returns:
         The paths of ``claims.csv``, ``claims.tex`` and ``claims_config.json``.
@@ -40,7 +42,7 @@ def write_claims(runs: pd.DataFrame, out: Path,
     table = evaluate(runs, claims, config)
     paths = [out / "claims.csv", out / "claims.tex", out / "claims_config.json"]
     write_atomic(paths[0], table.to_csv(index=False, float_format="%.4f"))
-    write_atomic(paths[1], claims_latex(table, config))
+    write_atomic(paths[1], claims_latex(table, config, budget))
     write_json(paths[2], {"bootstrap": asdict(config), "ci_method": config.method,
                           "test": "two-sided Wilcoxon signed-rank over folds, zero differences "
                                   "discarded, exact / exhaustive permutation for n <= 13",
@@ -49,13 +51,14 @@ def write_claims(runs: pd.DataFrame, out: Path,
     return paths
 
 
-def claims_latex(table: pd.DataFrame, config: BootstrapConfig = BootstrapConfig()) -> str:
+def claims_latex(table: pd.DataFrame, config: BootstrapConfig = BootstrapConfig(),
+                 budget: str = "") -> str:
     """``table`` (``claims.evaluate``) as a booktabs ``table*``: the claims grouped under the
-    paper's words, one line per comparison and score."""
+    paper's words, one line per comparison and score; the caption ends with ``budget``."""
     lines = [r"% The paper's claims tested on our runs (multitask-tables, claims.csv).",
              requires("booktabs").rstrip("\n"),
              r"\begin{table*}[t]", r"\centering", r"\footnotesize", r"\setlength{\tabcolsep}{4pt}",
-             rf"\caption{{{_caption(table, config)}}}", r"\label{tab:claims}",
+             rf"\caption{{{_caption(table, config, budget)}}}", r"\label{tab:claims}",
              rf"\begin{{tabular*}}{{\textwidth}}{{{_COLUMN_SPEC}}}", r"\toprule",
              rf"Comparison & Score & Expected & Paper & Ours & {_level(config)} CI & $p$ & "
              r"Folds$\times$seeds & Verdict \\", r"\midrule"]
@@ -85,14 +88,20 @@ def _cells(row) -> list[str]:
             "not run" if not tested else "--" if pd.isna(row.verdict) else row.verdict]
 
 
-def _caption(table: pd.DataFrame, config: BootstrapConfig) -> str:
+def _caption(table: pd.DataFrame, config: BootstrapConfig, budget: str) -> str:
+    """What is compared and how, the verdicts' rules, and ``budget``. Claims without a published
+    difference (the conjecture on another task) leave out what describes the paper's tables."""
     folds, seeds = table.folds.dropna(), table.seeds.dropna()
     spread = ("" if folds.empty else
               f" over {_span(folds)} LOUO folds, {_span(seeds)} seed(s) per model and fold")
+    published = table.paper_diff.notna().any()
+    subject = ("The paper's claims" if published
+               else "The paper's conjecture (no published result)")
+    paper_column = " Paper: the same difference in the paper's tables." if published else ""
     return (
-        "The paper's claims tested on our runs. Differences in percentage points: the mean of "
-        f"per-fold paired differences{spread} (seeds averaged within a fold); Paper: the same "
-        f"difference in the paper's tables. {_level(config)} CI: {config.method}, "
+        f"{subject} tested on our runs. Differences in percentage points: the mean of "
+        f"per-fold paired differences{spread} (seeds averaged within a fold).{paper_column} "
+        f"{_level(config)} CI: {config.method}, "
         f"{config.resamples} resamples, seed {config.seed}; $p$: two-sided Wilcoxon signed-rank "
         "test over folds. Verdicts: reproduced (expected sign, CI excludes 0), consistent "
         "(expected sign, CI includes 0), not reproduced (opposite sign, CI includes 0), "
@@ -100,9 +109,11 @@ def _caption(table: pd.DataFrame, config: BootstrapConfig) -> str:
         "with the CI inside / outside the margin; none below "
         f"{MIN_PAIRS} folds. Subscripts $1$: $w_1{{=}}w_2{{=}}1$, $\\alpha$: GradNorm "
         "$\\alpha{=}1.5$; $g$(X) = X$_\\alpha$ $-$ X$_1$; orig.: original labels; fwd.: "
-        "forward LSTM. ``Best'': ours against our strongest other model, the paper's against its "
-        "runner-up. The paper's Tables II and III baselines are DiPietro et al.'s published "
-        "numbers.")
+        "forward LSTM."
+        + (" ``Best'': ours against our strongest other model, the paper's against its "
+           "runner-up. The paper's Tables II and III baselines are DiPietro et al.'s published "
+           "numbers." if published else "")
+        + (f" {budget}" if budget else ""))
 
 
 def _level(config: BootstrapConfig) -> str:

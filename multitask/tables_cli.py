@@ -50,6 +50,7 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
     """
     from jigsaws_tools.task_definition import PAPER_TASK
 
+    from .captions import describe_runs
     from .claims import CONJECTURE_CLAIMS
     from .claims_table import write_claims
     from .collect import (CONFIG_COLUMNS, completeness, expected_runs, grid_task_name, per_fold,
@@ -66,11 +67,12 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
     example = choose_example(Path(grid_dir), folds, example_trial) if figures else None
     written = [_csv(runs, out / "runs.csv"), _csv(folds, out / "per_fold.csv"),
                _csv(stats, out / "summary.csv")]
+    budget = describe_runs(grid_dir, runs).sentence()
     if grid_task_name(grid_dir) == PAPER_TASK:
         written += _paper_tables(grid_dir, runs, stats, out, ours_only)
-        written += write_claims(runs, out)
+        written += write_claims(runs, out, budget=budget)
     else:
-        written += write_claims(runs, out, claims=CONJECTURE_CLAIMS)
+        written += write_claims(runs, out, claims=CONJECTURE_CLAIMS, budget=budget)
     if figures:
         written += all_figures(Path(grid_dir), folds, out / "figures", example)
     if curves:

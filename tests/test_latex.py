@@ -65,9 +65,9 @@ def test_numbers_have_true_minus_signs(paper_tables):
     assert differences, "no difference rows found"
 
 
-def test_captions_state_data_folds_budget_and_seeds(paper_tables, tables):
+def test_captions_state_data_folds_budget_and_seeds(tables):
     trials = sum(TRIALS.values())
-    for name, path in paper_tables.items():
+    for name, path in tables.items():
         caption = re.search(r"\\caption\{(.*)\}\n", path.read_text()).group(1)
         assert f"JIGSAWS Suturing kinematics, {trials} trials" in caption, name
         assert f"leave-one-user-out over {len(FOLDS)} folds (B, C, D, E, F, G, H, I)" in caption

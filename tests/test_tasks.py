@@ -305,6 +305,9 @@ def test_knot_tying_grid_tables_and_figures(tmp_path, capsys):
     assert claims["paper_diff"].isna().all()
     apc = claims[claims["claim"] == "conjecture:APc-fixed:gesture_edit"].iloc[0]
     assert apc["folds"] == 1 and pd.isna(apc["verdict"])          # one fold: no verdict
+    caption = (tables / "claims.tex").read_text()
+    assert "The paper's conjecture" in caption and "paper's tables" not in caption
+    assert "Knot Tying kinematics, 2 trials, leave-one-user-out over 1 fold (B)" in caption
 
 
 def test_grid_spec_takes_a_task(tmp_path):
