@@ -29,6 +29,8 @@ SHOWN = 5           # mismatching runs named in full in an error
 #: Spec keys saying where the data is, not what it holds: not compared with grid.json's, since
 #: every run folder's check compares the data fingerprint (a grid may resume on moved data).
 LOCATION_KEYS = ("data_dir",)
+#: Spec keys added after grid.json was first written -> the value their absence meant.
+IMPLIED_BY_OLDER_RECORDS = {"schedule_factors": {}}
 
 
 def prepare_grid(out: Path, spec: GridSpec, keys: list[RunKey], restart: bool = False,
@@ -72,7 +74,7 @@ def prepare_grid(out: Path, spec: GridSpec, keys: list[RunKey], restart: bool = 
 
 def _check_record(out: Path, spec: GridSpec, runs: list[str]) -> None:
     recorded = read_record(out)
-    changed = differences({"spec": _without_location(recorded.get("spec"))},
+    changed = differences({"spec": _as_current(_without_location(recorded.get("spec")))},
                           {"spec": _without_location(spec_payload(spec))})
     old_runs = recorded["runs"]
     if set(old_runs) != set(runs):                  # the order of the runs is not the grid's
@@ -84,6 +86,12 @@ def _check_record(out: Path, spec: GridSpec, runs: list[str]) -> None:
             + "\n  ".join(changed),
             "Use another --out, or --restart to make this spec the grid's (runs of other "
             "settings are trained afresh; finished runs of the same settings are kept).")
+
+
+def _as_current(spec: dict) -> dict:
+    """A grid.json spec with the keys its (older) writer did not know set to what that writer
+    implied, so that the same grid reads the same."""
+    return {**IMPLIED_BY_OLDER_RECORDS, **spec}
 
 
 def _without_location(spec: dict | None) -> dict:

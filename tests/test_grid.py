@@ -14,7 +14,7 @@ import pandas as pd
 import pytest
 
 from multitask.grid_spec import (Experiment, GridSpec, RunKey, expand, job_groups, load_spec,
-                                 run_config, stack_groups)
+                                 run_config, stack_groups, with_budget)
 from multitask.grid_cli import main as grid_main
 from multitask.grid_executors import run_grid
 from multitask.tables_cli import main as tables_main
@@ -91,6 +91,29 @@ def test_presets_and_schedule_scaling():
     assert (optim.total, optim.decay_start, optim.decay_every, points) == (30, 20, 10, (25, 28, 30))
     optim, points = get_variant("Pc").schedule(0.25)
     assert (optim.total, points) == (20, (15, 18, 20))
+
+
+def test_schedule_factors_lengthen_only_their_variants(tmp_path):
+    path = tmp_path / "longer.toml"
+    path.write_text('preset = "quick"\nschedule_factors = {APoc = 2, Poc = 1.5}\n')
+    spec = load_spec(path)
+    apoc, a, poc = (run_config(spec, RunKey("revised", "bidirectional", v, "fixed", 0, "B"))
+                    for v in ("APoc", "A", "Poc"))
+    assert (apoc.optim.total, apoc.optim.decay_start, apoc.train.eval_points) == (
+        60, 40, (50, 55, 60))                                   # quick x0.25, then x2
+    assert (a.optim.total, a.train.eval_points) == (30, (25, 28, 30))
+    assert (poc.optim.total, poc.train.eval_points) == (30, (23, 26, 30))   # P: 20 x1.5
+    assert spec.budget.describe_schedule() == "x0.25 (APoc x0.5; Poc x0.375)"
+    recorded = with_budget(spec)
+    assert recorded.schedule_factors == {"APoc": 2, "Poc": 1.5}
+    assert with_budget(GridSpec(preset="quick")).schedule_factors == {}
+    assert run_config(recorded, RunKey("revised", "bidirectional", "APoc", "fixed", 0, "B")
+                      ).optim.total == 60
+    for bad, named in (("{APx = 2}", "APx"), ("{APoc = 0}", "schedule_factors.APoc"),
+                       ('"long"', "schedule_factors")):
+        path.write_text(f"schedule_factors = {bad}\n")
+        with pytest.raises(ValueError, match=named):
+            load_spec(path)
 
 
 def test_tiny_grid_end_to_end(tiny_grid):

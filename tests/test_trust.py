@@ -214,6 +214,24 @@ def test_another_budget_over_a_grid_is_not_already_finished(finished_grid, small
     assert (out / "grid.json").read_bytes() == record
 
 
+def test_a_record_from_before_a_spec_key_existed_is_the_same_grid(finished_grid, small_dir,
+                                                                   tmp_path, capsys):
+    """grid.json written before ``schedule_factors`` existed meant no factors: the same spec
+    resumes over it; a spec with factors names the difference."""
+    _, out = finished_grid
+    copy = shutil.copytree(out, tmp_path / "out")
+    record = json.loads((copy / "grid.json").read_text())
+    del record["spec"]["schedule_factors"]
+    (copy / "grid.json").write_text(json.dumps(record))
+    spec = _spec(tmp_path, small_dir)
+    code, stdout, err = _cli(grid_main, ["--spec", str(spec), "--out", str(copy)], capsys)
+    assert code == 0 and "1 already finished" in stdout, err
+    spec.write_text(spec.read_text().replace("[[experiments]]",
+                                             "schedule_factors = {A = 2}\n[[experiments]]"))
+    code, _, err = _cli(grid_main, ["--spec", str(spec), "--out", str(copy)], capsys)
+    _assert_clean_error(code, err, "schedule_factors", "--restart")
+
+
 def test_a_grid_resumes_on_its_data_moved_but_not_changed(finished_grid, small_dir, tmp_path,
                                                           capsys):
     folder, out = finished_grid
