@@ -27,11 +27,13 @@ SAMPLES = 60                       # per test trial, at 5 Hz
 
 def write_fake_grid(root: Path, seeds: tuple[int, ...] = (0, 1), hidden: int = 16,
                     epochs: int = 12,
-                    experiments: tuple[Experiment, ...] = PAPER_EXPERIMENTS) -> Path:
+                    experiments: tuple[Experiment, ...] = PAPER_EXPERIMENTS,
+                    schedule_factors: dict[str, float] | None = None) -> Path:
     """Every run of a grid (default: the paper's, 22 configurations) over 8 folds and ``seeds``
-    under ``root``."""
+    under ``root``; every variant at the paper's relative length unless ``schedule_factors``."""
     spec = GridSpec(data_dir=str(root / "data" / "Suturing"), seeds=seeds, hidden=hidden,
-                    epochs=epochs, experiments=experiments)
+                    epochs=epochs, experiments=experiments,
+                    schedule_factors=schedule_factors or {})
     rng = np.random.default_rng(0)
     keys = expand(spec, FOLDS)
     for key in keys:

@@ -76,6 +76,13 @@ def test_captions_state_data_folds_budget_and_seeds(tables):
     assert "12 epochs," in tables["table3"].read_text()          # no P model in Table III
 
 
+def test_captions_name_the_variants_with_longer_schedules(tmp_path):
+    grid = write_fake_grid(tmp_path / "grid", seeds=(0,), schedule_factors={"APoc": 1.5},
+                           experiments=(Experiment(("A", "APc", "APoc", "Pc")),))
+    assert tables_main([str(grid), "--no-figures", "--out", str(tmp_path / "out")]) == 0
+    assert "12 epochs (18 for APoc; 8 for Pc)" in (tmp_path / "out" / "table1.tex").read_text()
+
+
 def test_captions_say_only_what_the_runs_record(tmp_path):
     """Runs without config.json (or predictions) still get tables; the caption leaves out what
     it cannot read instead of guessing."""
