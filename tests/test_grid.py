@@ -159,8 +159,8 @@ def test_latex_table_shape(tiny_grid):
 def test_killed_grid_resumes_without_redoing_finished_runs(tmp_path, tiny_spec):
     out = tmp_path / "grid"
     command = [sys.executable, "-m", "multitask.grid_cli", "--spec", str(tiny_spec),
-               "--out", str(out), "--workers", "1"]
-    process = subprocess.Popen(command, start_new_session=True, stdout=subprocess.DEVNULL,
+               "--out", str(out), "--workers"]
+    process = subprocess.Popen(command + ["1"], start_new_session=True, stdout=subprocess.DEVNULL,
                                stderr=subprocess.DEVNULL)
     deadline = time.time() + 300
     while not list(out.glob("runs/**/finished.json")) and time.time() < deadline:
@@ -169,7 +169,7 @@ def test_killed_grid_resumes_without_redoing_finished_runs(tmp_path, tiny_spec):
     process.wait()
     finished = {p: p.stat().st_mtime_ns for p in out.glob("runs/**/finished.json")}
     assert 1 <= len(finished) < 4
-    result = subprocess.run(command[:-1] + ["2"], capture_output=True, text=True, timeout=600)
+    result = subprocess.run(command + ["2"], capture_output=True, text=True, timeout=600)
     assert result.returncode == 0, result.stderr
     assert f"{len(finished)} already finished" in result.stdout
     assert len(list(out.glob("runs/**/finished.json"))) == 4
