@@ -13,9 +13,10 @@ Metric columns are ``<task>_<metric>``: ``gesture_accuracy``, ``gesture_edit``,
 ``progress_f1@10``, ``progress_mae`` (normalised MAE of the regression output rounded to the
 nearest stage and clipped, in % of the stage range: the 4-stage span for Suturing, the paper's
 metric) and ``progress_mae_raw`` (the same of the raw output). Each run's value is the mean over
-its evaluation points. Each run also has ``converged`` and ``loss_drop``
-(``rnn_seg.convergence``: the relative fall of its training loss over the last 10 % of its
-schedule).
+its evaluation points. Each run also has ``converged``, ``loss_drop`` and ``loss_drop_se``
+(``rnn_seg.convergence``: the relative fall of its worst task's training loss over the last 10 %
+of its schedule, and that estimate's standard error; runs finished before the standard error was
+saved get it from their ``history.csv``).
 """
 from __future__ import annotations
 
@@ -28,6 +29,7 @@ import numpy as np
 import pandas as pd
 
 from jigsaws_tools.task_definition import PAPER_TASK
+from rnn_seg.convergence import ConvergenceCriterion, history_convergence
 from rnn_seg.rundir import RunFolderError, is_finished, read_json
 
 from .grid_folder import GRID_RECORD, record_runs
@@ -41,7 +43,7 @@ METRICS = ["gesture_accuracy", "gesture_edit", "gesture_f1@10", "progress_mae",
 LOWER_IS_BETTER = {"progress_mae", "progress_mae_raw"}
 _RENAME = {"mae_normalised_rounded": "mae", "mae_normalised": "mae_raw"}
 #: Per-run columns that are not metrics (not averaged over seeds).
-CONVERGENCE_COLUMNS = ["converged", "loss_drop"]
+CONVERGENCE_COLUMNS = ["converged", "loss_drop", "loss_drop_se"]
 
 
 def key_from_path(run_dir: Path, root: Path) -> RunKey:
@@ -124,8 +126,9 @@ def _run_row(root: Path, run: Path, problems: list[str]) -> dict | None:
         problems.append(f"unreadable metrics: {path}: no 'mean' metrics per task")
         return None
     row = asdict(key_from_path(run_dir, root))
-    convergence = metrics.get("convergence") or {}
-    row.update(converged=convergence.get("converged"), loss_drop=convergence.get("max_loss_drop"))
+    convergence = _convergence(run_dir, metrics.get("convergence") or {})
+    row.update(converged=convergence.get("converged"), loss_drop=convergence.get("max_loss_drop"),
+               loss_drop_se=convergence.get("max_loss_drop_se"))
     for task, values in mean.items():
         for name, value in values.items():
             value = math.nan if value is None else value
@@ -134,6 +137,20 @@ def _run_row(root: Path, run: Path, problems: list[str]) -> dict | None:
                 return None
             row[f"{task}_{_RENAME.get(name, name)}"] = value
     return row
+
+
+def _convergence(run_dir: Path, saved: dict) -> dict:
+    """The run's saved diagnostic; recomputed from its loss history with the saved criterion
+    when it predates ``max_loss_drop_se`` (the verdict and ``loss_drop`` are the same)."""
+    if "max_loss_drop_se" in saved or not saved.get("loss_drop"):
+        return saved
+    try:
+        total = read_json(run_dir / "config.json")["run"]["optim"]["total"]
+        history = pd.read_csv(run_dir / "history.csv")
+    except (RunFolderError, KeyError, TypeError, OSError, ValueError):
+        return saved
+    return history_convergence(history, list(saved["loss_drop"]), total,
+                               ConvergenceCriterion(**saved.get("criterion", {})))
 
 
 def _per_class(metric: str) -> bool:

@@ -225,7 +225,8 @@ class Budget:
 
 
 #: The converged preset's longer schedules: the variants whose runs the longer length made pass
-#: the convergence diagnostic on the whole of Table I (docs/REPRODUCTION.md, "The converged preset").
+#: the convergence diagnostic on the whole of Table I (docs/REPRODUCTION.md, "The converged
+#: preset").
 CONVERGED_FACTORS = (("APoc", 1.5), ("Poc", 2.0))
 PRESETS = {"converged": Budget(hidden=128, schedule_scale=1.0, seeds=(0,),
                                schedule_factors=CONVERGED_FACTORS),

@@ -8,6 +8,11 @@ and batching); ``loss_drop`` is the relative decrease that line implies over the
 converged when every task's ``loss_drop`` is below ``tolerance`` (5 %): its training loss falls
 by less than 5 % over its final tenth. The thresholds are fixed here, before any preset was
 measured against them (docs/REPRODUCTION.md).
+
+``loss_drop`` is itself an estimate: ``loss_drop_se`` is its standard error, from the slope's
+least-squares standard error (delta method), treating the unit-to-unit noise as independent.
+It says which verdicts the noise could turn (a run 1 SE above the tolerance may have converged);
+the verdict itself uses the point value.
 """
 from __future__ import annotations
 
@@ -42,12 +47,26 @@ def loss_drop(units: np.ndarray, losses: np.ndarray, total: float,
         The relative decrease (0.1 = the loss falls by 10 %; negative when it rises), or None
         when the window holds fewer than ``MIN_POINTS`` finite losses.
     """
+    fit = loss_drop_fit(units, losses, total, criterion)
+    return None if fit is None else fit[0]
+
+
+def loss_drop_fit(units: np.ndarray, losses: np.ndarray, total: float,
+                  criterion: ConvergenceCriterion = ConvergenceCriterion()
+                  ) -> tuple[float, float] | None:
+    """``loss_drop`` and its standard error, or None (arguments as ``loss_drop``)."""
     units, losses = np.asarray(units, float), np.asarray(losses, float)
     keep = (units > total * (1 - criterion.window)) & np.isfinite(losses) & (losses > 0)
     if keep.sum() < MIN_POINTS:
         return None
-    slope = np.polyfit(units[keep], np.log(losses[keep]), 1)[0]
-    return float(1.0 - np.exp(slope * criterion.horizon * total))
+    x, y = units[keep], np.log(losses[keep])
+    dx = x - x.mean()
+    slope = float(dx @ (y - y.mean()) / (dx @ dx))
+    residuals = y - y.mean() - slope * dx
+    slope_se = np.sqrt(residuals @ residuals / (len(x) - 2) / (dx @ dx))
+    span = criterion.horizon * total
+    kept = np.exp(slope * span)
+    return float(1.0 - kept), float(kept * span * slope_se)
 
 
 def convergence(units: np.ndarray, losses: dict[str, np.ndarray], total: float,
@@ -61,14 +80,19 @@ def convergence(units: np.ndarray, losses: dict[str, np.ndarray], total: float,
         criterion: window, horizon and tolerance.
 
     Returns:
-        ``{"loss_drop": {task: drop}, "max_loss_drop": worst, "converged": bool | None,
-        "criterion": {...}}``; ``worst`` and ``converged`` are None when a task has too few units.
+        ``{"loss_drop": {task: drop}, "loss_drop_se": {task: se}, "max_loss_drop": worst,
+        "max_loss_drop_se": its se, "converged": bool | None, "criterion": {...}}``; ``worst``,
+        its se and ``converged`` are None when a task has too few units.
     """
-    drops = {task: loss_drop(units, values, total, criterion) for task, values in losses.items()}
-    known = [d for d in drops.values() if d is not None]
-    worst = max(known) if len(known) == len(drops) else None
-    return {"loss_drop": drops, "max_loss_drop": worst,
-            "converged": None if worst is None else bool(worst < criterion.tolerance),
+    fits = {task: loss_drop_fit(units, values, total, criterion)
+            for task, values in losses.items()}
+    known = {task: fit for task, fit in fits.items() if fit is not None}
+    worst = max(known, key=lambda task: known[task][0]) if len(known) == len(fits) else None
+    return {"loss_drop": {task: None if fit is None else fit[0] for task, fit in fits.items()},
+            "loss_drop_se": {task: None if fit is None else fit[1] for task, fit in fits.items()},
+            "max_loss_drop": None if worst is None else known[worst][0],
+            "max_loss_drop_se": None if worst is None else known[worst][1],
+            "converged": None if worst is None else bool(known[worst][0] < criterion.tolerance),
             "criterion": {"window": criterion.window, "horizon": criterion.horizon,
                           "tolerance": criterion.tolerance}}
 

@@ -3,7 +3,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from rnn_seg.convergence import ConvergenceCriterion, convergence, history_convergence, loss_drop
+from rnn_seg.convergence import (ConvergenceCriterion, convergence, history_convergence, loss_drop,
+                                  loss_drop_fit)
 
 TOTAL = 60
 
@@ -53,3 +54,24 @@ def test_history_table():
     history = pd.DataFrame({"n": np.arange(1, 11.0), "loss_gesture": np.linspace(1, 0.5, 10)})
     result = history_convergence(history, ["gesture"], 10, ConvergenceCriterion(window=0.5))
     assert result["converged"] is False and result["loss_drop"]["gesture"] > 0.05
+
+
+def test_standard_error_covers_the_true_drop():
+    """Under independent noise, drop +- 1.96 SE holds the true drop in about 95 % of runs."""
+    units = np.arange(1, TOTAL + 1)
+    truth = 1 - np.exp(-6 / 40)                                  # exp(-n / 40): 14 % per 6 units
+    covered = []
+    for seed in range(400):
+        drop, se = loss_drop_fit(units, _noisy(np.exp(-units / 40), seed), TOTAL)
+        covered.append(abs(drop - truth) < 1.96 * se)
+    assert 0.9 < np.mean(covered) < 0.99
+    exact = loss_drop_fit(units, np.exp(-units / 40), TOTAL)
+    assert exact == pytest.approx((truth, 0.0), abs=1e-9)
+
+
+def test_convergence_reports_the_worst_tasks_standard_error():
+    units = np.arange(1, TOTAL + 1)
+    result = convergence(units, {"gesture": _noisy(0.3 + 0 * units, 0),
+                                 "progress": _noisy(2.0 * np.exp(-units / 15), 1)}, TOTAL)
+    assert result["max_loss_drop_se"] == result["loss_drop_se"]["progress"] > 0
+    assert result["loss_drop_se"]["gesture"] > 0

@@ -243,9 +243,31 @@ def test_annotation_ablation_reports_revised_minus_original():
 def test_runs_table_records_convergence(tiny_grid):
     tables_main([str(tiny_grid), "--no-figures"])
     runs = pd.read_csv(tiny_grid / "tables" / "runs.csv")
-    assert {"converged", "loss_drop"} <= set(runs.columns)
+    assert {"converged", "loss_drop", "loss_drop_se"} <= set(runs.columns)
+    assert (runs["loss_drop_se"].isna() == runs["loss_drop"].isna()).all()
     summary = pd.read_csv(tiny_grid / "tables" / "summary.csv")
     assert (summary["unconverged"] >= 0).all()
+
+
+def test_runs_saved_before_the_standard_error_get_it_from_their_history(tmp_path):
+    """A run finished by older code saved the diagnostic without ``max_loss_drop_se``; runs.csv
+    recomputes it from history.csv with the saved criterion, and keeps the saved verdict."""
+    from fake_grid import write_fake_grid
+    from multitask.collect import run_rows
+    from rnn_seg.convergence import history_convergence
+    from rnn_seg.rundir import read_json, write_json
+
+    grid = write_fake_grid(tmp_path / "grid", seeds=(0,), epochs=40)
+    run = grid / "runs/revised/bidirectional/APc-fixed/seed0/B"
+    full = history_convergence(pd.read_csv(run / "history.csv"), ["gesture", "progress"], 40)
+    old = {k: v for k, v in full.items() if "_se" not in k}
+    write_json(run / "metrics.json", {**read_json(run / "metrics.json"), "convergence": old})
+    runs, _ = run_rows(grid)
+    row = runs.set_index(["annotations", "direction", "variant", "weighting", "fold"]).loc[
+        ("revised", "bidirectional", "APc", "fixed", "B")]
+    assert row["loss_drop_se"] == pytest.approx(full["max_loss_drop_se"])
+    assert row["loss_drop"] == pytest.approx(full["max_loss_drop"])
+    assert bool(row["converged"]) == full["converged"]
 
 
 def test_tables_carry_rounded_and_raw_mae():
