@@ -3,7 +3,8 @@
 ``grid.json`` holds the spec (budget, data, folds, seeds, experiments), the path of every run and
 the provenance of the launch that wrote it. It is written once and never rewritten with another
 spec: launching a spec whose values or runs differ stops before any work, naming each difference,
-unless the launch restarts (``--restart``); the data's folder may change (``LOCATION_KEYS``). Run
+unless the launch restarts (``--restart``); the data's folder may change (``LOCATION_KEYS``), and
+so may the order of the experiments and runs (it is the order they run in, not what they are). Run
 paths do not encode the budget; the record does, and every run's config.json records that run's
 settings (``rnn_seg.settings``): a spec with another width or length never finds runs "already
 finished".
@@ -12,6 +13,8 @@ finished".
 record's file name and reader are ``grid_folder``'s, which imports no TensorFlow.
 """
 from __future__ import annotations
+
+import json
 
 from pathlib import Path
 from typing import Callable
@@ -74,8 +77,8 @@ def prepare_grid(out: Path, spec: GridSpec, keys: list[RunKey], restart: bool = 
 
 def _check_record(out: Path, spec: GridSpec, runs: list[str]) -> None:
     recorded = read_record(out)
-    changed = differences({"spec": _as_current(_without_location(recorded.get("spec")))},
-                          {"spec": _without_location(spec_payload(spec))})
+    changed = differences({"spec": _canonical(_as_current(recorded.get("spec") or {}))},
+                          {"spec": _canonical(spec_payload(spec))})
     old_runs = recorded["runs"]
     if set(old_runs) != set(runs):                  # the order of the runs is not the grid's
         changed.append(f"runs: {len(old_runs)} -> {len(runs)} ({len(set(runs) - set(old_runs))} "
@@ -94,9 +97,14 @@ def _as_current(spec: dict) -> dict:
     return {**IMPLIED_BY_OLDER_RECORDS, **spec}
 
 
-def _without_location(spec: dict | None) -> dict:
-    """A grid.json spec less its ``LOCATION_KEYS``."""
-    return {key: value for key, value in (spec or {}).items() if key not in LOCATION_KEYS}
+def _canonical(spec: dict) -> dict:
+    """A grid.json spec less its ``LOCATION_KEYS``, its experiments in a fixed order: where the
+    data lies and the order the experiments run in are not what the grid's runs are."""
+    kept = {key: value for key, value in spec.items() if key not in LOCATION_KEYS}
+    if isinstance(kept.get("experiments"), list):
+        kept["experiments"] = sorted(kept["experiments"],
+                                     key=lambda experiment: json.dumps(experiment, sort_keys=True))
+    return kept
 
 
 def _mismatched_runs(out: Path, spec: GridSpec, keys: list[RunKey]

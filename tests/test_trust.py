@@ -275,6 +275,28 @@ def test_a_record_listing_the_runs_in_another_order_is_the_same_grid(small_dir, 
     prepare_grid(tmp_path / "out", spec, keys, log=lambda m: None)       # no mismatch raised
 
 
+def test_a_spec_listing_its_experiments_in_another_order_is_the_same_grid(finished_grid,
+                                                                         small_dir, tmp_path,
+                                                                         capsys):
+    """Reordering a spec's experiments changes which runs go first, not the grid: it resumes;
+    changing an experiment still names the difference."""
+    _, out = finished_grid
+    copy = shutil.copytree(out, tmp_path / "out")
+    one = '[[experiments]]\nvariants = ["A"]\nannotations = ["revised"]\n'
+    two = '[[experiments]]\nvariants = ["A"]\nannotations = ["original"]\n'
+    spec = _spec(tmp_path, small_dir)
+    head = spec.read_text()[:spec.read_text().index("[[experiments]]")]
+    spec.write_text(head + one + two)
+    assert grid_main(["--spec", str(spec), "--out", str(copy), "--restart"]) == 0
+    capsys.readouterr()
+    spec.write_text(head + two + one)
+    code, stdout, err = _cli(grid_main, ["--spec", str(spec), "--out", str(copy)], capsys)
+    assert code == 0 and "already finished" in stdout, err
+    spec.write_text(head + two + one + 'directions = ["forward"]\n')
+    code, _, err = _cli(grid_main, ["--spec", str(spec), "--out", str(copy)], capsys)
+    _assert_clean_error(code, err, "spec.experiments", "--restart")
+
+
 def test_grid_record_carries_provenance(finished_grid):
     _, out = finished_grid
     record = _strict(out / "grid.json")
