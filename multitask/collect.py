@@ -6,7 +6,9 @@ allowed only for a per-class accuracy, ``<task>_accuracy_<class>``: the class is
 fold's test trials), and every folder under ``runs/`` must be a recorded run (a stray copy such as
 ``C.old`` is not a fold). Otherwise ``IncompleteEvidence`` names every problem; with
 ``allow_incomplete`` the problems are returned instead and the configurations they touch are
-marked incomplete (``completeness``), never silently averaged over fewer runs.
+marked incomplete (``completeness``), never silently averaged over fewer runs. For a grid
+still running, ``finished_only`` leaves out whole configurations with an unfinished run (and
+says which); ``seeds`` restricts the evidence to some seeds' runs.
 
 Metric columns are ``<task>_<metric>``: ``gesture_accuracy``, ``gesture_edit``,
 ``gesture_f1@10``, ``gesture_accuracy_G1`` ..., ``progress_accuracy``, ``progress_edit``,
@@ -58,16 +60,30 @@ class IncompleteEvidence(ValueError):
     """A grid's runs do not support complete tables; the message names every problem."""
 
 
-def run_rows(grid_dir: Path | str, allow_incomplete: bool = False
+def run_rows(grid_dir: Path | str, allow_incomplete: bool = False,
+             seeds: tuple[int, ...] | None = None, finished_only: bool = False
              ) -> tuple[pd.DataFrame, list[str]]:
     """One row per usable run (key columns + metrics), and the problems found (see the module
-    docstring): ``IncompleteEvidence`` unless ``allow_incomplete``."""
+    docstring): ``IncompleteEvidence`` unless ``allow_incomplete``.
+
+    Args:
+        grid_dir: output folder of ``multitask-grid``.
+        allow_incomplete: return the usable runs and the problems instead of refusing.
+        seeds: only the recorded runs of these seeds (None: every recorded run).
+        finished_only: leave out every configuration with a run not (yet) finished, instead of
+            counting that run a problem; one line per configuration left out is added to the
+            returned problems. For a grid still running: tables of its finished part.
+    """
     root = Path(grid_dir)
-    recorded, problems = recorded_runs(root)
+    recorded, problems = recorded_runs(root, seeds)
     problems += [f"stray folder, not a run of this grid: {path}"
-                 for path in _stray_folders(root, recorded)]
+                 for path in _stray_folders(root, recorded_runs(root)[0])]
+    unfinished = _unfinished_configs(root, recorded) if finished_only else {}
     rows = []
     for run in recorded:
+        key = key_from_path(root / run, root)
+        if _config_of(key) in unfinished:
+            continue
         row = _run_row(root, run, problems)
         if row is not None:
             rows.append(row)
@@ -78,19 +94,43 @@ def run_rows(grid_dir: Path | str, allow_incomplete: bool = False
               "--allow-incomplete to mark the configurations concerned incomplete.")
     if not rows:
         raise IncompleteEvidence(f"{root}: no finished runs under {root / 'runs'}")
-    return pd.DataFrame(rows), problems
+    left_out = [f"left out, {done} of {total} runs finished: {annotations}/{direction}/"
+                f"{variant}-{weighting}"
+                for (annotations, direction, variant, weighting), (done, total)
+                in sorted(unfinished.items())]
+    return pd.DataFrame(rows), problems + left_out
 
 
-def recorded_runs(root: Path) -> tuple[list[Path], list[str]]:
-    """The run folders (relative to ``root``) grid.json records, and problems: without a record,
-    the folders found that look like runs, and a problem saying so. A record that cannot be read
-    is a ``RunFolderError`` naming it."""
+def recorded_runs(root: Path, seeds: tuple[int, ...] | None = None
+                  ) -> tuple[list[Path], list[str]]:
+    """The run folders (relative to ``root``) grid.json records, of ``seeds`` only when given,
+    and problems: without a record, the folders found that look like runs, and a problem saying
+    so. A record that cannot be read is a ``RunFolderError`` naming it."""
     runs = record_runs(root)
     if runs is not None:
-        return [Path(run) for run in runs], []
-    found = [p.relative_to(root) for p in sorted((root / "runs").glob("*/*/*/seed*/*"))
-             if p.is_dir()]
-    return found, [f"{root / GRID_RECORD} missing: which runs the grid should have is unknown"]
+        found, problems = [Path(run) for run in runs], []
+    else:
+        found = [p.relative_to(root) for p in sorted((root / "runs").glob("*/*/*/seed*/*"))
+                 if p.is_dir()]
+        problems = [f"{root / GRID_RECORD} missing: which runs the grid should have is unknown"]
+    if seeds is not None:
+        found = [run for run in found if key_from_path(root / run, root).seed in seeds]
+    return found, problems
+
+
+def _config_of(key: RunKey) -> tuple[str, ...]:
+    """``key``'s configuration: its ``CONFIG_COLUMNS`` values."""
+    return tuple(getattr(key, column) for column in CONFIG_COLUMNS)
+
+
+def _unfinished_configs(root: Path, recorded: list[Path]) -> dict[tuple, tuple[int, int]]:
+    """Configurations with a recorded run not finished: ``{config: (finished, recorded)}``."""
+    counts: dict[tuple, list[int]] = {}
+    for run in recorded:
+        count = counts.setdefault(_config_of(key_from_path(root / run, root)), [0, 0])
+        count[0] += is_finished(root / run)
+        count[1] += 1
+    return {config: (done, total) for config, (done, total) in counts.items() if done < total}
 
 
 def expected_runs(root: Path | str, recorded: list[Path]) -> pd.DataFrame:

@@ -16,6 +16,13 @@ error naming them (``multitask.collect``); with ``--allow-incomplete`` they are 
 configurations concerned are marked incomplete in the tables (``runs``, ``runs_expected`` and
 ``complete`` columns of summary.csv; "(incomplete: n/m runs)" after the model's name).
 
+While a grid runs, ``--finished-only`` writes the tables of its finished part: every
+configuration with a run not finished yet is left out (and listed), the rest are complete;
+``--seeds 0`` restricts the evidence to those seeds' runs (the grid runs every configuration's
+seed 0 first). The captions state the seeds and folds the tables hold.
+
+    multitask-tables runs/converged --out results --seeds 0 --finished-only
+
 ``--compare X Y --metric M`` prints the paired statistics of one comparison instead, e.g.
 ``multitask-tables GRID --compare APc-fixed A-fixed --metric gesture_edit``; a configuration is
 ``[annotations/][direction/]<variant>-<weighting>`` as in the grid's run folders
@@ -35,7 +42,8 @@ PROG = "multitask-tables"
 
 def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: bool = False,
                  example_trial: str | None = None, curves: bool = False,
-                 allow_incomplete: bool = False) -> list[Path]:
+                 allow_incomplete: bool = False, seeds: tuple[int, ...] | None = None,
+                 finished_only: bool = False) -> list[Path]:
     """Everything ``multitask-tables`` writes; returns the paths.
 
     Args:
@@ -47,6 +55,8 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
         curves: also draw every configuration's training curves.
         allow_incomplete: mark configurations with missing runs instead of refusing
             (``collect.run_rows``).
+        seeds: only the runs of these seeds (None: all).
+        finished_only: leave out the configurations with a run not finished yet.
     """
     from jigsaws_tools.task_definition import PAPER_TASK
 
@@ -58,11 +68,11 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
     from .curves import training_curves
     from .figures import all_figures, example_trial as choose_example
 
-    runs, problems = run_rows(grid_dir, allow_incomplete)
+    runs, problems = run_rows(grid_dir, allow_incomplete, seeds, finished_only)
     for problem in problems:
         print(f"incomplete: {problem}", file=sys.stderr)
     folds = per_fold(runs)
-    expected = expected_runs(grid_dir, recorded_runs(Path(grid_dir))[0])
+    expected = expected_runs(grid_dir, recorded_runs(Path(grid_dir), seeds)[0])
     stats = summary(folds).merge(completeness(runs, expected), on=CONFIG_COLUMNS, how="left")
     example = choose_example(Path(grid_dir), folds, example_trial) if figures else None
     written = [_csv(runs, out / "runs.csv"), _csv(folds, out / "per_fold.csv"),
@@ -108,14 +118,14 @@ def _paper_tables(grid_dir: Path, runs, stats, out: Path, ours_only: bool) -> li
 
 
 def _compare(grid_dir: Path, compare: list[str], minus: list[str] | None, metric: str,
-             allow_incomplete: bool) -> str:
+             allow_incomplete: bool, seeds: tuple[int, ...] | None, finished_only: bool) -> str:
     """The paired statistics of one comparison, as text."""
     from .collect import run_rows
     from .paired import ConfigId, Contrast, NotPaired, config_labels, paired
 
     x, y = map(ConfigId.parse, compare)
     contrast = Contrast(x, y, tuple(map(ConfigId.parse, minus)) if minus else None)
-    runs, _ = run_rows(grid_dir, allow_incomplete)
+    runs, _ = run_rows(grid_dir, allow_incomplete, seeds, finished_only)
     try:
         return paired(runs, contrast, metric).describe()
     except NotPaired as error:
@@ -164,6 +174,12 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--allow-incomplete", action="store_true",
                         help="write tables although runs are missing, unfinished or unreadable, "
                              "marking the configurations concerned incomplete (default: refuse)")
+    parser.add_argument("--finished-only", action="store_true",
+                        help="for a grid still running: leave out every configuration with a run "
+                             "not finished yet, and list them (default: refuse)")
+    parser.add_argument("--seeds", type=int, nargs="+", metavar="K",
+                        help="only the runs of these seeds, e.g. --seeds 0 (default: every "
+                             "recorded run)")
     return parser
 
 
@@ -176,14 +192,16 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _run(args: argparse.Namespace) -> None:
+    seeds = tuple(args.seeds) if args.seeds else None
     if args.compare:
         print(_compare(args.grid_dir, args.compare, args.minus, args.metric,
-                       args.allow_incomplete))
+                       args.allow_incomplete, seeds, args.finished_only))
         return
     for path in write_tables(args.grid_dir, args.out or args.grid_dir / "tables",
                              figures=not args.no_figures, ours_only=args.ours_only,
                              example_trial=args.example_trial, curves=args.curves,
-                             allow_incomplete=args.allow_incomplete):
+                             allow_incomplete=args.allow_incomplete, seeds=seeds,
+                             finished_only=args.finished_only):
         print(path)
 
 

@@ -717,6 +717,40 @@ def test_collecting_results_imports_no_tensorflow():
     assert result.stdout.strip() == "False"
 
 
+def _running_grid(root: Path) -> None:
+    """A-fixed bidirectional and forward, seeds 0-1, folds B-C; one forward seed-1 run is still
+    training (no finished.json)."""
+    runs = [f"runs/revised/{direction}/A-fixed/seed{seed}/{fold}"
+            for direction in ("bidirectional", "forward") for seed in (0, 1) for fold in "BC"]
+    write_json(root / "grid.json", {"spec": {}, "runs": runs})
+    for k, run in enumerate(runs):
+        metrics = {"accuracy": 80.0 + k, "edit": 70.0 + k, "f1@10": 75.0 + k}
+        write_json(root / run / "metrics.json", {"mean": {"gesture": metrics}})
+        if run != runs[-1]:
+            write_json(root / run / "finished.json", {"sweeps": 1})
+
+
+def test_finished_only_leaves_out_the_configurations_still_running(tmp_path, capsys):
+    _running_grid(tmp_path)
+    code, err = _tables(tmp_path, capsys)
+    _assert_clean_error(code, err, "not finished")
+    code, err = _tables(tmp_path, capsys, "--finished-only")
+    assert code == 0 and "left out, 3 of 4 runs finished: revised/forward/A-fixed" in err, err
+    summary = pd.read_csv(tmp_path / "tables/summary.csv")
+    assert list(summary.direction) == ["bidirectional"] and bool(summary.complete[0])
+    assert not (tmp_path / "tables/table3.csv").exists()
+
+
+def test_seeds_restrict_the_evidence_to_those_seeds_runs(tmp_path, capsys):
+    _running_grid(tmp_path)
+    code, err = _tables(tmp_path, capsys, "--seeds", "0")
+    assert code == 0, err                            # the running run is seed 1's: not asked for
+    runs = pd.read_csv(tmp_path / "tables/runs.csv")
+    assert set(runs.seed) == {0} and len(runs) == 4
+    summary = pd.read_csv(tmp_path / "tables/summary.csv")
+    assert summary.complete.all() and set(summary.direction) == {"bidirectional", "forward"}
+
+
 def test_allow_incomplete_marks_the_configuration(tmp_path, capsys):
     shutil.rmtree(_fake_grid(tmp_path))
     code, err = _tables(tmp_path, capsys, "--allow-incomplete")
