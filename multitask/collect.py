@@ -44,6 +44,8 @@ METRICS = ["gesture_accuracy", "gesture_edit", "gesture_f1@10", "progress_mae",
            "progress_mae_raw", "progress_accuracy", "progress_edit", "progress_f1@10"]
 LOWER_IS_BETTER = {"progress_mae", "progress_mae_raw"}
 _RENAME = {"mae_normalised_rounded": "mae", "mae_normalised": "mae_raw"}
+#: How a line of ``run_rows``' problems that names a configuration left out starts.
+LEFT_OUT = "left out:"
 #: Per-run columns that are not metrics (not averaged over seeds).
 CONVERGENCE_COLUMNS = ["converged", "loss_drop", "loss_drop_se"]
 
@@ -71,18 +73,23 @@ def run_rows(grid_dir: Path | str, allow_incomplete: bool = False,
         allow_incomplete: return the usable runs and the problems instead of refusing.
         seeds: only the recorded runs of these seeds (None: every recorded run).
         finished_only: leave out every configuration with a run not (yet) finished, instead of
-            counting that run a problem; one line per configuration left out is added to the
-            returned problems. For a grid still running: tables of its finished part.
+            counting that run a problem; a line per configuration left out, starting with
+            ``LEFT_OUT``, is added to the returned problems. For a grid still running: tables of
+            its finished part.
     """
     root = Path(grid_dir)
-    recorded, problems = recorded_runs(root, seeds)
+    every_run, problems = recorded_runs(root)
     problems += [f"stray folder, not a run of this grid: {path}"
-                 for path in _stray_folders(root, recorded_runs(root)[0])]
+                 for path in _stray_folders(root, every_run)]
+    recorded = of_seeds(root, every_run, seeds)
     unfinished = _unfinished_configs(root, recorded) if finished_only else {}
+    left_out = [f"{LEFT_OUT} {annotations}/{direction}/{variant}-{weighting}, {done} of {total} "
+                "runs finished"
+                for (annotations, direction, variant, weighting), (done, total)
+                in sorted(unfinished.items())]
     rows = []
     for run in recorded:
-        key = key_from_path(root / run, root)
-        if _config_of(key) in unfinished:
+        if _config_of(key_from_path(root / run, root)) in unfinished:
             continue
         row = _run_row(root, run, problems)
         if row is not None:
@@ -93,29 +100,29 @@ def run_rows(grid_dir: Path | str, allow_incomplete: bool = False,
             + "\nFinish the runs (re-run multitask-grid), remove stray folders, or pass "
               "--allow-incomplete to mark the configurations concerned incomplete.")
     if not rows:
-        raise IncompleteEvidence(f"{root}: no finished runs under {root / 'runs'}")
-    left_out = [f"left out, {done} of {total} runs finished: {annotations}/{direction}/"
-                f"{variant}-{weighting}"
-                for (annotations, direction, variant, weighting), (done, total)
-                in sorted(unfinished.items())]
+        which = "" if seeds is None else f" of seed(s) {', '.join(map(str, seeds))}"
+        raise IncompleteEvidence(f"{root}: no finished runs{which} under {root / 'runs'}"
+                                 + "".join(f"\n  {line}" for line in left_out))
     return pd.DataFrame(rows), problems + left_out
 
 
-def recorded_runs(root: Path, seeds: tuple[int, ...] | None = None
-                  ) -> tuple[list[Path], list[str]]:
-    """The run folders (relative to ``root``) grid.json records, of ``seeds`` only when given,
-    and problems: without a record, the folders found that look like runs, and a problem saying
-    so. A record that cannot be read is a ``RunFolderError`` naming it."""
+def recorded_runs(root: Path) -> tuple[list[Path], list[str]]:
+    """The run folders (relative to ``root``) grid.json records, and problems: without a record,
+    the folders found that look like runs, and a problem saying so. A record that cannot be read
+    is a ``RunFolderError`` naming it."""
     runs = record_runs(root)
     if runs is not None:
-        found, problems = [Path(run) for run in runs], []
-    else:
-        found = [p.relative_to(root) for p in sorted((root / "runs").glob("*/*/*/seed*/*"))
-                 if p.is_dir()]
-        problems = [f"{root / GRID_RECORD} missing: which runs the grid should have is unknown"]
-    if seeds is not None:
-        found = [run for run in found if key_from_path(root / run, root).seed in seeds]
-    return found, problems
+        return [Path(run) for run in runs], []
+    found = [p.relative_to(root) for p in sorted((root / "runs").glob("*/*/*/seed*/*"))
+             if p.is_dir()]
+    return found, [f"{root / GRID_RECORD} missing: which runs the grid should have is unknown"]
+
+
+def of_seeds(root: Path, runs: list[Path], seeds: tuple[int, ...] | None) -> list[Path]:
+    """The ``runs`` (relative to ``root``) of ``seeds``; all of them when ``seeds`` is None."""
+    if seeds is None:
+        return runs
+    return [run for run in runs if key_from_path(root / run, root).seed in seeds]
 
 
 def _config_of(key: RunKey) -> tuple[str, ...]:
@@ -180,17 +187,21 @@ def _run_row(root: Path, run: Path, problems: list[str]) -> dict | None:
 
 
 def _convergence(run_dir: Path, saved: dict) -> dict:
-    """The run's saved diagnostic; recomputed from its loss history with the saved criterion
-    when it predates ``max_loss_drop_se`` (the verdict and ``loss_drop`` are the same)."""
-    if "max_loss_drop_se" in saved or not saved.get("loss_drop"):
+    """The run's saved diagnostic. One saved before ``max_loss_drop_se`` existed gets the standard
+    error from its loss history and the saved criterion; its saved verdict and ``loss_drop`` are
+    kept. A history that cannot give it leaves the standard error unknown (absent)."""
+    drops = saved.get("loss_drop") or {}
+    if "max_loss_drop_se" in saved or not drops or None in drops.values():
         return saved
     try:
         total = read_json(run_dir / "config.json")["run"]["optim"]["total"]
-        history = pd.read_csv(run_dir / "history.csv")
+        recomputed = history_convergence(pd.read_csv(run_dir / "history.csv"), list(drops),
+                                         total, ConvergenceCriterion(**saved.get("criterion", {})))
     except (RunFolderError, KeyError, TypeError, OSError, ValueError):
         return saved
-    return history_convergence(history, list(saved["loss_drop"]), total,
-                               ConvergenceCriterion(**saved.get("criterion", {})))
+    worst = max(drops, key=drops.get)
+    return {**saved, "loss_drop_se": recomputed["loss_drop_se"],
+            "max_loss_drop_se": recomputed["loss_drop_se"][worst]}
 
 
 def _per_class(metric: str) -> bool:

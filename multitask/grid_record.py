@@ -4,10 +4,10 @@
 the provenance of the launch that wrote it. It is written once and never rewritten with another
 spec: launching a spec whose values or runs differ stops before any work, naming each difference,
 unless the launch restarts (``--restart``); the data's folder may change (``LOCATION_KEYS``), and
-so may the order of the experiments and runs (it is the order they run in, not what they are). Run
-paths do not encode the budget; the record does, and every run's config.json records that run's
-settings (``rnn_seg.settings``): a spec with another width or length never finds runs "already
-finished".
+so may the order of the spec's experiments and of the recorded runs (the order they run in, not
+what they are). Run paths do not encode the budget; the record does, and every run's config.json
+records that run's settings (``rnn_seg.settings``): a spec with another width or length never
+finds runs "already finished".
 
 ``multitask-tables`` reads the record's run list to tell missing runs and stray folders; the
 record's file name and reader are ``grid_folder``'s, which imports no TensorFlow.
@@ -15,7 +15,6 @@ record's file name and reader are ``grid_folder``'s, which imports no TensorFlow
 from __future__ import annotations
 
 import json
-
 from pathlib import Path
 from typing import Callable
 

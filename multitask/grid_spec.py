@@ -4,8 +4,8 @@ A spec names experiments (each a product of variants x weightings x annotation v
 directions), the LOUO folds, the seeds and a budget. Presets give the budget:
 
 * ``converged`` (the default): H=128 and the paper's schedules (120 epochs, 80 for Pr/Pc/Poc),
-  1.5x longer for APr and APoc (180) and 2x for Poc (160), seed 0: per variant, the shortest of
-  the measured lengths whose runs pass the convergence diagnostic (``rnn_seg.convergence``; the
+  1.5x longer for APoc (180) and 2x for Poc (160), seed 0: per variant, the shortest of the
+  measured lengths whose runs pass the convergence diagnostic (``rnn_seg.convergence``; the
   measurements are in docs/REPRODUCTION.md, "The converged preset");
 * ``paper``: H=1024, the paper's schedules, seeds 0, 1, 2;
 * ``quick``: H=128 and every schedule compressed 4x (30 epochs, 20 for P), seed 0: a smoke test

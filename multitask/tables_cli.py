@@ -63,16 +63,15 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
     from .captions import describe_runs
     from .claims import CONJECTURE_CLAIMS
     from .claims_table import write_claims
-    from .collect import (CONFIG_COLUMNS, completeness, expected_runs, grid_task_name, per_fold,
-                          recorded_runs, run_rows, summary)
+    from .collect import (CONFIG_COLUMNS, completeness, expected_runs, grid_task_name, of_seeds,
+                          per_fold, recorded_runs, summary)
     from .curves import training_curves
     from .figures import all_figures, example_trial as choose_example
 
-    runs, problems = run_rows(grid_dir, allow_incomplete, seeds, finished_only)
-    for problem in problems:
-        print(f"incomplete: {problem}", file=sys.stderr)
+    runs = _runs(grid_dir, allow_incomplete, seeds, finished_only)
     folds = per_fold(runs)
-    expected = expected_runs(grid_dir, recorded_runs(Path(grid_dir), seeds)[0])
+    expected = expected_runs(grid_dir, of_seeds(Path(grid_dir), recorded_runs(Path(grid_dir))[0],
+                                                seeds))
     stats = summary(folds).merge(completeness(runs, expected), on=CONFIG_COLUMNS, how="left")
     example = choose_example(Path(grid_dir), folds, example_trial) if figures else None
     written = [_csv(runs, out / "runs.csv"), _csv(folds, out / "per_fold.csv"),
@@ -88,6 +87,18 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
     if curves:
         written += training_curves(grid_dir, out / "figures" / "curves")
     return written
+
+
+def _runs(grid_dir: Path, allow_incomplete: bool, seeds: tuple[int, ...] | None,
+          finished_only: bool):
+    """``collect.run_rows``, each problem and configuration left out reported on stderr."""
+    from .collect import LEFT_OUT, run_rows
+
+    runs, problems = run_rows(grid_dir, allow_incomplete, seeds, finished_only)
+    for problem in problems:
+        print(problem if problem.startswith(LEFT_OUT) else f"incomplete: {problem}",
+              file=sys.stderr)
+    return runs
 
 
 def _paper_tables(grid_dir: Path, runs, stats, out: Path, ours_only: bool) -> list[Path]:
@@ -120,12 +131,11 @@ def _paper_tables(grid_dir: Path, runs, stats, out: Path, ours_only: bool) -> li
 def _compare(grid_dir: Path, compare: list[str], minus: list[str] | None, metric: str,
              allow_incomplete: bool, seeds: tuple[int, ...] | None, finished_only: bool) -> str:
     """The paired statistics of one comparison, as text."""
-    from .collect import run_rows
     from .paired import ConfigId, Contrast, NotPaired, config_labels, paired
 
     x, y = map(ConfigId.parse, compare)
     contrast = Contrast(x, y, tuple(map(ConfigId.parse, minus)) if minus else None)
-    runs, _ = run_rows(grid_dir, allow_incomplete, seeds, finished_only)
+    runs = _runs(grid_dir, allow_incomplete, seeds, finished_only)
     try:
         return paired(runs, contrast, metric).describe()
     except NotPaired as error:

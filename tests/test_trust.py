@@ -735,7 +735,8 @@ def test_finished_only_leaves_out_the_configurations_still_running(tmp_path, cap
     code, err = _tables(tmp_path, capsys)
     _assert_clean_error(code, err, "not finished")
     code, err = _tables(tmp_path, capsys, "--finished-only")
-    assert code == 0 and "left out, 3 of 4 runs finished: revised/forward/A-fixed" in err, err
+    assert code == 0 and "left out: revised/forward/A-fixed, 3 of 4 runs finished" in err, err
+    assert "incomplete" not in err
     summary = pd.read_csv(tmp_path / "tables/summary.csv")
     assert list(summary.direction) == ["bidirectional"] and bool(summary.complete[0])
     assert not (tmp_path / "tables/table3.csv").exists()
@@ -749,6 +750,19 @@ def test_seeds_restrict_the_evidence_to_those_seeds_runs(tmp_path, capsys):
     assert set(runs.seed) == {0} and len(runs) == 4
     summary = pd.read_csv(tmp_path / "tables/summary.csv")
     assert summary.complete.all() and set(summary.direction) == {"bidirectional", "forward"}
+    code, err = _tables(tmp_path, capsys, "--seeds", "1", "--finished-only")
+    assert code == 0 and "left out: revised/forward/A-fixed, 1 of 2 runs finished" in err, err
+    code, err = _tables(tmp_path, capsys, "--seeds", "7")
+    _assert_clean_error(code, err, "no finished runs of seed(s) 7")
+
+
+def test_compare_reports_what_finished_only_left_out(tmp_path, capsys):
+    _running_grid(tmp_path)
+    code, out, err = _cli(tables_main, [str(tmp_path), "--finished-only", "--compare",
+                                        "forward/A-fixed", "A-fixed", "--metric", "gesture_edit"],
+                          capsys)
+    assert code != 0 and "left out: revised/forward/A-fixed" in err, err
+    assert "Traceback" not in err
 
 
 def test_allow_incomplete_marks_the_configuration(tmp_path, capsys):
