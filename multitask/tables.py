@@ -96,7 +96,7 @@ def paper_caption(table: PaperTable, budget: str, ours_only: bool = False) -> st
 
 def ablation_caption(budget: str) -> str:
     """The caption (LaTeX) of the annotation ablation, with the runs' ``budget`` (plain text)."""
-    return ("Annotation versions: every configuration on the revised against the original "
+    return ("Annotation versions: each configuration trained on both, revised against original "
             rf"labels, mean (std) over folds; $\Delta$ = revised $-$ original. {escape(budget)}")
 
 
