@@ -3,8 +3,9 @@
 Each job is ``grid_job.run_job`` on a group of up to ``stack`` run directories of one configuration
 (trained together in one vectorised step, ``rnn_seg.stack``; 1 = each run alone); finished runs
 (``finished.json``) are skipped, interrupted ones resume from their checkpoints inside the job.
-Progress lines give done/total and an ETA from the durations of the runs finished in this
-invocation.
+Progress lines give done/total and an ETA: the wall time per epoch of the runs finished in this
+invocation times the epochs of the runs left (runs differ: Pr 80 epochs, APoc 180 at the
+converged preset).
 
 Local workers die with the grid process (``PR_SET_PDEATHSIG`` on Linux, a watchdog thread
 elsewhere) and ignore Ctrl-C: on Ctrl-C the grid cancels the queued jobs, stops the running ones
@@ -30,18 +31,21 @@ from rnn_seg.provenance import command
 from rnn_seg.rundir import is_finished
 
 from .grid_job import run_job
-from .grid_spec import GridSpec, RunKey, job_groups, spec_payload
+from .grid_spec import GridSpec, RunKey, job_groups, schedule_epochs, spec_payload
 
 Log = Callable[[str], None]
 
 
 class Progress:
-    """Counts runs and prints one line per finished run; the ETA is the wall time per run
-    finished in this invocation (parallelism included) times the runs left."""
+    """Counts runs and prints one line per finished run. The ETA is the wall time per unit of
+    work finished in this invocation (parallelism included) times the work left; a run's work
+    is its ``weights`` entry (its schedule's epochs; 1 when absent)."""
 
-    def __init__(self, total: int, already: int, log: Log):
-        self.total, self.done, self.log = total, already, log
-        self.started, self.finished_here = time.time(), 0
+    def __init__(self, total: int, already: int, log: Log, weights: dict[RunKey, float],
+                 clock: Callable[[], float] = time.monotonic):
+        self.total, self.done, self.log, self.clock = total, already, log, clock
+        self.weights, self.started = weights, clock()
+        self.work_left, self.work_done = float(sum(weights.values())), 0.0
         self.failed: list[tuple[RunKey, str]] = []
 
     def finished_group(self, keys: list[RunKey], error: BaseException | None = None) -> None:
@@ -50,11 +54,12 @@ class Progress:
 
     def finished(self, key: RunKey, error: BaseException | None = None) -> None:
         self.done += 1
-        self.finished_here += 1
+        work = self.weights.get(key, 1.0)
+        self.work_done, self.work_left = self.work_done + work, max(0.0, self.work_left - work)
         if error:
             self.failed.append((key, f"{type(error).__name__}: {error}"))
-        per_run = (time.time() - self.started) / self.finished_here
-        eta = timedelta(seconds=round(per_run * (self.total - self.done)))
+        eta = timedelta(seconds=round((self.clock() - self.started) / self.work_done
+                                      * self.work_left))
         status = f"FAILED: {self.failed[-1][1]}" if error else "finished"
         self.log(f"[grid] {self.done}/{self.total} done, ETA {eta} | {key.path()} {status}")
 
@@ -88,7 +93,8 @@ def run_grid(spec: GridSpec, keys: list[RunKey], out: Path, workers: int = 1,
         return []
     payload = spec_payload(spec)
     groups = job_groups(pending, stack)
-    progress = Progress(len(keys), len(keys) - len(pending), log)
+    progress = Progress(len(keys), len(keys) - len(pending), log,
+                        {key: schedule_epochs(spec, key) for key in pending})
     if scheduler:
         _run_dask(payload, groups, out, scheduler, cores_per_job or 1, progress)
     else:

@@ -155,6 +155,11 @@ def run_config(spec: GridSpec, key: RunKey) -> RunConfig:
         train=TrainConfig(seed=key.seed, eval_points=points))
 
 
+def schedule_epochs(spec: GridSpec, key: RunKey) -> int:
+    """The length of one run's schedule, in epochs (its share of a grid's work)."""
+    return get_variant(key.variant).schedule(spec.budget.scale_of(key.variant))[0].total
+
+
 def run_arguments(spec: GridSpec, key: RunKey) -> dict:
     """Keyword arguments of ``fold_run.variant_trainer`` (and ``variant_configs``) for one run:
     the one place a grid run's configuration is decided. Workers train with it and

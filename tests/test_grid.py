@@ -326,3 +326,19 @@ def test_tables_mark_configurations_with_unconverged_runs():
     header = tex.split(r"\toprule")[1].split(r"\midrule")[0]
     assert r"APc$^\dagger$" in header and "unconverged" not in header
     assert r"$^\dagger$\,APc $w_1{=}w_2{=}1$: unconverged: 2 runs" in tex
+
+
+def test_eta_weighs_the_runs_left_by_their_schedules():
+    """After an 80-epoch run took 10 s, two 160-epoch runs left take 40 s, not 20."""
+    from multitask.grid_executors import Progress
+    from multitask.grid_spec import schedule_epochs
+
+    spec = GridSpec(preset="converged")
+    keys = [RunKey("revised", "bidirectional", variant, "fixed", 0, "B")
+            for variant in ("Pr", "Poc", "APoc")]
+    assert [schedule_epochs(spec, key) for key in keys] == [80, 160, 180]
+    times, lines = iter([0.0, 10.0]), []
+    progress = Progress(3, 0, lines.append, {keys[0]: 80, keys[1]: 160, keys[2]: 160},
+                        clock=lambda: next(times))
+    progress.finished(keys[0])
+    assert lines == [f"[grid] 1/3 done, ETA 0:00:40 | {keys[0].path()} finished"]
