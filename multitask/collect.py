@@ -83,10 +83,8 @@ def run_rows(grid_dir: Path | str, allow_incomplete: bool = False,
                  for path in _stray_folders(root, every_run)]
     recorded = of_seeds(root, every_run, seeds)
     unfinished = _unfinished_configs(root, recorded) if finished_only else {}
-    left_out = [f"{LEFT_OUT} {annotations}/{direction}/{variant}-{weighting}, {done} of {total} "
-                "runs finished"
-                for (annotations, direction, variant, weighting), (done, total)
-                in sorted(unfinished.items())]
+    left_out = [f"{LEFT_OUT} {'/'.join(config[:2])}/{'-'.join(config[2:])}, {done} of {total} "
+                "runs finished" for config, (done, total) in sorted(unfinished.items())]
     rows = []
     for run in recorded:
         if _config_of(key_from_path(root / run, root)) in unfinished:
