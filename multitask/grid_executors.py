@@ -39,7 +39,7 @@ Log = Callable[[str], None]
 class Progress:
     """Counts runs and prints one line per finished run. The ETA is the wall time per unit of
     work finished in this invocation (parallelism included) times the work left; a run's work
-    is its ``weights`` entry (its schedule's epochs; 1 when absent)."""
+    is its ``weights`` entry (its schedule's epochs), one per run to train."""
 
     def __init__(self, total: int, already: int, log: Log, weights: dict[RunKey, float],
                  clock: Callable[[], float] = time.monotonic):
@@ -54,7 +54,7 @@ class Progress:
 
     def finished(self, key: RunKey, error: BaseException | None = None) -> None:
         self.done += 1
-        work = self.weights.get(key, 1.0)
+        work = self.weights[key]
         self.work_done, self.work_left = self.work_done + work, max(0.0, self.work_left - work)
         if error:
             self.failed.append((key, f"{type(error).__name__}: {error}"))

@@ -144,7 +144,7 @@ def release_users(spec: GridSpec) -> tuple[str, ...]:
 def run_config(spec: GridSpec, key: RunKey) -> RunConfig:
     """The ``RunConfig`` of one run: the variant's (scaled) paper schedule, the budget's size."""
     budget = spec.budget
-    optim, points = get_variant(key.variant).schedule(budget.scale_of(key.variant))
+    optim, points = _schedule(spec, key)
     return RunConfig(
         data=DataConfig(str(spec.release_dir()), annotations=key.annotations,
                         task=spec.task_definition()),
@@ -157,7 +157,13 @@ def run_config(spec: GridSpec, key: RunKey) -> RunConfig:
 
 def schedule_epochs(spec: GridSpec, key: RunKey) -> int:
     """The length of one run's schedule, in epochs (its share of a grid's work)."""
-    return get_variant(key.variant).schedule(spec.budget.scale_of(key.variant))[0].total
+    return _schedule(spec, key)[0].total
+
+
+def _schedule(spec: GridSpec, key: RunKey):
+    """The run's optimiser schedule and evaluation points: its variant's paper schedule scaled by
+    the budget (``Variant.schedule``)."""
+    return get_variant(key.variant).schedule(spec.budget.scale_of(key.variant))
 
 
 def run_arguments(spec: GridSpec, key: RunKey) -> dict:
