@@ -88,7 +88,7 @@ def _run(args: argparse.Namespace) -> int:
     keys = expand(spec, release_users(spec))
     budget = spec.budget
     print(f"grid: task {spec.task}, preset {spec.preset}, H={budget.hidden}, "
-          f"schedule {budget.describe_schedule()}, seeds {list(budget.seeds)}, "
+          f"schedule {budget.describe_schedule()}, seeds {sorted({k.seed for k in keys})}, "
           f"data {spec.data_dir}", flush=True)
     if args.dry_run:
         for group in job_groups(keys, args.stack):              # in the order they run

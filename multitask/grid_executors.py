@@ -92,7 +92,7 @@ def run_grid(spec: GridSpec, keys: list[RunKey], out: Path, workers: int = 1,
     if not pending:
         return []
     payload = spec_payload(spec)
-    groups = job_groups(pending, stack)
+    groups = job_groups(pending, stack, grid=keys)
     progress = Progress(len(keys), len(keys) - len(pending), log,
                         {key: schedule_epochs(spec, key) for key in pending})
     if scheduler:

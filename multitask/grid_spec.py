@@ -12,9 +12,10 @@ directions), the LOUO folds, the seeds and a budget. Presets give the budget:
   of the whole pipeline; its progress heads have not converged.
 
 An experiment may name its own ``seeds`` (e.g. three for the configurations the paper's claims
-compare, one for the rest). Grids run every configuration's first seed before any second one,
-so a grid cut short still has complete single-seed tables, and within a seed the experiments in
-the order the spec lists them: list first what you need first (e.g. Table I).
+compare, one for the rest). Grids run every configuration's first seed first, in the order the
+spec lists them, so a grid cut short still has complete single-seed tables; then the further
+seeds configuration by configuration, in the same order, so each configuration's seeds complete
+as early as they can: list first what you need first (e.g. Table I).
 
 Every run has its own directory
 ``runs/<annotations>/<direction>/<variant>-<weighting>/seed<k>/<user>``
@@ -179,15 +180,34 @@ def stack_groups(keys: list[RunKey], size: int) -> list[list[RunKey]]:
     and seed), in order; ``size`` 1 = every run alone."""
     by_config: dict[tuple, list[RunKey]] = {}
     for key in keys:
-        by_config.setdefault((key.annotations, key.direction, key.config_name), []).append(key)
+        by_config.setdefault(_configuration(key), []).append(key)
     return [runs[i:i + size] for runs in by_config.values() for i in range(0, len(runs), size)]
 
 
-def job_groups(keys: list[RunKey], size: int) -> list[list[RunKey]]:
-    """``stack_groups`` in the order a grid runs them: every configuration's first seed before
-    any second one, so a grid cut short still has complete single-seed tables (configurations
-    keep the spec's order within a seed)."""
-    return sorted(stack_groups(keys, size), key=lambda group: min(k.seed for k in group))
+def job_groups(keys: list[RunKey], size: int,
+               grid: list[RunKey] | None = None) -> list[list[RunKey]]:
+    """``stack_groups`` in the order a grid runs them: first every configuration's first seed, in
+    the spec's order, so a grid cut short still has complete single-seed tables; then the further
+    seeds configuration by configuration, so each configuration's seeds (and the comparisons
+    between them) complete as early as they can.
+
+    Args:
+        keys: the runs to group, e.g. a resumed grid's unfinished ones (``expand``'s order).
+        size: runs per group (``stack_groups``).
+        grid: the whole grid's runs, which define each configuration's first seed; default
+            ``keys``.
+    """
+    first_seed: dict[tuple, int] = {}
+    for key in grid if grid is not None else keys:
+        config = _configuration(key)
+        first_seed[config] = min(key.seed, first_seed.get(config, key.seed))
+    return sorted(stack_groups(keys, size),
+                  key=lambda group: all(k.seed != first_seed[_configuration(k)] for k in group))
+
+
+def _configuration(key: RunKey) -> tuple[str, str, str]:
+    """What the runs of one configuration share: annotations, direction and model."""
+    return key.annotations, key.direction, key.config_name
 
 
 def spec_payload(spec: GridSpec) -> dict:

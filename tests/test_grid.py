@@ -292,7 +292,7 @@ def test_tables_carry_rounded_and_raw_mae():
     assert pd.isna(table.loc["progress_mae_raw", "right_mean"])       # the paper has no raw MAE
 
 
-def test_experiments_may_name_their_own_seeds_and_first_seeds_run_first_in_spec_order(tmp_path):
+def test_experiments_may_name_their_own_seeds_first_seeds_run_first_then_by_configuration(tmp_path):
     spec = GridSpec(seeds=(0,), experiments=(
         Experiment(("A", "APc"), annotations=("revised",), seeds=(0, 1, 2)),
         Experiment(("A",), annotations=("original",))))
@@ -307,10 +307,13 @@ def test_experiments_may_name_their_own_seeds_and_first_seeds_run_first_in_spec_
     with pytest.raises(ValueError, match="experiments.seeds"):
         Experiment(("A",), seeds=(0, 0))
     groups = job_groups(keys, 2)
-    order = [min(k.seed for k in group) for group in groups]
-    assert order == sorted(order) and order[0] == 0
-    first_seed = [(k.annotations, k.variant) for g in groups for k in g if k.seed == 0]
-    assert first_seed == [("revised", "A")] * 2 + [("revised", "APc")] * 2 + [("original", "A")] * 2
+    configs = [(g[0].annotations, g[0].variant, g[0].seed) for g in groups]
+    assert configs == [("revised", "A", 0), ("revised", "APc", 0), ("original", "A", 0),
+                       ("revised", "A", 1), ("revised", "A", 2),
+                       ("revised", "APc", 1), ("revised", "APc", 2)]
+    # resumed after the first seeds finished: still configuration by configuration
+    pending = [k for k in keys if k.seed > 0]
+    assert job_groups(pending, 2, grid=keys) == groups[3:]
 
 
 def test_tables_mark_configurations_with_unconverged_runs():
