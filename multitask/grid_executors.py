@@ -64,6 +64,10 @@ class Progress:
         self.log(f"[grid] {self.done}/{self.total} done, ETA {eta} | {key.path()} {status}")
 
 
+#: Jobs a local worker process runs before a fresh one replaces it.
+JOBS_PER_WORKER = 16
+
+
 def run_grid(spec: GridSpec, keys: list[RunKey], out: Path, workers: int = 1,
              scheduler: str | None = None, cores_per_job: int = 0, stack: int = 1,
              log: Log = print) -> list[tuple[RunKey, str]]:
@@ -109,9 +113,12 @@ def _job_args(payload: dict, group: list[RunKey], out: Path, cores: int) -> tupl
 
 def _run_local(payload: dict, groups: list[list[RunKey]], out: Path, workers: int, cores: int,
                progress: Progress) -> None:
-    """A pool of fresh processes (one per job, so no TensorFlow state carries over)."""
+    """A pool of worker processes, each running job after job: TensorFlow starts once per
+    worker and compiled loops are reused, while a job's results do not depend on the jobs before
+    it in its process (tested). A worker is replaced after ``JOBS_PER_WORKER`` jobs, so whatever
+    TensorFlow keeps from one job to the next stays bounded."""
     pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
-                               max_tasks_per_child=1, initializer=_init_worker,
+                               max_tasks_per_child=JOBS_PER_WORKER, initializer=_init_worker,
                                initargs=(os.getpid(),))
     try:
         futures = {pool.submit(run_job, *_job_args(payload, group, out, cores)): group

@@ -176,6 +176,14 @@ def test_killed_grid_resumes_without_redoing_finished_runs(tmp_path, tiny_spec):
     assert all(p.stat().st_mtime_ns == t for p, t in finished.items())
 
 
+def test_a_run_does_not_depend_on_the_jobs_before_it_in_its_worker(tmp_path, tiny_spec,
+                                                                    tiny_grid):
+    """One worker runs all four runs in turn; two workers split them: the same numbers."""
+    assert grid_main(["--spec", str(tiny_spec), "--out", str(tmp_path), "--workers", "1",
+                      "--threads", "1"]) == 0
+    assert _metrics(tmp_path) == _metrics(tiny_grid)
+
+
 def test_dask_cluster_gives_the_local_pool_metrics(tmp_path, tiny_spec, tiny_grid):
     distributed = pytest.importorskip("dask.distributed")
     spec = load_spec(tiny_spec)
