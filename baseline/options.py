@@ -15,7 +15,7 @@ from jigsaws_tools.dataset import DataConfig
 from jigsaws_tools.features import FEATURE_SETS
 from jigsaws_tools.options import add_data_arguments, data_dir_from_args
 from jigsaws_tools.task_options import task_from_options
-from rnn_seg.config import (KEEP_CHECKPOINTS, PLOT_POINTS, PRECISIONS, PREDICTION_MODES,
+from rnn_seg.config import (KEEP_CHECKPOINTS, LOOPS, PLOT_POINTS, PRECISIONS, PREDICTION_MODES,
                             RESET_MODES, EncoderConfig, OptimConfig, TrainConfig,
                             check_eval_points, require_native_precision)
 
@@ -54,6 +54,10 @@ def add_run_arguments(parser: argparse.ArgumentParser, optim: OptimConfig,
     model.add_argument("--precision", choices=PRECISIONS, default=encoder.precision,
                        help="of the LSTM's matrix products: bf16 needs a CPU with native "
                             "bfloat16 (docs/PERFORMANCE.md)")
+    model.add_argument("--loops", choices=LOOPS, default=encoder.loops,
+                       help="how the LSTM's loops over time run: TensorFlow ops step by step, or "
+                            "compiled by XLA (faster, same results to float32 rounding; "
+                            "docs/PERFORMANCE.md)")
     opt = parser.add_argument_group("optimisation")
     length = opt.add_mutually_exclusive_group()
     length.add_argument("--epochs", type=positive_int, metavar="N",
@@ -152,7 +156,8 @@ def run_config_from_args(args: argparse.Namespace, optim: OptimConfig,
     encoder = EncoderConfig(hidden=args.hidden, layers=args.layers,
                             bidirectional=args.direction == "bidirectional",
                             keep_prob=args.keep_prob, init_scale=args.init_scale,
-                            reset_mode=args.reset_mode, precision=args.precision)
+                            reset_mode=args.reset_mode, precision=args.precision,
+                            loops=args.loops)
     optim = OptimConfig(learning_rate=args.lr, momentum=args.momentum, clip_norm=args.clip_norm,
                         unit=unit, total=total, decay_start=decay_start,
                         decay_every=args.decay_every, decay_factor=args.decay_factor)

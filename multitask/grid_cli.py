@@ -21,7 +21,7 @@ from jigsaws_tools.arg_types import positive_int
 from jigsaws_tools.cli_common import (command_parser, deprecated_alias, import_tensorflow,
                                       run_command)
 from jigsaws_tools.options import DEFAULT_DATA_DIR_TEXT
-from rnn_seg.config import require_native_precision
+from rnn_seg.config import LOOPS, require_native_precision
 from rnn_seg.provenance import set_command
 
 from .grid_spec import (DEFAULT_PRESET, PRESETS, GridSpec, expand, job_groups, load_spec,
@@ -41,6 +41,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--data-dir", metavar="DIR",
                         help="override the spec's data_dir: a release folder or 'synthetic' "
                              f"(default: the spec's, else {DEFAULT_DATA_DIR_TEXT})")
+    parser.add_argument("--loops", choices=LOOPS,
+                        help="override the spec's loops: how the LSTM's loops over time run "
+                             "(xla: compiled, faster, same results to float32 rounding; a grid "
+                             "may resume with either; default: the spec's, else graph)")
     parser.add_argument("--out", type=Path, required=True, metavar="DIR",
                         help="grid folder (shared by every worker on Dask)")
     parser.add_argument("--workers", type=positive_int, default=1, metavar="N",
@@ -81,7 +85,7 @@ def _run(args: argparse.Namespace) -> int:
     from .grid_record import prepare_grid
 
     spec = load_spec(args.spec) if args.spec else GridSpec()
-    spec = with_overrides(spec, preset=args.preset, data_dir=args.data_dir)
+    spec = with_overrides(spec, preset=args.preset, data_dir=args.data_dir, loops=args.loops)
     spec = with_budget(spec.with_absolute_paths())              # as recorded, one path
     if not args.scheduler:                       # a cluster's workers have their own CPUs
         require_native_precision(spec.precision)

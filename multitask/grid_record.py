@@ -3,11 +3,12 @@
 ``grid.json`` holds the spec (budget, data, folds, seeds, experiments), the path of every run and
 the provenance of the launch that wrote it. It is written once and never rewritten with another
 spec: launching a spec whose values or runs differ stops before any work, naming each difference,
-unless the launch restarts (``--restart``); the data's folder may change (``LOCATION_KEYS``), and
-so may the order of the spec's experiments and of the recorded runs (the order they run in, not
-what they are). Run paths do not encode the budget; the record does, and every run's config.json
-records that run's settings (``rnn_seg.settings``): a spec with another width or length never
-finds runs "already finished".
+unless the launch restarts (``--restart``); the data's folder may change (``LOCATION_KEYS``), so
+may how the runs compute (``EXECUTION_KEYS``: the LSTM's loops), and so may the order of the
+spec's experiments and of the recorded runs (the order they run in, not what they are). Run paths
+do not encode the budget; the record does, and every run's config.json records that run's
+settings (``rnn_seg.settings``): a spec with another width or length never finds runs "already
+finished".
 
 ``multitask-tables`` reads the record's run list to tell missing runs and stray folders; the
 record's file name and reader are ``grid_folder``'s, which imports no TensorFlow.
@@ -31,6 +32,8 @@ SHOWN = 5           # mismatching runs named in full in an error
 #: Spec keys saying where the data is, not what it holds: not compared with grid.json's, since
 #: every run folder's check compares the data fingerprint (a grid may resume on moved data).
 LOCATION_KEYS = ("data_dir",)
+#: Spec keys that say how the runs compute, not what: a grid may resume with other values.
+EXECUTION_KEYS = ("loops",)
 #: Spec keys added after grid.json was first written -> the value their absence meant.
 IMPLIED_BY_OLDER_RECORDS = {"schedule_factors": {}}
 
@@ -97,9 +100,11 @@ def _as_current(spec: dict) -> dict:
 
 
 def _canonical(spec: dict) -> dict:
-    """A grid.json spec less its ``LOCATION_KEYS``, its experiments in a fixed order: where the
-    data lies and the order the experiments run in are not what the grid's runs are."""
-    kept = {key: value for key, value in spec.items() if key not in LOCATION_KEYS}
+    """A grid.json spec less its ``LOCATION_KEYS`` and ``EXECUTION_KEYS``, its experiments in a
+    fixed order: where the data lies, how the runs compute and the order the experiments run in
+    are not what the grid's runs are."""
+    kept = {key: value for key, value in spec.items()
+            if key not in LOCATION_KEYS + EXECUTION_KEYS}
     if isinstance(kept.get("experiments"), list):
         kept["experiments"] = sorted(kept["experiments"],
                                      key=lambda experiment: json.dumps(experiment, sort_keys=True))

@@ -34,6 +34,7 @@ Example spec (every key optional)::
     epochs = 10                   # length of the gesture variants' schedule; P scaled alike
     schedule_factors = {APoc = 1.5}   # per variant, a longer schedule still; {} = none
     precision = "fp32"            # or "bf16": the LSTM's matrix products in bfloat16
+    loops = "graph"               # or "xla": the LSTM's loops compiled (faster; not a setting)
     ordinal_loss = "sum"          # the ordered progress head's loss: "sum" (paper) or "mean"
     relative_rate = "chen"        # GradNorm's r_i: "chen" (ratio mean) or "paper" (loss mean)
 
@@ -61,7 +62,7 @@ from jigsaws_tools.dataset import DataConfig, default_cache_dir, default_data_di
 from jigsaws_tools.release import discover
 from jigsaws_tools.synth import SynthConfig, ensure_release
 from jigsaws_tools.task_definition import PAPER_TASK, TaskDefinition, load_task
-from rnn_seg.config import PRECISIONS, EncoderConfig, TrainConfig
+from rnn_seg.config import LOOPS, PRECISIONS, EncoderConfig, TrainConfig
 from rnn_seg.validation import require_choice, require_number
 
 from .config import ORDINAL_LOSSES, RELATIVE_RATES, WEIGHTINGS, GradNormConfig, HeadConfig
@@ -151,7 +152,7 @@ def run_config(spec: GridSpec, key: RunKey) -> RunConfig:
                         task=spec.task_definition()),
         test_user=key.fold,
         encoder=EncoderConfig(hidden=budget.hidden, bidirectional=key.direction == "bidirectional",
-                              precision=spec.precision),
+                              precision=spec.precision, loops=spec.loops),
         optim=optim,
         train=TrainConfig(seed=key.seed, eval_points=points))
 
@@ -314,6 +315,7 @@ class GridSpec:
     epochs: int | None = None
     schedule_factors: dict[str, float] | None = None    # None = the preset's
     precision: str = EncoderConfig.precision
+    loops: str = EncoderConfig.loops
     ordinal_loss: str = HeadConfig.ordinal_loss
     relative_rate: str = GradNormConfig.relative_rate
     experiments: tuple[Experiment, ...] = PAPER_EXPERIMENTS
@@ -321,6 +323,7 @@ class GridSpec:
     def __post_init__(self):
         require_choice("preset", self.preset, PRESETS)
         require_choice("precision", self.precision, PRECISIONS)
+        require_choice("loops", self.loops, LOOPS)
         require_choice("ordinal_loss", self.ordinal_loss, ORDINAL_LOSSES)
         require_choice("relative_rate", self.relative_rate, RELATIVE_RATES)
         if not isinstance(self.task, str):

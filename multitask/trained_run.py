@@ -203,12 +203,14 @@ def training_normalisation(config: RunConfig, data_dir: Path | str | None = None
 def load_run(path: Path | str, checkpoint: int | None = None) -> TrainedRun:
     """Load a run folder with the weights of its latest checkpoint (normally the final one) or of
     the checkpoint saved after sweep ``checkpoint`` (``rnn_seg.checkpoints.restore_weights``;
-    a ``RunFolderError`` names what is missing or does not fit)."""
+    a ``RunFolderError`` names what is missing or does not fit). The model runs the TensorFlow-op
+    loops whatever loops it trained with (``EncoderConfig.loops``): the same numbers to float32
+    rounding, no compilation per recording length, and an export that needs no XLA."""
     run_dir = Path(path)
     config, saved = read_run_config(run_dir)
     variant, tasks = run_tasks(saved, config, str(run_dir / CONFIG_FILE))
-    model = SegmentationModel(len(feature_columns(config.data.feature_set)), config.encoder,
-                              tasks, config.train.seed)
+    model = SegmentationModel(len(feature_columns(config.data.feature_set)),
+                              replace(config.encoder, loops="graph"), tasks, config.train.seed)
     sweep = restore_weights(model, run_dir, sweep=checkpoint)
     run = TrainedRun(run_dir, config, variant, tuple(tasks), model, sweep)
     if not run.finished:

@@ -17,11 +17,17 @@ ResetMode = Literal["original", "corrected"]
 RESET_MODES = ("original", "corrected")
 Precision = Literal["fp32", "bf16"]
 PRECISIONS = ("fp32", "bf16")
+Loops = Literal["graph", "xla"]
+LOOPS = ("graph", "xla")
 
 
 @dataclass(frozen=True)
 class EncoderConfig:
-    """Shape of the recurrent encoder."""
+    """Shape of the recurrent encoder, and how its recurrent loops run."""
+
+    #: How the loops run, not what they compute (``rnn_seg.lstm``'s docstring): left out of the
+    #: settings a run folder is checked against (``rnn_seg.settings``), like the thread plan.
+    output_fields: ClassVar[tuple[str, ...]] = ("loops",)
 
     hidden: int = 1024
     layers: int = 1
@@ -30,6 +36,7 @@ class EncoderConfig:
     init_scale: float = 0.1
     reset_mode: ResetMode = "original"
     precision: Precision = "fp32"   # of the LSTM's matrix products (rnn_seg.lstm's docstring)
+    loops: Loops = "graph"          # TensorFlow ops step by step, or one XLA kernel per loop
 
     def __post_init__(self):
         require_number("EncoderConfig.hidden", self.hidden, integer=True, low=1)
@@ -39,6 +46,7 @@ class EncoderConfig:
         require_number("EncoderConfig.init_scale", self.init_scale, low=0, open_low=True)
         require_choice("EncoderConfig.reset_mode", self.reset_mode, RESET_MODES)
         require_choice("EncoderConfig.precision", self.precision, PRECISIONS)
+        require_choice("EncoderConfig.loops", self.loops, LOOPS)
 
     @property
     def output_size(self) -> int:

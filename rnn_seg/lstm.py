@@ -24,6 +24,14 @@ gradients ``dW_x``, ``dW_h``) on bfloat16 operands; oneDNN accumulates each prod
 and rounds its result to bfloat16, which is widened to float32 at once. Weights, cell state,
 nonlinearities, peepholes, losses, clipping and updates stay float32. It needs a CPU with native
 bfloat16 arithmetic (AVX512_BF16 or AMX; ``require_native_precision``).
+
+Loops: ``graph`` runs the forward and backward loops over time as TensorFlow ops, step by step.
+``xla`` compiles each loop (with the backward pass's per-step factors) into one XLA kernel: the
+same equations, so results agree with ``graph`` to float32 rounding (tested), while a step no
+longer pays TensorFlow's per-op dispatch, which is most of a step's cost in a small model
+(docs/PERFORMANCE.md). XLA compiles a kernel per input shape, so a sequence's steps are padded
+to a bucket (two per octave) and the loop stops at the last real step; each bucket compiles once
+per process.
 """
 from __future__ import annotations
 
@@ -31,8 +39,8 @@ from typing import Callable, NamedTuple
 
 import tensorflow as tf
 
-from .config import (PRECISIONS, RESET_MODES, EncoderConfig, Precision,  # noqa: F401 (re-exported)
-                     ResetMode, native_bf16, require_native_precision)
+from .config import (LOOPS, PRECISIONS, RESET_MODES, EncoderConfig,  # noqa: F401 (re-exported)
+                     Loops, Precision, ResetMode, native_bf16, require_native_precision)
 
 _DTYPES = {"fp32": tf.float32, "bf16": tf.bfloat16}
 
@@ -105,7 +113,7 @@ def recurrent_products(W_h: tf.Tensor, dtype: tf.DType = tf.float32) -> Recurren
 
 
 def lstm_scan(x_proj: tf.Tensor, resets: tf.Tensor, W_h: tf.Variable, peep: tf.Variable,
-              precision: Precision = "fp32") -> tf.Tensor:
+              precision: Precision = "fp32", loops: Loops = "graph") -> tf.Tensor:
     """Run the cell over time, with a hand-written backward pass through time.
 
     Args:
@@ -114,15 +122,16 @@ def lstm_scan(x_proj: tf.Tensor, resets: tf.Tensor, W_h: tf.Variable, peep: tf.V
         W_h: ``[H, 4H]`` recurrent weights.
         peep: ``[3, H]`` peepholes (rows w_ic, w_fc, w_oc).
         precision: of the recurrent products and ``dW_h`` (module docstring).
+        loops: how the loops over time run (module docstring).
 
     Returns:
         ``[T, B, H]`` hidden outputs h_t.
     """
-    return _BPTT[precision](x_proj, 1.0 - resets, tf.convert_to_tensor(W_h),
-                            tf.convert_to_tensor(peep))
+    return _BPTT[precision, loops](x_proj, 1.0 - resets, tf.convert_to_tensor(W_h),
+                                   tf.convert_to_tensor(peep))
 
 
-def _bptt_in(dtype: tf.DType):
+def _bptt_in(dtype: tf.DType, loops: Loops):
     """``lstm_scan`` on plain tensors (``keep = 1 - resets``) with products in ``dtype``.
 
     The forward loop keeps every step's gate activations. Before the backward loop, every factor
@@ -132,18 +141,25 @@ def _bptt_in(dtype: tf.DType):
     hand-written gradient: ``tests/lstm_reference.py`` (a NumPy cell and a step-by-step
     TensorFlow cell differentiated by autodiff) and ``tests/test_lstm.py``.
     """
+    forward_loop, backward_loop = _LOOP_FUNCTIONS[loops]
+
     @tf.custom_gradient
     def bptt(x_proj, keep, W_h, peep):
         """``lstm_scan`` and its gradient; arguments as ``lstm_scan``'s, ``keep = 1 - resets``."""
-        products = recurrent_products(W_h, dtype)        # once per call, not per step
-        state = _forward(x_proj, keep, products.forward, peep)       # h, c, g, i, f, o [T, B, H]
+        steps = tf.shape(x_proj)[0]
+        pad = _padding(steps) if loops == "xla" else (lambda x: x)
+        # the loops are differentiated by hand (grad), so no tape records them: an XLA kernel
+        # cannot hand its loop's intermediate lists to one
+        x_proj, keep, W_h, peep = (tf.stop_gradient(v) for v in (x_proj, keep, W_h, peep))
+        keep_in = pad(keep)
+        state = forward_loop(pad(x_proj), keep_in, W_h, peep, steps, dtype)
+        h, c = state[0][:steps], state[1][:steps]                 # [T, B, H]
 
         def grad(dh_out):
-            h, c = state[0], state[1]
             hidden = tf.shape(W_h)[0]
+            dz = backward_loop(pad(dh_out), keep_in, state, W_h, peep, steps,
+                               dtype)[:steps]                                 # [T, B, 4H]
             h_prev, c_prev = keep * _shift(h), keep * _shift(c)      # state entering each step
-            factors = _backward_factors(state, c_prev, keep, peep)
-            dz = _backward(dh_out, keep, factors, products.backward)            # [T, B, 4H]
             dW_h = product(tf.reshape(h_prev, [-1, hidden]), tf.reshape(dz, [-1, 4 * hidden]),
                            dtype, transpose_a=True)
             _, dz_i, dz_f, dz_o = tf.split(dz, 4, axis=2)
@@ -152,11 +168,46 @@ def _bptt_in(dtype: tf.DType):
                               tf.reduce_sum(dz_o * c, [0, 1])])
             return dz, None, dW_h, dpeep
 
-        return state[0], grad
+        return h, grad
     return bptt
 
 
-_BPTT = {precision: _bptt_in(dtype) for precision, dtype in _DTYPES.items()}
+def _forward_loop(x_proj, keep, W_h, peep, steps, dtype):
+    """``_forward`` with ``W_h``'s products in ``dtype``: ``(h, c, g, i, f, o)`` ``[size, B, H]``
+    for inputs padded to ``size`` >= ``steps`` time steps (zeros after ``steps``)."""
+    return _forward(x_proj, keep, recurrent_products(W_h, dtype).forward, peep, steps)
+
+
+def _backward_loop(dh_out, keep, state, W_h, peep, steps, dtype):
+    """``dz`` ``[size, B, 4H]`` (zeros after ``steps``): the backward factors of the forward
+    loop's ``state`` and ``_backward``, with ``W_h``'s products in ``dtype``."""
+    c_prev = keep * _shift(state[1])                     # cell state entering each step
+    factors = _backward_factors(state, c_prev, keep, peep)
+    return _backward(dh_out, keep, factors, recurrent_products(W_h, dtype).backward, steps)
+
+
+_LOOP_FUNCTIONS = {
+    "graph": (_forward_loop, _backward_loop),
+    "xla": (tf.function(_forward_loop, jit_compile=True),
+            tf.function(_backward_loop, jit_compile=True))}
+_BPTT = {(precision, loops): _bptt_in(dtype, loops)
+         for precision, dtype in _DTYPES.items() for loops in LOOPS}
+
+
+def _padding(steps: tf.Tensor) -> Callable[[tf.Tensor], tf.Tensor]:
+    """Time-major ``[steps, ...]`` -> zeros appended up to the steps XLA's loops are compiled
+    for: ``steps`` rounded up to a multiple of half its power of two (at least 16), e.g.
+    600 -> 768, 900 -> 1024, 1100 -> 1536; two sizes per octave, so a run compiles few kernels
+    and pads at most a third."""
+    octave = tf.math.floor(tf.experimental.numpy.log2(tf.cast(steps, tf.float64)) + 1e-9)
+    quantum = tf.cast(tf.pow(tf.constant(2.0, tf.float64), tf.maximum(octave - 1.0, 4.0)),
+                      tf.int32)
+    size = (steps + quantum - 1) // quantum * quantum
+
+    def pad(x: tf.Tensor) -> tf.Tensor:
+        return tf.pad(x, tf.concat([[[0, size - steps]], tf.zeros([x.shape.rank - 1, 2], tf.int32)],
+                                   axis=0))
+    return pad
 
 
 def _shift(x: tf.Tensor) -> tf.Tensor:
@@ -192,10 +243,10 @@ def lstm_cell(z_x: tf.Tensor, c_prev: tf.Tensor, h_prev: tf.Tensor,
     return c, h, g, i, f, o
 
 
-def _forward(x_proj, keep, recurrent, peep):
-    """The cell over time; returns ``(h, c, g, i, f, o)``, each ``[T, B, H]`` float32.
+def _forward(x_proj, keep, recurrent, peep, steps):
+    """The cell over the first ``steps`` of ``x_proj`` ``[T, B, 4H]``; returns
+    ``(h, c, g, i, f, o)``, each ``[T, B, H]`` float32, zeros after ``steps``.
     ``recurrent`` is the step's product ``h W_h`` (``RecurrentProducts.forward``)."""
-    steps = tf.shape(x_proj)[0]
     hidden = tf.shape(peep)[1]
     peepholes = (peep[0], peep[1], peep[2])
 
@@ -206,9 +257,9 @@ def _forward(x_proj, keep, recurrent, peep):
         return t + 1, c, h, [r.write(t, v) for r, v in zip(records, (h, c, g, i, f, o))]
 
     zeros = tf.zeros(tf.stack([tf.shape(x_proj)[1], hidden]))
-    records = [tf.TensorArray(tf.float32, size=steps) for _ in range(6)]
+    records = [tf.TensorArray(tf.float32, size=tf.shape(x_proj)[0]) for _ in range(6)]
     *_, records = tf.while_loop(lambda t, *_: t < steps, body, (0, zeros, zeros, records),
-                                parallel_iterations=1)
+                                parallel_iterations=1, maximum_iterations=tf.shape(x_proj)[0])
     return [r.stack() for r in records]
 
 
@@ -233,14 +284,15 @@ def _backward_factors(state, c_prev, keep, peep):
     return out_c, gates_dc, gates_dh, to_prev
 
 
-def _backward(dh_out, keep, factors, recurrent):
-    """Reverse loop over time; returns ``dz`` ``[T, B, 4H]``, the gradient of the gate inputs.
+def _backward(dh_out, keep, factors, recurrent, steps):
+    """Reverse loop over the first ``steps`` of ``[T, ...]`` inputs; returns ``dz``
+    ``[T, B, 4H]``, the gradient of the gate inputs (zeros after ``steps``).
 
     ``dh_out`` ``[T, B, H]`` is the gradient arriving at the outputs; the state passed back one
     step is ``dc * to_prev`` and ``keep * dz W_h^T`` (``recurrent``: the product ``dz W_h^T``,
     ``RecurrentProducts.backward``).
     """
-    steps, batch = tf.shape(dh_out)[0], tf.shape(dh_out)[1]
+    batch = tf.shape(dh_out)[1]
     out_c, gates_dc, gates_dh, to_prev = factors
 
     def body(t, dh_next, dc_next, records):
@@ -251,9 +303,9 @@ def _backward(dh_out, keep, factors, recurrent):
         return t - 1, keep[t] * recurrent(dz), dc * to_prev[t], records.write(t, dz)
 
     zeros = tf.zeros_like(dh_out[0])
-    records = tf.TensorArray(tf.float32, size=steps)
+    records = tf.TensorArray(tf.float32, size=tf.shape(dh_out)[0])
     *_, records = tf.while_loop(lambda t, *_: t >= 0, body, (steps - 1, zeros, zeros, records),
-                                parallel_iterations=1)
+                                parallel_iterations=1, maximum_iterations=tf.shape(dh_out)[0])
     return records.stack()
 
 
@@ -392,7 +444,8 @@ class RecurrentEncoder(tf.Module):
         dtype = _DTYPES[self.config.precision]
         x_proj = tf.cast(tf.tensordot(tf.cast(x, dtype), tf.cast(params.W_x, dtype), 1),
                          tf.float32) + params.b
-        return lstm_scan(x_proj, resets, params.W_h, params.peep, self.config.precision)
+        return lstm_scan(x_proj, resets, params.W_h, params.peep, self.config.precision,
+                         self.config.loops)
 
 
 def _flip(direction: str, x: tf.Tensor) -> tf.Tensor:

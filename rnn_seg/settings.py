@@ -5,8 +5,10 @@ values (``Trainer(configs=...)``: the run's ``RunConfig``, tasks, variant, weigh
 configuration, a fingerprint of the data ...). Its *settings* are the flat leaves of that record,
 ``{"run.encoder.hidden": 1024, "tasks": ["gesture"], ...}``, less the fields that a configuration
 dataclass names in its ``output_fields`` class attribute: what a run writes rather than what it
-computes (plots, log and checkpoint intervals, which checkpoints are kept ...), or where its input
-is rather than what it holds (the release's folder: the data fingerprint hashes its files). Their
+computes (plots, log and checkpoint intervals, which checkpoints are kept ...), how it computes
+rather than what (the LSTM's loops: the same equations, equal to float32 rounding, like the
+thread plan, which is no setting either), or where its input is rather than what it holds (the
+release's folder: the data fingerprint hashes its files). Their
 hash (``settings_hash``) is stored in config.json, in every checkpoint and in finished.json.
 
 Launching a run into a folder whose config.json records other settings stops before any work with

@@ -10,9 +10,9 @@ from tests.lstm_reference import bidirectional_forward, lstm_forward, tf_lstm_fo
 F, H = 3, 6
 
 
-def _encoder(mode, bidirectional=True, layers=1):
+def _encoder(mode, bidirectional=True, layers=1, loops="graph"):
     config = EncoderConfig(hidden=H, layers=layers, bidirectional=bidirectional, keep_prob=1.0,
-                           reset_mode=mode)
+                           reset_mode=mode, loops=loops)
     enc = RecurrentEncoder(F, config, tf.random.Generator.from_seed(3))
     for cells in enc.cells.values():     # non-zero biases so they are checked too
         for cell in cells:
@@ -127,6 +127,34 @@ def test_hand_written_backward_equals_autodiff(mode):
                               tape.gradient(slow, variables)):
         np.testing.assert_allclose(got.numpy(), want.numpy(), rtol=1e-4, atol=1e-6,
                                    err_msg=var.name)
+
+
+@pytest.mark.parametrize("mode", ["original", "corrected"])
+def test_compiled_loops_equal_the_op_loops(mode):
+    """XLA's loops (padded to a compiled size, stopped at the last real step) give a two-layer
+    BiLSTM's outputs and every gradient of the op-by-op loops, to float32 rounding."""
+    rng = np.random.default_rng(5)
+    lengths = (37, 16, 9)             # padded to 48; one a whole compiled size; wrapped copies
+    x = make_sweep([rng.normal(size=(n, F)).astype(np.float32) for n in lengths])
+    x, r = tf.constant(x), tf.constant(reset_flags(lengths, max(lengths)))
+    readout = tf.constant(rng.normal(size=(*x.shape[:2], 2 * H)), tf.float32)
+    results = {}
+    for loops in ("graph", "xla"):
+        enc = _encoder(mode, layers=2, loops=loops)
+        with tf.GradientTape() as tape:
+            y = enc(x, r, None)
+            loss = tf.reduce_sum(y * readout)
+        results[loops] = [y, *tape.gradient(loss, enc.trainable_variables)]
+    for got, want in zip(results["xla"], results["graph"]):
+        np.testing.assert_allclose(got.numpy(), want.numpy(), rtol=1e-5, atol=1e-6)
+
+
+def test_compiled_loop_sizes_are_two_per_octave():
+    from rnn_seg.lstm import _padding
+
+    sizes = {n: _padding(tf.constant(n))(tf.zeros([n, 1])).shape[0]
+             for n in (1, 9, 16, 37, 600, 768, 900, 1100)}
+    assert sizes == {1: 16, 9: 16, 16: 16, 37: 48, 600: 768, 768: 768, 900: 1024, 1100: 1536}
 
 
 def _variables(cell):

@@ -42,6 +42,23 @@ def test_a_lone_run_traces_each_graph_once(tmp_path):
     assert {"trace", "train", "monitor", "evaluate", "checkpoint"} <= set(timing)
 
 
+def test_compiled_loops_are_how_a_run_computes_not_what(tmp_path):
+    """A run folder and a grid accept either loops: same settings, same grid."""
+    from dataclasses import replace
+
+    from multitask.grid_record import _canonical
+    from multitask.grid_spec import GridSpec, spec_payload
+    from rnn_seg.settings import settings_hash
+
+    graph = {"encoder": EncoderConfig(hidden=8), "tasks": ["gesture"]}
+    xla = {**graph, "encoder": replace(graph["encoder"], loops="xla")}
+    assert settings_hash(graph) == settings_hash(xla)
+    spec = GridSpec(data_dir="synthetic")
+    assert (_canonical(spec_payload(spec))
+            == _canonical(spec_payload(replace(spec, loops="xla"))))
+    assert _canonical(spec_payload(spec)) != _canonical(spec_payload(replace(spec, hidden=8)))
+
+
 def test_a_stack_traces_its_step_once(tmp_path):
     members = [_trainer(tmp_path / f"m{s}", seed=s, monitor_every=1) for s in (0, 1)]
     stack = TrainerStack(members)
