@@ -9,7 +9,11 @@ the first layout (one fold alone on both cores), all measured in the same invoca
 * ``N folds, 1 worker x 2 cores, --stack N``: N folds in one vectorised step;
 * ``N folds, 2 workers x 1 core, --stack N/2``: both.
 
+With ``--grid-layout``, only the layout the grids use (8 folds, 2 workers x 1 core, no stack),
+once per ``--loops`` value: what the LSTM's compiled loops save end to end.
+
     python bench/fold_time.py [--repeats 3] [--variant APc] [--hidden 128] [--epochs 30] [--stack 8]
+    python bench/fold_time.py --grid-layout --loops graph xla
 """
 from __future__ import annotations
 
@@ -55,7 +59,7 @@ def run_parser(description: str) -> argparse.ArgumentParser:
     return parser
 
 
-def timed_grid(folds: list[str], workers: int, stack: int, args) -> float:
+def timed_grid(folds: list[str], workers: int, stack: int, args, loops: str = "graph") -> float:
     """Seconds for ``multitask-grid`` to finish ``folds`` with ``workers`` workers, from scratch."""
     with tempfile.TemporaryDirectory() as tmp:
         spec = Path(tmp) / "spec.toml"
@@ -64,24 +68,34 @@ def timed_grid(folds: list[str], workers: int, stack: int, args) -> float:
         start = time.perf_counter()
         subprocess.run([sys.executable, "-m", "multitask.grid_cli", "--spec", str(spec),
                         "--out", str(Path(tmp) / "out"), "--workers", str(workers),
-                        "--stack", str(stack)], check=True, capture_output=True)
+                        "--stack", str(stack), "--loops", loops], check=True,
+                       capture_output=True)
         return time.perf_counter() - start
 
 
 def main() -> None:
     parser = run_parser(__doc__)
     parser.add_argument("--stack", type=int, default=8, help="folds trained together (<= 8)")
+    parser.add_argument("--grid-layout", action="store_true",
+                        help="only 8 folds on 2 workers x 1 core, once per --loops value")
+    parser.add_argument("--loops", nargs="+", default=["graph"], choices=["graph", "xla"])
     args = parser.parse_args()
     n = args.stack
-    layouts = [(1, 1, 1), (2, 2, 1), (n, 1, n), (n, 2, n // 2)]      # folds, workers, stack
+    if args.grid_layout:                                    # folds, workers, stack, loops
+        layouts = [(len(FOLDS), 2, 1, loops) for loops in args.loops]
+    else:
+        layouts = [(1, 1, 1, args.loops[0]), (2, 2, 1, args.loops[0]), (n, 1, n, args.loops[0]),
+                   (n, 2, n // 2, args.loops[0])]
     print(f"quick preset folds: {args.variant}, H={args.hidden}, {args.epochs} epochs, data "
           f"{data_source()}; median of {args.repeats}, process start and data loading included")
     reference = None
-    for folds, workers, stack in layouts:
-        times = [timed_grid(FOLDS[:folds], workers, stack, args) for _ in range(args.repeats)]
+    for folds, workers, stack, loops in layouts:
+        times = [timed_grid(FOLDS[:folds], workers, stack, args, loops)
+                 for _ in range(args.repeats)]
         per_fold = statistics.median(times) / folds
         reference = reference or per_fold
-        print(f"{folds} fold(s), {workers} worker(s) x {2 // workers} core(s), stack {stack}: "
+        print(f"{folds} fold(s), {workers} worker(s) x {2 // workers} core(s), stack {stack}, "
+              f"{loops} loops: "
               f"median {statistics.median(times):6.1f} s (min {min(times):.1f}, max "
               f"{max(times):.1f}) -> {per_fold:5.1f} s per fold, throughput "
               f"{reference / per_fold:.2f}x", flush=True)

@@ -1,9 +1,9 @@
 """Time one training sweep (forward, backward, SGD update) of the bidirectional LSTM model.
 
-Compares ``rnn_seg``'s layer in float32 (``rnn_seg``) and with bfloat16 products
-(``rnn_seg_bf16``, when the CPU has native bfloat16) with a per-gate reference written like the
-original code, at paper size (H=1024, B=5, 14 inputs, T=800) and H=256, in the same run. Each
-(implementation, H) runs in its own process so its peak resident memory is its own; ``rnn_seg``
+Compares ``rnn_seg``'s layer in float32 (``rnn_seg``), with bfloat16 products (``rnn_seg_bf16``,
+when the CPU has native bfloat16) and with XLA-compiled loops (``rnn_seg_xla``) with a per-gate
+reference written like the original code, at paper size (H=1024, B=5, 14 inputs, T=800) and
+H=256, in the same run. Each (implementation, H) runs in its own process so its peak resident memory is its own; ``rnn_seg``
 uses its own thread plan (rnn_seg.threads), the reference TensorFlow's default (its fastest
 here). Also times the bare float32 recurrent product on this machine, which gives the float32
 floor: T steps x 2 directions x 3 products. Prints medians, ratios to the floor and the
@@ -28,7 +28,7 @@ os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "2")
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "bench")]
 F, K, B = 14, 10, 5
-IMPLEMENTATIONS = ("rnn_seg", "rnn_seg_bf16", "per_gate")
+IMPLEMENTATIONS = ("rnn_seg", "rnn_seg_bf16", "rnn_seg_xla", "per_gate")
 
 
 def _step_function(impl: str, hidden: int):
@@ -45,8 +45,9 @@ def _step_function(impl: str, hidden: int):
     dropout_rng = tf.random.Generator.from_seed(1)
     if impl.startswith("rnn_seg"):
         precision = "bf16" if impl.endswith("bf16") else "fp32"
-        model = SegmentationModel(F, EncoderConfig(hidden=hidden, precision=precision), [task],
-                                  seed=0)
+        loops = "xla" if impl.endswith("xla") else "graph"
+        model = SegmentationModel(F, EncoderConfig(hidden=hidden, precision=precision,
+                                                   loops=loops), [task], seed=0)
 
         def outputs(x, r):
             return model(x, r, tf.transpose(dropout_rng.make_seeds(model.dropout_calls)))["gesture"]
@@ -173,6 +174,9 @@ def main() -> None:
         if {"rnn_seg", "rnn_seg_bf16"} <= set(medians):
             print(f"H={hidden:5d} speed-up bf16 vs fp32: "
                   f"{medians['rnn_seg'] / medians['rnn_seg_bf16']:.2f}x")
+        if {"rnn_seg", "rnn_seg_xla"} <= set(medians):
+            print(f"H={hidden:5d} speed-up xla loops vs graph: "
+                  f"{medians['rnn_seg'] / medians['rnn_seg_xla']:.2f}x")
 
 
 def _native_bf16() -> bool:

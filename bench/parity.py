@@ -9,8 +9,8 @@ forward (online) A and APc, whose runs ``multitask-evaluate --stream`` scores fo
 streaming. Prints, per model and gesture metric, both means over folds, the mean paired
 difference (option - reference) and the two-sided Wilcoxon signed-rank p-value over folds.
 
-    python bench/parity.py --compare bf16 --out runs/bf16_parity [--workers 2]
-    python bench/parity.py --compare xla --out runs/bf16_parity
+    python bench/parity.py --compare bf16 --out runs/parity [--workers 2]
+    python bench/parity.py --compare xla --out runs/parity
 """
 from __future__ import annotations
 
@@ -60,7 +60,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--compare", choices=[o for o in OPTIONS if o != "fp32"], default="bf16")
-    parser.add_argument("--out", type=Path, default=Path("runs/bf16_parity"))
+    parser.add_argument("--out", type=Path, default=Path("runs/parity"))
     parser.add_argument("--workers", type=int, default=2)
     args = parser.parse_args()
     ref, new = "fp32", args.compare

@@ -1,0 +1,84 @@
+"""Per-step cost of the LSTM's loops over time: TensorFlow ops step by step against XLA.
+
+Times, on one core, one direction's forward loop (``h W_h`` and the cell, recording every
+step's activations) and backward loop (the per-step factors, then ``dz W_h^T`` and the chain
+rule step by step), each as ``graph`` (TensorFlow ops, as ``--loops graph`` runs them) and
+``xla`` (one compiled kernel, as ``--loops xla``), plus a loop of the bare product ``h W_h``
+alone: what a step would cost without the cell's other ops. B=5, T=900 (a sweep of the real
+data), float32; median of 7 calls after a warm-up (that compiles). Prints microseconds per step
+and the speed-up of XLA.
+
+    python bench/loop_cost.py [--hidden 128 256 512 1024] [--steps 900]
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import time
+
+B = 5
+
+
+def per_step(function, steps: int, repeats: int = 7) -> float:
+    """Microseconds per step of ``function()``: median of ``repeats`` calls after a warm-up."""
+    import tensorflow as tf
+
+    tf.nest.flatten(function())[0].numpy()
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        tf.nest.flatten(function())[0].numpy()
+        times.append(time.perf_counter() - start)
+    return statistics.median(times) / steps * 1e6
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--hidden", type=int, nargs="+", default=[128, 256, 512, 1024])
+    parser.add_argument("--steps", type=int, default=900)
+    args = parser.parse_args()
+    os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "3")
+    import numpy as np
+    import tensorflow as tf
+
+    from rnn_seg import lstm
+
+    tf.config.threading.set_intra_op_parallelism_threads(1)
+    tf.config.threading.set_inter_op_parallelism_threads(1)
+    T = args.steps
+    print(f"one direction, B={B}, T={T}, float32, one core; us per step")
+    print(f"{'H':>5s} {'bare product':>12s} {'forward graph':>13s} {'xla':>6s} {'speed-up':>8s} "
+          f"{'backward graph':>14s} {'xla':>6s} {'speed-up':>8s}")
+    rng = np.random.default_rng(0)
+    for H in args.hidden:
+        x_proj = tf.constant(rng.normal(size=(T, B, 4 * H)).astype(np.float32))
+        keep = tf.ones([T, B, 1])
+        W_h = tf.constant((rng.normal(size=(H, 4 * H)) * 0.1).astype(np.float32))
+        peep = tf.constant((rng.normal(size=(3, H)) * 0.1).astype(np.float32))
+        dh_out = tf.constant(rng.normal(size=(T, B, H)).astype(np.float32))
+        state = lstm._forward_loop(x_proj, keep, W_h, peep, T, tf.float32)
+
+        @tf.function
+        def bare():
+            return tf.while_loop(lambda t, h: t < T,
+                                 lambda t, h: (t + 1, tf.matmul(h, W_h)[:, :H]),
+                                 (0, dh_out[0]), parallel_iterations=1)[1]
+
+        costs = {"bare": per_step(bare, T)}
+        for loops, (forward, backward) in lstm._LOOP_FUNCTIONS.items():
+            forward = tf.function(forward) if loops == "graph" else forward
+            backward = tf.function(backward) if loops == "graph" else backward
+            costs["forward", loops] = per_step(
+                lambda f=forward: f(x_proj, keep, W_h, peep, T, tf.float32), T)
+            costs["backward", loops] = per_step(
+                lambda b=backward: b(dh_out, keep, state, W_h, peep, T, tf.float32), T)
+        fw = costs["forward", "graph"], costs["forward", "xla"]
+        bw = costs["backward", "graph"], costs["backward", "xla"]
+        print(f"{H:5d} {costs['bare']:12.1f} {fw[0]:13.1f} {fw[1]:6.1f} {fw[0] / fw[1]:7.2f}x "
+              f"{bw[0]:14.1f} {bw[1]:6.1f} {bw[0] / bw[1]:7.2f}x", flush=True)
+
+
+if __name__ == "__main__":
+    main()
