@@ -29,6 +29,7 @@ from typing import Callable
 
 from rnn_seg.provenance import command
 from rnn_seg.rundir import is_finished
+from rnn_seg.threads import thread_plan
 
 from .grid_job import run_job
 from .grid_spec import GridSpec, RunKey, job_groups, schedule_epochs, spec_payload
@@ -64,7 +65,8 @@ class Progress:
         self.log(f"[grid] {self.done}/{self.total} done, ETA {eta} | {key.path()} {status}")
 
 
-#: Jobs a local worker process runs before a fresh one replaces it.
+#: Jobs a local worker process runs before a fresh one replaces it (when every job of the grid
+#: has the same thread plan; else one).
 JOBS_PER_WORKER = 16
 
 
@@ -103,8 +105,18 @@ def run_grid(spec: GridSpec, keys: list[RunKey], out: Path, workers: int = 1,
         _run_dask(payload, groups, out, scheduler, cores_per_job or 1, progress)
     else:
         cores = cores_per_job or max(1, (os.cpu_count() or 1) // workers)
-        _run_local(payload, groups, out, workers, cores, progress)
+        _run_local(payload, groups, out, workers, cores, progress,
+                   jobs_per_worker(spec, groups, cores))
     return progress.failed
+
+
+def jobs_per_worker(spec: GridSpec, groups: list[list[RunKey]], cores: int) -> int:
+    """``JOBS_PER_WORKER`` if every job of ``groups`` has the same thread plan on ``cores``
+    cores, else 1: TensorFlow fixes a process's thread pools at its first job."""
+    plans = {thread_plan(cores, spec.budget.hidden, spec.precision,
+                         bidirectional=group[0].direction == "bidirectional")
+             for group in groups}
+    return JOBS_PER_WORKER if len(plans) == 1 else 1
 
 
 def _job_args(payload: dict, group: list[RunKey], out: Path, cores: int) -> tuple:
@@ -112,13 +124,13 @@ def _job_args(payload: dict, group: list[RunKey], out: Path, cores: int) -> tupl
 
 
 def _run_local(payload: dict, groups: list[list[RunKey]], out: Path, workers: int, cores: int,
-               progress: Progress) -> None:
-    """A pool of worker processes, each running job after job: TensorFlow starts once per
-    worker and compiled loops are reused, while a job's results do not depend on the jobs before
-    it in its process (tested). A worker is replaced after ``JOBS_PER_WORKER`` jobs, so whatever
-    TensorFlow keeps from one job to the next stays bounded."""
+               progress: Progress, jobs_per_worker: int) -> None:
+    """A pool of worker processes, each running up to ``jobs_per_worker`` jobs in turn before a
+    fresh one replaces it: TensorFlow starts once per worker and compiled loops are reused, while
+    a job's results do not depend on the jobs before it in its process (tested), and whatever
+    TensorFlow keeps from one job to the next stays bounded (``jobs_per_worker``)."""
     pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
-                               max_tasks_per_child=JOBS_PER_WORKER, initializer=_init_worker,
+                               max_tasks_per_child=jobs_per_worker, initializer=_init_worker,
                                initargs=(os.getpid(),))
     try:
         futures = {pool.submit(run_job, *_job_args(payload, group, out, cores)): group

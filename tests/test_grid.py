@@ -7,6 +7,7 @@ import signal
 import subprocess
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -182,6 +183,18 @@ def test_a_run_does_not_depend_on_the_jobs_before_it_in_its_worker(tmp_path, tin
     assert grid_main(["--spec", str(tiny_spec), "--out", str(tmp_path), "--workers", "1",
                       "--threads", "1"]) == 0
     assert _metrics(tmp_path) == _metrics(tiny_grid)
+
+
+def test_workers_run_several_jobs_only_when_the_jobs_share_a_thread_plan(tiny_spec):
+    from multitask.grid_executors import JOBS_PER_WORKER, jobs_per_worker
+
+    spec = replace(load_spec(tiny_spec), experiments=(
+        Experiment(("A",)), Experiment(("A",), directions=("forward",))))
+    groups = job_groups(expand(spec, ("B", "C")), 1)
+    assert jobs_per_worker(spec, groups, cores=1) == JOBS_PER_WORKER    # (1, 1) both
+    assert jobs_per_worker(spec, groups, cores=2) == 1                  # (1, 2) vs (2, 1)
+    bidirectional = [g for g in groups if g[0].direction == "bidirectional"]
+    assert jobs_per_worker(spec, bidirectional, cores=2) == JOBS_PER_WORKER
 
 
 def test_dask_cluster_gives_the_local_pool_metrics(tmp_path, tiny_spec, tiny_grid):
