@@ -125,12 +125,26 @@ def _job_args(payload: dict, group: list[RunKey], out: Path, cores: int) -> tupl
 
 def _run_local(payload: dict, groups: list[list[RunKey]], out: Path, workers: int, cores: int,
                progress: Progress, jobs_per_worker: int) -> None:
-    """A pool of worker processes, each running up to ``jobs_per_worker`` jobs in turn before a
-    fresh one replaces it: TensorFlow starts once per worker and compiled loops are reused, while
-    a job's results do not depend on the jobs before it in its process (tested), and whatever
-    TensorFlow keeps from one job to the next stays bounded (``jobs_per_worker``)."""
+    """Local worker processes, each running up to ``jobs_per_worker`` jobs in turn before a fresh
+    one replaces it: TensorFlow starts once per worker and compiled loops are reused, while a
+    job's results do not depend on the jobs before it in its process (tested), and whatever
+    TensorFlow keeps from one job to the next stays bounded. Workers that run several jobs come
+    in a fresh pool for every ``workers * jobs_per_worker`` jobs: a pool that replaces its own
+    workers after more than one job (``max_tasks_per_child`` > 1) can stop starting them before
+    Python 3.13 (CPython issue 115634), and the grid would wait forever."""
+    if jobs_per_worker == 1:
+        _run_pool(payload, groups, out, workers, cores, progress, max_tasks_per_child=1)
+        return
+    chunk = workers * jobs_per_worker
+    for start in range(0, len(groups), chunk):
+        _run_pool(payload, groups[start:start + chunk], out, workers, cores, progress)
+
+
+def _run_pool(payload: dict, groups: list[list[RunKey]], out: Path, workers: int, cores: int,
+              progress: Progress, max_tasks_per_child: int | None = None) -> None:
+    """Run ``groups`` on one pool of ``workers`` fresh processes (``run_job`` each)."""
     pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
-                               max_tasks_per_child=jobs_per_worker, initializer=_init_worker,
+                               max_tasks_per_child=max_tasks_per_child, initializer=_init_worker,
                                initargs=(os.getpid(),))
     try:
         futures = {pool.submit(run_job, *_job_args(payload, group, out, cores)): group
