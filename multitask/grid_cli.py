@@ -89,6 +89,10 @@ def _run(args: argparse.Namespace) -> int:
     spec = with_budget(spec.with_absolute_paths())              # as recorded, one path
     if not args.scheduler:                       # a cluster's workers have their own CPUs
         require_native_precision(spec.precision)
+    if args.stack > 1 and spec.loops == "xla":
+        raise ValueError("--stack vectorises the runs' steps, which turns XLA's compiled loops "
+                         "back into TensorFlow ops: use --stack 1 with loops xla (or graph loops "
+                         "with --stack)")
     keys = expand(spec, release_users(spec))
     budget = spec.budget
     print(f"grid: task {spec.task}, preset {spec.preset}, H={budget.hidden}, "

@@ -316,7 +316,8 @@ class Trainer:
                     f"{self.run_dir}: checkpoint ckpt-{done} was saved with settings {saved}, "
                     f"not those of its config.json ({self.settings_hash})")
             self._saved_hash.assign(self.settings_hash)
-            self.log(f"resuming from sweep {done} ({self.run_dir / 'checkpoints'}/ckpt-{done})")
+            self.log(f"resuming from sweep {done} ({self.run_dir / 'checkpoints'}/ckpt-{done}) "
+                     f"with {self.model.encoder.config.loops} loops")   # not a setting: say it
         for log in self.run_dir.glob("*.csv"):      # rows past the checkpoint will be redone
             truncate_csv_log(log, done)
         self._losses, self._started = [], time.time()

@@ -59,6 +59,14 @@ def test_compiled_loops_are_how_a_run_computes_not_what(tmp_path):
     assert _canonical(spec_payload(spec)) != _canonical(spec_payload(replace(spec, hidden=8)))
 
 
+def test_a_grid_refuses_to_stack_compiled_loops(tmp_path, capsys):
+    from multitask.grid_cli import main as grid_main
+
+    code = grid_main(["--preset", "quick", "--data-dir", "synthetic", "--out", str(tmp_path),
+                      "--loops", "xla", "--stack", "2"])
+    assert code == 2 and "--stack 1 with loops xla" in capsys.readouterr().err
+
+
 def test_a_stack_traces_its_step_once(tmp_path):
     members = [_trainer(tmp_path / f"m{s}", seed=s, monitor_every=1) for s in (0, 1)]
     stack = TrainerStack(members)
