@@ -58,7 +58,8 @@ def main() -> None:
         W_h = tf.constant((rng.normal(size=(H, 4 * H)) * 0.1).astype(np.float32))
         peep = tf.constant((rng.normal(size=(3, H)) * 0.1).astype(np.float32))
         dh_out = tf.constant(rng.normal(size=(T, B, H)).astype(np.float32))
-        state = lstm._forward_loop(x_proj, keep, W_h, peep, T, tf.float32)
+        state = lstm._forward_loop(x_proj, keep, W_h, peep, T)
+        c_prev = keep * lstm._shift(state[1])
 
         @tf.function
         def bare():
@@ -71,9 +72,9 @@ def main() -> None:
             forward = tf.function(forward) if loops == "graph" else forward
             backward = tf.function(backward) if loops == "graph" else backward
             costs["forward", loops] = per_step(
-                lambda f=forward: f(x_proj, keep, W_h, peep, T, tf.float32), T)
+                lambda f=forward: f(x_proj, keep, W_h, peep, T), T)
             costs["backward", loops] = per_step(
-                lambda b=backward: b(dh_out, keep, state, W_h, peep, T, tf.float32), T)
+                lambda b=backward: b(dh_out, keep, state, c_prev, W_h, peep, T), T)
         fw = costs["forward", "graph"], costs["forward", "xla"]
         bw = costs["backward", "graph"], costs["backward", "xla"]
         print(f"{H:5d} {costs['bare']:12.1f} {fw[0]:13.1f} {fw[1]:6.1f} {fw[0] / fw[1]:7.2f}x "

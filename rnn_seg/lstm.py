@@ -35,6 +35,7 @@ per process.
 """
 from __future__ import annotations
 
+import functools
 from typing import Callable, NamedTuple
 
 import tensorflow as tf
@@ -151,15 +152,16 @@ def _bptt_in(dtype: tf.DType, loops: Loops):
         # the loops are differentiated by hand (grad), so no tape records them: an XLA kernel
         # cannot hand its loop's intermediate lists to one
         x_proj, keep, W_h, peep = (tf.stop_gradient(v) for v in (x_proj, keep, W_h, peep))
+        W = tf.cast(W_h, dtype)                          # once per call, not per loop
         keep_in = pad(keep)
-        state = forward_loop(pad(x_proj), keep_in, W_h, peep, steps, dtype)
+        state = forward_loop(pad(x_proj), keep_in, W, peep, steps)
         h, c = state[0][:steps], state[1][:steps]                 # [T, B, H]
 
         def grad(dh_out):
             hidden = tf.shape(W_h)[0]
-            dz = backward_loop(pad(dh_out), keep_in, state, W_h, peep, steps,
-                               dtype)[:steps]                                 # [T, B, 4H]
             h_prev, c_prev = keep * _shift(h), keep * _shift(c)      # state entering each step
+            dz = backward_loop(pad(dh_out), keep_in, state, pad(c_prev), W, peep,
+                               steps)[:steps]                                 # [T, B, 4H]
             dW_h = product(tf.reshape(h_prev, [-1, hidden]), tf.reshape(dz, [-1, 4 * hidden]),
                            dtype, transpose_a=True)
             _, dz_i, dz_f, dz_o = tf.split(dz, 4, axis=2)
@@ -172,24 +174,26 @@ def _bptt_in(dtype: tf.DType, loops: Loops):
     return bptt
 
 
-def _forward_loop(x_proj, keep, W_h, peep, steps, dtype):
-    """``_forward`` with ``W_h``'s products in ``dtype``: ``(h, c, g, i, f, o)`` ``[size, B, H]``
-    for inputs padded to ``size`` >= ``steps`` time steps (zeros after ``steps``)."""
-    return _forward(x_proj, keep, recurrent_products(W_h, dtype).forward, peep, steps)
+def _forward_loop(x_proj, keep, W, peep, steps, bounded=False):
+    """``_forward`` with the products of ``W`` (``W_h`` in the products' dtype):
+    ``(h, c, g, i, f, o)`` ``[size, B, H]`` for inputs padded to ``size`` >= ``steps`` time steps
+    (zeros after ``steps``); ``bounded``: as ``_forward``'s."""
+    return _forward(x_proj, keep, recurrent_products(W, W.dtype).forward, peep, steps, bounded)
 
 
-def _backward_loop(dh_out, keep, state, W_h, peep, steps, dtype):
+def _backward_loop(dh_out, keep, state, c_prev, W, peep, steps, bounded=False):
     """``dz`` ``[size, B, 4H]`` (zeros after ``steps``): the backward factors of the forward
-    loop's ``state`` and ``_backward``, with ``W_h``'s products in ``dtype``."""
-    c_prev = keep * _shift(state[1])                     # cell state entering each step
+    loop's ``state`` (``c_prev``: the cell state entering each step) and ``_backward``, with the
+    products of ``W`` (``W_h`` in the products' dtype); ``bounded``: as ``_backward``'s."""
     factors = _backward_factors(state, c_prev, keep, peep)
-    return _backward(dh_out, keep, factors, recurrent_products(W_h, dtype).backward, steps)
+    return _backward(dh_out, keep, factors, recurrent_products(W, W.dtype).backward, steps,
+                     bounded)
 
 
 _LOOP_FUNCTIONS = {
     "graph": (_forward_loop, _backward_loop),
-    "xla": (tf.function(_forward_loop, jit_compile=True),
-            tf.function(_backward_loop, jit_compile=True))}
+    "xla": (tf.function(functools.partial(_forward_loop, bounded=True), jit_compile=True),
+            tf.function(functools.partial(_backward_loop, bounded=True), jit_compile=True))}
 _BPTT = {(precision, loops): _bptt_in(dtype, loops)
          for precision, dtype in _DTYPES.items() for loops in LOOPS}
 
@@ -243,10 +247,11 @@ def lstm_cell(z_x: tf.Tensor, c_prev: tf.Tensor, h_prev: tf.Tensor,
     return c, h, g, i, f, o
 
 
-def _forward(x_proj, keep, recurrent, peep, steps):
+def _forward(x_proj, keep, recurrent, peep, steps, bounded=False):
     """The cell over the first ``steps`` of ``x_proj`` ``[T, B, 4H]``; returns
     ``(h, c, g, i, f, o)``, each ``[T, B, H]`` float32, zeros after ``steps``.
-    ``recurrent`` is the step's product ``h W_h`` (``RecurrentProducts.forward``)."""
+    ``recurrent`` is the step's product ``h W_h`` (``RecurrentProducts.forward``); ``bounded``
+    gives the loop its ``T`` as a maximum, which XLA needs (and the op loops need not pay)."""
     hidden = tf.shape(peep)[1]
     peepholes = (peep[0], peep[1], peep[2])
 
@@ -259,7 +264,8 @@ def _forward(x_proj, keep, recurrent, peep, steps):
     zeros = tf.zeros(tf.stack([tf.shape(x_proj)[1], hidden]))
     records = [tf.TensorArray(tf.float32, size=tf.shape(x_proj)[0]) for _ in range(6)]
     *_, records = tf.while_loop(lambda t, *_: t < steps, body, (0, zeros, zeros, records),
-                                parallel_iterations=1, maximum_iterations=tf.shape(x_proj)[0])
+                                parallel_iterations=1,
+                                maximum_iterations=tf.shape(x_proj)[0] if bounded else None)
     return [r.stack() for r in records]
 
 
@@ -284,13 +290,13 @@ def _backward_factors(state, c_prev, keep, peep):
     return out_c, gates_dc, gates_dh, to_prev
 
 
-def _backward(dh_out, keep, factors, recurrent, steps):
+def _backward(dh_out, keep, factors, recurrent, steps, bounded=False):
     """Reverse loop over the first ``steps`` of ``[T, ...]`` inputs; returns ``dz``
     ``[T, B, 4H]``, the gradient of the gate inputs (zeros after ``steps``).
 
     ``dh_out`` ``[T, B, H]`` is the gradient arriving at the outputs; the state passed back one
     step is ``dc * to_prev`` and ``keep * dz W_h^T`` (``recurrent``: the product ``dz W_h^T``,
-    ``RecurrentProducts.backward``).
+    ``RecurrentProducts.backward``); ``bounded`` as ``_forward``'s.
     """
     batch = tf.shape(dh_out)[1]
     out_c, gates_dc, gates_dh, to_prev = factors
@@ -305,7 +311,8 @@ def _backward(dh_out, keep, factors, recurrent, steps):
     zeros = tf.zeros_like(dh_out[0])
     records = tf.TensorArray(tf.float32, size=tf.shape(dh_out)[0])
     *_, records = tf.while_loop(lambda t, *_: t >= 0, body, (steps - 1, zeros, zeros, records),
-                                parallel_iterations=1, maximum_iterations=tf.shape(dh_out)[0])
+                                parallel_iterations=1,
+                                maximum_iterations=tf.shape(dh_out)[0] if bounded else None)
     return records.stack()
 
 
