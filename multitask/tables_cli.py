@@ -23,6 +23,13 @@ seed 0 first). The captions state the seeds and folds the tables hold.
 
     multitask-tables runs/converged --out results --seeds 0 --finished-only
 
+``--archive DIR`` writes the grid's scores archive instead (``multitask.grid_archive``): grid.json
+and every finished run's configuration, metrics and loss logs, without weights or predictions;
+small enough to commit, a grid folder that ``multitask-tables`` tabulates and ``multitask-grid``
+continues after a copy, on any machine.
+
+    multitask-tables runs/converged --archive results/grid
+
 ``--compare X Y --metric M`` prints the paired statistics of one comparison instead, e.g.
 ``multitask-tables GRID --compare APc-fixed A-fixed --metric gesture_edit``; a configuration is
 ``[annotations/][direction/]<variant>-<weighting>`` as in the grid's run folders
@@ -74,6 +81,9 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
                                                 seeds))
     stats = summary(folds).merge(completeness(runs, expected), on=CONFIG_COLUMNS, how="left")
     example = choose_example(Path(grid_dir), folds, example_trial) if figures else None
+    if figures and example is None:
+        print("note: no example-trial figures: no seed-0 run of the grid kept its predictions "
+              "(a scores archive keeps none)", file=sys.stderr)
     written = [_csv(runs, out / "runs.csv"), _csv(folds, out / "per_fold.csv"),
                _csv(stats, out / "summary.csv")]
     budget = describe_runs(grid_dir, runs).sentence()
@@ -172,6 +182,11 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--ours-only", action="store_true",
                         help="LaTeX tables with our numbers alone, without the paper's columns "
                              "(the CSVs keep them)")
+    parser.add_argument("--archive", type=Path, metavar="DIR",
+                        help="write the grid's scores archive to DIR instead of tables: "
+                             "grid.json and every finished run's config, metrics and logs, no "
+                             "weights or predictions (a new folder, or an earlier archive to "
+                             "replace)")
     parser.add_argument("--compare", nargs=2, metavar=("X", "Y"),
                         help="print the paired statistics of X - Y instead of writing tables "
                              "(default: write the tables)")
@@ -198,11 +213,19 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if bool(args.compare) != bool(args.metric) or (args.minus and not args.compare):
         parser.error("--compare needs --metric, and --metric and --minus need --compare")
+    if args.archive and args.compare:
+        parser.error("--archive and --compare are two different outputs: give one")
     return run_command(PROG, args.verbose, lambda: _run(args))
 
 
 def _run(args: argparse.Namespace) -> None:
     seeds = tuple(args.seeds) if args.seeds else None
+    if args.archive:
+        from .grid_archive import archive_grid
+
+        finished, recorded = archive_grid(args.grid_dir, args.archive)
+        print(f"{args.archive}: {finished} of {recorded} runs archived (finished ones)")
+        return
     if args.compare:
         print(_compare(args.grid_dir, args.compare, args.minus, args.metric,
                        args.allow_incomplete, seeds, args.finished_only))

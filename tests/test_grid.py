@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -371,3 +372,61 @@ def test_eta_weighs_the_runs_left_by_their_schedules():
                         clock=lambda: next(times))
     progress.finished(keys[0])
     assert lines == [f"[grid] 1/3 done, ETA 0:00:40 | {keys[0].path()} finished"]
+
+
+def test_scores_archive_tabulates_and_continues_like_its_grid(tmp_path, tiny_spec, tiny_grid,
+                                                                capsys):
+    """An archive keeps each finished run's config, metrics and logs (no weights, no
+    predictions): its tables are the grid's, and a copy of it resumes with nothing to train."""
+    archive = tmp_path / "archive"
+    assert tables_main([str(tiny_grid), "--archive", str(archive)]) == 0
+    assert "4 of 4 runs archived" in capsys.readouterr().out
+    runs = sorted(p.parent for p in archive.glob("runs/*/*/*/*/*/finished.json"))
+    assert len(runs) == 4
+    for run in runs:
+        assert {"config.json", "metrics.json", "history.csv"} <= {p.name for p in run.iterdir()}
+        assert not {"checkpoints", "eval", "train.log"} & {p.name for p in run.iterdir()}
+    for grid in (tiny_grid, archive):
+        assert tables_main([str(grid), "--out", str(tmp_path / grid.name), "--no-figures"]) == 0
+    pd.testing.assert_frame_equal(pd.read_csv(tmp_path / tiny_grid.name / "runs.csv"),
+                                  pd.read_csv(tmp_path / "archive" / "runs.csv"))
+    copy = tmp_path / "continued"
+    shutil.copytree(archive, copy)
+    finished = {p: p.stat().st_mtime_ns for p in copy.glob("runs/**/finished.json")}
+    capsys.readouterr()
+    assert grid_main(["--spec", str(tiny_spec), "--out", str(copy)]) == 0
+    assert "4 already finished, 0 to run" in capsys.readouterr().out
+    assert {p: p.stat().st_mtime_ns for p in copy.glob("runs/**/finished.json")} == finished
+
+
+def test_an_archived_run_of_other_settings_is_never_taken_for_the_specs(tmp_path, tiny_spec,
+                                                                         tiny_grid, capsys):
+    copy = tmp_path / "continued"
+    assert tables_main([str(tiny_grid), "--archive", str(copy)]) == 0
+    config = copy / RunKey("revised", "bidirectional", "A", "fixed", 0, "C").path() / "config.json"
+    saved = json.loads(config.read_text())
+    saved["run"]["encoder"]["hidden"] = 32
+    config.write_text(json.dumps(saved))
+    capsys.readouterr()
+    assert grid_main(["--spec", str(tiny_spec), "--out", str(copy)]) == 2
+    error = capsys.readouterr().err
+    assert "other settings" in error and "A-fixed/seed0/C" in error and "hidden" in error
+
+
+def test_archive_leaves_out_unfinished_runs_and_writes_only_new_folders_or_archives(
+        tmp_path, tiny_grid, capsys):
+    grid = tmp_path / "grid"
+    shutil.copytree(tiny_grid, grid)
+    (grid / RunKey("revised", "bidirectional", "APc", "fixed", 0, "B").path()
+     / "finished.json").unlink()
+    archive = tmp_path / "archive"
+    assert tables_main([str(grid), "--archive", str(archive)]) == 0
+    assert "3 of 4 runs archived" in capsys.readouterr().out
+    assert tables_main([str(tiny_grid), "--archive", str(archive)]) == 0    # replaces it
+    assert len(list(archive.glob("runs/**/finished.json"))) == 4
+    other = tmp_path / "notes"
+    other.mkdir()
+    (other / "todo.txt").write_text("mine")
+    assert tables_main([str(tiny_grid), "--archive", str(other)]) == 2
+    assert "not a scores archive" in capsys.readouterr().err
+    assert [p.name for p in other.iterdir()] == ["todo.txt"]
