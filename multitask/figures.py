@@ -11,8 +11,10 @@
 * ``gradnorm_weights``: task weights over training for the GradNorm runs.
 
 Figures read the revised-annotation, bidirectional runs of seed 0 where one run is needed; the
-example trial is a choice (``--example-trial``). Time is in seconds; class names come from the
-runs' predictions (their ``<task>_p_<class>`` columns), colours from ``jigsaws_tools.plots``.
+example trial is a choice (``--example-trial``); the two example figures need that trial's
+predictions (a scores archive keeps none: ``grid_archive``). Time is in seconds; class names come
+from the per-class accuracy columns of the runs' metrics (``gesture_accuracy_<class>``) and from
+the predictions' score columns (``<task>_p_<class>``), colours from ``jigsaws_tools.plots``.
 """
 from __future__ import annotations
 
@@ -39,6 +41,8 @@ COMPARED = ("A-fixed", "APoc-fixed", "APoc-gradnorm")
 SEGMENTATION_RUNS = ("A-fixed", "APoc-fixed")
 PROGRESS_RUNS = ("APr-fixed", "APc-fixed", "APoc-fixed")
 FOLD_RUNS = ("APoc-fixed", "APoc-gradnorm")
+#: The figures of one example trial, which need its predictions.
+EXAMPLE_FIGURES = ("segmentation_example", "progress_example")
 
 
 def save(fig: plt.Figure, out_dir: Path, name: str) -> list[Path]:
@@ -83,10 +87,11 @@ def per_gesture_accuracy(folds: pd.DataFrame, gestures: Sequence[str], out_dir: 
         out_dir: the folder written into.
 
     Returns:
-        The PNG and PDF written; empty when the grid ran none of the compared models.
+        The PNG and PDF written; empty when the grid ran none of the compared models, or no
+        gestures are given.
     """
     rows = {c: r for c in COMPARED if not (r := _offline_folds(folds, c)).empty}
-    if not rows:
+    if not rows or not gestures:
         return []
     fig, ax = plt.subplots(figsize=(8, 3.2))
     width = 0.8 / len(rows)
@@ -147,6 +152,14 @@ def class_names(predictions: pd.DataFrame, task: str) -> tuple[str, ...]:
     predictions; ``()`` for a task without them (regression, ordinal outputs)."""
     prefix = f"{task}_p_"
     return tuple(c.removeprefix(prefix) for c in predictions.columns if c.startswith(prefix))
+
+
+def accuracy_classes(folds: pd.DataFrame, task: str = "gesture") -> tuple[str, ...]:
+    """A task's classes, in class order, from the per-class accuracy columns
+    ``<task>_accuracy_<class>`` of ``folds`` (``collect.per_fold``)."""
+    prefix = f"{task}_accuracy_"
+    return tuple(c.removeprefix(prefix) for c in folds.columns
+                 if c.startswith(prefix) and c != f"{prefix}pooled")
 
 
 def _seconds(predictions: pd.DataFrame) -> np.ndarray:
@@ -292,16 +305,24 @@ def all_figures(grid_dir: Path, folds: pd.DataFrame, out_dir: Path,
         folds: one row per configuration and fold (``collect.per_fold``).
         out_dir: the folder written into.
         example: ``(trial, fold)`` of the example figures (``example_trial``); None = no
-            per-gesture and example figures.
+            example figures (and any earlier ones in ``out_dir`` removed).
 
     Returns:
         Every PNG and PDF written.
     """
-    written = []
+    written = per_gesture_accuracy(folds, accuracy_classes(folds), out_dir)
     if example is not None:
         trial, fold = example
-        predictions = pd.read_csv(_predictions(grid_dir, SEGMENTATION_RUNS[0], fold)[trial])
-        written += per_gesture_accuracy(folds, class_names(predictions, "gesture"), out_dir)
         written += segmentation_example(grid_dir, trial, fold, out_dir)
         written += progress_example(grid_dir, trial, fold, out_dir)
+    else:
+        _remove_stale(out_dir, EXAMPLE_FIGURES)
     return written + fold_accuracy(folds, out_dir) + gradnorm_weights(grid_dir, out_dir)
+
+
+def _remove_stale(out_dir: Path, names: Sequence[str]) -> None:
+    """Remove ``names``' PNG and PDF from ``out_dir``: figures an earlier grid drew there that
+    this one cannot, which would otherwise pass for this grid's."""
+    for name in names:
+        for ext in ("png", "pdf"):
+            (out_dir / f"{name}.{ext}").unlink(missing_ok=True)

@@ -386,10 +386,19 @@ def test_scores_archive_tabulates_and_continues_like_its_grid(tmp_path, tiny_spe
     for run in runs:
         assert {"config.json", "metrics.json", "history.csv"} <= {p.name for p in run.iterdir()}
         assert not {"checkpoints", "eval", "train.log"} & {p.name for p in run.iterdir()}
-    for grid in (tiny_grid, archive):
-        assert tables_main([str(grid), "--out", str(tmp_path / grid.name), "--no-figures"]) == 0
-    pd.testing.assert_frame_equal(pd.read_csv(tmp_path / tiny_grid.name / "runs.csv"),
-                                  pd.read_csv(tmp_path / "archive" / "runs.csv"))
+    tables = {grid: tmp_path / "tables" / grid.name for grid in (tiny_grid, archive)}
+    for grid, out in tables.items():
+        assert tables_main([str(grid), "--out", str(out), "--no-figures"]) == 0
+    pd.testing.assert_frame_equal(pd.read_csv(tables[tiny_grid] / "runs.csv"),
+                                  pd.read_csv(tables[archive] / "runs.csv"))
+    figures = tables[tiny_grid] / "figures"
+    assert tables_main([str(tiny_grid), "--out", str(tables[tiny_grid])]) == 0
+    assert (figures / "segmentation_example.png").exists()
+    capsys.readouterr()
+    assert tables_main([str(archive), "--out", str(tables[tiny_grid])]) == 0
+    assert "no example-trial figures" in capsys.readouterr().err
+    assert (figures / "per_gesture_accuracy.png").exists()
+    assert not list(figures.glob("*_example.*"))            # not left to pass for the archive's
     copy = tmp_path / "continued"
     shutil.copytree(archive, copy)
     finished = {p: p.stat().st_mtime_ns for p in copy.glob("runs/**/finished.json")}
