@@ -1,6 +1,7 @@
 """What a table's caption states about the runs behind it: data, trials, folds, model width,
-epochs and seeds, read from the runs themselves (their ``config.json`` and test predictions), so
-that a caption never claims a budget the runs did not have.
+epochs and seeds, read from the runs themselves (their ``config.json`` and test predictions, or
+the test trials a scores archive recorded), so that a caption never claims a budget the runs did
+not have.
 """
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ import pandas as pd
 
 from jigsaws_tools.task_definition import PAPER_TASK
 
+from .grid_archive import archived_test_trials, predicted_trials
 from .grid_spec import RunKey
 from .variants import VARIANTS
 
@@ -78,13 +80,14 @@ def describe_runs(grid_dir: Path | str, runs: pd.DataFrame) -> RunsDescription:
 
 
 def _test_trials(root: Path, keys: list[RunKey]) -> set[str]:
-    """Names of the trials the runs were tested on: the predictions of one run per fold."""
+    """Names of the trials the runs were tested on: per fold, the predictions of the first of its
+    runs that kept them, else the fold's trials as a scores archive recorded them."""
+    archived = archived_test_trials(root)
     trials = set()
     for fold in {key.fold for key in keys}:
-        key = min(k for k in keys if k.fold == fold)
-        points = sorted((root / key.path() / "eval").glob("*/predictions"))
-        if points:
-            trials.update(p.stem for p in points[-1].glob("*.csv"))
+        runs = (root / key.path() for key in sorted(k for k in keys if k.fold == fold))
+        kept = next((names for run in runs if (names := predicted_trials(run))), None)
+        trials.update(kept or archived.get(fold, ()))
     return trials
 
 

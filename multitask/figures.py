@@ -41,8 +41,9 @@ COMPARED = ("A-fixed", "APoc-fixed", "APoc-gradnorm")
 SEGMENTATION_RUNS = ("A-fixed", "APoc-fixed")
 PROGRESS_RUNS = ("APr-fixed", "APc-fixed", "APoc-fixed")
 FOLD_RUNS = ("APoc-fixed", "APoc-gradnorm")
-#: The figures of one example trial, which need its predictions.
-EXAMPLE_FIGURES = ("segmentation_example", "progress_example")
+#: Every figure ``all_figures`` draws (file names without extension).
+FIGURES = ("per_gesture_accuracy", "segmentation_example", "progress_example", "fold_accuracy",
+           "gradnorm_weights")
 
 
 def save(fig: plt.Figure, out_dir: Path, name: str) -> list[Path]:
@@ -290,6 +291,10 @@ def example_trial(grid_dir: Path, folds: pd.DataFrame, requested: str | None = N
     trials = trial_folds(grid_dir, sorted(folds.fold.unique()))
     if requested is None:
         return next(iter(trials.items()), None)
+    if not trials:
+        raise ValueError(f"example trial {requested!r}: no seed-0 {SEGMENTATION_RUNS[0]} run of "
+                         "the grid kept its predictions (a scores archive keeps none); leave out "
+                         "--example-trial")
     if requested not in trials:
         raise ValueError(f"example trial {requested!r} is not a test trial of the grid's "
                          f"{SEGMENTATION_RUNS[0]} runs; choose one of {', '.join(trials)}")
@@ -305,7 +310,8 @@ def all_figures(grid_dir: Path, folds: pd.DataFrame, out_dir: Path,
         folds: one row per configuration and fold (``collect.per_fold``).
         out_dir: the folder written into.
         example: ``(trial, fold)`` of the example figures (``example_trial``); None = no
-            example figures (and any earlier ones in ``out_dir`` removed).
+            example figures. A figure not drawn (its runs are missing) is removed from
+            ``out_dir`` if an earlier call left one there.
 
     Returns:
         Every PNG and PDF written.
@@ -315,14 +321,14 @@ def all_figures(grid_dir: Path, folds: pd.DataFrame, out_dir: Path,
         trial, fold = example
         written += segmentation_example(grid_dir, trial, fold, out_dir)
         written += progress_example(grid_dir, trial, fold, out_dir)
-    else:
-        _remove_stale(out_dir, EXAMPLE_FIGURES)
-    return written + fold_accuracy(folds, out_dir) + gradnorm_weights(grid_dir, out_dir)
+    written += fold_accuracy(folds, out_dir) + gradnorm_weights(grid_dir, out_dir)
+    _remove_stale(out_dir, set(FIGURES) - {path.stem for path in written})
+    return written
 
 
-def _remove_stale(out_dir: Path, names: Sequence[str]) -> None:
+def _remove_stale(out_dir: Path, names: set[str]) -> None:
     """Remove ``names``' PNG and PDF from ``out_dir``: figures an earlier grid drew there that
     this one cannot, which would otherwise pass for this grid's."""
-    for name in names:
+    for name in sorted(names):
         for ext in ("png", "pdf"):
             (out_dir / f"{name}.{ext}").unlink(missing_ok=True)

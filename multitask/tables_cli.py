@@ -187,7 +187,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="write the grid's scores archive to DIR instead of tables: "
                              "grid.json and every finished run's config, metrics and logs, no "
                              "weights or predictions (a new folder, or an earlier archive to "
-                             "replace)")
+                             "replace; default: none, write the tables)")
     parser.add_argument("--compare", nargs=2, metavar=("X", "Y"),
                         help="print the paired statistics of X - Y instead of writing tables "
                              "(default: write the tables)")
@@ -214,9 +214,19 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if bool(args.compare) != bool(args.metric) or (args.minus and not args.compare):
         parser.error("--compare needs --metric, and --metric and --minus need --compare")
-    if args.archive and args.compare:
-        parser.error("--archive and --compare are two different outputs: give one")
+    extra = (["--compare"] if args.compare else []) + _table_options(args)
+    if args.archive and extra:
+        parser.error(f"--archive writes the archive alone: leave out {', '.join(extra)}")
     return run_command(PROG, args.verbose, lambda: _run(args))
+
+
+def _table_options(args: argparse.Namespace) -> list[str]:
+    """The options given that only the tables use."""
+    given = {"--out": args.out, "--no-figures": args.no_figures,
+             "--example-trial": args.example_trial, "--curves": args.curves,
+             "--ours-only": args.ours_only, "--allow-incomplete": args.allow_incomplete,
+             "--finished-only": args.finished_only, "--seeds": args.seeds}
+    return [option for option, value in given.items() if value]
 
 
 def _run(args: argparse.Namespace) -> None:

@@ -389,16 +389,11 @@ def test_scores_archive_tabulates_and_continues_like_its_grid(tmp_path, tiny_spe
     tables = {grid: tmp_path / "tables" / grid.name for grid in (tiny_grid, archive)}
     for grid, out in tables.items():
         assert tables_main([str(grid), "--out", str(out), "--no-figures"]) == 0
-    pd.testing.assert_frame_equal(pd.read_csv(tables[tiny_grid] / "runs.csv"),
-                                  pd.read_csv(tables[archive] / "runs.csv"))
-    figures = tables[tiny_grid] / "figures"
-    assert tables_main([str(tiny_grid), "--out", str(tables[tiny_grid])]) == 0
-    assert (figures / "segmentation_example.png").exists()
-    capsys.readouterr()
-    assert tables_main([str(archive), "--out", str(tables[tiny_grid])]) == 0
-    assert "no example-trial figures" in capsys.readouterr().err
-    assert (figures / "per_gesture_accuracy.png").exists()
-    assert not list(figures.glob("*_example.*"))            # not left to pass for the archive's
+    for name in ("runs.csv", "summary.csv", "claims.csv"):
+        pd.testing.assert_frame_equal(pd.read_csv(tables[tiny_grid] / name),
+                                      pd.read_csv(tables[archive] / name))
+    assert (tables[tiny_grid] / "table1.tex").read_text() == (tables[archive]
+                                                              / "table1.tex").read_text()
     copy = tmp_path / "continued"
     shutil.copytree(archive, copy)
     finished = {p: p.stat().st_mtime_ns for p in copy.glob("runs/**/finished.json")}
@@ -406,6 +401,23 @@ def test_scores_archive_tabulates_and_continues_like_its_grid(tmp_path, tiny_spe
     assert grid_main(["--spec", str(tiny_spec), "--out", str(copy)]) == 0
     assert "4 already finished, 0 to run" in capsys.readouterr().out
     assert {p: p.stat().st_mtime_ns for p in copy.glob("runs/**/finished.json")} == finished
+
+
+def test_tables_of_an_archive_draw_what_needs_no_predictions_and_remove_the_rest(
+        tmp_path, tiny_grid, capsys):
+    archive, out = tmp_path / "archive", tmp_path / "tables"
+    assert tables_main([str(tiny_grid), "--archive", str(archive)]) == 0
+    assert tables_main([str(tiny_grid), "--out", str(out)]) == 0
+    figures = {p.name: p.stat().st_mtime_ns for p in (out / "figures").iterdir()}
+    assert "segmentation_example.png" in figures
+    capsys.readouterr()
+    assert tables_main([str(archive), "--out", str(out)]) == 0
+    assert "no example-trial figures" in capsys.readouterr().err
+    redrawn = {p.name: p.stat().st_mtime_ns for p in (out / "figures").iterdir()}
+    assert redrawn.keys() == {n for n in figures if "_example." not in n}
+    assert all(redrawn[name] > figures[name] for name in redrawn)
+    assert tables_main([str(archive), "--out", str(out), "--example-trial", "Suturing_B001"]) == 2
+    assert "kept its predictions" in capsys.readouterr().err
 
 
 def test_an_archived_run_of_other_settings_is_never_taken_for_the_specs(tmp_path, tiny_spec,
@@ -422,20 +434,34 @@ def test_an_archived_run_of_other_settings_is_never_taken_for_the_specs(tmp_path
     assert "other settings" in error and "A-fixed/seed0/C" in error and "hidden" in error
 
 
-def test_archive_leaves_out_unfinished_runs_and_writes_only_new_folders_or_archives(
-        tmp_path, tiny_grid, capsys):
+def test_archive_leaves_out_unfinished_runs_and_replaces_only_an_archive(tmp_path, tiny_grid,
+                                                                         capsys):
     grid = tmp_path / "grid"
     shutil.copytree(tiny_grid, grid)
-    (grid / RunKey("revised", "bidirectional", "APc", "fixed", 0, "B").path()
-     / "finished.json").unlink()
+    run = grid / RunKey("revised", "bidirectional", "APc", "fixed", 0, "B").path()
+    (run / "finished.json").unlink()
     archive = tmp_path / "archive"
     assert tables_main([str(grid), "--archive", str(archive)]) == 0
     assert "3 of 4 runs archived" in capsys.readouterr().out
     assert tables_main([str(tiny_grid), "--archive", str(archive)]) == 0    # replaces it
     assert len(list(archive.glob("runs/**/finished.json"))) == 4
-    other = tmp_path / "notes"
-    other.mkdir()
-    (other / "todo.txt").write_text("mine")
-    assert tables_main([str(tiny_grid), "--archive", str(other)]) == 2
-    assert "not a scores archive" in capsys.readouterr().err
-    assert [p.name for p in other.iterdir()] == ["todo.txt"]
+    notes = tmp_path / "notes"
+    notes.mkdir()
+    (notes / "todo.txt").write_text("mine")
+    link = tmp_path / "link"
+    link.symlink_to(archive)
+    for dest, says in ((notes, "holds todo.txt"), (grid, "neither inside the other"),
+                       (grid / "archive", "neither inside the other"), (link, "symbolic link")):
+        assert tables_main([str(grid), "--archive", str(dest)]) == 2
+        assert says in capsys.readouterr().err
+    assert tables_main([str(archive), "--archive", str(grid)]) == 2         # a grid, not an archive
+    assert "holds" in capsys.readouterr().err and (run / "checkpoints").is_dir()
+    assert [p.name for p in notes.iterdir()] == ["todo.txt"]
+    (run / "finished.json").write_text("{}")
+    (run / "metrics.json").unlink()
+    assert tables_main([str(grid), "--archive", str(tmp_path / "new")]) == 2
+    assert "without metrics.json" in capsys.readouterr().err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["archive", "grid", "link", "notes"]
+    with pytest.raises(SystemExit):
+        tables_main([str(grid), "--archive", str(archive), "--out", str(notes)])
+    assert "leave out --out" in capsys.readouterr().err
