@@ -35,6 +35,9 @@ ARCHIVE_RECORD = "archive.json"
 #: The files of a finished run an archive keeps; the first two must be there.
 RUN_FILES = (CONFIG, "metrics.json", FINISHED, "timing.json", "history.csv", "gradnorm.csv")
 REQUIRED = RUN_FILES[:2]
+#: In the names of the hidden folders an archive is written in (ignored by git: a process killed
+#: while archiving may leave one).
+PARTIAL = ".partial-"
 
 
 def archive_grid(grid_dir: Path | str, dest: Path | str) -> tuple[int, int]:
@@ -61,7 +64,7 @@ def archive_grid(grid_dir: Path | str, dest: Path | str) -> tuple[int, int]:
     dest = _checked_destination(Path(dest), source)
     finished = [run for run in record["runs"] if is_finished(source / run)]
     dest.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=f".{dest.name}.", dir=dest.parent))
+    staging = Path(tempfile.mkdtemp(prefix=f".{dest.name}{PARTIAL}", dir=dest.parent))
     try:
         shutil.copy2(source / GRID_RECORD, staging / GRID_RECORD)
         for run in finished:
@@ -155,7 +158,7 @@ def _put_in_place(staging: Path, dest: Path) -> None:
     aside first and removed once the new one is in place."""
     old = None
     if dest.exists():
-        old = Path(tempfile.mkdtemp(prefix=f".{dest.name}.old.", dir=dest.parent))
+        old = Path(tempfile.mkdtemp(prefix=f".{dest.name}{PARTIAL}old-", dir=dest.parent))
         os.replace(dest, old / dest.name)
     try:
         os.replace(staging, dest)
