@@ -14,7 +14,7 @@ import pandas as pd
 
 from jigsaws_tools.task_definition import PAPER_TASK
 
-from .grid_archive import archived_test_trials, predicted_trials
+from .grid_archive import archived_test_trials, kept_predictions
 from .grid_spec import RunKey
 from .variants import VARIANTS
 
@@ -86,7 +86,7 @@ def _test_trials(root: Path, keys: list[RunKey]) -> set[str]:
     trials = set()
     for fold in {key.fold for key in keys}:
         runs = (root / key.path() for key in sorted(k for k in keys if k.fold == fold))
-        kept = next((names for run in runs if (names := predicted_trials(run))), None)
+        kept = next((list(files) for run in runs if (files := kept_predictions(run))), None)
         trials.update(kept or archived.get(fold, ()))
     return trials
 

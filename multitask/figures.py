@@ -32,6 +32,7 @@ from jigsaws_tools.plots import (Ribbon, draw_ribbon, layout_with_legends,  # no
                                  task_colours)
 from jigsaws_tools.release import KINEMATICS_HZ  # noqa: E402
 
+from .grid_archive import kept_predictions  # noqa: E402
 from .grid_spec import RunKey  # noqa: E402
 from .tables import CONFIG_LABELS  # noqa: E402
 
@@ -124,8 +125,7 @@ def _run_dir(grid_dir: Path, config: str, fold: str) -> Path:
 
 def _predictions(grid_dir: Path, config: str, fold: str) -> dict[str, Path]:
     """The last evaluation point's per-trial prediction files of one run (seed 0)."""
-    points = sorted((_run_dir(grid_dir, config, fold) / "eval").glob("*/predictions"))
-    return {p.stem: p for p in sorted(points[-1].glob("*.csv"))} if points else {}
+    return kept_predictions(_run_dir(grid_dir, config, fold))
 
 
 def _trial_predictions(grid_dir: Path, configs: Sequence[str], trial: str, fold: str

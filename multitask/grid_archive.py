@@ -30,6 +30,7 @@ from rnn_seg.provenance import now
 from rnn_seg.rundir import CONFIG, FINISHED, RunFolderError, is_finished, read_json, write_json
 
 from .grid_folder import GRID_RECORD, read_record
+from .grid_spec import RunKey
 
 ARCHIVE_RECORD = "archive.json"
 #: The files of a finished run an archive keeps; the first two must be there.
@@ -38,6 +39,8 @@ REQUIRED = RUN_FILES[:2]
 #: In the names of the hidden folders an archive is written in (ignored by git: a process killed
 #: while archiving may leave one).
 PARTIAL = ".partial-"
+#: Path parts of a run folder in a grid: runs/<annotations>/<direction>/<config>/seed<k>/<fold>.
+RUN_DEPTH = len(RunKey("a", "d", "v", "w", 0, "f").path().parts)
 
 
 def archive_grid(grid_dir: Path | str, dest: Path | str) -> tuple[int, int]:
@@ -115,9 +118,10 @@ def _foreign_path(folder: Path) -> Path | None:
         if len(relative.parts) == 1 and relative.name in (GRID_RECORD, ARCHIVE_RECORD, "runs"):
             continue
         in_runs = relative.parts[0] == "runs"
-        if in_runs and path.is_dir() and len(relative.parts) <= 6:
+        if in_runs and path.is_dir() and len(relative.parts) <= RUN_DEPTH:
             continue
-        if in_runs and path.is_file() and len(relative.parts) == 7 and path.name in RUN_FILES:
+        if in_runs and path.is_file() and len(relative.parts) == RUN_DEPTH + 1 \
+                and path.name in RUN_FILES:
             continue
         return relative
     return None
@@ -135,11 +139,11 @@ def _copy_run(run_dir: Path, to: Path) -> None:
             shutil.copy2(run_dir / name, to / name)
 
 
-def predicted_trials(run_dir: Path) -> list[str]:
-    """The trials whose predictions the run in ``run_dir`` kept at its last evaluation point
-    (names, sorted); empty when it kept none (an archived run)."""
+def kept_predictions(run_dir: Path) -> dict[str, Path]:
+    """The per-trial prediction files the run in ``run_dir`` kept at its last evaluation point,
+    by trial name, in name order; empty when it kept none (an archived run)."""
     points = sorted((Path(run_dir) / "eval").glob("*/predictions"))
-    return sorted(p.stem for p in points[-1].glob("*.csv")) if points else []
+    return {p.stem: p for p in sorted(points[-1].glob("*.csv"))} if points else {}
 
 
 def _test_trials(root: Path, runs: list[str]) -> dict[str, list[str]]:
@@ -148,7 +152,7 @@ def _test_trials(root: Path, runs: list[str]) -> dict[str, list[str]]:
     found: dict[str, list[str]] = {}
     for run in runs:
         fold = Path(run).name
-        found[fold] = found.get(fold) or predicted_trials(root / run)
+        found[fold] = found.get(fold) or list(kept_predictions(root / run))
     kept = {fold: names for fold, names in found.items() if names}
     return dict(sorted({**archived_test_trials(root), **kept}.items()))
 

@@ -83,8 +83,8 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
     example = choose_example(Path(grid_dir), folds, example_trial) if figures else None
     if figures and example is None:
         print("note: no example-trial figures (figures/segmentation_example, progress_example): "
-              "no seed-0 run of the grid kept its predictions (a scores archive keeps none)",
-              file=sys.stderr)
+              "no seed-0 A-fixed run of the grid kept its predictions (a scores archive keeps "
+              "none)", file=sys.stderr)
     written = [_csv(runs, out / "runs.csv"), _csv(folds, out / "per_fold.csv"),
                _csv(stats, out / "summary.csv")]
     budget = describe_runs(grid_dir, runs).sentence()
