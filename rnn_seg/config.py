@@ -172,10 +172,14 @@ def require_native_precision(precision: Precision) -> None:
 
 
 @lru_cache(maxsize=1)
-def native_bf16() -> bool:
-    """Whether this CPU reports native bfloat16 instructions (Linux ``/proc/cpuinfo``)."""
+def cpu_flags() -> frozenset[str]:
+    """The instruction-set flags this CPU reports (Linux ``/proc/cpuinfo``; empty elsewhere)."""
     try:
-        flags = Path("/proc/cpuinfo").read_text().split()
+        return frozenset(Path("/proc/cpuinfo").read_text().split())
     except OSError:
-        return False
-    return bool({"avx512_bf16", "amx_bf16", "bf16"} & set(flags))
+        return frozenset()
+
+
+def native_bf16() -> bool:
+    """Whether this CPU reports native bfloat16 instructions."""
+    return bool({"avx512_bf16", "amx_bf16", "bf16"} & cpu_flags())

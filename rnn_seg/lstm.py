@@ -41,7 +41,8 @@ from typing import Callable, NamedTuple
 import tensorflow as tf
 
 from .config import (LOOPS, PRECISIONS, RESET_MODES, EncoderConfig,  # noqa: F401 (re-exported)
-                     Loops, Precision, ResetMode, native_bf16, require_native_precision)
+                     Loops, Precision, ResetMode, cpu_flags, native_bf16,
+                     require_native_precision)
 
 _DTYPES = {"fp32": tf.float32, "bf16": tf.bfloat16}
 
@@ -93,9 +94,11 @@ def product(a: tf.Tensor, b: tf.Tensor, dtype: tf.DType = tf.float32, **matmul) 
 
 class RecurrentProducts(NamedTuple):
     """One layer's two per-step products with its recurrent weights, in the products' dtype and
-    the operand layout oneDNN runs fastest for that dtype at a batch of 5 rows (measured,
-    docs/PERFORMANCE.md): float32 ``h W`` and ``dz W^T`` with ``W^T`` stored; bfloat16
-    ``(W^T h^T)^T`` and ``dz W^T`` read through ``transpose_b``."""
+    the operand layout oneDNN runs fastest for that dtype at a batch of 5 rows (measured with
+    ``bench/product_layouts.py``, docs/PERFORMANCE.md): float32 ``h W`` and ``dz W^T`` with
+    ``W^T`` stored; bfloat16 ``dz W^T`` read through ``transpose_b`` and, forward,
+    ``(W^T h^T)^T`` on a CPU with AMX tiles, ``h (W^T)^T`` through ``transpose_b`` on one with
+    AVX512_BF16 alone (each 2-3x faster than the other layout on the other CPU)."""
 
     forward: Callable[[tf.Tensor], tf.Tensor]      # h [B, H] -> h W_h [B, 4H] float32
     backward: Callable[[tf.Tensor], tf.Tensor]     # dz [B, 4H] -> dz W_h^T [B, H] float32
@@ -107,9 +110,16 @@ def recurrent_products(W_h: tf.Tensor, dtype: tf.DType = tf.float32) -> Recurren
     W_t = tf.transpose(W)                                                        # [4H, H]
     if dtype == tf.float32:
         return RecurrentProducts(lambda h: tf.matmul(h, W), lambda dz: tf.matmul(dz, W_t))
+
+    def forward_tiles(h):
+        return tf.transpose(tf.matmul(W_t, tf.cast(h, dtype), transpose_b=True))
+
+    def forward_rows(h):
+        return tf.matmul(tf.cast(h, dtype), W_t, transpose_b=True)
+
+    forward = forward_tiles if "amx_bf16" in cpu_flags() else forward_rows
     return RecurrentProducts(
-        lambda h: tf.cast(tf.transpose(tf.matmul(W_t, tf.cast(h, dtype), transpose_b=True)),
-                          tf.float32),
+        lambda h: tf.cast(forward(h), tf.float32),
         lambda dz: tf.cast(tf.matmul(tf.cast(dz, dtype), W, transpose_b=True), tf.float32))
 
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import tensorflow as tf
 
-from rnn_seg import config
+from rnn_seg import config, lstm
 from rnn_seg.lstm import EncoderConfig, require_native_precision
 from rnn_seg.model import SegmentationModel
 from rnn_seg.sweeps import make_sweep, reset_flags
@@ -43,6 +43,21 @@ def test_bf16_gradients_agree_with_fp32(bidirectional):
         error = np.linalg.norm(g16 - g32) / np.linalg.norm(g32)
         assert error < GRADIENT_TOLERANCE, (g32.shape, error)
     assert any(not np.array_equal(a, b) for a, b in zip(grads32, grads16))   # really bf16
+
+
+@pytest.mark.parametrize("flags", [{"amx_bf16", "avx512_bf16"}, {"avx512_bf16"}])
+def test_bf16_recurrent_products_in_either_layout_agree_with_fp32(monkeypatch, flags):
+    """Each CPU's bfloat16 layout computes the same products, within bfloat16 rounding."""
+    monkeypatch.setattr(lstm, "cpu_flags", lambda: frozenset(flags))
+    rng = np.random.default_rng(0)
+    W = tf.constant(rng.uniform(-0.1, 0.1, (H, 4 * H)), tf.float32)
+    h, dz = (tf.constant(rng.normal(size=shape), tf.float32) for shape in ((5, H), (5, 4 * H)))
+    exact, bf16 = lstm.recurrent_products(W), lstm.recurrent_products(W, tf.bfloat16)
+    for reference, ours in ((exact.forward(h), bf16.forward(h)),
+                            (exact.backward(dz), bf16.backward(dz))):
+        assert ours.dtype == tf.float32 and ours.shape == reference.shape
+        error = np.linalg.norm(ours - reference) / np.linalg.norm(reference)
+        assert 0 < error < GRADIENT_TOLERANCE
 
 
 def test_bf16_is_refused_without_native_support(monkeypatch):
