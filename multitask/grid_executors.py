@@ -4,8 +4,8 @@ Each job is ``grid_job.run_job`` on a group of up to ``stack`` run directories o
 (trained together in one vectorised step, ``rnn_seg.stack``; 1 = each run alone); finished runs
 (``finished.json``) are skipped, interrupted ones resume from their checkpoints inside the job.
 Progress lines give done/total and an ETA: the wall time per epoch of the runs finished in this
-invocation times the epochs of the runs left (runs differ: Pr 80 epochs, APoc 180 at the
-converged preset).
+invocation times the epochs left (runs differ: Pr 80 epochs, APoc 180 at the converged preset;
+a run resumed from a checkpoint counts only the epochs after it).
 
 Local workers die with the grid process (``PR_SET_PDEATHSIG`` on Linux, a watchdog thread
 elsewhere) and ignore Ctrl-C: on Ctrl-C the grid cancels the queued jobs, stops the running ones
@@ -27,6 +27,7 @@ from datetime import timedelta
 from pathlib import Path
 from typing import Callable
 
+from rnn_seg.checkpoints import trained_units
 from rnn_seg.provenance import command
 from rnn_seg.rundir import is_finished
 from rnn_seg.threads import thread_plan
@@ -100,7 +101,7 @@ def run_grid(spec: GridSpec, keys: list[RunKey], out: Path, workers: int = 1,
     payload = spec_payload(spec)
     groups = job_groups(pending, stack, grid=keys)
     progress = Progress(len(keys), len(keys) - len(pending), log,
-                        {key: schedule_epochs(spec, key) for key in pending})
+                        {key: _epochs_left(spec, key, out) for key in pending})
     if scheduler:
         _run_dask(payload, groups, out, scheduler, cores_per_job or 1, progress)
     else:
@@ -108,6 +109,12 @@ def run_grid(spec: GridSpec, keys: list[RunKey], out: Path, workers: int = 1,
         _run_local(payload, groups, out, workers, cores, progress,
                    jobs_per_worker(spec, groups, cores))
     return progress.failed
+
+
+def _epochs_left(spec: GridSpec, key: RunKey, out: Path) -> float:
+    """Epochs of ``key``'s schedule still to train: all, less those its newest checkpoint holds
+    when an earlier launch was interrupted (the ETA's weight of the run)."""
+    return max(0.0, schedule_epochs(spec, key) - trained_units(out / key.path()))
 
 
 def jobs_per_worker(spec: GridSpec, groups: list[list[RunKey]], cores: int) -> int:

@@ -37,6 +37,21 @@ def checkpoint_sweeps(run_dir: Path) -> list[int]:
     return sorted(int(m.group(1)) for p in folder.iterdir() if (m := _NAME.match(p.name)))
 
 
+def trained_units(run_dir: Path) -> float:
+    """Units of training (epochs, or sweeps for a sweep schedule) that the newest checkpoint of
+    ``run_dir`` holds: what a resumed run need not train again. The sweeps per unit come from
+    the first row of ``history.csv`` (``n`` units at ``sweep`` sweeps); 0 for a run without a
+    checkpoint or a readable history."""
+    sweeps = checkpoint_sweeps(run_dir)
+    try:
+        with open(Path(run_dir) / "history.csv") as history:
+            first = dict(zip(next(history).strip().split(","), next(history).strip().split(",")))
+        per_unit = int(first["sweep"]) / float(first["n"])
+    except (OSError, StopIteration, KeyError, ValueError, ZeroDivisionError):
+        return 0.0
+    return sweeps[-1] / per_unit if sweeps else 0.0
+
+
 def checkpoint_prefix(run_dir: Path, sweep: int) -> Path:
     return Path(run_dir) / FOLDER / f"ckpt-{sweep}"
 

@@ -374,6 +374,22 @@ def test_eta_weighs_the_runs_left_by_their_schedules():
     assert lines == [f"[grid] 1/3 done, ETA 0:00:40 | {keys[0].path()} finished"]
 
 
+def test_eta_counts_only_the_epochs_a_resumed_run_has_left(tmp_path):
+    """A run interrupted after 30 of its 80 epochs weighs 50 in the ETA; a fresh one 80."""
+    from multitask.grid_executors import _epochs_left
+
+    spec = GridSpec(preset="converged")
+    resumed, fresh = (RunKey("revised", "bidirectional", "Pr", "fixed", 0, fold)
+                      for fold in ("B", "C"))
+    run = tmp_path / resumed.path()
+    (run / "checkpoints").mkdir(parents=True)
+    for sweep in (203, 210):                                 # 7 sweeps an epoch: epochs 29, 30
+        (run / "checkpoints" / f"ckpt-{sweep}.index").touch()
+    (run / "history.csv").write_text("unit,n,sweep,lr\nepochs,1.0,7,1.0\nepochs,2.0,14,1.0\n")
+    assert _epochs_left(spec, resumed, tmp_path) == pytest.approx(50)
+    assert _epochs_left(spec, fresh, tmp_path) == 80
+
+
 def test_scores_archive_tabulates_and_continues_like_its_grid(tmp_path, tiny_spec, tiny_grid,
                                                                 capsys):
     """An archive keeps each finished run's config, metrics and logs (no weights, no
