@@ -43,13 +43,14 @@ def trained_units(run_dir: Path) -> float:
     the first row of ``history.csv`` (``n`` units at ``sweep`` sweeps); 0 for a run without a
     checkpoint or a readable history."""
     sweeps = checkpoint_sweeps(run_dir)
+    if not sweeps:
+        return 0.0
     try:
         with open(Path(run_dir) / "history.csv") as history:
             first = dict(zip(next(history).strip().split(","), next(history).strip().split(",")))
-        per_unit = int(first["sweep"]) / float(first["n"])
+        return sweeps[-1] * float(first["n"]) / int(first["sweep"])
     except (OSError, StopIteration, KeyError, ValueError, ZeroDivisionError):
         return 0.0
-    return sweeps[-1] / per_unit if sweeps else 0.0
 
 
 def checkpoint_prefix(run_dir: Path, sweep: int) -> Path:
