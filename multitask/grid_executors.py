@@ -27,9 +27,8 @@ from datetime import timedelta
 from pathlib import Path
 from typing import Callable
 
-from rnn_seg.checkpoints import trained_units
 from rnn_seg.provenance import command
-from rnn_seg.rundir import is_finished
+from rnn_seg.rundir import is_finished, trained_units
 from rnn_seg.threads import thread_plan
 
 from .grid_job import run_job

@@ -16,7 +16,6 @@ removed when a run starts.
 from __future__ import annotations
 
 import gc
-import re
 import shutil
 from pathlib import Path
 from typing import Callable, Collection
@@ -24,33 +23,9 @@ from typing import Callable, Collection
 import tensorflow as tf
 
 from .config import KEEP_CHECKPOINTS, UNITS, KeepCheckpoints  # noqa: F401 (re-exported)
-from .rundir import RunFolderError, point_dir, read_json
-FOLDER = "checkpoints"
-_NAME = re.compile(r"^ckpt-(\d+)\.index$")
-
-
-def checkpoint_sweeps(run_dir: Path) -> list[int]:
-    """Sweep counts of the checkpoints in ``run_dir``, oldest first."""
-    folder = Path(run_dir) / FOLDER
-    if not folder.is_dir():
-        return []
-    return sorted(int(m.group(1)) for p in folder.iterdir() if (m := _NAME.match(p.name)))
-
-
-def trained_units(run_dir: Path) -> float:
-    """Units of training (epochs, or sweeps for a sweep schedule) that the newest checkpoint of
-    ``run_dir`` holds: what a resumed run need not train again. The sweeps per unit come from
-    the first row of ``history.csv`` (``n`` units at ``sweep`` sweeps); 0 for a run without a
-    checkpoint or a readable history."""
-    sweeps = checkpoint_sweeps(run_dir)
-    if not sweeps:
-        return 0.0
-    try:
-        with open(Path(run_dir) / "history.csv") as history:
-            first = dict(zip(next(history).strip().split(","), next(history).strip().split(",")))
-        return sweeps[-1] * float(first["n"]) / int(first["sweep"])
-    except (OSError, StopIteration, KeyError, ValueError, ZeroDivisionError):
-        return 0.0
+from .rundir import CHECKPOINTS as FOLDER
+from .rundir import (RunFolderError, checkpoint_sweeps,  # noqa: F401 (re-exported)
+                     point_dir, read_json)
 
 
 def checkpoint_prefix(run_dir: Path, sweep: int) -> Path:

@@ -1,5 +1,5 @@
 """Run directories: strict-JSON atomic writes, configuration to and from JSON, the files a run
-owns, the finished-run marker.
+owns, its checkpoints' sweeps, the finished-run marker.
 
 Every JSON file is strict JSON (``null`` for a missing or non-finite number, never ``NaN``) and
 every file is written through a temporary file and a rename, with the user's umask.
@@ -10,6 +10,7 @@ import dataclasses
 import json
 import math
 import os
+import re
 import secrets
 import shutil
 import tempfile
@@ -25,10 +26,12 @@ from .config import unit_name
 
 CONFIG = "config.json"
 FINISHED = "finished.json"
+CHECKPOINTS = "checkpoints"
+_CHECKPOINT_INDEX = re.compile(r"^ckpt-(\d+)\.index$")
 T = TypeVar("T")
 #: What a run writes besides config.json and its top-level ``*.csv`` logs; ``clear_run_dir``
 #: removes exactly these (a grid's ``train.log`` and the lock file stay).
-RUN_OUTPUTS = ("checkpoints", "eval", "metrics.json", "timing.json", "tensorboard",
+RUN_OUTPUTS = (CHECKPOINTS, "eval", "metrics.json", "timing.json", "tensorboard",
                "evaluate", "stream_normalisation.json", FINISHED)
 
 
@@ -217,6 +220,31 @@ def point_dir(run_dir: Path, unit: str, point: int) -> Path:
         point: the evaluation point N, in that unit.
     """
     return Path(run_dir) / "eval" / f"{unit_name(unit)}{point:04d}"
+
+
+def checkpoint_sweeps(run_dir: Path) -> list[int]:
+    """Sweep counts of the checkpoints in ``run_dir``, oldest first."""
+    folder = Path(run_dir) / CHECKPOINTS
+    if not folder.is_dir():
+        return []
+    return sorted(int(m.group(1)) for p in folder.iterdir()
+                  if (m := _CHECKPOINT_INDEX.match(p.name)))
+
+
+def trained_units(run_dir: Path) -> float:
+    """Units of training (epochs, or sweeps for a sweep schedule) that the newest checkpoint of
+    ``run_dir`` holds: what a resumed run need not train again. The sweeps per unit come from
+    the first row of ``history.csv`` (``n`` units at ``sweep`` sweeps); 0 for a run without a
+    checkpoint or a readable history."""
+    sweeps = checkpoint_sweeps(run_dir)
+    if not sweeps:
+        return 0.0
+    try:
+        with open(Path(run_dir) / "history.csv") as history:
+            first = dict(zip(next(history).strip().split(","), next(history).strip().split(",")))
+        return sweeps[-1] * float(first["n"]) / int(first["sweep"])
+    except (OSError, StopIteration, KeyError, ValueError, ZeroDivisionError):
+        return 0.0
 
 
 def is_finished(run_dir: Path) -> bool:
