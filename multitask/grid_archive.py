@@ -16,8 +16,10 @@ it was archived, and each fold's test trials (their names only, for the tables' 
   archived run of other settings is never taken for one of the spec's.
 
 An archive is written into a new or empty folder, or replaces a folder that holds nothing but an
-archive's files; anything else there (weights, predictions, tables, a lock) stops it before any
-work, as does a destination inside the grid or the grid inside it.
+archive's files, and only if every run finished there is finished in the grid too (so that a
+grid recording a part of an archived spec never thins out the archive); anything else there
+(weights, predictions, tables, a lock, runs the grid lacks) stops it before any work, as does a
+destination inside the grid or the grid inside it.
 """
 from __future__ import annotations
 
@@ -66,6 +68,13 @@ def archive_grid(grid_dir: Path | str, dest: Path | str) -> tuple[int, int]:
         raise RunFolderError(f"{source}: no {GRID_RECORD}: not a grid folder to archive")
     dest = _checked_destination(Path(dest), source)
     finished = [run for run in record["runs"] if is_finished(source / run)]
+    dropped = sorted(set(_archived_runs(dest)) - set(finished))
+    if dropped:
+        raise RunFolderError(
+            f"{dest}: its archive holds {len(dropped)} finished run(s) that {source} does not "
+            f"record as finished (first: {dropped[0]}); replacing it would lose them, so nothing "
+            "is written. Archive into a new folder, or first give the grid a spec that records "
+            "them (multitask-grid --spec ... --restart; their runs must be in the grid folder).")
     dest.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=f".{dest.name}{PARTIAL}", dir=dest.parent))
     try:
@@ -107,6 +116,13 @@ def _checked_destination(dest: Path, source: Path) -> Path:
         raise RunFolderError(f"{dest}: holds {foreign}, which no scores archive holds; nothing "
                              "written. Archive into a new folder.")
     return resolved
+
+
+def _archived_runs(folder: Path) -> list[str]:
+    """The finished runs of the archive in ``folder`` (none for a new folder), as a grid
+    records them: ``runs/<annotations>/<direction>/<config>/seed<k>/<fold>``."""
+    return [marker.parent.relative_to(folder).as_posix()
+            for marker in folder.glob("runs/*/*/*/*/*/" + FINISHED)]
 
 
 def _foreign_path(folder: Path) -> Path | None:

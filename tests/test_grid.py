@@ -461,6 +461,9 @@ def test_archive_leaves_out_unfinished_runs_and_replaces_only_an_archive(tmp_pat
     assert "3 of 4 runs archived" in capsys.readouterr().out
     assert tables_main([str(tiny_grid), "--archive", str(archive)]) == 0    # replaces it
     assert len(list(archive.glob("runs/**/finished.json"))) == 4
+    assert tables_main([str(grid), "--archive", str(archive)]) == 2         # would lose a run
+    assert f"1 finished run(s) that {grid} does not" in capsys.readouterr().err
+    assert len(list(archive.glob("runs/**/finished.json"))) == 4
     notes = tmp_path / "notes"
     notes.mkdir()
     (notes / "todo.txt").write_text("mine")
