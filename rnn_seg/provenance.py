@@ -1,4 +1,5 @@
-"""Where a result came from: package and library versions, git commit, command line, host, times.
+"""Where a result came from: package and library versions, git commit, command line, host, CPU,
+times.
 
 ``provenance()`` is recorded in every run's config.json (the process that started it) and
 finished.json (the one that finished it), and in a grid's grid.json. A grid worker records the
@@ -39,11 +40,30 @@ def command() -> list[str]:
 
 
 def provenance() -> dict:
-    """Versions, git commit (None outside a git checkout), command line and host."""
+    """Versions, git commit (None outside a git checkout), command line, host and CPU model.
+
+    The CPU is recorded because the same code, seed and data can train different weights on
+    different processors: their float32 kernels may sum in another order (docs/REPRODUCTION.md,
+    "Seeds and machines")."""
     return {"package": _version(DISTRIBUTION), **_git(), "python": platform.python_version(),
             "tensorflow": _version("tensorflow") or _version("tensorflow-cpu"),
             "numpy": _version("numpy"), "command": shlex.join(command()),
-            "host": socket.gethostname()}
+            "host": socket.gethostname(), "cpu": cpu_model()}
+
+
+@lru_cache(maxsize=1)
+def cpu_model() -> str | None:
+    """This machine's processor, e.g. "AMD EPYC": Linux /proc/cpuinfo's first ``model
+    name``, else ``platform.processor()``; None when neither says."""
+    try:
+        lines = Path("/proc/cpuinfo").read_text().splitlines()
+    except OSError:
+        lines = []
+    for line in lines:
+        name, _, value = line.partition(":")
+        if name.strip() == "model name" and value.strip():
+            return value.strip()
+    return platform.processor() or None
 
 
 def _version(distribution: str) -> str | None:

@@ -35,6 +35,7 @@ from rnn_seg.folder_lock import hold_folder
 from rnn_seg.lstm import EncoderConfig
 from rnn_seg.model import SegmentationModel
 from rnn_seg.optim import OptimConfig
+from rnn_seg.provenance import cpu_model
 from rnn_seg.rundir import RunFolderError, write_atomic, write_json
 from rnn_seg.stack import TrainerStack
 from rnn_seg.tasks import SoftmaxClassification
@@ -639,7 +640,9 @@ def test_every_json_of_a_finished_run_is_strict_with_provenance(finished_run):
     started = _strict(finished_run / "config.json")["provenance"]
     finished = _strict(finished_run / "finished.json")
     for record in (started, finished["provenance"]):
-        assert {"package", "git_commit", "python", "tensorflow", "numpy", "command"} <= set(record)
+        assert {"package", "git_commit", "python", "tensorflow", "numpy", "command",
+                "cpu"} <= set(record)
+        assert record["cpu"] == cpu_model()
         assert record["command"].startswith("multitask-train --variant A")
     assert record["tensorflow"] == tf.__version__ and record["numpy"] == np.__version__
     assert finished["started"] == started["started"] <= finished["finished"]
