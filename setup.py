@@ -59,14 +59,14 @@ setup(
     },
     entry_points={
         "console_scripts": [
-            "jigsaws-tools=jigsaws_tools.cli:main",
+            "jigsaws-tools=jigsaws_tools.cli.main:main",
             "baseline-train=baseline.cli:main",
             "multitask-train=multitask.train_cli:main",
-            "multitask-grid=multitask.grid_cli:main",
-            "multitask-tables=multitask.tables_cli:main",
-            "multitask-predict=multitask.predict_cli:main",
-            "multitask-evaluate=multitask.evaluate_cli:main",
-            "multitask-export=multitask.export_cli:main",
+            "multitask-grid=multitask.grid.cli:main",
+            "multitask-tables=multitask.evidence.cli:main",
+            "multitask-predict=multitask.inference.predict_cli:main",
+            "multitask-evaluate=multitask.inference.evaluate_cli:main",
+            "multitask-export=multitask.inference.export_cli:main",
         ],
     },
 )

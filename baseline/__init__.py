@@ -4,6 +4,8 @@ Read first: ``builder.train_baseline`` (one LOUO fold from a ``config.RunConfig`
 ``builder.build_trainer``, which the multi-task variants reuse. ``options`` holds the command-line
 options every training CLI shares, ``launch`` how they run (lock, errors, Ctrl-C); ``cli`` is
 ``baseline-train``.
+
+Imports ``jigsaws_tools`` and ``rnn_seg``; nothing of ``multitask``, which builds on it.
 """
 from jigsaws_tools.lazy import lazy_exports
 

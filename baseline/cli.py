@@ -4,9 +4,9 @@ from __future__ import annotations
 import argparse
 import sys
 
-from jigsaws_tools.cli_common import command_parser, import_tensorflow, run_command
+from jigsaws_tools.cli.common import command_parser, import_tensorflow, run_command
 from rnn_seg.config import OptimConfig
-from rnn_seg.provenance import set_command
+from rnn_seg.runs.provenance import set_command
 
 from .config import RunConfig
 from .options import add_run_arguments, run_config_from_args

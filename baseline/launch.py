@@ -1,8 +1,9 @@
 """Running one training command: configuration first, then the run folder's lock, then training.
 
-Shared by ``baseline-train`` and ``multitask-train``, inside ``cli_common.run_command``: errors a
-user can act on (bad values or data, a folder in use or holding other settings) propagate to it,
-which prints one line ``prog: error: ...`` (and the traceback with ``-v``) and exits with 2.
+Shared by ``baseline-train`` and ``multitask-train``, inside
+``jigsaws_tools.cli.common.run_command``: errors a user can act on (bad values or data, a folder
+in use or holding other settings) propagate to it, which prints one line ``prog: error: ...``
+(and the traceback with ``-v``) and exits with 2.
 Handled here: a loss that diverged (one line, exit 1) and Ctrl-C during training, which leaves a
 resumable run (exit 130 and how to resume).
 """
@@ -12,7 +13,7 @@ import sys
 from pathlib import Path
 from typing import Callable, TypeVar
 
-from rnn_seg.folder_lock import hold_folder
+from rnn_seg.runs.lock import hold_folder
 from rnn_seg.trainer import TrainingDiverged
 
 Config = TypeVar("Config")

@@ -9,12 +9,12 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from jigsaws_tools.arg_types import (momentum, non_negative_int, positive_float, positive_int,
+from jigsaws_tools.cli.arg_types import (momentum, non_negative_int, positive_float, positive_int,
                                      positive_int_list, probability)
 from jigsaws_tools.dataset import DataConfig
 from jigsaws_tools.features import FEATURE_SETS
-from jigsaws_tools.options import add_data_arguments, data_dir_from_args
-from jigsaws_tools.task_options import task_from_options
+from jigsaws_tools.cli.options import add_data_arguments, data_dir_from_args
+from jigsaws_tools.cli.task_options import task_from_options
 from rnn_seg.config import (KEEP_CHECKPOINTS, LOOPS, PLOT_POINTS, PRECISIONS, PREDICTION_MODES,
                             RESET_MODES, EncoderConfig, OptimConfig, TrainConfig,
                             check_eval_points, require_native_precision)

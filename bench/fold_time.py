@@ -60,8 +60,8 @@ def run_parser(description: str) -> argparse.ArgumentParser:
 
 
 #: ``multitask-grid`` with a fresh worker process for every job (as before workers were reused)
-FRESH_WORKERS = ("import sys; import multitask.grid_executors as e; e.JOBS_PER_WORKER = 1; "
-                 "from multitask.grid_cli import main; sys.exit(main(sys.argv[1:]))")
+FRESH_WORKERS = ("import sys; import multitask.grid.executors as e; e.JOBS_PER_WORKER = 1; "
+                 "from multitask.grid.cli import main; sys.exit(main(sys.argv[1:]))")
 
 
 def timed_grid(folds: list[str], workers: int, stack: int, args, loops: str = "graph",
@@ -73,7 +73,7 @@ def timed_grid(folds: list[str], workers: int, stack: int, args, loops: str = "g
         spec.write_text(SPEC.format(data=data_source(), folds=folds, hidden=args.hidden,
                                     epochs=args.epochs, variant=args.variant))
         start = time.perf_counter()
-        grid = ["-c", FRESH_WORKERS] if fresh else ["-m", "multitask.grid_cli"]
+        grid = ["-c", FRESH_WORKERS] if fresh else ["-m", "multitask.grid.cli"]
         subprocess.run([sys.executable, *grid, "--spec", str(spec),
                         "--out", str(Path(tmp) / "out"), "--workers", str(workers),
                         "--stack", str(stack), "--loops", loops], check=True,

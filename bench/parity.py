@@ -43,13 +43,13 @@ def run_grid(out: Path, name: str, workers: int) -> Path:
     spec = out / f"{name}.toml"
     out.mkdir(parents=True, exist_ok=True)
     spec.write_text(SPEC.format(option=OPTIONS[name], extra=FORWARD if name == "fp32" else ""))
-    subprocess.run([sys.executable, "-m", "multitask.grid_cli", "--spec", str(spec), "--out",
+    subprocess.run([sys.executable, "-m", "multitask.grid.cli", "--spec", str(spec), "--out",
                     str(grid), "--workers", str(workers)], check=True)
     return grid
 
 
 def per_fold(grid: Path) -> pd.DataFrame:
-    from multitask.collect import run_rows
+    from multitask.evidence.collect import run_rows
 
     runs, _ = run_rows(grid)
     runs = runs[runs.direction == "bidirectional"]

@@ -1,9 +1,13 @@
 """JIGSAWS I/O for any task defined as data (Suturing, Knot_Tying, Needle_Passing or your own),
 preprocessing, annotation versions and progress labels.
 
-Also what every command of the package shares: ``cli_common`` (``--version``, ``-v``, quiet
-TensorFlow, one-line errors), ``arg_types`` (range-checked option types), ``options`` and
-``task_options`` (the options that choose a release and its task); ``plots`` draws label ribbons.
+Read first: ``dataset`` (trials, LOUO splits, the cache), then ``release`` (the reader) and
+``task_definition`` (tasks as data). ``cli/``: the ``jigsaws-tools`` command and the conventions
+every command of the project shares; ``plots`` draws label ribbons.
+
+Imports: numpy, scipy, pandas, matplotlib and the standard library; no other package of the
+project (it is the bottom layer: ``jigsaws_tools -> rnn_seg -> baseline -> multitask``). Only
+``cli.common.import_tensorflow`` loads TensorFlow, for the commands that train.
 """
 from .lazy import lazy_exports
 

@@ -45,9 +45,9 @@ class DataConfig:
     definition itself after construction (so ``config.json`` records the vocabulary and grammar).
     """
 
-    #: Left out of the settings a run folder is checked against (``rnn_seg.settings``): where the
-    #: release is, not what it holds, which the run's data fingerprint (``cache_key``) hashes. A run
-    #: resumes with its release reached by another path (relative, moved, a node's local copy).
+    #: Left out of the settings a run folder is checked against (``rnn_seg.runs.settings``): where
+    #: the release is, not what it holds, which the run's data fingerprint (``cache_key``) hashes. A
+    #: run resumes with its release reached by another path (relative, moved, a node's local copy).
     output_fields: ClassVar[tuple[str, ...]] = ("data_dir",)
 
     data_dir: str

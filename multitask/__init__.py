@@ -1,41 +1,38 @@
-"""The paper's multi-task models, their experiment grid, tables and figures, and their use.
+"""The paper's multi-task models, their experiment grid, the evidence they give, and their use.
 
-Read first: ``variants.VARIANTS`` (A, APr, APc, APoc, Pr, Pc, Poc), then ``fold_run.train_variant``
-(one variant on one LOUO fold, fixed weights or ``gradnorm.GradNormTrainer``). To use a trained
-run: ``trained_run.load_run`` (its ``predict`` labels a recording's kinematics).
+Four wings, one folder each (read the first file named in each):
 
-* ``heads``: the progress heads (regression, classification, ordered classification);
-  ``config``: the multi-task configuration (weightings, GradNorm; no TensorFlow import);
-* ``grid_spec``: TOML specs, presets, the runs they expand to; ``grid_record``: grid.json and
-  the check of a grid folder; ``grid_job``: one worker's job; ``grid_executors``: the local process
-  pool and Dask;
-* ``collect``, ``tables``, ``figures``: results of a grid as the paper's tables and figures;
-  ``captions``: what the runs were trained with, for the tables' captions; ``latex``: pieces of
-  paste-ready tables; ``curves``: training curves; ``paper_results``: the published numbers;
-* ``paired``: paired statistics of two configurations over folds and seeds; ``claims``: the
-  paper's claims as data, tested with them; ``claims_table``: ``claims.csv`` and ``claims.tex``.
-* ``trained_run``, ``predictions``: a run folder loaded for use, its predictions per frame;
-  ``streaming``: frame-by-frame prediction of forward models; ``run_evaluation``: saved weights
-  scored like an evaluation point; ``export``: a run as a TensorFlow SavedModel;
-* ``predict_cli``, ``evaluate_cli``, ``export_cli``: their commands (``run_options``: what the
-  three share).
+* ``models/``: the paper's variants (**``variants``**: A, APr, APc, APoc, Pr, Pc, Poc), the
+  progress heads, GradNorm, one variant on one LOUO fold (``fold_run``) and their configuration;
+* ``grid/``: the experiment grid: specs and presets (**``spec``**), jobs, executors (processes or
+  Dask), the grid folder's record, scores archives, ``multitask-grid``;
+* ``evidence/``: a grid's runs as the paper's evidence: collected (**``collect``**), Tables I-III,
+  LaTeX, captions, the published numbers, figures, training curves, paired statistics, the
+  claims, ``multitask-tables``;
+* ``inference/``: a trained run in use: loaded (**``trained_run.load_run``**), its predictions,
+  streaming, evaluation, export, and ``multitask-predict`` / ``-evaluate`` / ``-export``.
+
+``train_cli`` is ``multitask-train``. Imports flow one way: ``models <- grid <- evidence`` and
+``models <- inference <- evidence``; ``models`` imports no other wing, ``grid`` and ``inference``
+import only ``models``, ``evidence`` any of the three (``tests/test_packaging.py`` checks it).
+Outside the package, ``multitask`` imports ``jigsaws_tools``, ``rnn_seg`` and ``baseline``.
 """
 from jigsaws_tools.lazy import lazy_exports
 
 #: Public name -> the submodule defining it, imported on first use (``jigsaws_tools.lazy``).
 _PUBLIC = {
-    "load_run": "trained_run",
-    "TrainedRun": "trained_run",
-    "RecordingPrediction": "predictions",
-    "StreamingPredictor": "streaming",
-    "evaluate_run": "run_evaluation",
-    "export_run": "export",
-    "train_variant": "fold_run",
-    "variant_trainer": "fold_run",
-    "GradNormConfig": "config",
-    "VARIANTS": "variants",
-    "Variant": "variants",
-    "get_variant": "variants",
+    "load_run": "inference.trained_run",
+    "TrainedRun": "inference.trained_run",
+    "RecordingPrediction": "inference.predictions",
+    "StreamingPredictor": "inference.streaming",
+    "evaluate_run": "inference.evaluation",
+    "export_run": "inference.export",
+    "train_variant": "models.fold_run",
+    "variant_trainer": "models.fold_run",
+    "GradNormConfig": "models.config",
+    "VARIANTS": "models.variants",
+    "Variant": "models.variants",
+    "get_variant": "models.variants",
 }
 __all__ = sorted(_PUBLIC)
 __getattr__ = lazy_exports(__name__, _PUBLIC)

@@ -9,12 +9,12 @@ import sys
 
 from baseline.config import RunConfig
 from baseline.options import add_run_arguments, run_config_from_args
-from jigsaws_tools.arg_types import non_negative_float, positive_float
-from jigsaws_tools.cli_common import command_parser, import_tensorflow, run_command
-from rnn_seg.provenance import set_command
+from jigsaws_tools.cli.arg_types import non_negative_float, positive_float
+from jigsaws_tools.cli.common import command_parser, import_tensorflow, run_command
+from rnn_seg.runs.provenance import set_command
 
-from .config import ORDINAL_LOSSES, RELATIVE_RATES, WEIGHTINGS, GradNormConfig, HeadConfig
-from .variants import VARIANTS, Variant, get_variant
+from .models.config import ORDINAL_LOSSES, RELATIVE_RATES, WEIGHTINGS, GradNormConfig, HeadConfig
+from .models.variants import VARIANTS, Variant, get_variant
 
 PROG = "multitask-train"
 DEFAULT_VARIANT = "APc"
@@ -66,7 +66,7 @@ def _train(args: argparse.Namespace, variant: Variant) -> int:
     from baseline.launch import run_training
     from rnn_seg.threads import configure_threads
 
-    from .fold_run import check_weighting, train_variant
+    from .models.fold_run import check_weighting, train_variant
 
     def configure() -> tuple[RunConfig, GradNormConfig, HeadConfig]:
         config = run_config_from_args(args, variant.optim(), variant.eval_points())

@@ -11,9 +11,14 @@ then ``model.SegmentationModel`` (a recurrent encoder shared by one dense head p
 * ``trainer``: the training loop with checkpoints, resume and evaluation points;
 * ``stack``: several models trained in one vectorised step; ``threads``: the thread plan;
 * ``metrics``: accuracy, edit score and F1@k; ``plots``: per-sequence figures;
-* run folders: ``rundir`` (strict JSON, atomic writes, what a run owns), ``settings`` (what a
-  folder is checked against), ``checkpoints`` (save, fall back, prune, ``restore_weights``),
-  ``folder_lock`` (one writer per folder), ``provenance``; ``validation``: configuration checks.
+* ``validation``: configuration checks;
+* ``runs/``: run folders you can trust (strict JSON and atomic writes, the files a run owns,
+  the settings a folder is checked against, checkpoints, the one-writer lock, provenance,
+  timing).
+
+Imports: ``jigsaws_tools`` (and TensorFlow, numpy); nothing of ``baseline`` or ``multitask``.
+Inside, ``runs/`` imports only ``config`` and ``validation`` of the engine, so the run-folder
+files load without TensorFlow.
 """
 from jigsaws_tools.lazy import lazy_exports
 
@@ -21,7 +26,7 @@ from jigsaws_tools.lazy import lazy_exports
 _PUBLIC = {
     "EncoderConfig": "config",
     "SegmentationModel": "model",
-    "restore_weights": "checkpoints",
+    "restore_weights": "runs.checkpoints",
     "OptimConfig": "config",
     "SoftmaxClassification": "tasks",
     "Task": "tasks",

@@ -26,7 +26,7 @@ class EncoderConfig:
     """Shape of the recurrent encoder, and how its recurrent loops run."""
 
     #: How the loops run, not what they compute (``rnn_seg.lstm``'s docstring): left out of the
-    #: settings a run folder is checked against (``rnn_seg.settings``), like the thread plan.
+    #: settings a run folder is checked against (``rnn_seg.runs.settings``), like the thread plan.
     output_fields: ClassVar[tuple[str, ...]] = ("loops",)
 
     hidden: int = 1024
@@ -116,7 +116,7 @@ class TrainConfig:
     """Batching, seeding and what a run writes."""
 
     #: Fields that change what a run writes, not what it computes: left out of the settings its
-    #: folder is checked against (``rnn_seg.settings``), so a run may resume with other values.
+    #: folder is checked against (``rnn_seg.runs.settings``), so a run may resume with other values.
     output_fields: ClassVar[tuple[str, ...]] = (
         "log_every", "checkpoint_every", "plots", "keep_checkpoints", "monitor_every",
         "monitor_train", "tensorboard")
@@ -131,7 +131,7 @@ class TrainConfig:
     checkpoint_every: int = 1                        # units between checkpoints
     plots: PlotPoints = "last"                       # evaluation points with per-sequence figures
     tensorboard: bool = False                        # also write progress scalars there
-    keep_checkpoints: KeepCheckpoints = "final"      # kept by a finished run (rnn_seg.checkpoints)
+    keep_checkpoints: KeepCheckpoints = "final"  # kept by a finished run (rnn_seg.runs.checkpoints)
 
     def __post_init__(self):
         require_number("TrainConfig.batch_size", self.batch_size, integer=True, low=1)

@@ -27,7 +27,7 @@ from typing import Sequence
 import numpy as np
 import tensorflow as tf
 
-from .folder_lock import hold_folder
+from .runs.lock import hold_folder
 from .trainer import Trainer, loss_gradients
 
 

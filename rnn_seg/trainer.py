@@ -5,11 +5,11 @@ A run directory holds::
     config.json                  every configuration of the run, its settings hash and provenance;
                                  written when the run starts, never rewritten
     checkpoints/ckpt-<N>.*       TF checkpoints after N sweeps (model, optimiser state, dropout RNG,
-                                 sweep count, settings hash); see rnn_seg.checkpoints
+                                 sweep count, settings hash); see rnn_seg.runs.checkpoints
     history.csv                  one line per logged epoch / unit: training losses, time; test
                                  (and with ``monitor_train`` training) scores every
                                  ``monitor_every`` units
-    timing.json                  seconds per phase of the last session (``rnn_seg.timing``)
+    timing.json                  seconds per phase of the last session (``rnn_seg.runs.timing``)
     tensorboard/                 the same scalars for TensorBoard, with ``tensorboard``
     eval/<unit><N>/metrics.json  test metrics at evaluation point N
     eval/<unit><N>/predictions/<sequence>.csv, plots/<sequence>.png (figures: last point only,
@@ -18,10 +18,10 @@ A run directory holds::
                                  loss had stopped falling (``rnn_seg.convergence``)
     finished.json                written last (settings hash, start and end time, provenance); a
                                  run without it is incomplete and resumes
-    .lock                        held by the process training the run (rnn_seg.folder_lock)
+    .lock                        held by the process training the run (rnn_seg.runs.lock)
 
 A run folder always matches its weights: launching a run into a folder that records other settings
-stops before any work (``rnn_seg.settings``) unless asked to restart.
+stops before any work (``rnn_seg.runs.settings``) unless asked to restart.
 """
 from __future__ import annotations
 
@@ -37,22 +37,22 @@ import pandas as pd
 import tensorflow as tf
 from tensorflow.core.framework import summary_pb2
 
-from .checkpoints import CheckpointStore, checkpoint_sweeps
+from .runs.checkpoints import CheckpointStore, checkpoint_sweeps
 from .config import (PLOT_POINTS, PREDICTION_MODES, PlotPoints,  # noqa: F401 (re-exported)
                      PredictionMode, TrainConfig, check_eval_points,
                      require_native_precision)
 from .convergence import history_convergence
-from .folder_lock import hold_folder
+from .runs.lock import hold_folder
 from .model import ModelParams, SegmentationModel
 from .optim import SGD, OptimConfig
 from .plots import plot_sequence
-from .rundir import (CONFIG, clear_run_dir, is_finished, mark_finished, point_dir, read_json,
+from .runs.folder import (CONFIG, clear_run_dir, is_finished, mark_finished, point_dir, read_json,
                      remove_temporary_files, write_atomic, write_json)
 from .sweeps import make_sweep, reset_flags, sweep_indices, sweeps_per_epoch
 from .tasks import Task, task_metrics
-from .provenance import now, provenance
-from .settings import SettingsMismatchError, check_run_dir, settings_hash
-from .timing import PhaseClock
+from .runs.provenance import now, provenance
+from .runs.settings import SettingsMismatchError, check_run_dir, settings_hash
+from .runs.timing import PhaseClock
 
 #: What TensorBoard's scalar plugin reads (written without the tensorboard package).
 _SCALAR_METADATA = summary_pb2.SummaryMetadata(
@@ -113,11 +113,11 @@ class Trainer:
     """Trains ``model`` on ``train`` with a weighted sum of task losses; evaluates on ``test``.
 
     ``configs`` is what ``config.json`` records (configuration dataclasses and plain values): its
-    settings (``rnn_seg.settings``) are checked against a folder already in use.
+    settings (``rnn_seg.runs.settings``) are checked against a folder already in use.
 
     A run, top to bottom (``run``)::
 
-        hold the folder's lock              rnn_seg.folder_lock
+        hold the folder's lock              rnn_seg.runs.lock
         prepare()                           check or clear the folder, write config.json
         resume()                            restore the newest checkpoint -> first sweep
         compile()                           trace the training step and ``model.infer`` once
@@ -139,8 +139,8 @@ class Trainer:
     Subclasses change how task weights are chosen by overriding ``update`` and ``record`` (with
     ``per_task_gradients`` they get each task's gradient instead of the sum's), register further
     checkpointed state in ``extra_state`` and write their own per-unit logs in ``_on_log``;
-    ``multitask.gradnorm.GradNormTrainer`` does all four. ``rnn_seg.stack.TrainerStack`` replaces
-    only ``step`` (several members in one vectorised step) and calls the rest per member.
+    ``multitask.models.gradnorm.GradNormTrainer`` does all four. ``rnn_seg.stack.TrainerStack``
+    replaces only ``step`` (several members in one vectorised step) and calls the rest per member.
     """
 
     per_task_gradients = False
@@ -260,7 +260,7 @@ class Trainer:
     def run(self, restart: bool = False) -> dict:
         """Train to the end (resuming from the newest checkpoint) and return ``metrics.json``'s
         content. ``restart``: delete the folder's previous config and results first, whatever
-        settings they record. Holds the folder's lock throughout (``rnn_seg.folder_lock``)."""
+        settings they record. Holds the folder's lock throughout (``rnn_seg.runs.lock``)."""
         with hold_folder(self.run_dir):
             self.prepare(restart)
             if not self.finished():

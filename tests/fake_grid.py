@@ -10,8 +10,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from multitask.grid_spec import PAPER_EXPERIMENTS, Experiment, GridSpec, expand, run_config
-from rnn_seg.rundir import to_jsonable, write_json
+from multitask.grid.spec import PAPER_EXPERIMENTS, Experiment, GridSpec, expand, run_config
+from rnn_seg.runs.folder import to_jsonable, write_json
 
 GESTURES = ("G1", "G2", "G3", "G4", "G5", "G6", "G8", "G9", "G10", "G11")
 STAGES = ("P0", "P1", "P2", "P3", "P4")

@@ -11,7 +11,7 @@ from baseline.builder import train_baseline
 from jigsaws_tools.dataset import DataConfig, load_dataset
 from rnn_seg.lstm import EncoderConfig
 from rnn_seg.optim import OptimConfig
-from rnn_seg.rundir import is_finished
+from rnn_seg.runs.folder import is_finished
 from rnn_seg.trainer import Trainer, TrainConfig
 
 

@@ -9,13 +9,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from multitask.claims import (CLAIMS, COLUMNS, MIN_PAIRS, VERDICTS, Claim, evaluate,
+from multitask.evidence.claims import (CLAIMS, COLUMNS, MIN_PAIRS, VERDICTS, Claim, evaluate,
                               paper_difference, paper_value, verdict)
-from multitask.claims_table import claims_latex
-from multitask.collect import LOWER_IS_BETTER, METRICS
-from multitask.latex import escape, required_packages
-from multitask.paired import BootstrapConfig, ConfigId, Contrast, NotPaired, paired
-from multitask.tables_cli import main as tables_main
+from multitask.evidence.claims_table import claims_latex
+from multitask.evidence.collect import LOWER_IS_BETTER, METRICS
+from multitask.evidence.latex import escape, required_packages
+from multitask.evidence.paired import BootstrapConfig, ConfigId, Contrast, NotPaired, paired
+from multitask.evidence.cli import main as tables_main
 
 FOLDS = tuple("BCDEFGHI")
 A, APC = ConfigId("A"), ConfigId("APc")

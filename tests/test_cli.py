@@ -13,16 +13,16 @@ from pathlib import Path
 
 import pytest
 
-from jigsaws_tools import arg_types
-from jigsaws_tools.cli_common import _TF_NOISE, configure_output, package_version
+from jigsaws_tools.cli import arg_types
+from jigsaws_tools.cli.common import _TF_NOISE, configure_output, package_version
 
 ROOT = Path(__file__).resolve().parents[1]
-COMMANDS = {"jigsaws-tools": "jigsaws_tools.cli", "baseline-train": "baseline.cli",
-            "multitask-train": "multitask.train_cli", "multitask-grid": "multitask.grid_cli",
-            "multitask-tables": "multitask.tables_cli",
-            "multitask-predict": "multitask.predict_cli",
-            "multitask-evaluate": "multitask.evaluate_cli",
-            "multitask-export": "multitask.export_cli"}
+COMMANDS = {"jigsaws-tools": "jigsaws_tools.cli.main", "baseline-train": "baseline.cli",
+            "multitask-train": "multitask.train_cli", "multitask-grid": "multitask.grid.cli",
+            "multitask-tables": "multitask.evidence.cli",
+            "multitask-predict": "multitask.inference.predict_cli",
+            "multitask-evaluate": "multitask.inference.evaluate_cli",
+            "multitask-export": "multitask.inference.export_cli"}
 HEAVY = ("tensorflow", "scipy", "pandas", "matplotlib")
 #: The lines TensorFlow, absl and oneDNN print: glog-style C++ lines, absl's banner, oneDNN's
 #: notices, TensorFlow's Python warnings.
@@ -39,7 +39,7 @@ def _python(*args: str, **kwargs) -> subprocess.CompletedProcess:
 
 @pytest.mark.parametrize("module,args", [(m, ["--help"]) for m in COMMANDS.values()]
                          + [("multitask.train_cli", ["--variant", "Pc", "--help"]),
-                            ("jigsaws_tools.cli", ["inspect", "--help"])])
+                            ("jigsaws_tools.cli.main", ["inspect", "--help"])])
 def test_help_loads_no_heavy_module_and_prints_no_tensorflow_line(module, args):
     script = (f"import sys\nfrom {module} import main\ntry:\n    main({args!r})\n"
               f"except SystemExit:\n    pass\n"
@@ -92,12 +92,13 @@ def test_every_option_has_help_and_shows_its_default(parser):
     ("baseline.cli", ["--epochs", "0"], "--epochs: expected an integer >= 1, got '0'"),
     ("baseline.cli", ["--eval-at", "10,0"], "--eval-at: expected an integer >= 1, got '0'"),
     ("baseline.cli", ["--threads", "-1"], "--threads: expected an integer >= 0, got '-1'"),
-    ("multitask.grid_cli", ["--workers", "0"], "--workers: expected an integer >= 1, got '0'"),
-    ("multitask.grid_cli", ["--stack", "two"], "--stack: expected an integer >= 1, got 'two'"),
-    ("multitask.predict_cli", ["--threads", "-1"], "--threads: expected an integer >= 0, got '-1'"),
-    ("multitask.evaluate_cli", ["--checkpoint", "0"],
+    ("multitask.grid.cli", ["--workers", "0"], "--workers: expected an integer >= 1, got '0'"),
+    ("multitask.grid.cli", ["--stack", "two"], "--stack: expected an integer >= 1, got 'two'"),
+    ("multitask.inference.predict_cli", ["--threads", "-1"],
+     "--threads: expected an integer >= 0, got '-1'"),
+    ("multitask.inference.evaluate_cli", ["--checkpoint", "0"],
      "--checkpoint: expected an integer >= 1, got '0'"),
-    ("multitask.export_cli", ["--checkpoint", "last"],
+    ("multitask.inference.export_cli", ["--checkpoint", "last"],
      "--checkpoint: expected an integer >= 1, got 'last'"),
 ])
 def test_out_of_range_values_are_argparse_errors_naming_the_range(module, args, message, capsys):
@@ -126,8 +127,8 @@ def test_range_checked_types(parse, good, bad):
 
 
 def test_deprecated_spellings_still_work_and_say_so_once(synth_dir, tmp_path, capsys, caplog):
-    from jigsaws_tools.cli import main as tools_main
-    from multitask.grid_cli import main as grid_main
+    from jigsaws_tools.cli.main import main as tools_main
+    from multitask.grid.cli import main as grid_main
 
     assert tools_main(["synth", str(tmp_path / "s"), "--seed", "2"]) == 0
     err = capsys.readouterr().err
@@ -153,7 +154,7 @@ def test_deprecated_spellings_still_work_and_say_so_once(synth_dir, tmp_path, ca
 
 
 def test_old_and_new_spec_keys_give_the_same_grid(synth_dir, tmp_path):
-    from multitask.grid_spec import load_spec
+    from multitask.grid.spec import load_spec
 
     old, new = tmp_path / "old.toml", tmp_path / "new.toml"
     old.write_text(f'data = "{synth_dir}"\nfolds = ["C", "D"]\n')
@@ -197,7 +198,7 @@ def test_training_and_prediction_print_no_tensorflow_line(synth_dir, tmp_path):
     assert not TF_LINE.search(result.stdout), result.stdout
     assert result.stderr == ""
     recording = synth_dir / "kinematics" / "AllGestures" / "Suturing_C001.txt"
-    result = _python("-m", "multitask.predict_cli", str(tmp_path / "run"), str(recording),
+    result = _python("-m", "multitask.inference.predict_cli", str(tmp_path / "run"), str(recording),
                      "--no-plots", "--out", str(tmp_path / "labels"))
     assert result.returncode == 0, result.stderr
     assert "done: 1 recording(s)" in result.stdout
@@ -211,7 +212,7 @@ def test_grid_prints_each_warning_once_and_logs_no_stray_message(synth_dir, tmp_
     spec = tmp_path / "spec.toml"
     spec.write_text(f'data_dir = "{release}"\ntest_users = ["C"]\nhidden = 8\nepochs = 1\n'
                     '[[experiments]]\nvariants = ["A"]\n')
-    result = _python("-m", "multitask.grid_cli", "--spec", str(spec), "--out",
+    result = _python("-m", "multitask.grid.cli", "--spec", str(spec), "--out",
                      str(tmp_path / "grid"))
     assert result.returncode == 0, result.stderr
     warnings = [line for line in result.stderr.splitlines() if "Suturing_B001" in line]

@@ -9,7 +9,7 @@ from jigsaws_tools.dataset import DataConfig
 from jigsaws_tools.preprocessing import PreprocessConfig
 from rnn_seg.lstm import EncoderConfig
 from rnn_seg.optim import OptimConfig
-from rnn_seg.rundir import ConfigError, from_jsonable, to_jsonable
+from rnn_seg.runs.folder import ConfigError, from_jsonable, to_jsonable
 from rnn_seg.trainer import TrainConfig
 
 

@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 from jigsaws_tools import dataset as dataset_module
-from jigsaws_tools.cli import main as tools_main
+from jigsaws_tools.cli.main import main as tools_main
 from jigsaws_tools.dataset import DataConfig, cache_key, load_dataset
 from jigsaws_tools.errors import FormatError, JigsawsError
 from jigsaws_tools.release import discover, read_kinematics, read_transcription
@@ -255,7 +255,7 @@ def test_release_with_one_user(release, tmp_path, capsys):
     assert "at least two users" in err and str(release) in err and "Traceback" not in err
     spec = tmp_path / "one.toml"
     spec.write_text(f'data_dir = "{release}"\n')
-    from multitask.grid_cli import main as grid_main
+    from multitask.grid.cli import main as grid_main
 
     assert grid_main(["--spec", str(spec), "--out", str(tmp_path / "grid"), "--dry-run"]) == 2
     assert "at least two users" in capsys.readouterr().err

@@ -14,10 +14,10 @@ from matplotlib.container import ErrorbarContainer  # noqa: E402
 
 from jigsaws_tools.plots import (Ribbon, class_colours, draw_ribbon,  # noqa: E402
                                  layout_with_legends, task_colours)
-from multitask import curves, figures  # noqa: E402
-from multitask.collect import per_fold, run_rows  # noqa: E402
-from multitask.grid_spec import Experiment  # noqa: E402
-from multitask.tables_cli import main as tables_main  # noqa: E402
+from multitask.evidence import curves, figures  # noqa: E402
+from multitask.evidence.collect import per_fold, run_rows  # noqa: E402
+from multitask.grid.spec import Experiment  # noqa: E402
+from multitask.evidence.cli import main as tables_main  # noqa: E402
 from tests.fake_grid import (ABSENT, FOLDS, GESTURES, NEVER_RECOGNISED,  # noqa: E402
                              write_fake_grid)
 
@@ -31,7 +31,7 @@ def grid(tmp_path_factory):
 
 @pytest.fixture()
 def captured(monkeypatch):
-    """The figures ``multitask.figures.save`` is given, by file name, instead of files."""
+    """The figures ``multitask.evidence.figures.save`` is given, by file name, instead of files."""
     shown: dict[str, plt.Figure] = {}
 
     def keep(fig, out_dir, name):

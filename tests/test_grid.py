@@ -15,12 +15,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from multitask.grid_spec import (Experiment, GridSpec, RunKey, expand, job_groups, load_spec,
+from multitask.grid.spec import (Experiment, GridSpec, RunKey, expand, job_groups, load_spec,
                                  run_config, stack_groups, with_budget)
-from multitask.grid_cli import main as grid_main
-from multitask.grid_executors import run_grid
-from multitask.tables_cli import main as tables_main
-from multitask.variants import get_variant
+from multitask.grid.cli import main as grid_main
+from multitask.grid.executors import run_grid
+from multitask.evidence.cli import main as tables_main
+from multitask.models.variants import get_variant
 
 TINY = """
 preset = "quick"
@@ -160,7 +160,7 @@ def test_latex_table_shape(tiny_grid):
 
 def test_killed_grid_resumes_without_redoing_finished_runs(tmp_path, tiny_spec):
     out = tmp_path / "grid"
-    command = [sys.executable, "-m", "multitask.grid_cli", "--spec", str(tiny_spec),
+    command = [sys.executable, "-m", "multitask.grid.cli", "--spec", str(tiny_spec),
                "--out", str(out), "--workers"]
     process = subprocess.Popen(command + ["1"], start_new_session=True, stdout=subprocess.DEVNULL,
                                stderr=subprocess.DEVNULL)
@@ -182,7 +182,7 @@ def test_a_run_does_not_depend_on_the_jobs_before_it_in_its_worker(tmp_path, tin
                                                                     tiny_grid, monkeypatch):
     """One worker runs two runs in turn, then a fresh worker the other two (more jobs than one
     pool's workers take); two workers split them: the same numbers."""
-    import multitask.grid_executors as executors
+    import multitask.grid.executors as executors
 
     monkeypatch.setattr(executors, "JOBS_PER_WORKER", 2)
     cores = str(max(1, (os.cpu_count() or 1) // 2))            # as tiny_grid's two workers
@@ -192,7 +192,7 @@ def test_a_run_does_not_depend_on_the_jobs_before_it_in_its_worker(tmp_path, tin
 
 
 def test_workers_run_several_jobs_only_when_the_jobs_share_a_thread_plan(tiny_spec):
-    from multitask.grid_executors import JOBS_PER_WORKER, jobs_per_worker
+    from multitask.grid.executors import JOBS_PER_WORKER, jobs_per_worker
 
     spec = replace(load_spec(tiny_spec), experiments=(
         Experiment(("A",)), Experiment(("A",), directions=("forward",))))
@@ -252,7 +252,7 @@ def test_run_key_paths_are_unique():
 
 
 def test_annotation_ablation_reports_revised_minus_original():
-    from multitask.tables import annotation_ablation, to_latex
+    from multitask.evidence.tables import annotation_ablation, to_latex
 
     summary = pd.DataFrame([
         {"annotations": a, "direction": "bidirectional", "variant": v, "weighting": "fixed",
@@ -281,9 +281,9 @@ def test_runs_saved_before_the_standard_error_get_it_from_their_history(tmp_path
     takes the standard error from history.csv with the saved criterion, and keeps the saved
     verdict and loss_drop; a history that cannot give it leaves it blank, never an error."""
     from fake_grid import write_fake_grid
-    from multitask.collect import run_rows
+    from multitask.evidence.collect import run_rows
     from rnn_seg.convergence import history_convergence
-    from rnn_seg.rundir import read_json, write_json
+    from rnn_seg.runs.folder import read_json, write_json
 
     grid = write_fake_grid(tmp_path / "grid", seeds=(0,), epochs=40)
     run_dirs = [grid / f"runs/revised/bidirectional/APc-fixed/seed0/{fold}" for fold in "BC"]
@@ -306,7 +306,7 @@ def test_runs_saved_before_the_standard_error_get_it_from_their_history(tmp_path
 
 
 def test_tables_carry_rounded_and_raw_mae():
-    from multitask.tables import PAPER_TABLES, paper_comparison
+    from multitask.evidence.tables import PAPER_TABLES, paper_comparison
 
     summary = pd.DataFrame([{"annotations": "revised", "direction": "bidirectional",
                              "variant": "APr", "weighting": "fixed", "folds": 8, "unconverged": 0,
@@ -344,7 +344,7 @@ def test_experiments_may_name_their_own_seeds_first_seeds_run_first_then_by_conf
 
 
 def test_tables_mark_configurations_with_unconverged_runs():
-    from multitask.tables import PAPER_TABLES, paper_comparison, to_latex
+    from multitask.evidence.tables import PAPER_TABLES, paper_comparison, to_latex
 
     row = {"annotations": "revised", "direction": "bidirectional", "weighting": "fixed",
            "folds": 8, "gesture_accuracy_mean": 85.0, "gesture_accuracy_std": 5.0}
@@ -360,8 +360,8 @@ def test_tables_mark_configurations_with_unconverged_runs():
 
 def test_eta_weighs_the_runs_left_by_their_schedules():
     """After an 80-epoch run took 10 s, two 160-epoch runs left take 40 s, not 20."""
-    from multitask.grid_executors import Progress
-    from multitask.grid_spec import schedule_epochs
+    from multitask.grid.executors import Progress
+    from multitask.grid.spec import schedule_epochs
 
     spec = GridSpec(preset="converged")
     keys = [RunKey("revised", "bidirectional", variant, "fixed", 0, "B")
@@ -376,7 +376,7 @@ def test_eta_weighs_the_runs_left_by_their_schedules():
 
 def test_eta_counts_only_the_epochs_a_resumed_run_has_left(tmp_path):
     """A run interrupted after 30 of its 80 epochs weighs 50 in the ETA; a fresh one 80."""
-    from multitask.grid_executors import _epochs_left
+    from multitask.grid.executors import _epochs_left
 
     spec = GridSpec(preset="converged")
     resumed, fresh = (RunKey("revised", "bidirectional", "Pr", "fixed", 0, fold)

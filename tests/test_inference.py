@@ -17,15 +17,15 @@ from jigsaws_tools.dataset import DataConfig, load_dataset
 from jigsaws_tools.gestures import GESTURES
 from jigsaws_tools.release import frame_labels, kinematics_dir, read_kinematics, read_transcription
 from jigsaws_tools.release import transcriptions_dir
-from multitask.evaluate_cli import main as evaluate_main
-from multitask.export_cli import main as export_main
-from multitask.fold_run import train_variant
-from multitask.predict_cli import kinematics_files
-from multitask.predict_cli import main as predict_main
-from multitask.streaming import StreamingPredictor, stream_recording
-from multitask.trained_run import STREAM_NORMALISATION_FILE, load_run
-from rnn_seg.checkpoints import checkpoint_sweeps
-from multitask.variants import get_variant
+from multitask.inference.evaluate_cli import main as evaluate_main
+from multitask.inference.export_cli import main as export_main
+from multitask.models.fold_run import train_variant
+from multitask.inference.predict_cli import kinematics_files
+from multitask.inference.predict_cli import main as predict_main
+from multitask.inference.streaming import StreamingPredictor, stream_recording
+from multitask.inference.trained_run import STREAM_NORMALISATION_FILE, load_run
+from rnn_seg.runs.checkpoints import checkpoint_sweeps
+from multitask.models.variants import get_variant
 from rnn_seg.lstm import EncoderConfig
 from rnn_seg.optim import OptimConfig
 from rnn_seg.trainer import TrainConfig

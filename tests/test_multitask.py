@@ -11,10 +11,10 @@ from baseline.cli import main as baseline_main
 from baseline.config import RunConfig
 from jigsaws_tools.dataset import DataConfig, load_dataset
 from multitask.train_cli import main as multitask_main
-from multitask.gradnorm import GradNormConfig, GradNormTrainer, shared_layer_variables
-from multitask.heads import OrdinalProgress, ProgressClassification, ProgressRegression
-from multitask.fold_run import train_variant
-from multitask.variants import VARIANTS, get_variant
+from multitask.models.gradnorm import GradNormConfig, GradNormTrainer, shared_layer_variables
+from multitask.models.heads import OrdinalProgress, ProgressClassification, ProgressRegression
+from multitask.models.fold_run import train_variant
+from multitask.models.variants import VARIANTS, get_variant
 from rnn_seg.lstm import EncoderConfig
 from rnn_seg.model import SegmentationModel
 from rnn_seg.optim import OptimConfig

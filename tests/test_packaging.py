@@ -2,6 +2,7 @@
 subpackage's public names."""
 from __future__ import annotations
 
+import ast
 import importlib
 import re
 import subprocess
@@ -10,9 +11,10 @@ from pathlib import Path
 
 import pytest
 
-from jigsaws_tools.cli_common import package_version
+from jigsaws_tools.cli.common import package_version
 
 ROOT = Path(__file__).resolve().parents[1]
+PACKAGES = ("jigsaws_tools", "rnn_seg", "baseline", "multitask")
 
 
 def _setup(*fields: str) -> list[str]:
@@ -63,12 +65,84 @@ def test_every_public_name_of_a_package_is_found_on_first_use(package):
         module.nope
 
 
-@pytest.mark.parametrize("package", ["jigsaws_tools", "rnn_seg", "baseline", "multitask"])
-def test_the_readme_package_table_names_every_module(package):
+def _folders() -> list[str]:
+    """Every package folder of the project (``multitask/grid`` ...), as a path under the root."""
+    return sorted(str(init.parent.relative_to(ROOT)) for package in PACKAGES
+                  for init in (ROOT / package).rglob("__init__.py"))
+
+
+def test_the_readme_package_table_names_every_folder_and_module():
     table = (ROOT / "README.md").read_text().split("## Packages")[1].split("Imports flow")[0]
-    row, = [line for line in table.splitlines() if line.startswith(f"| `{package}`")]
-    named = set(re.findall(r"`([\w/]+\.py)`", row))
-    if "their CLIs" in row:                      # predict_cli.py, evaluate_cli.py, export_cli.py
-        named |= {f"{command}_cli.py" for command in ("predict", "evaluate", "export")}
-    modules = {path.name for path in (ROOT / package).glob("*.py")} - {"__init__.py"}
-    assert modules == named, (sorted(modules - named), sorted(named - modules))
+    rows = {match.group(1): match.group(2)
+            for match in re.finditer(r"^\| `([\w/]+)/` \|(.*)$", table, re.M)}
+    assert sorted(rows) == _folders()
+    for folder, row in rows.items():
+        named = set(re.findall(r"`([\w]+\.py)`", row))
+        modules = {path.name for path in (ROOT / folder).glob("*.py")} - {"__init__.py"}
+        assert modules == named, (folder, sorted(modules - named), sorted(named - modules))
+        assert len(re.findall(r"\*\*`\w+\.py`\*\*", row)) == (folder != "multitask"), folder
+
+
+def test_every_package_folder_says_what_it_holds_and_may_import():
+    for folder in _folders():
+        doc = ast.get_docstring(ast.parse((ROOT / folder / "__init__.py").read_text()))
+        assert doc and re.search(r"\bimport", doc, re.I), folder
+
+
+def _imports(module: str, source: str) -> set[str]:
+    """The project modules that ``source`` (the text of ``module``) imports, relative imports
+    resolved."""
+    package = module.split(".")[:-1]          # the package of ``a.b.c`` or of ``a.b.__init__``
+    found = set()
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.ImportFrom):
+            base = package[:len(package) - node.level + 1] if node.level else []
+            found.add(".".join(base + ([node.module] if node.module else [])))
+        elif isinstance(node, ast.Import):
+            found.update(alias.name for alias in node.names)
+    return {name for name in found if name.split(".")[0] in PACKAGES}
+
+
+#: Who may import whom: a layer imports itself and the layers listed for it.
+LAYERS = {
+    "jigsaws_tools": set(),
+    "rnn_seg": {"jigsaws_tools"},
+    "baseline": {"jigsaws_tools", "rnn_seg"},
+    "multitask": {"jigsaws_tools", "rnn_seg", "baseline", "multitask.models", "multitask.grid",
+                  "multitask.inference", "multitask.evidence"},
+    "multitask.models": {"jigsaws_tools", "rnn_seg", "baseline"},
+    "multitask.grid": {"jigsaws_tools", "rnn_seg", "baseline", "multitask.models"},
+    "multitask.inference": {"jigsaws_tools", "rnn_seg", "baseline", "multitask.models"},
+    "multitask.evidence": {"jigsaws_tools", "rnn_seg", "baseline", "multitask.models",
+                           "multitask.grid", "multitask.inference"},
+}
+
+
+def _layer(module: str) -> str:
+    wing = ".".join(module.split(".")[:2])
+    return wing if wing in LAYERS else module.split(".")[0]
+
+
+def _upward_imports(module: str, source: str) -> list[str]:
+    layer = _layer(module)
+    return [f"{module} imports {name}" for name in sorted(_imports(module, source))
+            if _layer(name) != layer and _layer(name) not in LAYERS[layer]]
+
+
+def test_imports_flow_one_way_between_packages_and_between_multitasks_wings():
+    offending = []
+    for package in PACKAGES:
+        for path in (ROOT / package).rglob("*.py"):
+            module = ".".join(path.relative_to(ROOT).with_suffix("").parts)
+            offending += _upward_imports(module, path.read_text())
+    assert not offending
+
+
+def test_the_import_rule_refuses_an_upward_import():
+    source = "from ..evidence import tables\nfrom ..grid.spec import GridSpec\nfrom .heads import x"
+    assert _upward_imports("multitask.models.variants", source) == [
+        "multitask.models.variants imports multitask.evidence",
+        "multitask.models.variants imports multitask.grid.spec"]
+    assert _upward_imports("rnn_seg.runs.lock", "import multitask.models") == [
+        "rnn_seg.runs.lock imports multitask.models"]
+    assert not _upward_imports("multitask.evidence.cli", "from ..grid.archive import a")

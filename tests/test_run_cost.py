@@ -5,7 +5,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from multitask.heads import OrdinalProgress
+from multitask.models.heads import OrdinalProgress
 from rnn_seg.lstm import EncoderConfig
 from rnn_seg.model import SegmentationModel
 from rnn_seg.optim import OptimConfig
@@ -46,9 +46,9 @@ def test_compiled_loops_are_how_a_run_computes_not_what(tmp_path):
     """A run folder and a grid accept either loops: same settings, same grid."""
     from dataclasses import replace
 
-    from multitask.grid_record import _canonical
-    from multitask.grid_spec import GridSpec, spec_payload
-    from rnn_seg.settings import settings_hash
+    from multitask.grid.record import _canonical
+    from multitask.grid.spec import GridSpec, spec_payload
+    from rnn_seg.runs.settings import settings_hash
 
     graph = {"encoder": EncoderConfig(hidden=8), "tasks": ["gesture"]}
     xla = {**graph, "encoder": replace(graph["encoder"], loops="xla")}
@@ -60,7 +60,7 @@ def test_compiled_loops_are_how_a_run_computes_not_what(tmp_path):
 
 
 def test_a_grid_refuses_to_stack_compiled_loops(tmp_path, capsys):
-    from multitask.grid_cli import main as grid_main
+    from multitask.grid.cli import main as grid_main
 
     code = grid_main(["--preset", "quick", "--data-dir", "synthetic", "--out", str(tmp_path),
                       "--loops", "xla", "--stack", "2"])

@@ -5,8 +5,8 @@ import numpy as np
 import pytest
 import tensorflow as tf
 
-from multitask.gradnorm import GradNormConfig, GradNormTrainer
-from multitask.heads import OrdinalProgress
+from multitask.models.gradnorm import GradNormConfig, GradNormTrainer
+from multitask.models.heads import OrdinalProgress
 from rnn_seg.lstm import EncoderConfig
 from rnn_seg.model import SegmentationModel
 from rnn_seg.optim import OptimConfig

@@ -130,7 +130,7 @@ def test_frame_labels_mark_gaps_unlabelled(synth_dir):
 
 
 def test_cli_commands(synth_dir, tmp_path, capsys):
-    from jigsaws_tools.cli import main
+    from jigsaws_tools.cli.main import main
 
     assert main(["synth", "--out", str(tmp_path / "s"), "--synthetic-seed", "3"]) == 0
     assert main(["inspect", "--data-dir", str(synth_dir)]) == 0

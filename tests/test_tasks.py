@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from jigsaws_tools.cli import main as tools_main
+from jigsaws_tools.cli.main import main as tools_main
 from jigsaws_tools.dataset import DataConfig, default_data_dir, load_dataset
 from jigsaws_tools.errors import DefinitionError, JigsawsError
 from jigsaws_tools.preprocessing import preprocess
@@ -19,7 +19,7 @@ from jigsaws_tools.release import (discover, frame_labels, read_kinematics, read
 from jigsaws_tools.synth import SynthConfig, gesture_sequence, write_release
 from jigsaws_tools.task_definition import (SUTURING, builtin_task_names, load_task,
                                            read_task_file)
-from multitask.grid_spec import GridSpec, expand, release_users, run_config
+from multitask.grid.spec import GridSpec, expand, release_users, run_config
 from multitask.train_cli import main as train_main
 
 #: The paper's Suturing vocabulary and stages, as the code had them before tasks became data.
@@ -281,8 +281,8 @@ def test_made_up_task_drives_synth_inspect_and_training(tmp_path, capsys):
 def test_knot_tying_grid_tables_and_figures(tmp_path, capsys):
     """A grid spec with ``task``: runs on the task's synthetic release, tables without the paper's
     (Suturing) comparisons, figures with the task's gestures and stages."""
-    from multitask.grid_cli import main as grid_main
-    from multitask.tables_cli import main as tables_main
+    from multitask.grid.cli import main as grid_main
+    from multitask.evidence.cli import main as tables_main
 
     release = write_release(tmp_path / "Knot_Tying", SynthConfig(users=("B", "C", "D"),
                                                                  trials_per_user=2),

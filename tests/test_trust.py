@@ -25,18 +25,18 @@ from baseline.cli import main as baseline_main
 from baseline.config import RunConfig
 from jigsaws_tools.dataset import DataConfig
 from jigsaws_tools.synth import SynthConfig, write_release
-from multitask.grid_cli import main as grid_main
-from multitask.grid_record import prepare_grid
-from multitask.grid_spec import expand, load_spec, with_budget
-from multitask.tables_cli import main as tables_main
+from multitask.grid.cli import main as grid_main
+from multitask.grid.record import prepare_grid
+from multitask.grid.spec import expand, load_spec, with_budget
+from multitask.evidence.cli import main as tables_main
 from multitask.train_cli import main as multitask_main
-from rnn_seg.checkpoints import checkpoint_prefix, restore_weights
-from rnn_seg.folder_lock import hold_folder
+from rnn_seg.runs.checkpoints import checkpoint_prefix, restore_weights
+from rnn_seg.runs.lock import hold_folder
 from rnn_seg.lstm import EncoderConfig
 from rnn_seg.model import SegmentationModel
 from rnn_seg.optim import OptimConfig
-from rnn_seg.provenance import cpu_model
-from rnn_seg.rundir import RunFolderError, write_atomic, write_json
+from rnn_seg.runs.provenance import cpu_model
+from rnn_seg.runs.folder import RunFolderError, write_atomic, write_json
 from rnn_seg.stack import TrainerStack
 from rnn_seg.tasks import SoftmaxClassification
 from rnn_seg.trainer import TrainConfig, Trainer, TrainingDiverged
@@ -331,7 +331,7 @@ def foreign_lock(tmp_path):
     """Another process holding the lock of ``tmp_path / "x"``; yields (folder, pid)."""
     folder = tmp_path / "x"
     holder = subprocess.Popen(
-        [sys.executable, "-c", "import sys, time\nfrom rnn_seg.folder_lock import hold_folder\n"
+        [sys.executable, "-c", "import sys, time\nfrom rnn_seg.runs.lock import hold_folder\n"
          "with hold_folder(sys.argv[1]):\n    print('locked', flush=True)\n    time.sleep(600)",
          str(folder)], stdout=subprocess.PIPE, text=True, env=ENV)
     assert holder.stdout.readline().strip() == "locked"
@@ -398,7 +398,7 @@ def _checkpointed(out: Path) -> bool:
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
 def test_grid_workers_die_with_their_parent(tmp_path, small_dir):
     out = tmp_path / "out"
-    grid = subprocess.Popen([sys.executable, "-m", "multitask.grid_cli", "--spec",
+    grid = subprocess.Popen([sys.executable, "-m", "multitask.grid.cli", "--spec",
                              str(_spec(tmp_path, small_dir, epochs=200)), "--out", str(out)],
                             env=ENV, start_new_session=True, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
@@ -418,7 +418,7 @@ def test_grid_workers_die_with_their_parent(tmp_path, small_dir):
 
 def test_ctrl_c_stops_a_grid_cleanly_and_it_resumes(tmp_path, small_dir):
     out = tmp_path / "out"
-    command = [sys.executable, "-m", "multitask.grid_cli", "--spec",
+    command = [sys.executable, "-m", "multitask.grid.cli", "--spec",
                str(_spec(tmp_path, small_dir, epochs=12)), "--out", str(out)]
     grid = subprocess.Popen(command, env=ENV, start_new_session=True, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
@@ -714,7 +714,7 @@ def test_a_malformed_grid_record_is_one_line_naming_it(tmp_path, capsys):
 
 
 def test_collecting_results_imports_no_tensorflow():
-    script = "import sys, multitask.collect\nprint('tensorflow' in sys.modules)"
+    script = "import sys, multitask.evidence.collect\nprint('tensorflow' in sys.modules)"
     result = subprocess.run([sys.executable, "-c", script], env=ENV, capture_output=True,
                             text=True, check=True)
     assert result.stdout.strip() == "False"

@@ -1,0 +1,237 @@
+"""What every command of this package shares: ``--version``, ``-v``, quiet TensorFlow, errors.
+
+A command is a module with ``build_parser()`` and ``main(argv) -> int``; a new one follows these
+steps (``multitask/inference/predict_cli.py`` takes them, its parser and run loading in
+``multitask.inference.options``)::
+
+    from jigsaws_tools.cli.common import command_parser, import_tensorflow, run_command
+
+    def build_parser() -> argparse.ArgumentParser:
+        parser = command_parser("multitask-predict", __doc__)   # --version, -v/--verbose, help
+        parser.add_argument("--out", type=Path, required=True, help="where to write")
+        return parser
+
+    def main(argv: list[str] | None = None) -> int:
+        args = build_parser().parse_args(argv)
+        return run_command("multitask-predict", args.verbose, lambda: _predict(args))
+
+    def _predict(args) -> None:
+        import_tensorflow()                 # quietly, only in commands that need it
+        from .trained_run import load_run   # modules that import TensorFlow come after it
+        ...
+
+Conventions:
+
+* **Fast, quiet start.** A command module imports nothing heavy at the top (no TensorFlow, SciPy,
+  pandas or Matplotlib), so ``--help`` and ``--version`` return at once; its work imports them.
+  ``run_command`` sets TensorFlow's C++ log level before anything can import it; then
+  ``import_tensorflow`` loads TensorFlow with its start-up lines (absl's "All log messages before
+  absl::InitializeLog()" banner and oneDNN's ``I0000 ... port.cc`` notice, which no log level
+  silences) filtered out of standard error. At the default log level 3 TensorFlow's C++ errors
+  are hidden too: the only one training prints, ``E0000 ... oneDNN supports DT_BOOL only on
+  platforms with AVX-512``, is harmless (Grappler moves the encoder's ``transpose(cast(resets))``
+  onto the bool flags, and oneDNN, which handles float types only, leaves that transpose to Eigen).
+  Real failures still raise Python errors.
+* **``-v`` / ``--verbose``** shows everything: TensorFlow's start-up and C++ log lines, INFO logging
+  and the traceback of an error. ``TF_CPP_MIN_LOG_LEVEL=0`` in the environment does the same for
+  TensorFlow's lines; another value set there is respected.
+* **Errors** a user can fix (bad data, bad values, missing files) print one line
+  ``prog: error: message`` on standard error and exit 2, without traceback; Ctrl-C prints
+  ``prog: interrupted`` and exits 130. Bad option values are argparse errors (exit 2), checked by
+  the ``type=`` functions of ``jigsaws_tools.cli.arg_types``.
+* **Help** shows every option's default (``HelpFormatter``); an old option spelling (or a
+  positional argument that became an option) stays usable through ``deprecated_alias``
+  (``deprecated_positional``), which prints one deprecation line.
+"""
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import re
+import sys
+import tempfile
+import traceback
+from typing import Any, Callable, Sequence
+
+from ..errors import JigsawsError
+
+DISTRIBUTION = "mtrnn-jigsaws"
+TF_LOG_LEVEL_ENV = "TF_CPP_MIN_LOG_LEVEL"
+QUIET_TF_LOG_LEVEL = "3"        # hide INFO, WARNING and ERROR lines of TensorFlow's C++ runtime
+#: Errors a user can act on: printed as one line, exit 2.
+USER_ERRORS = (JigsawsError, ValueError, OSError)
+
+#: TensorFlow's start-up lines on standard error: absl's banner, glog-style lines
+#: (``I0000 00:00:1795... 8348 port.cc:153] ...``) and cpu_feature_guard's continuation line.
+_TF_NOISE = re.compile(r"WARNING: All log messages before absl::InitializeLog\(\)"
+                       r"|[IWE]\d{4} [\d:. ]+\d+ [\w./-]+:\d+\] "
+                       r"|To enable the following instructions: ")
+
+
+def package_version() -> str:
+    """The installed version of the ``mtrnn-jigsaws`` distribution."""
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version(DISTRIBUTION)
+    except PackageNotFoundError:
+        return "unknown (not installed: pip install -e .)"
+
+
+class _VersionAction(argparse.Action):
+    """``--version``: print ``prog version`` and exit; the version is looked up only then."""
+
+    def __init__(self, option_strings: Sequence[str], dest: str = argparse.SUPPRESS, **kwargs):
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS,
+                         help="print the installed version and exit", **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(f"{parser.prog} {package_version()}")
+        parser.exit()
+
+
+class HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """Keeps the description's layout and appends ``(default: X)`` to every option that has a
+    default (not to flags, and not where the help text already states it)."""
+
+    def _get_help_string(self, action: argparse.Action) -> str:
+        text = action.help or ""
+        default = action.default
+        if ("default" in text or default is None or default is False
+                or default == argparse.SUPPRESS or isinstance(action, argparse._SubParsersAction)):
+            return text
+        return f"{text} (default: %(default)s)"
+
+
+def command_parser(prog: str, description: str | None, **kwargs: Any) -> argparse.ArgumentParser:
+    """An ``ArgumentParser`` with the shared ``HelpFormatter``, ``--version`` and ``-v``."""
+    parser = argparse.ArgumentParser(prog=prog, description=description,
+                                     formatter_class=HelpFormatter, **kwargs)
+    parser.add_argument("--version", action=_VersionAction)
+    add_verbose_argument(parser)
+    return parser
+
+
+def add_verbose_argument(parser: argparse.ArgumentParser, default: Any = False) -> None:
+    """``-v`` / ``--verbose``; ``command_parser`` adds it. A subcommand's parser passes
+    ``default=argparse.SUPPRESS``, so that it keeps a ``-v`` given before the subcommand."""
+    parser.add_argument("-v", "--verbose", action="store_true", default=default,
+                        help="also show INFO messages, TensorFlow's log lines and the traceback "
+                             "of an error")
+
+
+class _DeprecatedAlias(argparse.Action):
+    """An old spelling of an option (or a positional argument that became an option): stores into
+    the new option's destination and prints one deprecation line."""
+
+    def __init__(self, option_strings, dest, target: str, replacement: str, **kwargs):
+        super().__init__(option_strings, dest, help=argparse.SUPPRESS, **kwargs)
+        self.target, self.replacement = target, replacement
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        if values is None:                   # an optional positional that was not given
+            return
+        old = option_string or f"the positional {self.metavar}"
+        print(f"{parser.prog}: warning: {old} is deprecated; use {self.replacement}",
+              file=sys.stderr)
+        setattr(namespace, self.target, values)
+
+
+def deprecated_alias(parser: argparse.ArgumentParser, old: str, new: argparse.Action) -> None:
+    """Accept option ``old`` (hidden from help) as a deprecated spelling of the option ``new``:
+    same value type and destination, and a warning naming ``new`` when used.
+
+    Args:
+        parser: the command's parser, which already holds ``new``.
+        old: the deprecated option string, e.g. ``"--seed"``.
+        new: the action ``parser.add_argument`` returned for the current option.
+    """
+    parser.add_argument(old, action=_DeprecatedAlias, target=new.dest,
+                        replacement=new.option_strings[-1], dest=f"deprecated_{new.dest}",
+                        type=new.type, choices=new.choices, metavar=new.metavar,
+                        default=argparse.SUPPRESS)
+
+
+def deprecated_positional(parser: argparse.ArgumentParser, new: argparse.Action) -> None:
+    """Accept an optional positional argument (hidden from help) as a deprecated spelling of the
+    option ``new``, for commands whose positional argument became an option."""
+    metavar = new.metavar or new.dest.upper()
+    parser.add_argument(f"deprecated_{new.dest}", action=_DeprecatedAlias, target=new.dest,
+                        replacement=f"{new.option_strings[-1]} {metavar}", nargs="?",
+                        type=new.type, metavar=metavar, default=None)
+
+
+def configure_output(verbose: bool) -> None:
+    """Logging format and level, and TensorFlow's C++ log level (before anything imports it)."""
+    if verbose:
+        os.environ[TF_LOG_LEVEL_ENV] = "0"
+    else:
+        os.environ.setdefault(TF_LOG_LEVEL_ENV, QUIET_TF_LOG_LEVEL)
+    logging.basicConfig(format="%(levelname)s: %(message)s",
+                        level=logging.INFO if verbose else logging.WARNING)
+
+
+def import_tensorflow():
+    """Import TensorFlow (once per process) and return it, its start-up lines filtered out of
+    standard error unless ``TF_CPP_MIN_LOG_LEVEL`` is 0 (``-v``). Other output of the import is
+    passed on; if the import fails, everything it printed is shown."""
+    if "tensorflow" in sys.modules:
+        return sys.modules["tensorflow"]
+    if os.environ.get(TF_LOG_LEVEL_ENV) == "0":
+        import tensorflow as tf
+        return tf
+    with tempfile.TemporaryFile(mode="w+b") as captured:
+        sys.stderr.flush()
+        saved = os.dup(2)
+        os.dup2(captured.fileno(), 2)
+        try:
+            import tensorflow as tf
+        except BaseException:
+            _restore_stderr(saved)
+            _replay(captured, keep=lambda line: True)
+            raise
+        sys.stderr.flush()
+        _restore_stderr(saved)
+        _replay(captured, keep=lambda line: not _TF_NOISE.match(line))
+    tf.get_logger().setLevel(logging.ERROR)
+    return tf
+
+
+def _restore_stderr(saved: int) -> None:
+    os.dup2(saved, 2)
+    os.close(saved)
+
+
+def _replay(captured, keep: Callable[[str], bool]) -> None:
+    captured.seek(0)
+    lines = captured.read().decode(errors="replace").splitlines(keepends=True)
+    sys.stderr.write("".join(line for line in lines if keep(line)))
+    sys.stderr.flush()
+
+
+def run_command(prog: str, verbose: bool, body: Callable[[], int | None]) -> int:
+    """Run a command's work with the shared output setup (``configure_output``).
+
+    Args:
+        prog: the command's name, first word of every error line.
+        verbose: log at INFO level, show TensorFlow's start-up lines and print a user error's
+            traceback too.
+        body: the command's work; returns its exit code or None.
+
+    Returns:
+        The exit code: ``body``'s, 0 if it returns None, 2 after a user error (``USER_ERRORS``:
+        one line ``<prog>: error: ...``), 130 after Ctrl-C.
+    """
+    configure_output(verbose)
+    try:
+        code = body()
+    except USER_ERRORS as error:
+        if verbose:
+            traceback.print_exc()
+        print(f"{prog}: error: {error}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"{prog}: interrupted", file=sys.stderr)
+        return 130
+    return 0 if code is None else code

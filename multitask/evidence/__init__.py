@@ -1,0 +1,13 @@
+"""A grid's runs as the paper's evidence: tables, figures, training curves and tested claims.
+
+* ``collect``: finished runs gathered into one row per run, fold and configuration (read first);
+* ``tables``, ``latex``, ``captions``: the paper's Tables I-III and the ablation, as CSV and
+  paste-ready LaTeX with captions read from the runs; ``paper_results``: the published numbers;
+* ``figures``, ``curves``: the paper's figures and training curves;
+* ``paired``: paired statistics over folds and seeds; ``claims``: the paper's claims as data,
+  tested with them; ``claims_table``: ``claims.csv`` and ``claims.tex``;
+* ``cli``: ``multitask-tables``.
+
+May import every other wing of ``multitask`` (``models``, ``grid``, ``inference``); none of them
+imports this one.
+"""

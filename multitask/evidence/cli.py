@@ -1,0 +1,253 @@
+"""``multitask-tables GRID_DIR``: the paper's tables (CSV + LaTeX) and figures from a grid's runs.
+
+Writes to ``--out`` (default ``GRID_DIR/tables``): ``runs.csv`` (one row per finished run),
+``per_fold.csv`` (mean over seeds per configuration and fold), ``summary.csv`` (mean and std over
+folds), ``table1|2|3.csv/.tex`` (ours against the paper), ``ablation_annotations.csv/.tex``
+(revised against original labels), ``claims.csv/.tex`` (the paper's claims tested with paired
+statistics over folds and seeds, settings in ``claims_config.json``), ``figures/*.png|pdf`` and,
+with ``--curves``, ``figures/curves/*.png|pdf`` (training curves). The paper's tables, the
+annotation ablation and its claims are Suturing's: a grid of another task gets instead the claims
+of the paper's conjecture (multi-task against model A on that task, ``claims.CONJECTURE_CLAIMS``).
+
+    multitask-tables runs/converged --out results --example-trial Suturing_D003 --curves
+
+A grid with missing or unfinished runs, NaN metrics, unreadable metrics or stray folders is an
+error naming them (``multitask.evidence.collect``); with ``--allow-incomplete`` they are listed,
+and the configurations concerned are marked incomplete in the tables (``runs``, ``runs_expected`` and
+``complete`` columns of summary.csv; "(incomplete: n/m runs)" after the model's name).
+
+While a grid runs, ``--finished-only`` writes the tables of its finished part: every
+configuration with a run not finished yet is left out (and listed), the rest are complete;
+``--seeds 0`` restricts the evidence to those seeds' runs (the grid runs every configuration's
+seed 0 first). The captions state the seeds and folds the tables hold.
+
+    multitask-tables runs/converged --out results --seeds 0 --finished-only
+
+``--archive DIR`` writes the grid's scores archive instead (``multitask.grid.archive``): grid.json
+and every finished run's configuration, metrics and loss logs, without weights or predictions;
+small enough to commit, a grid folder that ``multitask-tables`` tabulates and ``multitask-grid``
+continues after a copy, on any machine.
+
+    multitask-tables runs/converged --archive results/grid
+
+``--compare X Y --metric M`` prints the paired statistics of one comparison instead, e.g.
+``multitask-tables GRID --compare APc-fixed A-fixed --metric gesture_edit``; a configuration is
+``[annotations/][direction/]<variant>-<weighting>`` as in the grid's run folders
+(``original/APoc-gradnorm``, ``forward/A-fixed``), and ``--minus X2 Y2`` makes it a difference of
+differences, ``(X - Y) - (X2 - Y2)``.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from jigsaws_tools.cli.common import command_parser, run_command
+
+PROG = "multitask-tables"
+
+
+def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: bool = False,
+                 example_trial: str | None = None, curves: bool = False,
+                 allow_incomplete: bool = False, seeds: tuple[int, ...] | None = None,
+                 finished_only: bool = False) -> list[Path]:
+    """Everything ``multitask-tables`` writes; returns the paths.
+
+    Args:
+        grid_dir: output folder of ``multitask-grid``.
+        out: where to write.
+        figures: also draw the figures.
+        ours_only: LaTeX tables without the paper's columns (the CSVs keep them).
+        example_trial: the test trial of the example figures (default: the first).
+        curves: also draw every configuration's training curves.
+        allow_incomplete: mark configurations with missing runs instead of refusing
+            (``collect.run_rows``).
+        seeds: only the runs of these seeds (None: all).
+        finished_only: leave out the configurations with a run not finished yet.
+    """
+    from jigsaws_tools.task_definition import PAPER_TASK
+
+    from .captions import describe_runs
+    from .claims import CONJECTURE_CLAIMS
+    from .claims_table import write_claims
+    from .collect import (CONFIG_COLUMNS, completeness, expected_runs, grid_task_name, of_seeds,
+                          per_fold, recorded_runs, summary)
+    from .curves import training_curves
+    from .figures import all_figures, example_trial as choose_example
+
+    runs = _runs(grid_dir, allow_incomplete, seeds, finished_only)
+    folds = per_fold(runs)
+    expected = expected_runs(grid_dir, of_seeds(Path(grid_dir), recorded_runs(Path(grid_dir))[0],
+                                                seeds))
+    stats = summary(folds).merge(completeness(runs, expected), on=CONFIG_COLUMNS, how="left")
+    example = choose_example(Path(grid_dir), folds, example_trial) if figures else None
+    if figures and example is None:
+        print("note: no example-trial figures (figures/segmentation_example, progress_example): "
+              "no seed-0 A-fixed run of the grid kept its predictions (a scores archive keeps "
+              "none)", file=sys.stderr)
+    written = [_csv(runs, out / "runs.csv"), _csv(folds, out / "per_fold.csv"),
+               _csv(stats, out / "summary.csv")]
+    budget = describe_runs(grid_dir, runs).sentence()
+    if grid_task_name(grid_dir) == PAPER_TASK:
+        written += _paper_tables(grid_dir, runs, stats, out, ours_only)
+        written += write_claims(runs, out, budget=budget)
+    else:
+        written += write_claims(runs, out, claims=CONJECTURE_CLAIMS, budget=budget)
+    if figures:
+        written += all_figures(Path(grid_dir), folds, out / "figures", example)
+    if curves:
+        written += training_curves(grid_dir, out / "figures" / "curves")
+    return written
+
+
+def _runs(grid_dir: Path, allow_incomplete: bool, seeds: tuple[int, ...] | None,
+          finished_only: bool):
+    """``collect.run_rows``, each problem and configuration left out reported on stderr."""
+    from .collect import LEFT_OUT, run_rows
+
+    runs, problems = run_rows(grid_dir, allow_incomplete, seeds, finished_only)
+    for problem in problems:
+        print(problem if problem.startswith(LEFT_OUT) else f"incomplete: {problem}",
+              file=sys.stderr)
+    return runs
+
+
+def _paper_tables(grid_dir: Path, runs, stats, out: Path, ours_only: bool) -> list[Path]:
+    """Tables I-III against the paper and the annotation ablation (Suturing grids only)."""
+    from .captions import describe_runs
+    from .tables import (PAPER_TABLES, ablation_caption, annotation_ablation, paper_best,
+                         paper_caption, paper_comparison, table_runs, to_latex)
+
+    written = []
+    for table in PAPER_TABLES:
+        frame = paper_comparison(stats, table)
+        if frame.empty:
+            continue
+        budget = describe_runs(grid_dir, table_runs(runs, frame, (table.annotations,),
+                                                    table.direction)).sentence()
+        written.append(_csv(frame, out / f"{table.name}.csv"))
+        written.append(_tex(to_latex(frame, paper_caption(table, budget, ours_only), table.name,
+                                     ("Ours", "Paper"), paper_best(table), ours_only),
+                            out / f"{table.name}.tex"))
+    ablation = annotation_ablation(stats)
+    if not ablation.empty:
+        budget = describe_runs(grid_dir, table_runs(runs, ablation, ("revised", "original"),
+                                                    "bidirectional")).sentence()
+        written.append(_csv(ablation, out / "ablation_annotations.csv"))
+        written.append(_tex(to_latex(ablation, ablation_caption(budget), "ablation_annotations",
+                                     ("Revised", "Original")), out / "ablation_annotations.tex"))
+    return written
+
+
+def _compare(grid_dir: Path, compare: list[str], minus: list[str] | None, metric: str,
+             allow_incomplete: bool, seeds: tuple[int, ...] | None, finished_only: bool) -> str:
+    """The paired statistics of one comparison, as text."""
+    from .paired import ConfigId, Contrast, NotPaired, config_labels, paired
+
+    x, y = map(ConfigId.parse, compare)
+    contrast = Contrast(x, y, tuple(map(ConfigId.parse, minus)) if minus else None)
+    runs = _runs(grid_dir, allow_incomplete, seeds, finished_only)
+    try:
+        return paired(runs, contrast, metric).describe()
+    except NotPaired as error:
+        raise NotPaired(f"{error}; {grid_dir} holds {', '.join(config_labels(runs))}") from None
+
+
+def _csv(frame, path: Path) -> Path:
+    from rnn_seg.runs.folder import write_atomic
+
+    write_atomic(path, frame.to_csv(index=False, float_format="%.4f"))
+    return path
+
+
+def _tex(text: str, path: Path) -> Path:
+    from rnn_seg.runs.folder import write_atomic
+
+    write_atomic(path, text)
+    return path
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = command_parser(PROG, __doc__)
+    parser.add_argument("grid_dir", type=Path, metavar="GRID_DIR",
+                        help="output folder of multitask-grid")
+    parser.add_argument("--out", type=Path, metavar="DIR",
+                        help="where to write (default: GRID_DIR/tables)")
+    parser.add_argument("--no-figures", action="store_true", help="write the tables only")
+    parser.add_argument("--example-trial", metavar="TRIAL",
+                        help="test trial of the example figures, e.g. Suturing_D003 (default: "
+                             "the first test trial of the first fold)")
+    parser.add_argument("--curves", action="store_true",
+                        help="also draw training curves from every run's history.csv: per "
+                             "configuration the losses and test accuracies, a line per fold")
+    parser.add_argument("--ours-only", action="store_true",
+                        help="LaTeX tables with our numbers alone, without the paper's columns "
+                             "(the CSVs keep them)")
+    parser.add_argument("--archive", type=Path, metavar="DIR",
+                        help="write the grid's scores archive to DIR instead of tables: "
+                             "grid.json and every finished run's config, metrics and logs, no "
+                             "weights or predictions (a new folder, or an earlier archive to "
+                             "replace; default: none, write the tables)")
+    parser.add_argument("--compare", nargs=2, metavar=("X", "Y"),
+                        help="print the paired statistics of X - Y instead of writing tables "
+                             "(default: write the tables)")
+    parser.add_argument("--minus", nargs=2, metavar=("X2", "Y2"),
+                        help="with --compare: (X - Y) - (X2 - Y2), paired per fold "
+                             "(default: X - Y alone)")
+    parser.add_argument("--metric",
+                        help="with --compare: a metric column of runs.csv, e.g. gesture_edit "
+                             "(required with --compare)")
+    parser.add_argument("--allow-incomplete", action="store_true",
+                        help="write tables although runs are missing, unfinished or unreadable, "
+                             "marking the configurations concerned incomplete (default: refuse)")
+    parser.add_argument("--finished-only", action="store_true",
+                        help="for a grid still running: leave out every configuration with a run "
+                             "not finished yet, and list them (default: refuse)")
+    parser.add_argument("--seeds", type=int, nargs="+", metavar="K",
+                        help="only the runs of these seeds, e.g. --seeds 0 (default: every "
+                             "recorded run)")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if bool(args.compare) != bool(args.metric) or (args.minus and not args.compare):
+        parser.error("--compare needs --metric, and --metric and --minus need --compare")
+    extra = (["--compare"] if args.compare else []) + _table_options(args)
+    if args.archive and extra:
+        parser.error(f"--archive writes the archive alone: leave out {', '.join(extra)}")
+    return run_command(PROG, args.verbose, lambda: _run(args))
+
+
+def _table_options(args: argparse.Namespace) -> list[str]:
+    """The options given that only the tables use."""
+    given = {"--out": args.out, "--no-figures": args.no_figures,
+             "--example-trial": args.example_trial, "--curves": args.curves,
+             "--ours-only": args.ours_only, "--allow-incomplete": args.allow_incomplete,
+             "--finished-only": args.finished_only, "--seeds": args.seeds}
+    return [option for option, value in given.items() if value]
+
+
+def _run(args: argparse.Namespace) -> None:
+    seeds = tuple(args.seeds) if args.seeds else None
+    if args.archive:
+        from ..grid.archive import archive_grid
+
+        finished, recorded = archive_grid(args.grid_dir, args.archive)
+        print(f"{args.archive}: {finished} of {recorded} runs archived (finished ones)")
+        return
+    if args.compare:
+        print(_compare(args.grid_dir, args.compare, args.minus, args.metric,
+                       args.allow_incomplete, seeds, args.finished_only))
+        return
+    for path in write_tables(args.grid_dir, args.out or args.grid_dir / "tables",
+                             figures=not args.no_figures, ours_only=args.ours_only,
+                             example_trial=args.example_trial, curves=args.curves,
+                             allow_incomplete=args.allow_incomplete, seeds=seeds,
+                             finished_only=args.finished_only):
+        print(path)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

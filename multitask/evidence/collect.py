@@ -1,0 +1,283 @@
+"""Gather a grid's finished runs into tables: one row per run, per fold, per configuration.
+
+Tables refuse incomplete evidence. Against the grid's own record of its runs (grid.json), every
+recorded run must be finished with a readable ``metrics.json`` whose metrics are finite (NaN is
+allowed only for a per-class accuracy, ``<task>_accuracy_<class>``: the class is absent from that
+fold's test trials), and every folder under ``runs/`` must be a recorded run (a stray copy such as
+``C.old`` is not a fold). Otherwise ``IncompleteEvidence`` names every problem; with
+``allow_incomplete`` the problems are returned instead and the configurations they touch are
+marked incomplete (``completeness``), never silently averaged over fewer runs. For a grid
+still running, ``finished_only`` leaves out whole configurations with an unfinished run (and
+says which); ``seeds`` restricts the evidence to some seeds' runs.
+
+Metric columns are ``<task>_<metric>``: ``gesture_accuracy``, ``gesture_edit``,
+``gesture_f1@10``, ``gesture_accuracy_G1`` ..., ``progress_accuracy``, ``progress_edit``,
+``progress_f1@10``, ``progress_mae`` (normalised MAE of the regression output rounded to the
+nearest stage and clipped, in % of the stage range: the 4-stage span for Suturing, the paper's
+metric) and ``progress_mae_raw`` (the same of the raw output). Each run's value is the mean over
+its evaluation points. Each run also has ``converged``, ``loss_drop`` and ``loss_drop_se``
+(``rnn_seg.convergence``: the relative fall of its worst task's training loss over the last 10 %
+of its schedule, and that estimate's standard error; runs finished before the standard error was
+saved get it from their ``history.csv``).
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, fields
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from jigsaws_tools.task_definition import PAPER_TASK
+from rnn_seg.convergence import ConvergenceCriterion, history_convergence
+from rnn_seg.runs.folder import RunFolderError, is_finished, read_json
+
+from ..grid.folder import GRID_RECORD, record_runs
+from ..grid.spec import RunKey
+
+KEY_COLUMNS = [f.name for f in fields(RunKey)]
+CONFIG_COLUMNS = ["annotations", "direction", "variant", "weighting"]
+#: The paper's metrics, in its table order.
+METRICS = ["gesture_accuracy", "gesture_edit", "gesture_f1@10", "progress_mae",
+           "progress_mae_raw", "progress_accuracy", "progress_edit", "progress_f1@10"]
+LOWER_IS_BETTER = {"progress_mae", "progress_mae_raw"}
+_RENAME = {"mae_normalised_rounded": "mae", "mae_normalised": "mae_raw"}
+#: How a line of ``run_rows``' problems that names a configuration left out starts.
+LEFT_OUT = "left out:"
+#: Per-run columns that are not metrics (not averaged over seeds).
+CONVERGENCE_COLUMNS = ["converged", "loss_drop", "loss_drop_se"]
+
+
+def key_from_path(run_dir: Path, root: Path) -> RunKey:
+    """Inverse of ``RunKey.path``:
+    ``runs/<annotations>/<direction>/<variant>-<weighting>/seed<k>/<fold>``."""
+    annotations, direction, config, seed, fold = run_dir.relative_to(root / "runs").parts
+    variant, weighting = config.rsplit("-", 1)
+    return RunKey(annotations, direction, variant, weighting, int(seed.removeprefix("seed")), fold)
+
+
+class IncompleteEvidence(ValueError):
+    """A grid's runs do not support complete tables; the message names every problem."""
+
+
+def run_rows(grid_dir: Path | str, allow_incomplete: bool = False,
+             seeds: tuple[int, ...] | None = None, finished_only: bool = False
+             ) -> tuple[pd.DataFrame, list[str]]:
+    """One row per usable run (key columns + metrics), and the problems found (see the module
+    docstring): ``IncompleteEvidence`` unless ``allow_incomplete``.
+
+    Args:
+        grid_dir: output folder of ``multitask-grid``.
+        allow_incomplete: return the usable runs and the problems instead of refusing.
+        seeds: only the recorded runs of these seeds (None: every recorded run).
+        finished_only: leave out every configuration with a run not (yet) finished, instead of
+            counting that run a problem; a line per configuration left out, starting with
+            ``LEFT_OUT``, is added to the returned problems. For a grid still running: tables of
+            its finished part.
+    """
+    root = Path(grid_dir)
+    every_run, problems = recorded_runs(root)
+    problems += [f"stray folder, not a run of this grid: {path}"
+                 for path in _stray_folders(root, every_run)]
+    recorded = of_seeds(root, every_run, seeds)
+    unfinished = _unfinished_configs(root, recorded) if finished_only else {}
+    left_out = [f"{LEFT_OUT} {'/'.join(config[:2])}/{'-'.join(config[2:])}, {done} of {total} "
+                "runs finished" for config, (done, total) in sorted(unfinished.items())]
+    rows = []
+    for run in recorded:
+        if _config_of(key_from_path(root / run, root)) in unfinished:
+            continue
+        row = _run_row(root, run, problems)
+        if row is not None:
+            rows.append(row)
+    if problems and not allow_incomplete:
+        raise IncompleteEvidence(
+            f"{root}: incomplete evidence, no tables written:\n  " + "\n  ".join(problems)
+            + "\nFinish the runs (re-run multitask-grid), remove stray folders, or pass "
+              "--allow-incomplete to mark the configurations concerned incomplete.")
+    if not rows:
+        which = "" if seeds is None else f" of seed(s) {', '.join(map(str, seeds))}"
+        raise IncompleteEvidence(f"{root}: no finished runs{which} under {root / 'runs'}"
+                                 + "".join(f"\n  {line}" for line in left_out))
+    return pd.DataFrame(rows), problems + left_out
+
+
+def recorded_runs(root: Path) -> tuple[list[Path], list[str]]:
+    """The run folders (relative to ``root``) grid.json records, and problems: without a record,
+    the folders found that look like runs, and a problem saying so. A record that cannot be read
+    is a ``RunFolderError`` naming it."""
+    runs = record_runs(root)
+    if runs is not None:
+        return [Path(run) for run in runs], []
+    found = [p.relative_to(root) for p in sorted((root / "runs").glob("*/*/*/seed*/*"))
+             if p.is_dir()]
+    return found, [f"{root / GRID_RECORD} missing: which runs the grid should have is unknown"]
+
+
+def of_seeds(root: Path, runs: list[Path], seeds: tuple[int, ...] | None) -> list[Path]:
+    """The ``runs`` (relative to ``root``) of ``seeds``; all of them when ``seeds`` is None."""
+    if seeds is None:
+        return runs
+    return [run for run in runs if key_from_path(root / run, root).seed in seeds]
+
+
+def _config_of(key: RunKey) -> tuple[str, ...]:
+    """``key``'s configuration: its ``CONFIG_COLUMNS`` values."""
+    return tuple(getattr(key, column) for column in CONFIG_COLUMNS)
+
+
+def _unfinished_configs(root: Path, recorded: list[Path]) -> dict[tuple, tuple[int, int]]:
+    """Configurations with a recorded run not finished: ``{config: (finished, recorded)}``."""
+    counts: dict[tuple, list[int]] = {}
+    for run in recorded:
+        count = counts.setdefault(_config_of(key_from_path(root / run, root)), [0, 0])
+        count[0] += is_finished(root / run)
+        count[1] += 1
+    return {config: (done, total) for config, (done, total) in counts.items() if done < total}
+
+
+def expected_runs(root: Path | str, recorded: list[Path]) -> pd.DataFrame:
+    """Key columns of the runs ``recorded`` (the grid's record), for ``completeness``."""
+    return pd.DataFrame([asdict(key_from_path(Path(root) / run, Path(root))) for run in recorded],
+                        columns=KEY_COLUMNS)
+
+
+def completeness(runs: pd.DataFrame, expected: pd.DataFrame) -> pd.DataFrame:
+    """Per configuration: ``runs`` usable, ``runs_expected`` by the record, and ``complete``."""
+    usable = runs.groupby(CONFIG_COLUMNS).size().rename("runs")
+    wanted = expected.groupby(CONFIG_COLUMNS).size().rename("runs_expected")
+    table = pd.concat([usable, wanted], axis=1).fillna(0).astype(int).reset_index()
+    table["complete"] = table["runs"] == table["runs_expected"]
+    return table
+
+
+def _run_row(root: Path, run: Path, problems: list[str]) -> dict | None:
+    """Key columns and mean metrics of the finished run ``root / run``; None (and a problem)
+    when it is missing, unfinished, unreadable or has a NaN metric."""
+    run_dir = root / run
+    if not is_finished(run_dir):
+        problems.append(f"not finished: {run_dir}")
+        return None
+    path = run_dir / "metrics.json"
+    try:
+        metrics = read_json(path)
+    except RunFolderError as error:
+        problems.append(f"unreadable metrics: {error}")
+        return None
+    mean = metrics.get("mean") if isinstance(metrics, dict) else None
+    if not isinstance(mean, dict) or not all(isinstance(v, dict) for v in mean.values()):
+        problems.append(f"unreadable metrics: {path}: no 'mean' metrics per task")
+        return None
+    row = asdict(key_from_path(run_dir, root))
+    convergence = _convergence(run_dir, metrics.get("convergence") or {})
+    row.update(converged=convergence.get("converged"), loss_drop=convergence.get("max_loss_drop"),
+               loss_drop_se=convergence.get("max_loss_drop_se"))
+    for task, values in mean.items():
+        for name, value in values.items():
+            value = math.nan if value is None else value
+            if not isinstance(value, (int, float)) or (math.isnan(value) and not _per_class(name)):
+                problems.append(f"{task}_{name} is {value!r}, not a number: {path}")
+                return None
+            row[f"{task}_{_RENAME.get(name, name)}"] = value
+    return row
+
+
+def _convergence(run_dir: Path, saved: dict) -> dict:
+    """The run's saved diagnostic. One saved before ``max_loss_drop_se`` existed gets the standard
+    error from its loss history and the saved criterion; its saved verdict and ``loss_drop`` are
+    kept. A history that cannot give it leaves the standard error unknown (absent)."""
+    drops = saved.get("loss_drop") or {}
+    if "max_loss_drop_se" in saved or not drops or None in drops.values():
+        return saved
+    try:
+        total = read_json(run_dir / "config.json")["run"]["optim"]["total"]
+        recomputed = history_convergence(pd.read_csv(run_dir / "history.csv"), list(drops),
+                                         total, ConvergenceCriterion(**saved.get("criterion", {})))
+    except (RunFolderError, KeyError, TypeError, OSError, ValueError):
+        return saved
+    worst = max(drops, key=drops.get)
+    return {**saved, "loss_drop_se": recomputed["loss_drop_se"],
+            "max_loss_drop_se": recomputed["loss_drop_se"][worst]}
+
+
+def _per_class(metric: str) -> bool:
+    """Whether ``metric`` is a per-class accuracy (NaN when the class is absent)."""
+    return metric.startswith("accuracy_") and metric != "accuracy_pooled"
+
+
+def _stray_folders(root: Path, recorded: list[Path]) -> list[Path]:
+    """Folders under ``root/runs`` that are neither a recorded run nor on the way to one."""
+    runs = set(recorded)
+    ancestors = {parent for run in recorded for parent in run.parents}
+    stray, todo = [], [root / "runs"] if (root / "runs").is_dir() else []
+    while todo:
+        for child in sorted(p for p in todo.pop().iterdir() if p.is_dir()):
+            relative = child.relative_to(root)
+            if relative in ancestors:
+                todo.append(child)
+            elif relative not in runs:
+                stray.append(child)
+    return sorted(stray)
+
+
+def grid_task_name(grid_dir: Path | str) -> str:
+    """The task a grid's runs were trained on (their ``config.json``); runs written before tasks
+    existed are Suturing's."""
+    for config in sorted(Path(grid_dir).glob("runs/*/*/*/seed*/*/config.json")):
+        data = json.loads(config.read_text())["run"]["data"]
+        return data.get("task", {}).get("name", PAPER_TASK)
+    return PAPER_TASK
+
+
+def per_fold(runs: pd.DataFrame) -> pd.DataFrame:
+    """Mean over seeds for every configuration and fold (the numbers the tables summarise), with
+    ``seeds`` and ``unconverged`` (runs whose training loss was still falling) per fold."""
+    metric_cols = [c for c in runs.columns if c not in KEY_COLUMNS + CONVERGENCE_COLUMNS]
+    grouped = runs.groupby(CONFIG_COLUMNS + ["fold"], sort=True)
+    table = grouped[metric_cols].mean()
+    table.insert(0, "unconverged", grouped["converged"].agg(lambda c: int((c == False).sum())))  # noqa: E712
+    table.insert(0, "seeds", grouped.size())
+    return table.reset_index()
+
+
+def summary(folds: pd.DataFrame) -> pd.DataFrame:
+    """Mean and sample standard deviation over folds: columns ``<metric>_mean``, ``<metric>_std``,
+    plus ``folds`` (how many folds each configuration has) and ``unconverged`` (its runs whose
+    training loss was still falling)."""
+    counts = ["fold", "seeds", "unconverged"]
+    metric_cols = [c for c in folds.columns if c not in CONFIG_COLUMNS + counts]
+    grouped = folds.groupby(CONFIG_COLUMNS, sort=True)
+    mean = grouped[metric_cols].mean().add_suffix("_mean")
+    std = grouped[metric_cols].std(ddof=1).add_suffix("_std")
+    table = pd.concat([mean, std], axis=1)
+    table.insert(0, "unconverged", grouped["unconverged"].sum())
+    table.insert(0, "folds", grouped.size())
+    return table.reset_index()
+
+
+def lookup(summary_table: pd.DataFrame, annotations: str, direction: str, config: str
+           ) -> pd.Series | None:
+    """The summary row of one configuration, or None if the grid did not run it.
+
+    Args:
+        summary_table: one row per configuration (``summary``).
+        annotations: the annotation version, ``"revised"`` or ``"original"``.
+        direction: the encoder's, ``"bidirectional"`` or ``"forward"``.
+        config: ``<variant>-<weighting>``, e.g. ``"APc-gradnorm"``.
+    """
+    variant, weighting = config.rsplit("-", 1)
+    rows = summary_table[(summary_table.annotations == annotations)
+                         & (summary_table.direction == direction)
+                         & (summary_table.variant == variant)
+                         & (summary_table.weighting == weighting)]
+    return rows.iloc[0] if len(rows) else None
+
+
+def finite(value) -> float | None:
+    """``value`` as a float, or None for missing / NaN."""
+    if value is None:
+        return None
+    value = float(value)
+    return None if np.isnan(value) else value

@@ -1,0 +1,11 @@
+"""The experiment grid: a spec's runs, trained resumably by local processes or on Dask.
+
+* ``spec``: TOML specs, presets and the runs they expand to (read first);
+* ``job``: one worker's job; ``executors``: the local process pool and Dask;
+* ``record`` and ``folder``: the grid folder's ``grid.json`` and the check of its runs;
+* ``archive``: a grid's scores archive, to commit or carry to another machine;
+* ``cli``: ``multitask-grid``.
+
+May import ``multitask.models`` (and the packages below ``multitask``); not ``evidence`` or
+``inference``.
+"""

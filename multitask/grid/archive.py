@@ -1,0 +1,191 @@
+"""A grid's scores archive: its evidence, small enough to commit, carried from machine to machine.
+
+An archive is itself a grid folder: the grid's record (``grid.json``) and, for every finished
+run, the files that say what the run was and what it scored: ``config.json`` (its settings and
+settings hash), ``metrics.json``, ``finished.json``, ``timing.json`` and its loss logs
+(``history.csv``, ``gradnorm.csv``). It leaves out what is heavy or holds the data's values:
+checkpoints (the weights), ``eval/`` (per-trial predictions, which carry the release's labels),
+any other file of a run folder, ``train.log`` and lock files. ``archive.json`` says where and when
+it was archived, and each fold's test trials (their names only, for the tables' captions). So
+
+- ``multitask-tables ARCHIVE`` tabulates it like the grid (the example-trial figures need
+  predictions and are left out, saying so);
+- a grid continues from it on another machine: ``cp -r ARCHIVE NEW_FOLDER``, then the grid's
+  command with ``--out NEW_FOLDER``; its finished runs count as finished, and every launch still
+  checks each run's ``config.json`` against the spec (``record.prepare_grid``), so an
+  archived run of other settings is never taken for one of the spec's.
+
+An archive is written into a new or empty folder, or replaces a folder that holds nothing but an
+archive's files, and only if every run finished there is finished in the grid too (so that a
+grid recording a part of an archived spec never thins out the archive); anything else there
+(weights, predictions, tables, a lock, runs the grid lacks) stops it before any work, as does a
+destination inside the grid or the grid inside it.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+from rnn_seg.runs.provenance import now
+from rnn_seg.runs.folder import CONFIG, FINISHED, RunFolderError, is_finished, read_json, write_json
+
+from .folder import GRID_RECORD, read_record
+from .spec import RunKey
+
+ARCHIVE_RECORD = "archive.json"
+#: The files of a finished run an archive keeps; the first two must be there.
+RUN_FILES = (CONFIG, "metrics.json", FINISHED, "timing.json", "history.csv", "gradnorm.csv")
+REQUIRED = RUN_FILES[:2]
+#: In the names of the hidden folders an archive is written in (ignored by git: a process killed
+#: while archiving may leave one).
+PARTIAL = ".partial-"
+#: Path parts of a run folder in a grid: runs/<annotations>/<direction>/<config>/seed<k>/<fold>.
+RUN_DEPTH = len(RunKey("a", "d", "v", "w", 0, "f").path().parts)
+
+
+def archive_grid(grid_dir: Path | str, dest: Path | str) -> tuple[int, int]:
+    """Write the scores archive of ``grid_dir`` to ``dest``, replacing an earlier archive there.
+
+    The archive is written to a hidden folder beside ``dest`` and renamed into place once it is
+    complete; a call that fails removes that folder again and leaves ``dest`` as it was.
+
+    Args:
+        grid_dir: a grid folder (``multitask-grid --out``) with its ``grid.json``.
+        dest: a new or empty folder, or one holding only an archive's files.
+
+    Returns:
+        ``(finished runs archived, runs the grid records)``.
+
+    Raises:
+        RunFolderError: ``grid_dir`` is no grid, a finished run lacks a required file, or
+            ``dest`` may not be written (see the module docstring); each names the path.
+    """
+    source = Path(grid_dir).resolve()
+    record = read_record(source)
+    if record is None:
+        raise RunFolderError(f"{source}: no {GRID_RECORD}: not a grid folder to archive")
+    dest = _checked_destination(Path(dest), source)
+    finished = [run for run in record["runs"] if is_finished(source / run)]
+    dropped = sorted(set(_archived_runs(dest)) - set(finished))
+    if dropped:
+        raise RunFolderError(
+            f"{dest}: its archive holds {len(dropped)} finished run(s) that {source} does not "
+            f"record as finished (first: {dropped[0]}); replacing it would lose them, so nothing "
+            "is written. Archive into a new folder, or first give the grid a spec that records "
+            "them (multitask-grid --spec ... --restart; their runs must be in the grid folder).")
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=f".{dest.name}{PARTIAL}", dir=dest.parent))
+    try:
+        shutil.copy2(source / GRID_RECORD, staging / GRID_RECORD)
+        for run in finished:
+            _copy_run(source / run, staging / run)
+        write_json(staging / ARCHIVE_RECORD, {
+            "source": str(source), "archived": now(), "runs_finished": len(finished),
+            "runs_recorded": len(record["runs"]), "run_files": list(RUN_FILES),
+            "test_trials": _test_trials(source, record["runs"])})
+        _put_in_place(staging, dest)
+    except BaseException:
+        shutil.rmtree(staging, ignore_errors=True)
+        raise
+    return len(finished), len(record["runs"])
+
+
+def archived_test_trials(grid_dir: Path | str) -> dict[str, list[str]]:
+    """Each fold's test trials as the archive in ``grid_dir`` recorded them (``{}`` when it is
+    no archive, or the copy of one, or its record has none)."""
+    path = Path(grid_dir) / ARCHIVE_RECORD
+    record = read_json(path) if path.is_file() else {}
+    trials = record.get("test_trials") if isinstance(record, dict) else None
+    return trials if isinstance(trials, dict) else {}
+
+
+def _checked_destination(dest: Path, source: Path) -> Path:
+    """``dest``, resolved, once it is known that it may be written."""
+    if dest.is_symlink():
+        raise RunFolderError(f"{dest}: a symbolic link; archive into a folder")
+    resolved = dest.resolve()
+    if resolved == source or source in resolved.parents or resolved in source.parents:
+        raise RunFolderError(f"{dest}: the grid {source} and its archive must be separate "
+                             "folders, neither inside the other")
+    if resolved.exists() and not resolved.is_dir():
+        raise RunFolderError(f"{dest}: not a folder; archive a grid into a folder")
+    foreign = _foreign_path(resolved) if resolved.is_dir() else None
+    if foreign is not None:
+        raise RunFolderError(f"{dest}: holds {foreign}, which no scores archive holds; nothing "
+                             "written. Archive into a new folder.")
+    return resolved
+
+
+def _archived_runs(folder: Path) -> list[str]:
+    """The finished runs of the archive in ``folder`` (none for a new folder), as a grid
+    records them: ``runs/<annotations>/<direction>/<config>/seed<k>/<fold>``."""
+    return [marker.parent.relative_to(folder).as_posix()
+            for marker in folder.glob("runs/*/*/*/*/*/" + FINISHED)]
+
+
+def _foreign_path(folder: Path) -> Path | None:
+    """The first path in ``folder`` that an archive would not have written, or None."""
+    for path in sorted(folder.rglob("*")):
+        relative = path.relative_to(folder)
+        if path.is_symlink():
+            return relative
+        if len(relative.parts) == 1 and relative.name in (GRID_RECORD, ARCHIVE_RECORD, "runs"):
+            continue
+        in_runs = relative.parts[0] == "runs"
+        if in_runs and path.is_dir() and len(relative.parts) <= RUN_DEPTH:
+            continue
+        if in_runs and path.is_file() and len(relative.parts) == RUN_DEPTH + 1 \
+                and path.name in RUN_FILES:
+            continue
+        return relative
+    return None
+
+
+def _copy_run(run_dir: Path, to: Path) -> None:
+    """The archived files of one finished run; a missing required file is an error."""
+    missing = [name for name in REQUIRED if not (run_dir / name).is_file()]
+    if missing:
+        raise RunFolderError(f"{run_dir}: finished but without {', '.join(missing)}; "
+                             "nothing archived")
+    to.mkdir(parents=True)
+    for name in RUN_FILES:
+        if (run_dir / name).is_file():
+            shutil.copy2(run_dir / name, to / name)
+
+
+def kept_predictions(run_dir: Path) -> dict[str, Path]:
+    """The per-trial prediction files the run in ``run_dir`` kept at its last evaluation point,
+    by trial name, in name order; empty when it kept none (an archived run)."""
+    points = sorted((Path(run_dir) / "eval").glob("*/predictions"))
+    return {p.stem: p for p in sorted(points[-1].glob("*.csv"))} if points else {}
+
+
+def _test_trials(root: Path, runs: list[str]) -> dict[str, list[str]]:
+    """Each fold's test trials (names), from the predictions of the first of its runs that kept
+    them, else from the archive ``root`` was copied from."""
+    found: dict[str, list[str]] = {}
+    for run in runs:
+        fold = Path(run).name
+        found[fold] = found.get(fold) or list(kept_predictions(root / run))
+    kept = {fold: names for fold, names in found.items() if names}
+    return dict(sorted({**archived_test_trials(root), **kept}.items()))
+
+
+def _put_in_place(staging: Path, dest: Path) -> None:
+    """Rename the complete archive ``staging`` to ``dest``; an earlier archive there is moved
+    aside first and removed once the new one is in place."""
+    old = None
+    if dest.exists():
+        old = Path(tempfile.mkdtemp(prefix=f".{dest.name}{PARTIAL}old-", dir=dest.parent))
+        os.replace(dest, old / dest.name)
+    try:
+        os.replace(staging, dest)
+    except BaseException:
+        if old is not None:
+            os.replace(old / dest.name, dest)
+        raise
+    finally:
+        if old is not None:
+            shutil.rmtree(old, ignore_errors=True)

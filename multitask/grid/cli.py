@@ -1,0 +1,129 @@
+"""``multitask-grid``: run the leave-one-user-out grid of a spec, resumably, locally or on Dask.
+
+    multitask-grid --spec results/quick.toml --out runs/quick --workers 2
+    multitask-grid --out runs/converged                # the paper's grid at the default preset
+    multitask-grid --spec S.toml --out /shared/grid --scheduler tcp://head:8786
+
+Re-running the same command skips finished runs and resumes interrupted ones; tables come from
+``multitask-tables DIR``. The grid folder records its spec (grid.json); another spec over it stops
+with the differences unless ``--restart``. One grid process per folder (a lock); Ctrl-C stops
+every run at once, resumably.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib.util
+import sys
+from pathlib import Path
+
+from baseline.options import add_threads_argument
+from jigsaws_tools.cli.arg_types import positive_int
+from jigsaws_tools.cli.common import (command_parser, deprecated_alias, import_tensorflow,
+                                      run_command)
+from jigsaws_tools.cli.options import DEFAULT_DATA_DIR_TEXT
+from rnn_seg.config import LOOPS, require_native_precision
+from rnn_seg.runs.provenance import set_command
+
+from .spec import (DEFAULT_PRESET, PRESETS, GridSpec, expand, job_groups, load_spec,
+                        release_users, with_budget, with_overrides)
+
+PROG = "multitask-grid"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = command_parser(PROG, __doc__)
+    parser.add_argument("--spec", type=Path, metavar="TOML",
+                        help="grid spec (keys in multitask/grid/spec.py; default: the preset's "
+                             "whole paper grid)")
+    parser.add_argument("--preset", choices=list(PRESETS),
+                        help="override the spec's preset (budget: width, schedule, seeds; "
+                             f"default: the spec's, else {DEFAULT_PRESET})")
+    parser.add_argument("--data-dir", metavar="DIR",
+                        help="override the spec's data_dir: a release folder or 'synthetic' "
+                             f"(default: the spec's, else {DEFAULT_DATA_DIR_TEXT})")
+    parser.add_argument("--loops", choices=LOOPS,
+                        help="override the spec's loops: how the LSTM's loops over time run "
+                             "(xla: compiled, faster, same results to float32 rounding; a grid "
+                             "may resume with either; default: the spec's, else graph)")
+    parser.add_argument("--out", type=Path, required=True, metavar="DIR",
+                        help="grid folder (shared by every worker on Dask)")
+    parser.add_argument("--workers", type=positive_int, default=1, metavar="N",
+                        help="local worker processes")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="Dask scheduler address (tcp://host:8786): run the jobs on that "
+                             "cluster (default: none, local workers)")
+    threads = add_threads_argument(parser, "cores per run (default: 0 = the machine's cores / "
+                                           "--workers locally, 1 on Dask)")
+    deprecated_alias(parser, "--threads-per-job", threads)
+    parser.add_argument("--stack", type=positive_int, default=1, metavar="N",
+                        help="train up to N runs of one configuration (folds, seeds) together in "
+                             "one vectorised step per job; pays for small models "
+                             "(docs/PERFORMANCE.md)")
+    parser.add_argument("--dry-run", action="store_true",
+                        help="list the runs in the order they run, and stop")
+    parser.add_argument("--restart", action="store_true",
+                        help="make this spec the grid's even if grid.json records another; run "
+                             "folders of other settings are trained afresh, finished runs of "
+                             "the same settings are kept")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.scheduler and importlib.util.find_spec("distributed") is None:
+        parser.error("--scheduler needs Dask: pip install 'mtrnn-jigsaws[dask]'")
+    set_command([PROG, *(sys.argv[1:] if argv is None else argv)])
+    return run_command(PROG, args.verbose, lambda: _run(args))
+
+
+def _run(args: argparse.Namespace) -> int:
+    import_tensorflow()          # quietly: checking run folders builds the runs' tasks
+    from rnn_seg.runs.lock import hold_folder
+
+    from .executors import run_grid
+    from .record import prepare_grid
+
+    spec = load_spec(args.spec) if args.spec else GridSpec()
+    spec = with_overrides(spec, preset=args.preset, data_dir=args.data_dir, loops=args.loops)
+    spec = with_budget(spec.with_absolute_paths())              # as recorded, one path
+    if not args.scheduler:                       # a cluster's workers have their own CPUs
+        require_native_precision(spec.precision)
+    if args.stack > 1 and spec.loops == "xla":
+        raise ValueError("--stack vectorises the runs' steps, which turns XLA's compiled loops "
+                         "back into TensorFlow ops: use --stack 1 with loops xla (or graph loops "
+                         "with --stack)")
+    keys = expand(spec, release_users(spec))
+    budget = spec.budget
+    print(f"grid: task {spec.task}, preset {spec.preset}, H={budget.hidden}, "
+          f"schedule {budget.describe_schedule()}, seeds {sorted({k.seed for k in keys})}, "
+          f"data {spec.data_dir}", flush=True)
+    if args.dry_run:
+        for group in job_groups(keys, args.stack):              # in the order they run
+            for key in group:
+                print(key.path())
+        print(f"{len(keys)} runs")
+        return 0
+    def log(message: str) -> None:
+        print(message, flush=True)
+
+    try:
+        with hold_folder(args.out, "grid folder"):
+            prepare_grid(args.out, spec, keys, args.restart, log)
+            failed = run_grid(spec, keys, args.out, args.workers, args.scheduler, args.threads,
+                              args.stack, log=log)
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted: queued runs cancelled, running ones stopped; run the same "
+              "command again to resume", file=sys.stderr)
+        return 130
+    if failed:
+        print(f"{PROG}: {len(failed)} run(s) failed (re-run to retry):", file=sys.stderr)
+        for key, message in failed:
+            print(f"  {key.path()}: {message}", file=sys.stderr)
+        return 1
+    print(f"grid complete: {len(keys)} runs in {args.out}; tables: multitask-tables {args.out}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

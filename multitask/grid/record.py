@@ -1,0 +1,128 @@
+"""A grid folder's own record, ``grid.json``, and the check of its run folders against a spec.
+
+``grid.json`` holds the spec (budget, data, folds, seeds, experiments), the path of every run and
+the provenance of the launch that wrote it. It is written once and never rewritten with another
+spec: launching a spec whose values or runs differ stops before any work, naming each difference,
+unless the launch restarts (``--restart``); the data's folder may change (``LOCATION_KEYS``), so
+may how the runs compute (``EXECUTION_KEYS``: the LSTM's loops), and so may the order of the
+spec's experiments and of the recorded runs (the order they run in, not what they are). Run paths
+do not encode the budget; the record does, and every run's config.json records that run's
+settings (``rnn_seg.runs.settings``): a spec with another width or length never finds runs "already
+finished".
+
+``multitask-tables`` reads the record's run list to tell missing runs and stray folders; the
+record's file name and reader are ``folder``'s, which imports no TensorFlow.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Callable
+
+from rnn_seg.runs.lock import hold_folder
+from rnn_seg.runs.provenance import now, provenance
+from rnn_seg.runs.folder import clear_run_dir, write_json
+from rnn_seg.runs.settings import SettingsMismatchError, check_run_dir, differences
+
+from ..models.fold_run import variant_configs
+from .folder import GRID_RECORD, read_record, record_runs
+from .spec import GridSpec, RunKey, run_arguments, spec_payload
+
+SHOWN = 5           # mismatching runs named in full in an error
+#: Spec keys saying where the data is, not what it holds: not compared with grid.json's, since
+#: every run folder's check compares the data fingerprint (a grid may resume on moved data).
+LOCATION_KEYS = ("data_dir",)
+#: Spec keys that say how the runs compute, not what: a grid may resume with other values.
+EXECUTION_KEYS = ("loops",)
+#: Spec keys added after grid.json was first written -> the value their absence meant.
+IMPLIED_BY_OLDER_RECORDS = {"schedule_factors": {}}
+
+
+def prepare_grid(out: Path, spec: GridSpec, keys: list[RunKey], restart: bool = False,
+                 log: Callable[[str], None] = print) -> None:
+    """Check (or with ``restart``, replace) ``out``'s record and run folders for ``spec``'s runs,
+    before any work; raise ``SettingsMismatchError`` naming every difference.
+
+    Args:
+        out: the grid's folder.
+        spec: the grid's budget, data and experiments.
+        keys: the grid's runs (``spec.expand``).
+        restart: make ``spec`` the grid's record and clear run folders of other settings.
+        log: where the notes of a restart go.
+    """
+    out = Path(out)
+    runs = [str(key.path()) for key in keys]
+    path = out / GRID_RECORD
+    if path.is_file() and not restart:
+        _check_record(out, spec, runs)
+    mismatched = _mismatched_runs(out, spec, keys)
+    if mismatched and not restart:
+        shown = "\n".join(details for _, details in mismatched[:SHOWN])
+        more = f"\n... and {len(mismatched) - SHOWN} more" if len(mismatched) > SHOWN else ""
+        raise SettingsMismatchError(
+            f"{out}: {len(mismatched)} run folder(s) hold runs with other settings:\n{shown}{more}",
+            "Use another --out, or --restart to train those runs afresh.")
+    for key, _ in mismatched:
+        with hold_folder(out / key.path()):
+            clear_run_dir(out / key.path())
+    if mismatched:
+        log(f"[grid] restart: cleared {len(mismatched)} run folder(s) of other settings")
+    if restart or not path.is_file():
+        old = set(record_runs(out) or ())
+        write_json(path, {"spec": spec_payload(spec), "runs": runs,
+                          "provenance": {**provenance(), "started": now()}})
+        dropped = old - set(runs)
+        if dropped:
+            log(f"[grid] {len(dropped)} run folder(s) of the previous record are not runs of this "
+                "spec; multitask-tables reports them until they are removed")
+
+
+def _check_record(out: Path, spec: GridSpec, runs: list[str]) -> None:
+    recorded = read_record(out)
+    changed = differences({"spec": _canonical(_as_current(recorded.get("spec") or {}))},
+                          {"spec": _canonical(spec_payload(spec))})
+    old_runs = recorded["runs"]
+    if set(old_runs) != set(runs):                  # the order of the runs is not the grid's
+        changed.append(f"runs: {len(old_runs)} -> {len(runs)} ({len(set(runs) - set(old_runs))} "
+                       f"new, {len(set(old_runs) - set(runs))} no longer in the grid)")
+    if changed:
+        raise SettingsMismatchError(
+            f"{out / GRID_RECORD} records another grid (recorded -> requested):\n  "
+            + "\n  ".join(changed),
+            "Use another --out, or --restart to make this spec the grid's (runs of other "
+            "settings are trained afresh; finished runs of the same settings are kept).")
+
+
+def _as_current(spec: dict) -> dict:
+    """A grid.json spec with the keys its (older) writer did not know set to what that writer
+    implied, so that the same grid reads the same."""
+    return {**IMPLIED_BY_OLDER_RECORDS, **spec}
+
+
+def _canonical(spec: dict) -> dict:
+    """A grid.json spec less its ``LOCATION_KEYS`` and ``EXECUTION_KEYS``, its experiments in a
+    fixed order: where the data lies, how the runs compute and the order the experiments run in
+    are not what the grid's runs are."""
+    kept = {key: value for key, value in spec.items()
+            if key not in LOCATION_KEYS + EXECUTION_KEYS}
+    if isinstance(kept.get("experiments"), list):
+        kept["experiments"] = sorted(kept["experiments"],
+                                     key=lambda experiment: json.dumps(experiment, sort_keys=True))
+    return kept
+
+
+def _mismatched_runs(out: Path, spec: GridSpec, keys: list[RunKey]
+                     ) -> list[tuple[RunKey, str]]:
+    """``(key, message)`` of every run folder holding a run of other settings than ``spec``'s."""
+    fingerprints: dict = {}       # one data fingerprint per data configuration
+    mismatched = []
+    for key in keys:
+        args = run_arguments(spec, key)
+        data = args["config"].data
+        configs = variant_configs(**args, fingerprint=fingerprints.get(data))
+        fingerprints[data] = configs["data_fingerprint"]
+        try:
+            check_run_dir(out / key.path(), configs)
+        except SettingsMismatchError as error:
+            mismatched.append((key, error.details))
+    return mismatched

@@ -1,0 +1,440 @@
+"""The experiment grid: a TOML spec, its presets, and its expansion into independent runs.
+
+A spec names experiments (each a product of variants x weightings x annotation versions x
+directions), the LOUO folds, the seeds and a budget. Presets give the budget:
+
+* ``converged`` (the default): H=128 and the paper's schedules (120 epochs, 80 for Pr/Pc/Poc),
+  1.5x longer for APoc (180) and 2x for Poc (160), seed 0: per variant, the shortest of the
+  measured lengths whose runs pass the convergence diagnostic (``rnn_seg.convergence``; the
+  measurements are in docs/REPRODUCTION.md, "The converged preset");
+* ``paper``: H=1024, the paper's schedules, seeds 0, 1, 2;
+* ``quick``: H=128 and every schedule compressed 4x (30 epochs, 20 for P), seed 0: a smoke test
+  of the whole pipeline; its progress heads have not converged.
+
+An experiment may name its own ``seeds`` (e.g. three for the configurations the paper's claims
+compare, one for the rest). Grids run every configuration's first seed first, in the order the
+spec lists them, so a grid cut short still has complete single-seed tables; then the further
+seeds configuration by configuration, in the same order, so each configuration's seeds complete
+as early as they can: list first what you need first (e.g. Table I).
+
+Every run has its own directory
+``runs/<annotations>/<direction>/<variant>-<weighting>/seed<k>/<user>``
+and is resumable on its own; ``finished.json`` marks it complete (``rnn_seg.runs.folder``). The path
+does not name the budget: the grid's record (``record``) and each run's config.json do.
+Every key's type and range is checked when the spec is read (``GridSpec.__post_init__``).
+
+Example spec (every key optional)::
+
+    preset = "converged"
+    task = "Suturing"             # a built-in task (Knot_Tying, ...) or a definition file (*.toml)
+    data_dir = "synthetic"        # or the task's JIGSAWS folder; default $JIGSAWS_DIR
+    test_users = ["B", "C"]       # the LOUO folds; default: every user of the release
+    seeds = [0]
+    hidden = 64                   # budget overrides
+    epochs = 10                   # length of the gesture variants' schedule; P scaled alike
+    schedule_factors = {APoc = 1.5}   # per variant, a longer schedule still; {} = none
+    precision = "fp32"            # or "bf16": the LSTM's matrix products in bfloat16
+    loops = "graph"               # or "xla": the LSTM's loops compiled (faster; not a setting)
+    ordinal_loss = "sum"          # the ordered progress head's loss: "sum" (paper) or "mean"
+    relative_rate = "chen"        # GradNorm's r_i: "chen" (ratio mean) or "paper" (loss mean)
+
+    [[experiments]]
+    variants = ["A", "APc"]
+    weightings = ["fixed"]
+    annotations = ["revised"]
+    directions = ["bidirectional"]
+    seeds = [0, 1, 2]             # this experiment's seeds; default: the spec's
+
+The keys ``data`` and ``folds`` of earlier versions are read as ``data_dir`` and ``test_users``,
+with a deprecation warning.
+"""
+from __future__ import annotations
+
+import json
+import logging
+import tomllib
+from dataclasses import asdict, dataclass, fields, replace
+from pathlib import Path
+
+from baseline.config import DIRECTIONS, RunConfig
+from jigsaws_tools.annotations import ANNOTATION_VERSIONS
+from jigsaws_tools.dataset import DataConfig, default_cache_dir, default_data_dir
+from jigsaws_tools.release import discover
+from jigsaws_tools.synth import SynthConfig, ensure_release
+from jigsaws_tools.task_definition import PAPER_TASK, TaskDefinition, load_task
+from rnn_seg.config import LOOPS, PRECISIONS, EncoderConfig, TrainConfig
+from rnn_seg.validation import require_choice, require_number
+
+from ..models.config import ORDINAL_LOSSES, RELATIVE_RATES, WEIGHTINGS, GradNormConfig, HeadConfig
+from ..models.variants import MULTITASK_EVAL, VARIANTS, get_variant
+
+log = logging.getLogger(__name__)
+PAPER_EPOCHS = MULTITASK_EVAL[-1]
+#: Old spec key -> its name now.
+DEPRECATED_KEYS = {"data": "data_dir", "folds": "test_users"}
+
+
+def _tuple(value):
+    """A list (TOML array) as a tuple; anything else unchanged, for the dataclasses to check."""
+    return tuple(value) if isinstance(value, list) else value
+
+
+def _require_seeds(name: str, seeds) -> None:
+    """Raise unless ``seeds`` is a non-empty tuple of distinct integers >= 0."""
+    _require_tuple(name, seeds, "a non-empty list of integers >= 0")
+    for seed in seeds:
+        if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+            raise ValueError(f"{name} must be a list of integers >= 0 (got {seed!r})")
+    if len(set(seeds)) < len(seeds):
+        raise ValueError(f"{name} must not repeat (got {list(seeds)})")
+
+
+def _require_tuple(name: str, value, what: str) -> None:
+    """Raise unless ``value`` is a non-empty tuple (a TOML array, see ``_tuple``)."""
+    if not isinstance(value, tuple) or not value:
+        shown = list(value) if isinstance(value, tuple) else value
+        raise ValueError(f"{name} must be {what} (got {shown!r})")
+
+
+@dataclass(frozen=True, order=True)
+class RunKey:
+    """Identity of one run of the grid."""
+
+    annotations: str
+    direction: str
+    variant: str
+    weighting: str
+    seed: int
+    fold: str
+
+    @property
+    def config_name(self) -> str:
+        """The configuration, without fold and seed (a column of the tables)."""
+        return f"{self.variant}-{self.weighting}"
+
+    def path(self) -> Path:
+        return (Path("runs") / self.annotations / self.direction / self.config_name
+                / f"seed{self.seed}" / self.fold)
+
+
+def expand(spec: GridSpec, users: tuple[str, ...]) -> list[RunKey]:
+    """Every run of the grid, each once, in the spec's order: experiment by experiment, then
+    variant, weighting, annotations, direction, seed, fold. ``users`` are the release's users."""
+    folds = spec.test_users or users
+    missing = sorted(set(folds) - set(users))
+    if missing:
+        raise ValueError(f"fold(s) {', '.join(missing)} not among the release's users "
+                         f"{', '.join(users)}")
+    keys = (RunKey(a, d, v, w, s, f)
+            for e in spec.experiments
+            for v in e.variants for w in e.weightings for a in e.annotations for d in e.directions
+            for s in spec.seeds_of(e) for f in folds
+            if w == "fixed" or get_variant(v).multitask)
+    return list(dict.fromkeys(keys))
+
+
+def release_users(spec: GridSpec) -> tuple[str, ...]:
+    """The LOUO folds of the spec's release: every user with at least one complete trial of the
+    spec's task (at least two, or there is no fold to train)."""
+    index = discover(spec.release_dir(), spec.task_definition())
+    if len(index.users) < 2:
+        raise ValueError(f"{index.root}: only user {index.users[0]} has complete "
+                         f"{index.task.name} trials; leave-one-user-out needs at least two users")
+    return index.users
+
+
+def run_config(spec: GridSpec, key: RunKey) -> RunConfig:
+    """The ``RunConfig`` of one run: the variant's (scaled) paper schedule, the budget's size."""
+    budget = spec.budget
+    optim, points = _schedule(spec, key)
+    return RunConfig(
+        data=DataConfig(str(spec.release_dir()), annotations=key.annotations,
+                        task=spec.task_definition()),
+        test_user=key.fold,
+        encoder=EncoderConfig(hidden=budget.hidden, bidirectional=key.direction == "bidirectional",
+                              precision=spec.precision, loops=spec.loops),
+        optim=optim,
+        train=TrainConfig(seed=key.seed, eval_points=points))
+
+
+def schedule_epochs(spec: GridSpec, key: RunKey) -> int:
+    """The length of one run's schedule, in epochs (its share of a grid's work)."""
+    return _schedule(spec, key)[0].total
+
+
+def _schedule(spec: GridSpec, key: RunKey):
+    """The run's optimiser schedule and evaluation points: its variant's paper schedule scaled by
+    the budget (``Variant.schedule``)."""
+    return get_variant(key.variant).schedule(spec.budget.scale_of(key.variant))
+
+
+def run_arguments(spec: GridSpec, key: RunKey) -> dict:
+    """Keyword arguments of ``fold_run.variant_trainer`` (and ``variant_configs``) for one run:
+    the one place a grid run's configuration is decided. Workers train with it and
+    ``record`` checks run folders against it, so the two never disagree."""
+    return {"variant": get_variant(key.variant), "weighting": key.weighting,
+            "config": run_config(spec, key), "gradnorm": spec.gradnorm, "heads": spec.heads}
+
+
+def stack_groups(keys: list[RunKey], size: int) -> list[list[RunKey]]:
+    """``keys`` in groups of at most ``size`` runs of one configuration (differing only in fold
+    and seed), in order; ``size`` 1 = every run alone."""
+    by_config: dict[tuple, list[RunKey]] = {}
+    for key in keys:
+        by_config.setdefault(_configuration(key), []).append(key)
+    return [runs[i:i + size] for runs in by_config.values() for i in range(0, len(runs), size)]
+
+
+def job_groups(keys: list[RunKey], size: int,
+               grid: list[RunKey] | None = None) -> list[list[RunKey]]:
+    """``stack_groups`` in the order a grid runs them: first every configuration's first seed, in
+    the spec's order, so a grid cut short still has complete single-seed tables; then the further
+    seeds configuration by configuration, so each configuration's seeds (and the comparisons
+    between them) complete as early as they can.
+
+    Args:
+        keys: the runs to group, e.g. a resumed grid's unfinished ones (``expand``'s order).
+        size: runs per group (``stack_groups``).
+        grid: the whole grid's runs, which define each configuration's first seed; default
+            ``keys``.
+    """
+    first_seed: dict[tuple, int] = {}
+    for key in grid if grid is not None else keys:
+        config = _configuration(key)
+        first_seed[config] = min(key.seed, first_seed.get(config, key.seed))
+    return sorted(stack_groups(keys, size),
+                  key=lambda group: all(k.seed != first_seed[_configuration(k)] for k in group))
+
+
+def _configuration(key: RunKey) -> tuple[str, str, str]:
+    """What the runs of one configuration share: annotations, direction and model."""
+    return key.annotations, key.direction, key.config_name
+
+
+def spec_payload(spec: GridSpec) -> dict:
+    """``spec`` as plain data that ``spec_from_dict`` reads back (for workers and grid.json)."""
+    data = asdict(spec)
+    data["experiments"] = [dict(e) for e in data["experiments"]]
+    return json.loads(json.dumps(data))
+
+
+def with_budget(spec: GridSpec) -> GridSpec:
+    """``spec`` with its preset's budget written out (``hidden``, ``epochs``, ``seeds``,
+    ``schedule_factors``), as grid.json records it: two specs of the same runs then read the
+    same."""
+    budget = spec.budget
+    return replace(spec, hidden=budget.hidden, seeds=budget.seeds,
+                   epochs=round(budget.schedule_scale * PAPER_EPOCHS),
+                   schedule_factors=dict(budget.schedule_factors))
+
+
+def with_overrides(spec: GridSpec, **overrides) -> GridSpec:
+    """``spec`` with the given non-None fields replaced (command-line overrides)."""
+    return replace(spec, **{k: v for k, v in overrides.items() if v is not None})
+
+
+@dataclass(frozen=True)
+class Budget:
+    """Model size, schedule length and seeds of a preset."""
+
+    hidden: int
+    schedule_scale: float           # multiplies every epoch count of the paper's schedules
+    seeds: tuple[int, ...]
+    #: (variant, factor): these variants' schedules are ``factor`` times longer still
+    schedule_factors: tuple[tuple[str, float], ...] = ()
+
+    def scale_of(self, variant: str) -> float:
+        """The factor on every epoch count of ``variant``'s paper schedule."""
+        return self.schedule_scale * dict(self.schedule_factors).get(variant, 1.0)
+
+    def describe_schedule(self) -> str:
+        """E.g. ``x1 (APoc, Poc x1.5)``."""
+        longer = {}
+        for variant, factor in self.schedule_factors:
+            longer.setdefault(self.schedule_scale * factor, []).append(variant)
+        extra = "; ".join(f"{', '.join(v)} x{scale:g}" for scale, v in longer.items())
+        return f"x{self.schedule_scale:g}" + (f" ({extra})" if extra else "")
+
+
+#: The converged preset's longer schedules: the variants whose runs the longer length made pass
+#: the convergence diagnostic on the whole of Table I (docs/REPRODUCTION.md, "The converged
+#: preset").
+CONVERGED_FACTORS = (("APoc", 1.5), ("Poc", 2.0))
+PRESETS = {"converged": Budget(hidden=128, schedule_scale=1.0, seeds=(0,),
+                               schedule_factors=CONVERGED_FACTORS),
+           "paper": Budget(hidden=1024, schedule_scale=1.0, seeds=(0, 1, 2)),
+           "quick": Budget(hidden=128, schedule_scale=0.25, seeds=(0,))}
+DEFAULT_PRESET = "converged"
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """A product of configurations; combinations that do not exist (GradNorm on one task) are
+    skipped."""
+
+    variants: tuple[str, ...]
+    weightings: tuple[str, ...] = ("fixed",)
+    annotations: tuple[str, ...] = ("revised",)
+    directions: tuple[str, ...] = ("bidirectional",)
+    seeds: tuple[int, ...] | None = None    # None = the spec's (its budget's) seeds
+
+    def __post_init__(self):
+        if self.seeds is not None:
+            _require_seeds("experiments.seeds", self.seeds)
+        for name, allowed, what in (("variants", VARIANTS, "variant"),
+                                    ("weightings", WEIGHTINGS, "weighting"),
+                                    ("annotations", ANNOTATION_VERSIONS, "annotation version"),
+                                    ("directions", DIRECTIONS, "direction")):
+            value = getattr(self, name)
+            _require_tuple(f"experiments.{name}", value, f"a non-empty list of {what}s")
+            for item in value:
+                if not isinstance(item, str) or item not in allowed:
+                    raise ValueError(f"unknown {what} {item!r} in experiments.{name}; choose from "
+                                     f"{', '.join(allowed)}")
+
+
+ALL_VARIANTS = tuple(VARIANTS)
+#: The paper's evidence: Table I (revised labels), the same on the original labels (Table II and the
+#: annotation ablation) and the online models of Table III.
+PAPER_EXPERIMENTS = (
+    Experiment(ALL_VARIANTS, WEIGHTINGS, ("revised", "original")),
+    Experiment(("A", "APc"), ("fixed",), ("revised",), ("forward",)),
+)
+
+
+@dataclass(frozen=True)
+class GridSpec:
+    """A whole grid; ``None`` budget fields take the preset's value."""
+
+    preset: str = DEFAULT_PRESET
+    task: str = PAPER_TASK          # a built-in task's name or a definition file's path
+    data_dir: str = ""              # "" = $JIGSAWS_DIR or the default folder; "synthetic"
+    test_users: tuple[str, ...] = ()    # the LOUO folds; () = every user of the release
+    seeds: tuple[int, ...] | None = None
+    hidden: int | None = None
+    epochs: int | None = None
+    schedule_factors: dict[str, float] | None = None    # None = the preset's
+    precision: str = EncoderConfig.precision
+    loops: str = EncoderConfig.loops
+    ordinal_loss: str = HeadConfig.ordinal_loss
+    relative_rate: str = GradNormConfig.relative_rate
+    experiments: tuple[Experiment, ...] = PAPER_EXPERIMENTS
+
+    def __post_init__(self):
+        require_choice("preset", self.preset, PRESETS)
+        require_choice("precision", self.precision, PRECISIONS)
+        require_choice("loops", self.loops, LOOPS)
+        require_choice("ordinal_loss", self.ordinal_loss, ORDINAL_LOSSES)
+        require_choice("relative_rate", self.relative_rate, RELATIVE_RATES)
+        if not isinstance(self.task, str):
+            raise ValueError(f"task must be a task's name or a definition file (got {self.task!r})")
+        self.task_definition()          # a bad task fails here, not in every worker
+        if not isinstance(self.data_dir, str):
+            raise ValueError(f"data_dir must be a folder or \"synthetic\" (got {self.data_dir!r})")
+        if self.test_users:
+            _require_tuple("test_users", self.test_users, "a list of user letters")
+        for user in self.test_users:
+            if not isinstance(user, str) or not user:
+                raise ValueError(f"test_users must be a list of user letters (got {user!r})")
+        if self.seeds is not None:
+            _require_seeds("seeds", self.seeds)
+        for name in ("hidden", "epochs"):
+            if getattr(self, name) is not None:
+                require_number(name, getattr(self, name), integer=True, low=1)
+        if self.schedule_factors is not None:
+            if not isinstance(self.schedule_factors, dict):
+                raise ValueError("schedule_factors must be a table of variant = factor "
+                                 f"(got {self.schedule_factors!r})")
+            for variant, factor in self.schedule_factors.items():
+                require_choice("schedule_factors", variant, VARIANTS)
+                require_number(f"schedule_factors.{variant}", factor, low=0, open_low=True)
+        _require_tuple("experiments", self.experiments, "a non-empty list of [[experiments]]")
+        for experiment in self.experiments:
+            if not isinstance(experiment, Experiment):
+                raise ValueError(f"experiments must be tables of variants, weightings, "
+                                 f"annotations, directions (got {experiment!r})")
+
+    @property
+    def budget(self) -> Budget:
+        base = PRESETS[self.preset]
+        scale = base.schedule_scale if self.epochs is None else self.epochs / PAPER_EPOCHS
+        factors = (base.schedule_factors if self.schedule_factors is None
+                   else tuple(self.schedule_factors.items()))
+        return Budget(hidden=base.hidden if self.hidden is None else self.hidden,
+                      schedule_scale=scale,
+                      seeds=base.seeds if self.seeds is None else self.seeds,
+                      schedule_factors=factors)
+
+    @property
+    def heads(self) -> HeadConfig:
+        return HeadConfig(ordinal_loss=self.ordinal_loss)
+
+    @property
+    def gradnorm(self) -> GradNormConfig:
+        return GradNormConfig(relative_rate=self.relative_rate)
+
+    def seeds_of(self, experiment: Experiment) -> tuple[int, ...]:
+        """The seeds ``experiment`` runs: its own, else the budget's."""
+        return self.budget.seeds if experiment.seeds is None else experiment.seeds
+
+    def task_definition(self) -> TaskDefinition:
+        return load_task(self.task)
+
+    def release_dir(self) -> Path:
+        """The release folder ``data_dir`` names (the synthetic one written on first use)."""
+        if self.data_dir == "synthetic":
+            return ensure_release(default_cache_dir(), SynthConfig(), self.task_definition())
+        return (Path(self.data_dir) if self.data_dir
+                else default_data_dir(self.task_definition().name))
+
+    def with_absolute_paths(self) -> GridSpec:
+        """This spec with its data folder and task file as absolute paths, so that every worker
+        (and grid.json) sees the same ones."""
+        task = str(Path(self.task).resolve()) if self.task.endswith(".toml") else self.task
+        return replace(self, data_dir=str(self.release_dir().resolve()), task=task)
+
+
+def load_spec(path: Path | str) -> GridSpec:
+    """Parse a TOML spec; unknown keys are errors naming the file and the key."""
+    path = Path(path)
+    try:
+        raw = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as error:
+        raise ValueError(f"{path}: not valid TOML: {error}") from None
+    return spec_from_dict(raw, source=str(path))
+
+
+def spec_from_dict(raw: dict, source: str = "spec") -> GridSpec:
+    """A ``GridSpec`` from plain data (a parsed TOML file, grid.json's ``spec``); every key's type
+    and range is checked here, errors naming ``source`` and the key; deprecated keys are read
+    under their new names with a warning."""
+    raw = dict(raw)
+    for old, new in DEPRECATED_KEYS.items():
+        if old in raw:
+            log.warning("%s: spec key %r is deprecated; use %r", source, old, new)
+            if new in raw:
+                raise ValueError(f"{source}: both {old!r} and {new!r} given; keep {new!r}")
+            raw[new] = raw.pop(old)
+    known = {f.name for f in fields(GridSpec)}
+    unknown = set(raw) - known
+    if unknown:
+        raise ValueError(f"{source}: unknown key(s) {', '.join(sorted(unknown))}; "
+                         f"known: {', '.join(sorted(known))}")
+    values = {k: _tuple(v) for k, v in raw.items() if v is not None}
+    try:
+        if isinstance(values.get("experiments"), tuple):
+            values["experiments"] = tuple(_experiment(e) for e in values["experiments"])
+        return GridSpec(**values)
+    except ValueError as error:
+        raise ValueError(f"{source}: {error}") from None
+
+
+def _experiment(raw: dict) -> Experiment:
+    if not isinstance(raw, dict):
+        return raw                          # GridSpec names what is wrong with it
+    known = {f.name for f in fields(Experiment)}
+    unknown = set(raw) - known
+    if unknown:
+        raise ValueError(f"unknown experiment key(s) {', '.join(sorted(unknown))}; "
+                         f"known: {', '.join(sorted(known))}")
+    return Experiment(**{k: _tuple(v) for k, v in raw.items()})

@@ -1,0 +1,61 @@
+"""``multitask-evaluate``: score a trained run's saved weights on labelled trials.
+
+Writes what a training evaluation point writes (predictions/NAME.csv, plots/NAME.png,
+metrics.json) for the held-out user's trials (or --test-user's). On a run's final checkpoint it
+reproduces the run's last evaluation point exactly (to float32 rounding if it trained with
+--loops xla: a loaded run runs the op loops). --stream scores a forward model as it would run
+online (causal preprocessing of every frame; docs/REPRODUCTION.md, "Streaming").
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from jigsaws_tools.cli.common import run_command
+
+from .options import load_for_command, trained_run_parser
+
+PROG = "multitask-evaluate"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = trained_run_parser(PROG, __doc__)
+    parser.add_argument("--data-dir", type=Path, default=None,
+                        help="the release folder of the run's task (e.g. JIGSAWS Suturing) whose "
+                             "trials are scored (default: the run's data folder, as recorded in "
+                             "its config.json)")
+    parser.add_argument("--test-user", default=None,
+                        help="user whose trials are scored (default: the user the run held out)")
+    parser.add_argument("--out", type=Path, default=None,
+                        help="output folder (default: RUN_DIR/evaluate/ckpt-N_USER[_stream])")
+    parser.add_argument("--stream", action="store_true",
+                        help="forward models only: causal (streaming) preprocessing instead of "
+                             "the offline one (default: offline, as training evaluated)")
+    parser.add_argument("--no-plots", action="store_true",
+                        help="skip the per-trial plots (default: draw them)")
+    return parser
+
+
+def _evaluate(args: argparse.Namespace) -> None:
+    run = load_for_command(args)                 # imports TensorFlow quietly, first
+    from rnn_seg.trainer import metrics_summary
+
+    from .evaluation import default_evaluation_dir, evaluate_run
+
+    user = args.test_user or run.config.test_user
+    out = args.out or default_evaluation_dir(run, user, args.stream)
+    metrics = evaluate_run(run, out, args.data_dir, user, args.stream, not args.no_plots,
+                           args.overwrite)
+    print(f"{args.run_dir}, checkpoint after sweep {run.checkpoint}, user {user}"
+          f"{', stream' if args.stream else ''}: {metrics_summary(run.tasks, metrics)}")
+    print(f"done: outputs in {out}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    return run_command(PROG, args.verbose, lambda: _evaluate(args))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,121 @@
+"""Score a trained run's saved weights on labelled trials, with the files of a training
+evaluation point (``rnn_seg.trainer.write_evaluation``: per-trial predictions and plots,
+``metrics.json``).
+
+Offline, the test trials are preprocessed and predicted exactly as the run's own evaluation points
+were, so the final checkpoint reproduces the run's last evaluation (exactly, or to float32
+rounding for a run trained with XLA's loops: a loaded run runs the op loops). ``stream=True`` scores a forward
+model as it would run online: each trial's every frame preprocessed causally (``TrainedRun.predict``
+with ``causal=True``, equal to feeding the frames one at a time), each labelled sample scored with
+the prediction of the last stream sample at or before its frame; the labels and the samples scored
+are those of the offline evaluation, so the two sets of scores compare directly.
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import replace
+from pathlib import Path
+
+from baseline.builder import to_sequences
+from jigsaws_tools.dataset import Dataset, Trial, load_dataset
+from jigsaws_tools.preprocessing import Normalisation
+from jigsaws_tools.release import discover
+from rnn_seg.runs.folder import staged_folder
+from rnn_seg.sweeps import sweeps_per_epoch
+from rnn_seg.trainer import predict, write_evaluation
+
+from .predictions import hold
+from .trained_run import TrainedRun
+
+log = logging.getLogger(__name__)
+
+
+def default_evaluation_dir(run: TrainedRun, test_user: str, stream: bool) -> Path:
+    """``<run>/evaluate/ckpt-<sweeps>_<user>[_stream]``: where ``evaluate_run`` writes by default.
+
+    Args:
+        run: the loaded run; ``<sweeps>`` is its checkpoint's sweep count.
+        test_user: whose trials are scored, e.g. ``"B"``.
+        stream: the scores are of the streaming preprocessing.
+    """
+    return run.run_dir / "evaluate" / (f"ckpt-{run.checkpoint}_{test_user}"
+                                       + ("_stream" if stream else ""))
+
+
+def evaluate_run(run: TrainedRun, out: Path, data_dir: Path | str | None = None,
+                 test_user: str | None = None, stream: bool = False, plots: bool = True,
+                 overwrite: bool = False) -> dict[str, dict[str, float]]:
+    """Evaluate ``run``'s weights on one user's labelled trials and write the results to ``out``.
+
+    Args:
+        run: the loaded run and checkpoint.
+        out: output folder (written whole at the end; an existing one only with ``overwrite``).
+        data_dir: the release to read (default: the run's data folder).
+        test_user: whose trials to score (default: the run's held-out user).
+        stream: score the causal, streaming preprocessing (forward models only).
+        plots: draw the per-trial plots.
+        overwrite: replace an existing ``out``.
+
+    Returns:
+        The metrics per task.
+    """
+    if stream:
+        run.require_online("streaming evaluation")
+    data_config = replace(run.config.data, data_dir=str(data_dir)) if data_dir else run.config.data
+    dataset = load_dataset(data_config)
+    test_user = test_user or run.config.test_user
+    _, trials = dataset.louo_split(test_user)
+    if test_user != run.config.test_user:
+        log.warning("user %s's trials were in this run's training set (it held out user %s): "
+                    "these scores are not held-out scores", test_user, run.config.test_user)
+    data = to_sequences(trials, run.tasks)
+    if stream:
+        outputs = causal_outputs(run, trials, data_config.data_dir,
+                                 run.stream_normalisation(data_dir))
+    else:
+        outputs = predict(run.model, data.inputs, run.config.train.prediction)
+    point, unit = checkpoint_point(run, dataset)
+    header = {"point": point, "unit": unit, "checkpoint": run.checkpoint,
+              "run_dir": str(run.run_dir), "data_dir": data_config.data_dir,
+              "test_user": test_user, "preprocessing": "stream" if stream else "offline"}
+    with staged_folder(out, overwrite) as folder:
+        metrics = write_evaluation(folder, run.tasks, data, outputs, header,
+                                   f"sweep {run.checkpoint}" + (" (stream)" if stream else ""),
+                                   run.sample_hz, plots)
+    return metrics
+
+
+def causal_outputs(run: TrainedRun, trials: list[Trial], data_dir: str,
+                   normalisation: Normalisation) -> dict[str, list]:
+    """Raw outputs of the causal pass over all of each trial's frames, at its labelled samples.
+
+    Args:
+        run: a forward run.
+        trials: labelled trials (their ``frames`` are the samples scored).
+        data_dir: the release holding the trials' kinematics files.
+        normalisation: the fixed input statistics.
+
+    Returns:
+        Per task, one ``[T_i, K]`` array per trial, aligned with ``Trial.frames``.
+    """
+    files = {t.name: t.kinematics for t in discover(data_dir, run.config.data.task).trials}
+    outputs: dict[str, list] = {t.name: [] for t in run.tasks}
+    for trial in trials:
+        prediction = run.predict(files[trial.name], causal=True, normalisation=normalisation)
+        samples = hold(prediction.sample_frames, trial.frames)
+        for name, values in outputs.items():
+            values.append(prediction.outputs[name][samples])
+    return outputs
+
+
+def checkpoint_point(run: TrainedRun, dataset: Dataset) -> tuple[int, str]:
+    """The checkpoint's position in the run's schedule unit (e.g. ``(120, "epochs")``), or in
+    sweeps when it is not a whole number of units or the run's training set is not in
+    ``dataset``."""
+    if run.config.test_user in dataset.users:
+        train, _ = dataset.louo_split(run.config.test_user)
+        per_unit = run.config.optim.sweeps(1, sweeps_per_epoch(len(train),
+                                                                run.config.train.batch_size))
+        if run.checkpoint % per_unit == 0:
+            return run.checkpoint // per_unit, run.config.optim.unit
+    return run.checkpoint, "sweeps"

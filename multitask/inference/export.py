@@ -1,0 +1,179 @@
+"""A trained run as a self-contained TensorFlow SavedModel, loadable without this package.
+
+``tf.saved_model.load(DIR).signatures[...]``:
+
+* ``serving_default(kinematics)``: one recording, ``kinematics`` ``[n_frames, 76]`` float64 in the
+  JIGSAWS column layout at 30 Hz. The run's offline preprocessing runs inside the graph (feature
+  columns; zero-phase Butterworth low-pass, computed as ``scipy.signal.sosfiltfilt`` does, odd
+  padding included; every 6th frame from the first; z-normalisation over the recording), then the
+  network. Returns, per 30 Hz frame as ``multitask-predict``'s CSV: ``frame`` ``[n]`` int64
+  (1-based), ``sample`` ``[n]`` int64 (the 5 Hz sample it takes its prediction from) and, per task,
+  ``<task>`` ``[n]`` int64 (class index) and ``<task>_scores`` ``[n, K]`` float32 (the CSV's score
+  columns). Recordings need more frames than the filter's padding (15).
+* ``features(features)``: preprocessed samples ``[T, F]`` float32 -> ``<task>`` ``[T]`` and
+  ``<task>_scores`` ``[T, K]`` per sample, for inputs preprocessed outside.
+
+``assets.extra/model.json`` documents the signatures, the class names of every task, the
+preprocessing parameters (filter sections, columns, rate) and the run's configuration.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import tensorflow as tf
+from scipy import signal
+
+from jigsaws_tools.features import feature_columns
+from jigsaws_tools.preprocessing import butterworth
+from jigsaws_tools.release import KINEMATICS_HZ, NUM_KINEMATIC_COLUMNS
+from rnn_seg.runs.folder import staged_folder, to_jsonable, write_json
+
+from .trained_run import CONFIG_FILE, TrainedRun
+
+EXPORT_FORMAT = 1
+DESCRIPTION_FILE = Path("assets.extra") / "model.json"
+
+
+def _sosfilt(sos: np.ndarray, x: tf.Tensor, state: tf.Tensor) -> tf.Tensor:
+    """``scipy.signal.sosfilt`` along axis 0 of ``x`` ``[n, F]`` float64 from the initial state
+    ``state`` ``[n_sections, 2, F]`` (direct form II transposed, in scipy's operation order)."""
+    sections = [tuple(float(v) for v in row) for row in sos]
+
+    def body(t, z, out):
+        """Frame ``t`` ``[F]`` through every section; ``z`` holds each one's two state rows."""
+        value, new = x[t], []
+        for (b0, b1, b2, _, a1, a2), (z0, z1) in zip(sections, z):
+            y = b0 * value + z0
+            new.append((b1 * value - a1 * y + z1, b2 * value - a2 * y))
+            value = y
+        return t + 1, new, out.write(t, value)
+
+    z = [(state[s, 0], state[s, 1]) for s in range(len(sections))]
+    out = tf.TensorArray(tf.float64, size=tf.shape(x)[0])
+    *_, out = tf.while_loop(lambda t, *_: t < tf.shape(x)[0], body, (0, z, out))
+    return out.stack()
+
+
+def _sosfiltfilt(sos: np.ndarray, x: tf.Tensor) -> tf.Tensor:
+    """``scipy.signal.sosfiltfilt(sos, x, axis=0)`` (odd padding of ``3 * ntaps`` frames)."""
+    ntaps = 2 * len(sos) + 1 - min((sos[:, 2] == 0).sum(), (sos[:, 5] == 0).sum())
+    edge = int(3 * ntaps)
+    tf.debugging.assert_greater(tf.shape(x)[0], edge, message=f"a recording needs more than "
+                                f"{edge} frames for the zero-phase low-pass filter")
+    ext = tf.concat([2.0 * x[:1] - tf.reverse(x[1:edge + 1], [0]), x,
+                     2.0 * x[-1:] - tf.reverse(x[-edge - 1:-1], [0])], axis=0)
+    zi = tf.constant(signal.sosfilt_zi(sos)[:, :, None])                       # [S, 2, 1]
+    y = _sosfilt(sos, ext, zi * ext[0])
+    y = _sosfilt(sos, tf.reverse(y, [0]), zi * y[-1])
+    return tf.reverse(y, [0])[edge:-edge]
+
+
+class ExportedRun(tf.Module):
+    """The run's model and offline preprocessing as ``tf.function`` signatures."""
+
+    def __init__(self, run: TrainedRun):
+        super().__init__(name="exported_run")
+        self.model = run.model
+        self._tasks = run.tasks
+        self._prep = run.config.data.preprocessing
+        self._columns = list(feature_columns(run.config.data.feature_set))
+        self._sos = butterworth(self._prep.cutoff_hz, self._prep.filter_order)
+        size = len(self._columns)
+        self.features = tf.function(self._features,
+                                    input_signature=[tf.TensorSpec([None, size], tf.float32)])
+        self.serve = tf.function(self._serve, input_signature=[
+            tf.TensorSpec([None, NUM_KINEMATIC_COLUMNS], tf.float64, name="kinematics")])
+
+    def _features(self, features: tf.Tensor) -> dict[str, tf.Tensor]:
+        """Samples ``[T, F]`` -> per task ``<task>`` ``[T]`` and ``<task>_scores`` ``[T, K]``."""
+        resets = tf.one_hot([0], tf.shape(features)[0], on_value=True, off_value=False)
+        outputs = self.model(features[None], resets, None)
+        result = {}
+        for t in self._tasks:
+            result[t.name] = t.decode_tf(outputs[t.name][0])
+            result[f"{t.name}_scores"] = t.scores_tf(outputs[t.name][0])
+        return result
+
+    def _serve(self, kinematics: tf.Tensor) -> dict[str, tf.Tensor]:
+        """One recording ``[n_frames, 76]`` -> per-frame predictions (module docstring)."""
+        x = tf.gather(kinematics, self._columns, axis=1)
+        if self._prep.lowpass:
+            x = _sosfiltfilt(self._sos, x)
+        x = x[::self._prep.resample_factor]
+        if self._prep.normalise:
+            std = tf.math.reduce_std(x, axis=0, keepdims=True)
+            x = (x - tf.reduce_mean(x, axis=0, keepdims=True)) / tf.where(std > 0, std, 1.0)
+        per_sample = self._features(tf.cast(x, tf.float32))
+        frames = tf.range(1, tf.shape(kinematics)[0] + 1, dtype=tf.int64)
+        samples = (frames - 1) // self._prep.resample_factor
+        result = {"frame": frames, "sample": samples}
+        result.update({name: tf.gather(value, samples) for name, value in per_sample.items()})
+        return result
+
+
+def describe(run: TrainedRun) -> dict:
+    """The contents of ``assets.extra/model.json``."""
+    prep = run.config.data.preprocessing
+    return {
+        "format": EXPORT_FORMAT,
+        "run": {"run_dir": str(run.run_dir.resolve()), "variant": run.variant,
+                "checkpoint_sweep": run.checkpoint, "finished": run.finished},
+        "signatures": {
+            "serving_default": {
+                "inputs": {"kinematics": f"[n_frames, {NUM_KINEMATIC_COLUMNS}] float64, one "
+                                         f"recording, JIGSAWS columns, {KINEMATICS_HZ:g} Hz"},
+                "outputs": {"frame": "[n_frames] int64, 1-based",
+                            "sample": "[n_frames] int64, the sample whose prediction the frame "
+                                      "takes: (frame - 1) // resample_factor",
+                            **_task_outputs(run, "n_frames")}},
+            "features": {
+                "inputs": {"features": f"[T, {len(feature_columns(run.config.data.feature_set))}]"
+                                       " float32, preprocessed samples"},
+                "outputs": _task_outputs(run, "T")}},
+        "tasks": [{"name": t.name, "classes": list(t.class_names),
+                   "score_columns": t.score_columns(), "ordered": t.ordered} for t in run.tasks],
+        "preprocessing": {
+            "feature_columns_1based": [c + 1 for c in feature_columns(run.config.data.feature_set)],
+            "lowpass": prep.lowpass,
+            "lowpass_sos": butterworth(prep.cutoff_hz, prep.filter_order).tolist(),
+            "lowpass_method": "scipy.signal.sosfiltfilt(sos, x, axis=0) on the whole recording",
+            "resample_factor": prep.resample_factor,
+            "normalise": prep.normalise,
+            "normalise_method": "per column: (x - mean) / std over the recording's samples "
+                                "(population std; 0 -> 1)",
+            "settings": to_jsonable(prep)},
+    }
+
+
+def _task_outputs(run: TrainedRun, length: str) -> dict[str, str]:
+    out = {}
+    for t in run.tasks:
+        out[t.name] = f"[{length}] int64 class index into tasks[{t.name!r}].classes"
+        out[f"{t.name}_scores"] = (f"[{length}, {len(t.score_columns())}] float32, columns "
+                                   f"{', '.join(t.score_columns())}")
+    return out
+
+
+def export_run(run: TrainedRun, out: Path, overwrite: bool = False) -> Path:
+    """Write ``run`` as a SavedModel folder (whole or not at all).
+
+    Args:
+        run: the loaded run and checkpoint.
+        out: the folder to create.
+        overwrite: replace an existing ``out``.
+
+    Returns:
+        ``out``.
+    """
+    module = ExportedRun(run)
+    with staged_folder(out, overwrite) as folder:
+        tf.saved_model.save(module, str(folder),
+                            signatures={"serving_default": module.serve,
+                                        "features": module.features},
+                            # inference only: the LSTM's hand-written gradient is not exported
+                            options=tf.saved_model.SaveOptions(experimental_custom_gradients=False))
+        write_json(folder / DESCRIPTION_FILE, describe(run))
+        (folder / DESCRIPTION_FILE).with_name(CONFIG_FILE).write_text(
+            (run.run_dir / CONFIG_FILE).read_text())
+    return Path(out)

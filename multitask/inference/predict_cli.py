@@ -1,0 +1,139 @@
+"""``multitask-predict``: label new recordings with a trained run.
+
+INPUT is a JIGSAWS-layout kinematics file (76 columns, one line per 30 Hz frame; no transcription
+needed) or a folder of them. For each recording NAME the output folder gets NAME.csv (one row per
+30 Hz frame: the predicted gesture name, its class probabilities, the progress stage and scores
+when the model has a progress head) and NAME.png (ribbons at 5 Hz), then prediction.json, written
+last, records the run, the checkpoint and the inputs. See docs/REPRODUCTION.md for how prediction
+treats every frame.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from jigsaws_tools.cli.common import run_command
+from jigsaws_tools.release import kinematics_dir
+
+from .options import load_for_command, trained_run_parser
+
+if TYPE_CHECKING:
+    from jigsaws_tools.preprocessing import Normalisation
+
+    from .predictions import RecordingPrediction
+    from .trained_run import TrainedRun
+
+PROG = "multitask-predict"
+RECORD_FILE = "prediction.json"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = trained_run_parser(PROG, __doc__)
+    parser.add_argument("inputs", metavar="INPUT", nargs="+", type=Path,
+                        help="kinematics files, or folders of them (their *.txt files; a release "
+                             "folder's kinematics/AllGestures)")
+    parser.add_argument("--out", type=Path, required=True, help="output folder (required)")
+    parser.add_argument("--stream", action="store_true",
+                        help="forward models only: feed the frames one at a time with causal "
+                             "preprocessing and the LSTM state carried over, as online use "
+                             "would (default: the run's offline preprocessing)")
+    parser.add_argument("--data-dir", type=Path, default=None,
+                        help="with --stream, when the run folder holds no "
+                             "stream_normalisation.json yet: the release with the run's training "
+                             "trials, whose statistics normalise the stream (default: the run's "
+                             "data folder)")
+    parser.add_argument("--no-plots", action="store_true",
+                        help="write the CSVs only (default: CSVs and plots)")
+    return parser
+
+
+def kinematics_files(inputs: list[Path]) -> list[Path]:
+    """The kinematics files named by INPUT arguments, in order; folders expand to their sorted
+    ``*.txt`` files (or a release folder's ``kinematics/AllGestures``)."""
+    files: list[Path] = []
+    for path in inputs:
+        if path.is_file():
+            files.append(path)
+        elif path.is_dir():
+            folder = kinematics_dir(path) if kinematics_dir(path).is_dir() else path
+            found = sorted(p for p in folder.glob("*.txt") if p.is_file())
+            if not found:
+                raise ValueError(f"{folder}: no kinematics files (*.txt)")
+            files.extend(found)
+        else:
+            raise ValueError(f"{path}: no such file or folder")
+    names: dict[str, Path] = {}
+    for f in files:
+        if f.stem in names:
+            raise ValueError(f"two inputs would write {f.stem}.csv: {names[f.stem]} and {f}")
+        names[f.stem] = f
+    return files
+
+
+def _predict(args: argparse.Namespace) -> None:
+    from jigsaws_tools.release import read_kinematics
+    from rnn_seg.runs.folder import write_json
+
+    if args.data_dir and not args.stream:
+        raise ValueError("--data-dir only applies with --stream (offline prediction normalises "
+                         "each recording by itself)")
+    files = kinematics_files(args.inputs)
+    _check_outputs(args, files)
+    run = load_for_command(args)
+    recordings = {f: read_kinematics(f) for f in files}
+    predictions, normalisation = _predict_all(run, recordings, args)   # every input checked first
+    (args.out / RECORD_FILE).unlink(missing_ok=True)       # an older record would vouch for us
+    mode = "stream" if args.stream else "offline"
+    record = {"run_dir": str(args.run_dir.resolve()), "variant": run.variant,
+              "checkpoint": run.checkpoint, "finished": run.finished, "mode": mode,
+              "normalisation": normalisation, "recordings": {}}
+    first = run.tasks[0]
+    for f, prediction in predictions.items():
+        prediction.write(args.out, f.stem, f"{f.stem} - {run.variant} ({args.run_dir.name}, "
+                                           f"sweep {run.checkpoint}, {mode})",
+                         plot=not args.no_plots)
+        record["recordings"][f.stem] = {"input": str(f.resolve()), "frames": prediction.n_frames,
+                                        "samples": len(prediction.sample_frames)}
+        labels = prediction.labels(first.name)
+        print(f"{f.stem}: {prediction.n_frames} frames, most frequent {first.name} "
+              f"{first.class_names[np.bincount(labels).argmax()]}", flush=True)
+    write_json(args.out / RECORD_FILE, record)              # last: the folder is complete
+    print(f"done: {len(files)} recording(s) predicted ({mode}) with {args.run_dir}, checkpoint "
+          f"after sweep {run.checkpoint}; outputs in {args.out}")
+
+
+def _check_outputs(args: argparse.Namespace, files: list[Path]) -> None:
+    """Refuse to replace an earlier prediction's files unless ``--overwrite``."""
+    outputs = [args.out / f"{f.stem}{ext}" for f in files
+               for ext in (".csv",) + (() if args.no_plots else (".png",))]
+    existing = [p for p in outputs + [args.out / RECORD_FILE] if p.exists()]
+    if existing and not args.overwrite:
+        raise ValueError(f"{existing[0]} exists (from an earlier prediction?); use --overwrite "
+                         "to replace it, or another --out")
+
+
+def _predict_all(run: TrainedRun, recordings: dict[Path, np.ndarray], args: argparse.Namespace
+                 ) -> tuple[dict[Path, RecordingPrediction], Normalisation | None]:
+    """Every recording's predictions (offline, or frame by frame with ``--stream``) and the fixed
+    statistics a stream used."""
+    from .streaming import StreamingPredictor, stream_recording
+
+    if not args.stream:
+        return {f: run.predict(k, where=str(f)) for f, k in recordings.items()}, None
+    run.require_online("--stream")
+    streamer = StreamingPredictor(run, run.stream_normalisation(args.data_dir))
+    return ({f: stream_recording(streamer, k, str(f)) for f, k in recordings.items()},
+            streamer.normalisation)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    return run_command(PROG, args.verbose, lambda: _predict(args))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,13 @@
+"""Run folders you can trust: what a run owns, and the checks that keep a folder and its
+weights in step.
+
+* ``folder``: strict-JSON atomic writes, configuration to and from JSON, the files a run owns,
+  its checkpoints' sweeps, the finished-run marker;
+* ``settings``: what a folder is checked against (the settings hash);
+* ``checkpoints``: save, fall back, prune, ``restore_weights``;
+* ``lock``: one writer per folder; ``provenance``: where a result came from;
+  ``timing``: seconds per phase (``timing.json``).
+
+May import ``rnn_seg.config``, ``rnn_seg.validation`` and ``jigsaws_tools``; TensorFlow only
+inside ``checkpoints``. The rest of the engine imports this folder, never the reverse.
+"""

@@ -1,0 +1,288 @@
+"""Run directories: strict-JSON atomic writes, configuration to and from JSON, the files a run
+owns, its checkpoints' sweeps, the finished-run marker.
+
+Every JSON file is strict JSON (``null`` for a missing or non-finite number, never ``NaN``) and
+every file is written through a temporary file and a rename, with the user's umask.
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import os
+import re
+import secrets
+import shutil
+import tempfile
+import types
+import typing
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any, Iterator, Literal, TypeVar, Union
+
+import numpy as np
+
+from ..config import unit_name
+
+CONFIG = "config.json"
+FINISHED = "finished.json"
+CHECKPOINTS = "checkpoints"
+_CHECKPOINT_INDEX = re.compile(r"^ckpt-(\d+)\.index$")
+T = TypeVar("T")
+#: What a run writes besides config.json and its top-level ``*.csv`` logs; ``clear_run_dir``
+#: removes exactly these (a grid's ``train.log`` and the lock file stay).
+RUN_OUTPUTS = (CHECKPOINTS, "eval", "metrics.json", "timing.json", "tensorboard",
+               "evaluate", "stream_normalisation.json", FINISHED)
+
+
+class RunFolderError(ValueError):
+    """A run or grid folder cannot be used as asked: other settings, in use, unreadable, no
+    weights to load."""
+
+
+def to_jsonable(obj: Any) -> Any:
+    """Dataclasses (nested), tuples, paths and numpy values as plain JSON values; NaN and
+    infinities become None (``null``)."""
+    if dataclasses.is_dataclass(obj):
+        return {f.name: to_jsonable(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+    if isinstance(obj, dict):
+        return {str(k): to_jsonable(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple, np.ndarray)):
+        return [to_jsonable(v) for v in obj]
+    if isinstance(obj, Path):
+        return str(obj)
+    if isinstance(obj, np.generic):
+        obj = obj.item()
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+class ConfigError(ValueError):
+    """A saved configuration that does not fit its dataclass; names the place and the value."""
+
+    def __init__(self, where: str, problem: str, value: Any):
+        super().__init__(f"{where}: {problem} (value: {value!r})")
+        self.where, self.problem, self.value = where, problem, value
+
+
+def from_jsonable(cls: type[T], data: Any, where: str = "config") -> T:
+    """Rebuild a (nested) dataclass from ``to_jsonable``'s output: the inverse for the field types
+    configurations use (dataclasses, ``int``, ``float``, ``bool``, ``str``, ``Literal``,
+    ``X | None``, ``tuple``, ``list``, ``dict``, ``Path``).
+
+    Strict: an unknown key, a value of the wrong type or a missing field without a default is a
+    ``ConfigError`` naming its place. A field added to a dataclass later with a default may be
+    absent, so older files still load. The dataclass's own validation (``__post_init__``) runs
+    as usual.
+
+    Args:
+        cls: the dataclass to build.
+        data: its saved form (parsed JSON).
+        where: the place named in errors, followed by the field path (e.g. ``config.json: run``
+            gives ``config.json: run.encoder.hidden``).
+    """
+    return _from_jsonable(cls, data, where)
+
+
+def _from_jsonable(tp: Any, value: Any, where: str) -> Any:
+    origin, args = typing.get_origin(tp), typing.get_args(tp)
+    if dataclasses.is_dataclass(tp):
+        return _dataclass_from_jsonable(tp, value, where)
+    if tp is Any:
+        return value
+    if origin is Literal:
+        if value not in args:
+            raise ConfigError(where, f"expected one of {', '.join(map(repr, args))}", value)
+        return value
+    if origin in (Union, types.UnionType):
+        if value is None and type(None) in args:
+            return None
+        errors = []
+        for option in (a for a in args if a is not type(None)):
+            try:
+                return _from_jsonable(option, value, where)
+            except ConfigError as error:
+                errors.append(error.problem)
+        raise ConfigError(where, " or ".join(errors), value)
+    if origin in (tuple, list):
+        if not isinstance(value, list):
+            raise ConfigError(where, "expected a list", value)
+        if origin is tuple and not (len(args) == 2 and args[1] is Ellipsis):
+            if len(value) != len(args):
+                raise ConfigError(where, f"expected {len(args)} items", value)
+            return tuple(_from_jsonable(a, v, f"{where}[{i}]")
+                         for i, (a, v) in enumerate(zip(args, value)))
+        items = [_from_jsonable(args[0] if args else Any, v, f"{where}[{i}]")
+                 for i, v in enumerate(value)]
+        return tuple(items) if origin is tuple else items
+    if origin is dict:
+        if not isinstance(value, dict):
+            raise ConfigError(where, "expected an object", value)
+        return {k: _from_jsonable(args[1] if args else Any, v, f"{where}.{k}")
+                for k, v in value.items()}
+    return _scalar_from_jsonable(tp, value, where)
+
+
+def _scalar_from_jsonable(tp: Any, value: Any, where: str) -> Any:
+    if tp is float and isinstance(value, (int, float)) and not isinstance(value, bool):
+        return float(value)
+    if tp is Path and isinstance(value, str):
+        return Path(value)
+    if tp in (int, bool, str) and type(value) is tp:
+        return value
+    if tp in (int, float, bool, str, Path):
+        raise ConfigError(where, f"expected {tp.__name__}", value)
+    raise TypeError(f"{where}: from_jsonable does not handle the type {tp!r}")
+
+
+def _dataclass_from_jsonable(cls: type, value: Any, where: str) -> Any:
+    if not isinstance(value, dict):
+        raise ConfigError(where, f"expected an object for {cls.__name__}", value)
+    fields = {f.name: f for f in dataclasses.fields(cls) if f.init}
+    unknown = sorted(set(value) - set(fields))
+    if unknown:
+        raise ConfigError(where, f"unknown field {unknown[0]!r} of {cls.__name__} (known: "
+                                 f"{', '.join(fields)})", value[unknown[0]])
+    hints = typing.get_type_hints(cls)
+    kwargs = {}
+    for name, f in fields.items():
+        if name in value:
+            kwargs[name] = _from_jsonable(hints[name], value[name], f"{where}.{name}")
+        elif f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
+            raise ConfigError(where, f"missing field {name!r} of {cls.__name__}", value)
+    try:
+        return cls(**kwargs)
+    except Exception as error:          # the dataclass's own validation, whatever its error class
+        raise ConfigError(where, str(error), value) from None
+
+
+def write_atomic(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` through a temporary file and a rename: never half a file. The
+    file gets the permissions of any new file (``0o666`` less the umask)."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.parent / f".{path.name}.{secrets.token_hex(4)}.tmp"
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+@contextmanager
+def staged_folder(target: Path, overwrite: bool = False) -> Iterator[Path]:
+    """A fresh hidden sibling folder to write into; it becomes ``target`` when the block ends
+    normally and is removed when it fails, so ``target`` is never left half-written.
+
+    An existing non-empty ``target`` is an error (``FileExistsError``) unless ``overwrite``; it is
+    then replaced only once the new folder is complete.
+    """
+    target = Path(target)
+    if target.exists() and any(target.iterdir()) and not overwrite:
+        raise FileExistsError(f"{target} exists and is not empty; choose another output folder, "
+                              "or overwrite it (--overwrite)")
+    target.parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp"))
+    try:
+        yield staging
+        if target.exists():
+            shutil.rmtree(target)
+        os.replace(staging, target)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+
+
+def write_json(path: Path, obj: Any) -> None:
+    """``obj`` (see ``to_jsonable``) as strict, indented JSON."""
+    write_atomic(path, json.dumps(to_jsonable(obj), indent=2, allow_nan=False) + "\n")
+
+
+def read_json(path: Path) -> Any:
+    """Parse a strict JSON file; an unreadable or invalid one is a ``RunFolderError`` naming it."""
+    def reject(constant: str):
+        raise ValueError(f"{constant} is not strict JSON")
+
+    try:
+        return json.loads(Path(path).read_text(encoding="utf-8"), parse_constant=reject)
+    except (OSError, UnicodeDecodeError, ValueError) as error:
+        raise RunFolderError(f"{path}: unreadable or not valid JSON ({error})") from None
+
+
+def point_dir(run_dir: Path, unit: str, point: int) -> Path:
+    """``eval/<unit><N>`` folder of evaluation point N, e.g. ``eval/epoch0100``.
+
+    Args:
+        run_dir: the run folder.
+        unit: the schedule's unit, ``"epochs"`` or ``"sweeps"``.
+        point: the evaluation point N, in that unit.
+    """
+    return Path(run_dir) / "eval" / f"{unit_name(unit)}{point:04d}"
+
+
+def checkpoint_sweeps(run_dir: Path) -> list[int]:
+    """Sweep counts of the checkpoints in ``run_dir``, oldest first."""
+    folder = Path(run_dir) / CHECKPOINTS
+    if not folder.is_dir():
+        return []
+    return sorted(int(m.group(1)) for p in folder.iterdir()
+                  if (m := _CHECKPOINT_INDEX.match(p.name)))
+
+
+def trained_units(run_dir: Path) -> float:
+    """Units of training (epochs, or sweeps for a sweep schedule) that the newest checkpoint of
+    ``run_dir`` holds: what a resumed run need not train again. The sweeps per unit come from
+    the first row of ``history.csv`` (``n`` units at ``sweep`` sweeps); 0 for a run without a
+    checkpoint or a readable history."""
+    sweeps = checkpoint_sweeps(run_dir)
+    if not sweeps:
+        return 0.0
+    try:
+        with open(Path(run_dir) / "history.csv") as history:
+            first = dict(zip(next(history).strip().split(","), next(history).strip().split(",")))
+        return sweeps[-1] * float(first["n"]) / int(first["sweep"])
+    except (OSError, StopIteration, KeyError, ValueError, ZeroDivisionError):
+        return 0.0
+
+
+def is_finished(run_dir: Path) -> bool:
+    return (Path(run_dir) / FINISHED).is_file()
+
+
+def mark_finished(run_dir: Path, summary: dict) -> None:
+    """Written last: its presence means every output of the run is complete."""
+    write_json(Path(run_dir) / FINISHED, summary)
+
+
+def run_outputs(run_dir: Path) -> list[str]:
+    """Names of the run outputs present in ``run_dir`` (empty folders do not count)."""
+    run_dir = Path(run_dir)
+    found = [name for name in RUN_OUTPUTS if _has_files(run_dir / name)]
+    return found + sorted(p.name for p in run_dir.glob("*.csv"))
+
+
+def clear_run_dir(run_dir: Path) -> None:
+    """Delete a run's config.json and outputs (``RUN_OUTPUTS`` and top-level ``*.csv``)."""
+    run_dir = Path(run_dir)
+    for path in [run_dir / CONFIG, *(run_dir / name for name in RUN_OUTPUTS),
+                 *run_dir.glob("*.csv")]:
+        if path.is_dir():
+            shutil.rmtree(path)
+        else:
+            path.unlink(missing_ok=True)
+
+
+def remove_temporary_files(run_dir: Path) -> list[Path]:
+    """Delete the ``*.tmp`` files an interrupted ``write_atomic`` left; returns them."""
+    leftovers = sorted(Path(run_dir).rglob("*.tmp"))
+    for path in leftovers:
+        path.unlink(missing_ok=True)
+    return leftovers
+
+
+def _has_files(path: Path) -> bool:
+    if path.is_file():
+        return True
+    return path.is_dir() and any(p.is_file() for p in path.rglob("*"))
