@@ -30,6 +30,12 @@ continues after a copy, on any machine.
 
     multitask-tables runs/converged --archive results/grid
 
+``--widths GRID ...`` writes the width study instead (``width``): model A against APoc
+(GradNorm) in GRID_DIR and each further grid, one LSTM width each, as ``width.csv`` and
+``width.png/.pdf`` in ``--out``.
+
+    multitask-tables results/grid --widths results/width/h256 results/paper/grid --out results/width
+
 ``--compare X Y --metric M`` prints the paired statistics of one comparison instead, e.g.
 ``multitask-tables GRID --compare APc-fixed A-fixed --metric gesture_edit``; a configuration is
 ``[annotations/][direction/]<variant>-<weighting>`` as in the grid's run folders
@@ -197,6 +203,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--metric",
                         help="with --compare: a metric column of runs.csv, e.g. gesture_edit "
                              "(required with --compare)")
+    parser.add_argument("--widths", type=Path, nargs="+", metavar="GRID",
+                        help="the width study instead of tables: A against APoc (GradNorm) in "
+                             "GRID_DIR and these grids, one width each; writes width.csv and "
+                             "width.png/.pdf to --out (default: none, write the tables)")
     parser.add_argument("--allow-incomplete", action="store_true",
                         help="write tables although runs are missing, unfinished or unreadable, "
                              "marking the configurations concerned incomplete (default: refuse)")
@@ -217,6 +227,8 @@ def main(argv: list[str] | None = None) -> int:
     extra = (["--compare"] if args.compare else []) + _table_options(args)
     if args.archive and extra:
         parser.error(f"--archive writes the archive alone: leave out {', '.join(extra)}")
+    if args.widths and (args.archive or args.compare or set(extra) != {"--out"}):
+        parser.error("--widths needs --out and takes no other option")
     return run_command(PROG, args.verbose, lambda: _run(args))
 
 
@@ -236,6 +248,12 @@ def _run(args: argparse.Namespace) -> None:
 
         finished, recorded = archive_grid(args.grid_dir, args.archive)
         print(f"{args.archive}: {finished} of {recorded} runs archived (finished ones)")
+        return
+    if args.widths:
+        from .width import write_width
+
+        for path in write_width([args.grid_dir, *args.widths], args.out):
+            print(path)
         return
     if args.compare:
         print(_compare(args.grid_dir, args.compare, args.minus, args.metric,
