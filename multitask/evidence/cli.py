@@ -13,8 +13,8 @@ of the paper's conjecture (multi-task against model A on that task, ``claims.CON
 
 A grid with missing or unfinished runs, NaN metrics, unreadable metrics or stray folders is an
 error naming them (``multitask.evidence.collect``); with ``--allow-incomplete`` they are listed,
-and the configurations concerned are marked incomplete in the tables (``runs``, ``runs_expected`` and
-``complete`` columns of summary.csv; "(incomplete: n/m runs)" after the model's name).
+and the configurations concerned are marked incomplete in the tables (``runs``, ``runs_expected``
+and ``complete`` columns of summary.csv; "(incomplete: n/m runs)" after the model's name).
 
 While a grid runs, ``--finished-only`` writes the tables of its finished part: every
 configuration with a run not finished yet is left out (and listed), the rest are complete;

@@ -13,8 +13,8 @@
 Figures read the revised-annotation, bidirectional runs of seed 0 where one run is needed; the
 example trial is a choice (``--example-trial``); the two example figures need that trial's
 predictions (a scores archive keeps none: ``multitask.grid.archive``). Time is in seconds; class
-names come from the per-class accuracy columns of the runs' metrics (``gesture_accuracy_<class>``) and from
-the predictions' score columns (``<task>_p_<class>``), colours from ``jigsaws_tools.plots``.
+names come from the per-class accuracy columns of the runs' metrics (``gesture_accuracy_<class>``)
+and from the predictions' score columns (``<task>_p_<class>``), colours from ``jigsaws_tools.plots``.
 """
 from __future__ import annotations
 

@@ -150,7 +150,8 @@ def width_figure(table: pd.DataFrame, out_dir: Path) -> list[Path]:
                 ax.plot(rows.hidden[paper.index] * 2 ** offset, paper, ls="none", marker="D",
                         mfc="none", mec=colour, ms=7, label=f"{_legend(name)}: paper")
         ax.set_xscale("log", base=2)
-        ax.set_xticks(sorted(table.hidden.unique()), [str(h) for h in sorted(table.hidden.unique())])
+        widths = sorted(table.hidden.unique())
+        ax.set_xticks(widths, [str(h) for h in widths])
         ax.minorticks_off()
         ax.set_xlabel("LSTM units per direction")
         ax.set_ylabel(f"{title} [%]")
