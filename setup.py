@@ -56,6 +56,8 @@ setup(
         # Dask distributed: runs the grid's jobs on a cluster (multitask-grid --scheduler)
         "dask": ["dask[distributed]>=2026.8"],
         "test": ["pytest>=9,<10", "dask[distributed]>=2026.8"],
+        # TensorBoard, to view what --tensorboard writes (training writes it without)
+        "tensorboard": ["tensorboard>=2.21,<3"],
     },
     entry_points={
         "console_scripts": [
