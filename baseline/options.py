@@ -10,7 +10,7 @@ import argparse
 from pathlib import Path
 
 from jigsaws_tools.cli.arg_types import (momentum, non_negative_int, positive_float, positive_int,
-                                     positive_int_list, probability)
+                                         positive_int_list, probability)
 from jigsaws_tools.dataset import DataConfig
 from jigsaws_tools.features import FEATURE_SETS
 from jigsaws_tools.cli.options import add_data_arguments, data_dir_from_args

@@ -47,7 +47,7 @@ from .model import ModelParams, SegmentationModel
 from .optim import SGD, OptimConfig
 from .plots import plot_sequence
 from .runs.folder import (CONFIG, clear_run_dir, is_finished, mark_finished, point_dir, read_json,
-                     remove_temporary_files, write_atomic, write_json)
+                          remove_temporary_files, write_atomic, write_json)
 from .sweeps import make_sweep, reset_flags, sweep_indices, sweeps_per_epoch
 from .tasks import Task, task_metrics
 from .runs.provenance import now, provenance

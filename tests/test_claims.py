@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 
 from multitask.evidence.claims import (CLAIMS, COLUMNS, MIN_PAIRS, VERDICTS, Claim, evaluate,
-                              paper_difference, paper_value, verdict)
+                                       paper_difference, paper_value, verdict)
 from multitask.evidence.claims_table import claims_latex
 from multitask.evidence.collect import LOWER_IS_BETTER, METRICS
 from multitask.evidence.latex import escape, required_packages

@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 
 from .common import (HelpFormatter, add_verbose_argument, command_parser, deprecated_alias,
-                         deprecated_positional, run_command)
+                     deprecated_positional, run_command)
 from .options import add_data_arguments, add_synthetic_seed_argument, data_dir_from_args
 from .task_options import add_task_options, task_from_options
 

@@ -25,7 +25,7 @@ from rnn_seg.config import LOOPS, require_native_precision
 from rnn_seg.runs.provenance import set_command
 
 from .spec import (DEFAULT_PRESET, PRESETS, GridSpec, expand, job_groups, load_spec,
-                        release_users, with_budget, with_overrides)
+                   release_users, with_budget, with_overrides)
 
 PROG = "multitask-grid"
 
