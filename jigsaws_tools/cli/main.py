@@ -1,10 +1,12 @@
-"""``jigsaws-tools``: write a synthetic release, inspect a release, list amendments, plot labels.
+"""``jigsaws-tools``: write a synthetic release, inspect a release, check its progress stages,
+list amendments, plot labels.
 
 Every subcommand reads one task's release: ``--task`` (Suturing, the default; Knot_Tying;
 Needle_Passing) or ``--task-file`` (your own definition).
 
     jigsaws-tools synth --out /tmp/synth/Suturing
     jigsaws-tools inspect --data-dir /path/to/Knot_Tying --task Knot_Tying
+    jigsaws-tools stages --data-dir /path/to/Needle_Passing --task Needle_Passing
     jigsaws-tools amendments --data-dir /path/to/Suturing
     jigsaws-tools plot --synthetic --out labels.png
 """
@@ -51,6 +53,27 @@ def _inspect(args: argparse.Namespace) -> None:
     print("missing kinematics:", ", ".join(index.missing_kinematics) or "none")
     print("missing transcription:", ", ".join(index.missing_transcription) or "none")
     print("unusable files:", "; ".join(index.unusable) or "none")
+
+
+def _stages(args: argparse.Namespace) -> None:
+    import pandas as pd
+
+    from ..release import discover
+    from ..stage_order import IN_ORDER, KINDS, stage_order
+
+    task = task_from_options(args)
+    table, breaks = stage_order(discover(data_dir_from_args(args, task), task), args.annotations)
+    print("stages: " + " -> ".join(f"{i} {name}" for i, name in enumerate(task.stage_names))
+          + f" ({args.annotations} annotations)\n")
+    with pd.option_context("display.max_rows", None, "display.width", 200):
+        print(table.to_string())
+    totals = table[list(KINDS)].sum()
+    in_order = int(totals[list(IN_ORDER)].sum())
+    print(f"\n{int(table['in_order'].sum())} of {len(table)} trials follow the stage order; "
+          f"{in_order} of {int(totals.sum())} transitions in order "
+          f"({', '.join(f'{kind} {int(n)}' for kind, n in totals.items())})")
+    print("out of order:", ", ".join(f"{pair} x{n}" for pair, n in breaks.most_common())
+          or "none")
 
 
 def _histogram(counts) -> str:
@@ -103,6 +126,10 @@ def build_parser() -> argparse.ArgumentParser:
     deprecated_alias(p, "--seed", seed)
 
     p = _subcommand(sub, "inspect", _inspect, "per-trial frames and gesture / progress histograms")
+    _release_arguments(p)
+
+    p = _subcommand(sub, "stages", _stages,
+                    "how each trial's labels follow the task's progress stages")
     _release_arguments(p)
 
     p = _subcommand(sub, "amendments", _amendments, "what an annotation version changes")
