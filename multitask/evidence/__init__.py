@@ -6,6 +6,7 @@
 * ``figures``, ``curves``: the paper's figures and training curves;
 * ``paired``: paired statistics over folds and seeds; ``claims``: the paper's claims as data,
   tested with them; ``claims_table``: ``claims.csv`` and ``claims.tex``;
+* ``width``: the width study, model A against APoc across grids of several LSTM widths;
 * ``cli``: ``multitask-tables``.
 
 May import every other wing of ``multitask`` (``models``, ``grid``, ``inference``); none of them
