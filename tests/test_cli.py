@@ -221,3 +221,21 @@ def test_grid_prints_each_warning_once_and_logs_no_stray_message(synth_dir, tmp_
     log = next((tmp_path / "grid").glob("runs/*/*/*/seed0/C/train.log")).read_text()
     assert warnings[0] in log
     assert "already finished" not in log
+
+
+def test_dry_run_lists_only_the_runs_still_to_run(synth_dir, tmp_path, capsys):
+    from multitask.grid.cli import main as grid_main
+
+    spec = tmp_path / "spec.toml"
+    spec.write_text(f'data_dir = "{synth_dir}"\ntest_users = ["C"]\nhidden = 8\nepochs = 1\n'
+                    '[[experiments]]\nvariants = ["A"]\n')
+    command = ["--spec", str(spec), "--out", str(tmp_path / "g"), "--threads", "1"]
+    assert grid_main([*command, "--dry-run"]) == 0
+    before = capsys.readouterr().out
+    assert "runs/revised/bidirectional/A-fixed/seed0/C" in before
+    assert "1 runs, 0 already finished, 1 to run" in before
+    assert grid_main(command) == 0
+    capsys.readouterr()
+    assert grid_main([*command, "--dry-run"]) == 0
+    after = capsys.readouterr().out
+    assert "seed0/C" not in after and "1 runs, 1 already finished, 0 to run" in after

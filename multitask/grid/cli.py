@@ -22,6 +22,7 @@ from jigsaws_tools.cli.common import (command_parser, deprecated_alias, import_t
                                       run_command)
 from jigsaws_tools.cli.options import DEFAULT_DATA_DIR_TEXT
 from rnn_seg.config import LOOPS, require_native_precision
+from rnn_seg.runs.folder import is_finished
 from rnn_seg.runs.provenance import set_command
 
 from .spec import (DEFAULT_PRESET, PRESETS, GridSpec, expand, job_groups, load_spec,
@@ -60,7 +61,7 @@ def build_parser() -> argparse.ArgumentParser:
                              "one vectorised step per job; pays for small models "
                              "(docs/PERFORMANCE.md)")
     parser.add_argument("--dry-run", action="store_true",
-                        help="list the runs in the order they run, and stop")
+                        help="list the runs still to run, in the order they run, and stop")
     parser.add_argument("--restart", action="store_true",
                         help="make this spec the grid's even if grid.json records another; run "
                              "folders of other settings are trained afresh, finished runs of "
@@ -99,10 +100,12 @@ def _run(args: argparse.Namespace) -> int:
           f"schedule {budget.describe_schedule()}, seeds {sorted({k.seed for k in keys})}, "
           f"data {spec.data_dir}", flush=True)
     if args.dry_run:
-        for group in job_groups(keys, args.stack):              # in the order they run
+        pending = [key for key in keys if not is_finished(args.out / key.path())]
+        for group in job_groups(pending, args.stack):           # in the order they run
             for key in group:
                 print(key.path())
-        print(f"{len(keys)} runs")
+        print(f"{len(keys)} runs, {len(keys) - len(pending)} already finished, "
+              f"{len(pending)} to run")
         return 0
     def log(message: str) -> None:
         print(message, flush=True)
