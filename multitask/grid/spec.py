@@ -8,8 +8,9 @@ directions), the LOUO folds, the seeds and a budget. Presets give the budget:
   measured lengths whose runs pass the convergence diagnostic (``rnn_seg.convergence``; the
   measurements are in docs/REPRODUCTION.md, "The converged preset");
 * ``paper``: H=1024, the paper's schedules, seeds 0, 1, 2;
-* ``quick``: H=128 and every schedule compressed 4x (30 epochs, 20 for P), seed 0: a smoke test
-  of the whole pipeline; its progress heads have not converged.
+* ``quick``: H=128 and every schedule compressed 4x (30 epochs, 20 for P), seed 0: a fast look
+  at a whole grid; its progress heads have not converged (``results/smoke.toml`` is the smoke
+  test: a tiny model on two folds of the synthetic release).
 
 An experiment may name its own ``seeds`` (e.g. three for the configurations the paper's claims
 compare, one for the rest). Grids run every configuration's first seed first, in the order the

@@ -1,0 +1,33 @@
+"""Every grid spec committed under results/ reads and expands; the smoke grid stays small and
+needs no data."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from multitask.grid.spec import expand, load_spec, release_users, with_budget
+
+ROOT = Path(__file__).resolve().parents[1]
+SPECS = sorted((ROOT / "results").rglob("*.toml"))
+
+
+def test_there_are_specs():
+    assert {"smoke.toml", "converged.toml", "spec.toml"} <= {path.name for path in SPECS}
+
+
+@pytest.mark.parametrize("path", SPECS, ids=[str(p.relative_to(ROOT)) for p in SPECS])
+def test_every_committed_spec_expands(path):
+    spec = with_budget(load_spec(path))
+    if spec.data_dir != "synthetic" and not (spec.release_dir() / "transcriptions").is_dir():
+        pytest.skip(f"{spec.release_dir()} not found")
+    keys = expand(spec, release_users(spec))
+    assert keys and len(set(keys)) == len(keys)
+
+
+def test_the_smoke_grid_is_small_and_synthetic():
+    spec = with_budget(load_spec(ROOT / "results" / "smoke.toml"))
+    keys = expand(spec, release_users(spec))
+    assert spec.data_dir == "synthetic" and spec.budget.hidden <= 32
+    assert len({key.fold for key in keys}) == 2 and {key.seed for key in keys} == {0}
+    assert len(keys) <= 12
