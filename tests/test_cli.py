@@ -189,7 +189,7 @@ def test_verbose_shows_tensorflow_logs_and_default_respects_the_environment(monk
     assert os.environ["TF_CPP_MIN_LOG_LEVEL"] == "0"
 
 
-def test_training_and_prediction_print_no_tensorflow_line(synth_dir, tmp_path):
+def test_training_prediction_and_export_print_no_tensorflow_line(synth_dir, tmp_path):
     result = _python("-m", "multitask.train_cli", "--data-dir", str(synth_dir), "--variant",
                      "APc", "--hidden", "8", "--epochs", "1", "--test-user", "C", "--no-plots",
                      "--out", str(tmp_path / "run"))
@@ -204,6 +204,10 @@ def test_training_and_prediction_print_no_tensorflow_line(synth_dir, tmp_path):
     assert "done: 1 recording(s)" in result.stdout
     assert not TF_LINE.search(result.stdout), result.stdout
     assert result.stderr == ""
+    result = _python("-m", "multitask.inference.export_cli", str(tmp_path / "run"),
+                     "--out", str(tmp_path / "exported"))
+    assert result.returncode == 0, result.stderr
+    assert "exported to" in result.stdout and result.stderr == ""
 
 
 def test_grid_prints_each_warning_once_and_logs_no_stray_message(synth_dir, tmp_path):

@@ -27,9 +27,9 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _export(args: argparse.Namespace) -> None:
+    run = load_for_command(args)          # imports TensorFlow quietly: before any module using it
     from .export import export_run
 
-    run = load_for_command(args)
     export_run(run, args.out, args.overwrite)
     print(f"done: {run.variant} ({args.run_dir}, checkpoint after sweep {run.checkpoint}) "
           f"exported to {args.out}; signatures serving_default(kinematics), features(features)")
