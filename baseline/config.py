@@ -1,9 +1,10 @@
 """DiPietro et al.'s hyperparameters, one dataclass per concern, bundled for one run."""
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, is_dataclass
 
 from jigsaws_tools.dataset import DataConfig
+from jigsaws_tools.task_definition import TaskDefinition
 from rnn_seg.config import EncoderConfig, OptimConfig, TrainConfig, check_eval_points
 
 #: Encoder directions by name (``EncoderConfig.bidirectional``): offline or online recognition.
@@ -26,8 +27,23 @@ class RunConfig:
         check_eval_points(self.train.eval_points, self.optim)
 
     def describe(self) -> str:
-        """Printable multi-line summary of every field."""
+        """Printable summary of every field, a line per configuration: ``name: field=value, ...``
+        (a nested configuration on a line of its own, a task by its name)."""
         lines = [f"test user: {self.test_user}"]
         for name in ("data", "encoder", "optim", "train"):
-            lines.append(f"{name}: {getattr(self, name)}")
+            lines += _describe(name, getattr(self, name))
         return "\n".join(lines)
+
+
+def _describe(name: str, config) -> list[str]:
+    """``name: field=value, ...`` for a configuration dataclass, then its nested ones."""
+    plain, nested = [], []
+    for f in fields(config):
+        value = getattr(config, f.name)
+        if isinstance(value, TaskDefinition):
+            plain.append(f"{f.name}={value.name}")
+        elif is_dataclass(value):
+            nested += _describe(f"{name}.{f.name}", value)
+        else:
+            plain.append(f"{f.name}={value}")
+    return [f"{name}: {', '.join(plain)}", *nested]

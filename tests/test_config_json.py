@@ -1,6 +1,6 @@
 """Configurations survive config.json: ``from_jsonable`` inverts ``to_jsonable``, strictly."""
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import pytest
 
@@ -70,3 +70,15 @@ def test_optional_mapping_and_fixed_tuple_fields():
     assert from_jsonable(_Optional, {"name": None, "weights": {"a": 1}}).weights == {"a": 1.0}
     with pytest.raises(ConfigError, match="expected 2 items"):
         from_jsonable(_Optional, {"pair": [1]})
+
+
+def test_describe_prints_every_field_by_name_without_class_reprs():
+    config = RunConfig(DataConfig("somewhere/Suturing"), test_user="D")
+    text = config.describe()
+    assert "Config(" not in text and "TaskDefinition(" not in text
+    lines = dict(line.split(": ", 1) for line in text.splitlines())
+    assert lines["test user"] == "D" and "task=Suturing" in lines["data"]
+    for name in ("encoder", "optim", "train", "data.preprocessing"):
+        owner = config.data if name.startswith("data.") else config
+        for f in fields(getattr(owner, name.split(".")[-1])):
+            assert f"{f.name}=" in lines[name], (name, f.name)
