@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Callable, TypeVar
 
 from rnn_seg.runs.lock import hold_folder
+from rnn_seg.runs.outputs import check_output_folder
 from rnn_seg.trainer import TrainingDiverged
 
 Config = TypeVar("Config")
@@ -31,11 +32,15 @@ def run_training(prog: str, out: Path, configure: Callable[[], Config],
         configure: builds (and so validates) the configuration; reads no data.
         train: trains a run of that configuration in ``out`` and returns its metrics.
 
+    ``out`` must be a run folder or a new one: not a grid folder, a folder holding runs or a
+    place among a run's own files (``rnn_seg.runs.outputs``).
+
     Raises:
         The errors of ``configure``, ``train`` and the lock (``FolderLockedError``) other than
         ``TrainingDiverged``, for ``run_command`` to report.
     """
     config = configure()
+    check_output_folder(out, prog, may_be_run=True)
     try:
         with hold_folder(out):
             return 0, train(config)

@@ -1,0 +1,262 @@
+"""Issue #29: probes a careful or hostile user would try on run folders, outputs and values.
+
+Each probe asserts the refusal (one line naming the file or value) or the preserved file; none
+only checks that nothing crashed. Tiny models on small synthetic data.
+"""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from jigsaws_tools.synth import SynthConfig, write_release
+from multitask.inference.evaluate_cli import main as evaluate_main
+from multitask.inference.export_cli import main as export_main
+from multitask.inference.predict_cli import main as predict_main
+from multitask.train_cli import main as train_main
+from rnn_seg.lstm import EncoderConfig
+from rnn_seg.model import SegmentationModel
+from rnn_seg.optim import OptimConfig
+from rnn_seg.runs.folder import RunFolderError
+from rnn_seg.tasks import SoftmaxClassification
+from rnn_seg.trainer import TrainConfig, Trainer
+from test_stack import F, _data
+
+TINY = ["--variant", "A", "--hidden", "8", "--epochs", "2", "--no-plots"]
+
+
+def _trainer(run_dir: Path, messages: list | None = None, **train) -> Trainer:
+    """Six sweeps of a tiny gesture model, a history row and a checkpoint after every sweep."""
+    tasks = [SoftmaxClassification("gesture", ["a", "b", "c"])]
+    data = _data(0)
+    log = messages.append if messages is not None else (lambda m: None)
+    return Trainer(SegmentationModel(F, EncoderConfig(hidden=8), tasks, 0), tasks,
+                   OptimConfig(unit="sweeps", total=6, decay_start=3, decay_every=2),
+                   TrainConfig(eval_points=(6,), plots="none", monitor_every=1, **train),
+                   data, data, run_dir, {}, 5.0, log=log)
+
+
+def _train_until(trainer: Trainer, sweeps: int) -> None:
+    """Train ``sweeps`` sweeps and stop, as if killed right after the checkpoint."""
+    start = trainer.resume()
+    for sweep in range(start, sweeps):
+        lr = trainer.optim.learning_rate_at(sweep, trainer.sweeps_per_epoch)
+        trainer.after_sweep(sweep, lr, trainer.step(sweep, lr))
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory) -> Path:
+    """A run trained in one go, without monitoring the training set."""
+    run = tmp_path_factory.mktemp("reference") / "run"
+    _trainer(run).run()
+    return run
+
+
+def _metrics(run: Path) -> dict:
+    return json.loads((run / "metrics.json").read_text())
+
+
+# -- 1. resume and the files of a run folder besides its weights -------------------------------
+@pytest.mark.parametrize("before,after", [(False, True), (True, False)])
+def test_monitor_train_may_change_at_resume(tmp_path, reference, before, after):
+    run = tmp_path / "run"
+    _train_until(_trainer(run, monitor_train=before), 3)
+    _trainer(run, monitor_train=after).run()
+    history = pd.read_csv(run / "history.csv")
+    assert list(history["sweep"]) == [1, 2, 3, 4, 5, 6]
+    assert list(history.columns) == list(pd.read_csv(reference / "history.csv").columns)
+    monitored = history["train_gesture_acc"].notna().tolist()
+    assert monitored == [before] * 3 + [after] * 3
+    pd.testing.assert_series_equal(history["test_gesture_acc"],
+                                   pd.read_csv(reference / "history.csv")["test_gesture_acc"])
+    assert _metrics(run) == _metrics(reference)
+
+
+def test_a_history_of_an_older_version_gets_the_new_columns_empty(tmp_path, reference):
+    run = tmp_path / "run"
+    _train_until(_trainer(run), 3)
+    old = pd.read_csv(run / "history.csv").dropna(axis=1, how="all")   # no train_ columns
+    old.to_csv(run / "history.csv", index=False)
+    messages = []
+    _trainer(run, messages).run()
+    assert any("added the columns train_gesture_acc" in m for m in messages), messages
+    assert list(pd.read_csv(run / "history.csv")["sweep"]) == [1, 2, 3, 4, 5, 6]
+    assert _metrics(run) == _metrics(reference)
+
+
+def test_resume_leaves_other_csv_files_alone(tmp_path):
+    """A prediction CSV (``multitask-predict --out RUN``) and a user's CSV with a ``sweep``
+    column are neither read nor cut back."""
+    run = tmp_path / "run"
+    _train_until(_trainer(run), 3)
+    mine = {"notes.csv": "sweep,comment\n1,ok\n5,later\n", "Suturing_B001.csv": "frame,g\n0,G1\n"}
+    for name, text in mine.items():
+        (run / name).write_text(text)
+    _trainer(run).run()
+    assert all((run / name).read_text() == text for name, text in mine.items())
+
+
+def test_a_torn_last_history_row_is_dropped_with_a_warning(tmp_path, reference):
+    run = tmp_path / "run"
+    _train_until(_trainer(run), 3)
+    with open(run / "history.csv", "a") as history:
+        history.write("sweeps,4.0,4,1.0,0.9")            # killed while appending
+    messages = []
+    _trainer(run, messages).run()
+    assert any("history.csv: dropped its last line" in m for m in messages), messages
+    assert _metrics(run) == _metrics(reference)
+
+
+def test_an_empty_history_of_a_checkpointed_run_is_one_line_naming_it(tmp_path):
+    run = tmp_path / "run"
+    _train_until(_trainer(run), 3)
+    (run / "history.csv").write_text("")
+    with pytest.raises(RunFolderError, match=r"history\.csv: empty.*sweep 3.*--restart"):
+        _trainer(run).run()
+    assert (run / "history.csv").read_text() == ""                # reported, not rewritten
+
+
+def test_a_malformed_history_row_is_one_line_naming_the_line(tmp_path):
+    run = tmp_path / "run"
+    _train_until(_trainer(run), 3)
+    lines = (run / "history.csv").read_text().splitlines(keepends=True)
+    lines[2] = lines[2].replace(",2,", ",two,", 1)
+    (run / "history.csv").write_text("".join(lines))
+    with pytest.raises(RunFolderError, match=r"history\.csv: line 3: sweep .*'two'"):
+        _trainer(run).run()
+
+
+def test_an_interrupted_evaluation_folder_does_not_stop_a_resume(tmp_path, reference):
+    """``multitask-evaluate`` stages its output in a hidden ``evaluate/.NAME.XXXXXXXX.tmp``
+    folder; a resume (even of a finished run) removes it instead of failing on it."""
+    run = tmp_path / "run"
+    _train_until(_trainer(run), 3)
+    staging = run / "evaluate" / ".ckpt-6_B.k2j_8x0q.tmp"
+    (staging / "predictions").mkdir(parents=True)
+    (staging / "predictions" / "s0.csv").write_text("partial")
+    _trainer(run).run()
+    assert not staging.exists() and _metrics(run) == _metrics(reference)
+
+
+def test_only_the_runs_own_temporary_files_are_removed(tmp_path):
+    run = tmp_path / "run"
+    run.mkdir()
+    users = [run / "notes" / "draft.tmp", run / "scratch.tmp", run / ".mine.abcdef12.tmp"]
+    for path in users:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text("the user's")
+    ours = run / ".metrics.json.1a2b3c4d.tmp"
+    ours.write_text("partial")
+    messages = []
+    _trainer(run, messages).run()
+    assert all(p.read_text() == "the user's" for p in users)
+    assert not ours.exists()
+    assert any("removed 1 temporary file(s)" in m for m in messages), messages
+
+
+def test_restart_deletes_only_the_runs_own_files(tmp_path):
+    run = tmp_path / "run"
+    run.mkdir()
+    mine = {"results.csv": "a,b\n1,2\n", "notes/todo.txt": "keep"}
+    for name, text in mine.items():
+        (run / name).parent.mkdir(parents=True, exist_ok=True)
+        (run / name).write_text(text)
+    _trainer(run).run(restart=True)
+    _trainer(run).run(restart=True)
+    assert all((run / name).read_text() == text for name, text in mine.items())
+    assert (run / "finished.json").is_file()
+
+
+def test_a_symlinked_output_of_a_run_is_unlinked_not_followed_by_restart(tmp_path):
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    (elsewhere / "precious.txt").write_text("keep")
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "eval").symlink_to(elsewhere, target_is_directory=True)
+    _trainer(run).run(restart=True)
+    assert (elsewhere / "precious.txt").read_text() == "keep"
+    assert np.isfinite(_metrics(run)["mean"]["gesture"]["accuracy"])
+
+
+# -- 2. nothing deleted that the user did not ask to delete -------------------------------------
+@pytest.fixture(scope="module")
+def small_dir(tmp_path_factory) -> Path:
+    return write_release(tmp_path_factory.mktemp("small") / "Suturing",
+                         SynthConfig(users=("B", "C", "D"), trials_per_user=3))
+
+
+@pytest.fixture(scope="module")
+def trained(small_dir, tmp_path_factory) -> Path:
+    out = tmp_path_factory.mktemp("trained") / "run"
+    assert train_main([*TINY, "--data-dir", str(small_dir), "--test-user", "B",
+                       "--out", str(out)]) == 0
+    return out
+
+
+def _cli(main, argv: list[str], capsys) -> tuple[int, str]:
+    """Exit code and standard error of a command."""
+    try:
+        code = main(argv)
+    except SystemExit as exit_:
+        code = exit_.code
+    return code, capsys.readouterr().err
+
+
+def _snapshot(folder: Path) -> dict[str, bytes]:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*"))
+            if p.is_file() and p.name != ".lock"}
+
+
+def _refused(code: int, err: str, *named: str) -> None:
+    assert code == 2 and "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+    assert all(text in err for text in named), (named, err)
+
+
+@pytest.mark.parametrize("command,out", [(export_main, "."), (evaluate_main, "."),
+                                         (evaluate_main, "eval"), (evaluate_main, "checkpoints"),
+                                         (export_main, "..")])
+def test_overwrite_cannot_replace_a_run_or_its_files(trained, capsys, command, out):
+    before = _snapshot(trained.parent)
+    code, err = _cli(command, [str(trained), "--out", str(trained / out), "--overwrite"], capsys)
+    _refused(code, err, str(trained))
+    assert _snapshot(trained.parent) == before
+
+
+def test_overwrite_replaces_an_earlier_output_of_the_same_command_only(trained, tmp_path,
+                                                                        capsys):
+    out = tmp_path / "evaluation"
+    assert evaluate_main([str(trained), "--out", str(out), "--no-plots"]) == 0
+    assert evaluate_main([str(trained), "--out", str(out), "--no-plots", "--overwrite"]) == 0
+    (out / "notes.txt").write_text("mine")
+    before = _snapshot(out)
+    code, err = _cli(evaluate_main, [str(trained), "--out", str(out), "--overwrite"], capsys)
+    _refused(code, err, "'notes.txt'", "not an output of multitask-evaluate")
+    assert _snapshot(out) == before
+    default = trained / "evaluate"
+    assert evaluate_main([str(trained), "--no-plots"]) == 0          # RUN/evaluate/ is its place
+    assert evaluate_main([str(trained), "--no-plots", "--overwrite"]) == 0
+    assert len(list(default.iterdir())) == 1
+
+
+def test_predict_does_not_write_into_a_run_folder(trained, small_dir, capsys):
+    before = _snapshot(trained)
+    recording = next((small_dir / "kinematics" / "AllGestures").glob("*.txt"))
+    code, err = _cli(predict_main, [str(trained), str(recording), "--out", str(trained)], capsys)
+    _refused(code, err, str(trained), "run folder")
+    assert _snapshot(trained) == before
+
+
+@pytest.mark.parametrize("marker", ["grid.json", "runs/A/seed0/B/config.json"])
+def test_training_refuses_a_grid_root_or_a_folder_of_runs(small_dir, tmp_path, capsys, marker):
+    root = tmp_path / "grid"
+    (root / marker).parent.mkdir(parents=True, exist_ok=True)
+    (root / marker).write_text("{}")
+    before = _snapshot(root)
+    code, err = _cli(train_main, [*TINY, "--data-dir", str(small_dir), "--test-user", "B",
+                                  "--out", str(root)], capsys)
+    _refused(code, err, str(root))
+    assert _snapshot(root) == before
