@@ -6,13 +6,19 @@ only checks that nothing crashed. Tiny models on small synthetic data.
 from __future__ import annotations
 
 import json
+import os
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 
+from jigsaws_tools.errors import DefinitionError
 from jigsaws_tools.synth import SynthConfig, write_release
+from jigsaws_tools.task_definition import read_task_file
+from multitask.evidence.cli import main as tables_main
 from multitask.inference.evaluate_cli import main as evaluate_main
 from multitask.inference.export_cli import main as export_main
 from multitask.inference.predict_cli import main as predict_main
@@ -24,7 +30,10 @@ from rnn_seg.runs.folder import RunFolderError
 from rnn_seg.tasks import SoftmaxClassification
 from rnn_seg.trainer import TrainConfig, Trainer
 from test_stack import F, _data
+from test_tasks import TOY_TASK
 
+ROOT = Path(__file__).resolve().parents[1]
+ENV = {**os.environ, "PYTHONPATH": str(ROOT), "TF_CPP_MIN_LOG_LEVEL": "3"}
 TINY = ["--variant", "A", "--hidden", "8", "--epochs", "2", "--no-plots"]
 
 
@@ -260,3 +269,140 @@ def test_training_refuses_a_grid_root_or_a_folder_of_runs(small_dir, tmp_path, c
                                   "--out", str(root)], capsys)
     _refused(code, err, str(root))
     assert _snapshot(root) == before
+
+
+# -- 4. writes outside the folder named, and values nobody checked ------------------------------
+def test_a_lock_file_symlinked_elsewhere_is_refused_not_followed(small_dir, tmp_path, capsys):
+    victim = tmp_path / "victim.txt"
+    victim.write_text("precious")
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / ".lock").symlink_to(victim)
+    code, err = _cli(train_main, [*TINY, "--data-dir", str(small_dir), "--test-user", "B",
+                                  "--out", str(run)], capsys)
+    _refused(code, err, str(run / ".lock"), "symbolic link")
+    assert victim.read_text() == "precious"
+
+
+def test_a_grid_record_cannot_lead_an_archive_outside_its_destination(tmp_path, capsys):
+    grid = tmp_path / "grid"
+    escaped = tmp_path / "escaped"               # a finished run folder outside the grid
+    escaped.mkdir()
+    for name in ("config.json", "metrics.json", "finished.json"):
+        (escaped / name).write_text("{}")
+    grid.mkdir()
+    (grid / "grid.json").write_text(json.dumps({"runs": ["runs/../../escaped"]}))
+    dest = tmp_path / "archives" / "a"
+    code, err = _cli(tables_main, [str(grid), "--archive", str(dest)], capsys)
+    _refused(code, err, str(grid / "grid.json"), "runs/../../escaped")
+    assert not (tmp_path / "archives").exists() or not any((tmp_path / "archives").rglob("*"))
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["escaped", "grid"]
+
+
+def test_thread_counts_are_bounded_by_the_machine(small_dir, tmp_path, capsys):
+    code, err = _cli(train_main, [*TINY, "--data-dir", str(small_dir), "--threads", "100000",
+                                  "--out", str(tmp_path / "run")], capsys)
+    last = err.strip().splitlines()[-1]                 # argparse's usage, then the error
+    assert code == 2 and "Traceback" not in err
+    assert last.startswith("multitask-train: error: argument --threads:") and all(
+        text in last for text in (f"this machine's {os.cpu_count()} cores", "'100000'")), err
+    assert not (tmp_path / "run").exists()
+
+
+def test_a_trial_too_short_for_the_filter_is_named_with_the_minimum(tmp_path, capsys):
+    data = write_release(tmp_path / "Suturing", SynthConfig(users=("B", "C", "D"),
+                                                            trials_per_user=2))
+    kinematics = data / "kinematics" / "AllGestures" / "Suturing_C002.txt"
+    kinematics.write_text("".join(kinematics.read_text().splitlines(keepends=True)[:10]))
+    (data / "transcriptions" / "Suturing_C002.txt").write_bytes(b"1 10 G1 \r\n")
+    code, err = _cli(train_main, [*TINY, "--data-dir", str(data), "--test-user", "B",
+                                  "--out", str(tmp_path / "run")], capsys)
+    _refused(code, err, "Suturing_C002", "10 frames", "the 16 ")
+
+
+@pytest.mark.parametrize("weights", ["[nan, 1]", "[inf, 1]", "[1, -inf]"])
+def test_task_file_weights_must_be_finite_and_positive(tmp_path, weights):
+    path = tmp_path / "task.toml"
+    path.write_text(TOY_TASK.replace('{ gesture = "A", p = 0.6 }',
+                                     f'{{ gesture = ["A", "C"], weights = {weights}, p = 0.6 }}'))
+    with pytest.raises(DefinitionError, match="synthetic.cycle.3..weights") as error:
+        read_task_file(path)
+    assert str(path) in str(error.value)
+
+
+def test_an_interrupted_synth_leaves_no_release_and_can_write_again(tmp_path, monkeypatch):
+    import jigsaws_tools.synth as synth
+
+    out = tmp_path / "Suturing"
+    real, calls = synth.synth_trial, []
+
+    def killed(*args):
+        calls.append(args)
+        if len(calls) == 3:
+            raise KeyboardInterrupt                 # as a kill in the middle of the users
+        return real(*args)
+
+    monkeypatch.setattr(synth, "synth_trial", killed)
+    with pytest.raises(KeyboardInterrupt):
+        write_release(out, SynthConfig(users=("B", "C", "D"), trials_per_user=2))
+    assert not out.exists() and not list(tmp_path.iterdir())
+    monkeypatch.setattr(synth, "synth_trial", real)
+    write_release(out, SynthConfig(users=("B", "C", "D"), trials_per_user=2))
+    assert len(list((out / "kinematics" / "AllGestures").iterdir())) == 6
+
+
+def test_an_edited_synthetic_cache_is_detected_and_written_again(tmp_path, caplog):
+    from jigsaws_tools.synth import ensure_release
+
+    config = SynthConfig(seed=5, users=("B", "C"), trials_per_user=1)
+    release = ensure_release(tmp_path, config)
+    edited = release / "transcriptions" / "Suturing_B001.txt"
+    original = edited.read_bytes()
+    edited.write_bytes(original.replace(b"G1", b"G2", 1))
+    with caplog.at_level("WARNING"):
+        assert ensure_release(tmp_path, config) == release
+    assert "Suturing_B001.txt changed" in caplog.text
+    assert edited.read_bytes() == original
+    assert sorted(p.name for p in tmp_path.iterdir()) == [release.parent.name]
+
+
+def test_the_python_api_refuses_a_non_finite_recording(trained, small_dir):
+    from jigsaws_tools.release import read_kinematics
+    from multitask.inference.trained_run import load_run
+
+    run = load_run(trained)
+    kinematics = read_kinematics(next((small_dir / "kinematics" / "AllGestures").iterdir()))
+    kinematics[7, 3] = np.nan
+    with pytest.raises(ValueError, match=r"mine: frame 8, column 4: non-finite"):
+        run.predict(kinematics, where="mine")
+
+
+@pytest.mark.parametrize("std,problem", [(float("nan"), "NaN is not strict JSON"),
+                                         (-1.0, "std -1.0: expected finite values")])
+def test_stream_normalisation_with_a_bad_std_is_refused(trained, std, problem):
+    from multitask.inference.trained_run import load_run
+
+    path = trained / "stream_normalisation.json"
+    path.write_text(json.dumps({"normalisation": {"mean": [0.0, 0.0], "std": [1.0, std]}}))
+    try:
+        with pytest.raises(ValueError, match=r"stream_normalisation\.json.*" + problem):
+            load_run(trained).stream_normalisation()
+    finally:
+        path.unlink()
+
+
+def test_a_checkpoint_that_does_not_fit_is_one_line_and_the_run_resumes(small_dir, tmp_path):
+    """A file size limit (``ulimit -f``) refuses the first checkpoint: one line naming it and
+    the space left, exit 1; without the limit the same command finishes the run."""
+    out = tmp_path / "run"
+    argv = ["--variant", "A", "--hidden", "64", "--epochs", "2", "--no-plots", "--data-dir",
+            str(small_dir), "--test-user", "B", "--out", str(out)]
+    limited = ("import resource, sys; resource.setrlimit(resource.RLIMIT_FSIZE, (60000, 60000)); "
+               "from multitask.train_cli import main; sys.exit(main(sys.argv[1:]))")
+    done = subprocess.run([sys.executable, "-c", limited, *argv], env=ENV, capture_output=True,
+                          text=True, timeout=600)
+    assert done.returncode == 1 and "Traceback" not in done.stderr, done.stderr
+    failed = [line for line in done.stderr.splitlines() if "failed" in line]
+    assert len(failed) == 1 and "cannot write checkpoint" in failed[0] and "MB free" in failed[0]
+    assert not (out / "finished.json").exists()
+    assert train_main(argv) == 0 and (out / "finished.json").is_file()
