@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -19,6 +20,7 @@ from jigsaws_tools.errors import DefinitionError
 from jigsaws_tools.synth import SynthConfig, write_release
 from jigsaws_tools.task_definition import read_task_file
 from multitask.evidence.cli import main as tables_main
+from multitask.grid.cli import main as grid_main
 from multitask.inference.evaluate_cli import main as evaluate_main
 from multitask.inference.export_cli import main as export_main
 from multitask.inference.predict_cli import main as predict_main
@@ -406,3 +408,89 @@ def test_a_checkpoint_that_does_not_fit_is_one_line_and_the_run_resumes(small_di
     assert len(failed) == 1 and "cannot write checkpoint" in failed[0] and "MB free" in failed[0]
     assert not (out / "finished.json").exists()
     assert train_main(argv) == 0 and (out / "finished.json").is_file()
+
+
+# -- 3. tables that check what they tabulate ----------------------------------------------------
+GRID = """
+preset = "quick"
+data_dir = "{data}"
+test_users = ["B", "C"]
+seeds = [0]
+hidden = 8
+epochs = 2
+
+[[experiments]]
+variants = ["A", "APc"]
+"""
+
+
+@pytest.fixture(scope="module")
+def tiny_grid(small_dir, tmp_path_factory) -> Path:
+    folder = tmp_path_factory.mktemp("grid")
+    (folder / "spec.toml").write_text(GRID.format(data=small_dir))
+    assert grid_main(["--spec", str(folder / "spec.toml"), "--out", str(folder / "out")]) == 0
+    return folder / "out"
+
+
+def _copy_grid(grid: Path, to: Path) -> Path:
+    shutil.copytree(grid, to, ignore=shutil.ignore_patterns("checkpoints", ".lock"))
+    return to
+
+
+def _run(grid: Path, variant: str, fold: str) -> Path:
+    return grid / "runs" / "revised" / "bidirectional" / f"{variant}-fixed" / "seed0" / fold
+
+
+def test_tables_of_the_grid_as_trained(tiny_grid, tmp_path, capsys):
+    code, err = _cli(tables_main, [str(tiny_grid), "--out", str(tmp_path / "tables")], capsys)
+    assert code == 0, err
+    assert len(pd.read_csv(tmp_path / "tables" / "runs.csv")) == 4
+
+
+def test_tables_refuse_a_run_folder_retrained_by_hand_with_other_settings(
+        tiny_grid, small_dir, tmp_path, capsys):
+    grid = _copy_grid(tiny_grid, tmp_path / "grid")
+    retrained = _run(grid, "A", "C")
+    assert train_main([*TINY, "--hidden", "12", "--data-dir", str(small_dir), "--test-user", "C",
+                       "--restart", "--out", str(retrained)]) == 0
+    code, err = _cli(tables_main, [str(grid), "--out", str(tmp_path / "tables")], capsys)
+    assert code == 2 and "Traceback" not in err
+    assert f"other settings than the grid's spec: {retrained}" in err
+    assert "run.encoder.hidden: 12 -> 8" in err
+    assert not (tmp_path / "tables").exists()
+
+
+def test_tables_refuse_a_run_copied_into_another_configurations_folder(tiny_grid, tmp_path,
+                                                                       capsys):
+    grid = _copy_grid(tiny_grid, tmp_path / "grid")
+    target = _run(grid, "APc", "B")
+    shutil.rmtree(target)
+    shutil.copytree(_run(grid, "A", "B"), target)
+    code, err = _cli(tables_main, [str(grid), "--out", str(tmp_path / "tables")], capsys)
+    assert code == 2 and f"other settings than the grid's spec: {target}" in err
+    assert 'variant: "A" -> "APc"' in err
+
+
+def test_allow_incomplete_leaves_a_run_of_other_settings_out_and_marks_it(tiny_grid, tmp_path,
+                                                                           capsys):
+    grid = _copy_grid(tiny_grid, tmp_path / "grid")
+    target = _run(grid, "A", "C")
+    shutil.rmtree(target)
+    shutil.copytree(_run(grid, "A", "B"), target)             # fold B's run as fold C's
+    code, err = _cli(tables_main, [str(grid), "--out", str(tmp_path / "tables"),
+                                   "--allow-incomplete", "--no-figures"], capsys)
+    assert code == 0 and 'run.test_user: "B" -> "C"' in err, err
+    runs = pd.read_csv(tmp_path / "tables" / "runs.csv")
+    assert sorted(zip(runs["variant"], runs["fold"])) == [("A", "B"), ("APc", "B"), ("APc", "C")]
+    summary = pd.read_csv(tmp_path / "tables" / "summary.csv").set_index("variant")
+    assert not summary.loc["A", "complete"] and summary.loc["APc", "complete"]
+
+
+@pytest.mark.parametrize("text", ["{}", "[1, 2]", '{"run": 3}', "{"])
+def test_a_malformed_config_of_a_grid_run_is_one_line_naming_it(tiny_grid, tmp_path, capsys,
+                                                                text):
+    grid = _copy_grid(tiny_grid, tmp_path / "grid")
+    config = _run(grid, "A", "B") / "config.json"
+    config.write_text(text)
+    code, err = _cli(tables_main, [str(grid), "--out", str(tmp_path / "tables")], capsys)
+    assert code == 2 and "Traceback" not in err and str(config.parent) in err, err
