@@ -494,3 +494,13 @@ def test_a_malformed_config_of_a_grid_run_is_one_line_naming_it(tiny_grid, tmp_p
     config.write_text(text)
     code, err = _cli(tables_main, [str(grid), "--out", str(tmp_path / "tables")], capsys)
     assert code == 2 and "Traceback" not in err and str(config.parent) in err, err
+
+
+def test_a_malformed_history_read_back_for_the_curves_is_one_line_naming_it(tiny_grid, tmp_path,
+                                                                            capsys):
+    grid = _copy_grid(tiny_grid, tmp_path / "grid")
+    history = _run(grid, "APc", "C") / "history.csv"
+    history.write_text(history.read_text() + ",".join(["9"] * 40) + "\n")   # 40 fields
+    code, err = _cli(tables_main, [str(grid), "--out", str(tmp_path / "tables"), "--no-figures",
+                                   "--curves"], capsys)
+    _refused(code, err, f"{history}: unreadable CSV log")

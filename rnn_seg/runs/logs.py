@@ -16,6 +16,8 @@ import io
 from pathlib import Path
 from typing import Sequence
 
+import pandas as pd
+
 from .folder import RunFolderError, write_atomic
 
 
@@ -73,6 +75,16 @@ def resume_log(path: Path, last_sweep: int, columns: Sequence[str] | None = None
     if kept != lines or warnings:
         write_atomic(path, "".join(kept))
     return warnings
+
+
+def read_log(path: Path) -> pd.DataFrame:
+    """A CSV log as a table; one that cannot be parsed is a ``RunFolderError`` naming the file
+    and pandas' reason (e.g. the line with too many fields)."""
+    try:
+        return pd.read_csv(path)
+    except (OSError, UnicodeDecodeError, ValueError) as error:    # ParserError, EmptyDataError
+        reason = str(error).strip().splitlines()[0] if str(error).strip() else "empty"
+        raise RunFolderError(f"{path}: unreadable CSV log ({reason})") from None
 
 
 def _lines(path: Path) -> list[str]:
