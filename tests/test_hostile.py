@@ -130,6 +130,16 @@ def test_an_empty_history_of_a_checkpointed_run_is_one_line_naming_it(tmp_path):
     assert (run / "history.csv").read_text() == ""                # reported, not rewritten
 
 
+def test_a_history_with_a_garbled_header_is_one_line_naming_it(tmp_path):
+    run = tmp_path / "run"
+    _train_until(_trainer(run), 3)
+    text = (run / "history.csv").read_text()
+    (run / "history.csv").write_text("\0\0\0" + text)
+    with pytest.raises(RunFolderError, match=r"history\.csv: .*unknown column '\\x00"):
+        _trainer(run).run()
+    assert (run / "history.csv").read_text() == "\0\0\0" + text
+
+
 def test_a_malformed_history_row_is_one_line_naming_the_line(tmp_path):
     run = tmp_path / "run"
     _train_until(_trainer(run), 3)
@@ -251,6 +261,18 @@ def test_overwrite_replaces_an_earlier_output_of_the_same_command_only(trained, 
     assert evaluate_main([str(trained), "--no-plots"]) == 0          # RUN/evaluate/ is its place
     assert evaluate_main([str(trained), "--no-plots", "--overwrite"]) == 0
     assert len(list(default.iterdir())) == 1
+
+
+def test_an_export_is_replaced_by_the_next_and_does_not_stop_its_run(trained, small_dir,
+                                                                     capsys):
+    """A SavedModel holds a copy of its run's config.json: it is not taken for a run folder."""
+    out = trained / "export"
+    assert export_main([str(trained), "--out", str(out)]) == 0
+    assert export_main([str(trained), "--out", str(out), "--overwrite"]) == 0
+    code, err = _cli(train_main, [*TINY, "--data-dir", str(small_dir), "--test-user", "B",
+                                  "--out", str(trained)], capsys)
+    assert code == 0 and "Traceback" not in err, err
+    assert (out / "saved_model.pb").is_file()
 
 
 def test_predict_does_not_write_into_a_run_folder(trained, small_dir, capsys):

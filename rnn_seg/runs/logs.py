@@ -54,7 +54,7 @@ def resume_log(path: Path, last_sweep: int, columns: Sequence[str] | None = None
     lines = _lines(path)
     warnings = []
     if lines and (not lines[-1].endswith("\n") or _fields(lines[-1]) is None
-                  or (len(lines) > 1 and len(_fields(lines[-1])) != len(_fields(lines[0])))):
+                  or (len(lines) > 1 and len(_fields(lines[-1])) != len(_fields(lines[0]) or []))):
         warnings.append(f"{path}: dropped its last line, cut short by an interrupted write "
                         f"({lines[-1].strip()[:60]!r})")
         lines = lines[:-1]
@@ -66,6 +66,9 @@ def resume_log(path: Path, last_sweep: int, columns: Sequence[str] | None = None
         path.unlink()
         return warnings + [f"{path}: removed (empty); it is written again from the start"]
     header = _fields(lines[0])
+    if header is None:
+        raise RunFolderError(f"{path}: line 1: not a CSV header ({lines[0].strip()[:60]!r}); "
+                             "restart the run (e.g. --restart)")
     kept = [lines[0]] + [line for number, line in enumerate(lines[1:], start=2)
                          if _sweep(path, number, header, line) <= last_sweep]
     if columns is not None and header != list(columns):

@@ -16,6 +16,8 @@ from .folder import CHECKPOINTS, CONFIG, FINISHED, RUN_LOGS, RUN_OUTPUTS
 
 #: The record a grid folder holds (``multitask.grid.folder``).
 GRID_RECORD = "grid.json"
+#: The file that makes a folder a TensorFlow SavedModel (``multitask-export``'s output).
+SAVED_MODEL = "saved_model.pb"
 
 
 class OutputFolderError(ValueError):
@@ -66,8 +68,12 @@ def check_output_folder(out: Path, command: str, *, run_place: str | None = None
 
 
 def _run_or_grid_below(folder: Path) -> Path | None:
-    """The first run or grid folder strictly below ``folder`` (symbolic links not followed)."""
-    for root, dirs, _ in os.walk(folder):
+    """The first run or grid folder strictly below ``folder`` (symbolic links not followed; a
+    SavedModel, whose ``assets.extra/`` holds a copy of its run's config.json, is not entered)."""
+    for root, dirs, files in os.walk(folder):
+        if SAVED_MODEL in files:
+            dirs.clear()
+            continue
         for name in sorted(dirs):
             if folder_kind(Path(root) / name):
                 return Path(root) / name
