@@ -10,7 +10,7 @@ import argparse
 from pathlib import Path
 
 from jigsaws_tools.cli.arg_types import (momentum, non_negative_int, positive_float, positive_int,
-                                         positive_int_list, probability)
+                                         positive_int_list, probability, thread_count)
 from jigsaws_tools.dataset import DataConfig
 from jigsaws_tools.features import FEATURE_SETS
 from jigsaws_tools.cli.options import add_data_arguments, data_dir_from_args
@@ -123,7 +123,7 @@ def add_test_user_argument(parser: argparse.ArgumentParser | argparse._ArgumentG
 def add_threads_argument(parser: argparse.ArgumentParser | argparse._ArgumentGroup,
                          what: str) -> argparse.Action:
     """``--threads N``: cores per training run, shared by the training CLIs and the grid."""
-    return parser.add_argument("--threads", type=non_negative_int, default=0, metavar="N",
+    return parser.add_argument("--threads", type=thread_count, default=0, metavar="N",
                                help=f"{what}, split between TensorFlow's thread pools as "
                                     "rnn_seg.threads measures best")
 

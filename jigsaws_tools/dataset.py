@@ -145,8 +145,11 @@ def load_trial(files: TrialFiles, skill: str, config: DataConfig) -> Trial:
     gestures, _ = apply_amendments(files.name, frame_labels(segments, len(kinematics), task),
                                    config.annotations, task)
     labels = np.stack([gestures, progress_labels(gestures, task)], axis=1)
-    inputs, labels, frames = preprocess(kinematics[:, feature_columns(config.feature_set)],
-                                        labels, config.preprocessing)
+    try:
+        inputs, labels, frames = preprocess(kinematics[:, feature_columns(config.feature_set)],
+                                            labels, config.preprocessing)
+    except ValueError as error:                 # e.g. too short for the low-pass filter
+        raise JigsawsError(f"{files.kinematics}: trial {files.name}: {error}") from None
     return Trial(files.name, files.user, files.trial, skill, inputs,
                  labels[:, 0], labels[:, 1], frames)
 

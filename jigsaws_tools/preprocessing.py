@@ -79,15 +79,29 @@ def lowpass(x: np.ndarray, cutoff_hz: float, order: int, fs_hz: float = KINEMATI
 
     Args:
         x: ``[n_frames, n_features]`` float at ``fs_hz``; needs more frames than scipy's edge
-            padding (15 for order 4).
+            padding (``lowpass_min_frames``: 16 for order 4).
         cutoff_hz: cut-off frequency, in Hz.
         order: Butterworth order of one pass (the forward-backward filter doubles it).
         fs_hz: sampling rate of ``x``, in Hz (30 Hz frames by default).
 
     Returns:
         ``[n_frames, n_features]`` float64.
+
+    Raises:
+        ValueError: ``x`` has fewer frames than the filter needs (the message says how many).
     """
-    return _scipy_signal().sosfiltfilt(butterworth(cutoff_hz, order, fs_hz), x, axis=0)
+    sos = butterworth(cutoff_hz, order, fs_hz)
+    needed = _min_frames(sos)
+    if len(x) < needed:
+        raise ValueError(f"{len(x)} frames, fewer than the {needed} the zero-phase low-pass "
+                         f"filter (order {order}) needs")
+    return _scipy_signal().sosfiltfilt(sos, x, axis=0)
+
+
+def _min_frames(sos: np.ndarray) -> int:
+    """``scipy.signal.sosfiltfilt``'s default ``padlen`` + 1 for ``sos``."""
+    taps = 2 * len(sos) + 1 - min(int((sos[:, 2] == 0).sum()), int((sos[:, 5] == 0).sum()))
+    return 3 * taps + 1
 
 
 class CausalLowpass:
@@ -149,6 +163,15 @@ class Normalisation:
 
     mean: tuple[float, ...]
     std: tuple[float, ...]
+
+    def __post_init__(self):
+        if len(self.mean) != len(self.std):
+            raise ValueError(f"{len(self.mean)} means but {len(self.std)} standard deviations")
+        bad = next((i for i, (m, d) in enumerate(zip(self.mean, self.std))
+                    if not (np.isfinite(m) and np.isfinite(d) and d >= 0)), None)
+        if bad is not None:
+            raise ValueError(f"feature {bad}: mean {self.mean[bad]}, std {self.std[bad]}: "
+                             "expected finite values and a std >= 0")
 
     @classmethod
     def fit(cls, samples: Sequence[np.ndarray]) -> Normalisation:

@@ -14,6 +14,9 @@ from __future__ import annotations
 
 import hashlib
 import json
+import logging
+import os
+import secrets
 import shutil
 import tempfile
 from dataclasses import asdict, dataclass
@@ -25,11 +28,15 @@ from .errors import JigsawsError
 from .release import KINEMATICS_HZ, kinematics_dir, meta_path, trial_name, transcriptions_dir
 from .task_definition import SUTURING, SynthGrammar, SynthStep, TaskDefinition
 
+#: Beside a cached release (``ensure_release``): the SHA-256 of each of its files.
+MANIFEST = "manifest.json"
 #: Bump whenever the generator's output changes for the same ``SynthConfig`` and task.
 GENERATOR_VERSION = 2
 SYNTH_USERS = ("B", "C", "D", "E", "F", "G", "H", "I")
 SYNTH_SKILLS = ("N", "I", "E", "E", "I", "N", "N", "N")
 TRIALS_PER_USER = 5
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -180,6 +187,10 @@ def write_release(out: Path | str, config: SynthConfig = SynthConfig(),
                   task: TaskDefinition = SUTURING) -> Path:
     """Write a complete synthetic release of ``task`` under ``out`` and return ``out``.
 
+    The files are written into a hidden sibling folder (``.<name>.<random>.partial``) renamed to
+    ``out`` once complete: an interrupted call never leaves a partial release where a reader
+    would take it for one (only the hidden folder, which nothing reads).
+
     Args:
         out: the release folder (e.g. ``.../Suturing``); must not exist or be an empty folder:
             the generator never overwrites data.
@@ -191,10 +202,23 @@ def write_release(out: Path | str, config: SynthConfig = SynthConfig(),
     """
     out = Path(out)
     grammar(task)
-    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+    if out.is_symlink() or (out.exists() and (not out.is_dir() or any(out.iterdir()))):
         raise JigsawsError(f"{out} exists and is not an empty folder; the synthetic release is "
                            f"written only into a new or empty folder, so that no data is "
                            f"overwritten")
+    out.parent.mkdir(parents=True, exist_ok=True)
+    staging = out.parent / f".{out.name}.{secrets.token_hex(4)}.partial"
+    staging.mkdir()                            # with the umask's permissions, unlike mkdtemp
+    try:
+        _write_files(staging, config, task)
+        os.replace(staging, out)               # onto a missing or empty folder
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+    return out
+
+
+def _write_files(out: Path, config: SynthConfig, task: TaskDefinition) -> None:
+    """The release's kinematics, transcriptions and meta file, into the folder ``out``."""
     kinematics_dir(out).mkdir(parents=True, exist_ok=True)
     transcriptions_dir(out).mkdir(parents=True, exist_ok=True)
     meta_lines = []
@@ -210,16 +234,17 @@ def write_release(out: Path | str, config: SynthConfig = SynthConfig(),
             items = grs_rng.integers(1, 6, 6)
             meta_lines.append(f"{name}\t\t{skill}\t{items.sum()}\t\t" + "\t".join(map(str, items)))
     meta_path(out, task).write_bytes(("\r\n".join(meta_lines) + "\r\n").encode())
-    return out
 
 
 def ensure_release(cache_dir: Path | str, config: SynthConfig = SynthConfig(),
                    task: TaskDefinition = SUTURING) -> Path:
     """The synthetic release of ``task`` for ``config`` under ``cache_dir``, written once
-    (atomically).
+    (atomically) and verified at each use.
 
     The folder name carries ``GENERATOR_VERSION`` and a hash of ``config`` and of the task's whole
-    definition, so a changed generator, option or grammar never reuses an older release.
+    definition, so a changed generator, option or grammar never reuses an older release. Beside
+    the release, ``manifest.json`` holds the SHA-256 of each of its files: a release edited,
+    truncated or added to since (or cached without a manifest) is written again, with a warning.
 
     Args:
         cache_dir: the cache folder holding the synthetic releases.
@@ -233,15 +258,45 @@ def ensure_release(cache_dir: Path | str, config: SynthConfig = SynthConfig(),
     key = hashlib.sha256(repr((GENERATOR_VERSION, config, definition)).encode()).hexdigest()[:12]
     target = Path(cache_dir) / f"synthetic-seed{config.seed}-{key}" / task.name
     if target.is_dir():
-        return target
+        problem = _changed(target)
+        if problem is None:
+            return target
+        log.warning("%s: %s; writing the synthetic release again", target, problem)
     target.parent.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(dir=target.parent.parent, prefix=".synthetic-"))
+    aside = staging.with_name(staging.name + "-old")      # an edited copy, removed at the end
     try:
         write_release(staging / task.name, config, task)
+        (staging / MANIFEST).write_text(json.dumps(_digests(staging / task.name), indent=1))
+        if target.is_dir():
+            os.replace(target.parent, aside)
         staging.rename(target.parent)
     except OSError:
         if not target.is_dir():        # lost no race: a real failure
             raise
     finally:
         shutil.rmtree(staging, ignore_errors=True)
+        shutil.rmtree(aside, ignore_errors=True)
     return target
+
+
+def _digests(release: Path) -> dict[str, str]:
+    """SHA-256 of every file of ``release``, by path relative to it."""
+    digests = {}
+    for path in sorted(p for p in release.rglob("*") if p.is_file()):
+        with open(path, "rb") as f:
+            digest = hashlib.file_digest(f, "sha256").hexdigest()
+        digests[path.relative_to(release).as_posix()] = digest
+    return digests
+
+
+def _changed(release: Path) -> str | None:
+    """What differs between the cached ``release`` and its manifest; None when nothing does."""
+    try:
+        recorded = json.loads((release.parent / MANIFEST).read_text())
+    except (OSError, ValueError):
+        return f"no readable {MANIFEST} to verify it against"
+    found = _digests(release)
+    changed = sorted(set(recorded) ^ set(found)) or sorted(
+        name for name in found if found[name] != recorded[name])
+    return f"{changed[0]} changed since it was written" if changed else None

@@ -34,6 +34,7 @@ the others. The adjustment rule is the paper's (``jigsaws_tools.progress``).
 """
 from __future__ import annotations
 
+import math
 import re
 import tomllib
 from dataclasses import dataclass, field
@@ -284,7 +285,10 @@ def _names(value: Any, key: str, empty: bool = False) -> tuple[str, ...]:
 
 
 def _number(value: Any, key: str) -> float:
-    return float(_typed(value, key, (int, float), "a number"))
+    number = float(_typed(value, key, (int, float), "a number"))
+    if not math.isfinite(number):           # TOML allows nan and inf
+        raise DefinitionError("", key, value, "expected a finite number")
+    return number
 
 
 def _int_pair(value: Any, key: str) -> tuple[int, int]:

@@ -8,7 +8,8 @@ A run directory holds::
                                  sweep count, settings hash); see rnn_seg.runs.checkpoints
     history.csv                  one line per logged epoch / unit: training losses, time; test
                                  (and with ``monitor_train`` training) scores every
-                                 ``monitor_every`` units
+                                 ``monitor_every`` units; every column any output setting can
+                                 fill, empty where not computed (``rnn_seg.runs.logs``)
     timing.json                  seconds per phase of the last session (``rnn_seg.runs.timing``)
     tensorboard/                 the same scalars for TensorBoard, with ``tensorboard``
     eval/<unit><N>/metrics.json  test metrics at evaluation point N
@@ -25,7 +26,6 @@ stops before any work (``rnn_seg.runs.settings``) unless asked to restart.
 """
 from __future__ import annotations
 
-import csv
 import time
 from dataclasses import dataclass, field
 from datetime import timedelta
@@ -46,8 +46,9 @@ from .runs.lock import hold_folder
 from .model import ModelParams, SegmentationModel
 from .optim import SGD, OptimConfig
 from .plots import plot_sequence
-from .runs.folder import (CONFIG, clear_run_dir, is_finished, mark_finished, point_dir, read_json,
-                          remove_temporary_files, write_atomic, write_json)
+from .runs.folder import (CONFIG, HISTORY, RUN_LOGS, clear_run_dir, is_finished, mark_finished,
+                          point_dir, read_json, remove_temporary_files, write_atomic, write_json)
+from .runs.logs import append_csv_row, resume_log  # noqa: F401 (append_csv_row re-exported)
 from .sweeps import make_sweep, reset_flags, sweep_indices, sweeps_per_epoch
 from .tasks import Task, task_metrics
 from .runs.provenance import now, provenance
@@ -318,8 +319,9 @@ class Trainer:
             self._saved_hash.assign(self.settings_hash)
             self.log(f"resuming from sweep {done} ({self.run_dir / 'checkpoints'}/ckpt-{done}) "
                      f"with {self.model.encoder.config.loops} loops")   # not a setting: say it
-        for log in self.run_dir.glob("*.csv"):      # rows past the checkpoint will be redone
-            truncate_csv_log(log, done)
+        for name in RUN_LOGS:                       # rows past the checkpoint will be redone
+            for warning in resume_log(self.run_dir / name, done, self.log_columns().get(name)):
+                self.log(f"warning: {warning}")
         self._losses, self._started = [], time.time()
         self._last_line = (done, self._started)
         return done
@@ -349,6 +351,14 @@ class Trainer:
                 or done % (self.sweeps_per_unit * self.config.checkpoint_every) == 0):
             with self.clock.phase("checkpoint"):
                 self._store.save(done)
+
+    def log_columns(self) -> dict[str, list[str]]:
+        """The columns of the run's CSV logs (``rnn_seg.runs.logs``) it knows: ``history.csv``'s,
+        every column any output setting can fill (training scores for ``monitor_train``)."""
+        scores = [f"{split}_{t.name}_{k}" for split in ("train", "test") for t in self.tasks
+                  for k in ("acc", "edit")]
+        return {HISTORY: ["unit", "n", "sweep", "lr", *(f"loss_{t.name}" for t in self.tasks),
+                          *scores, "unit_seconds", "elapsed_seconds"]}
 
     def _diverged(self, done: int, losses: np.ndarray) -> None:
         bad = ", ".join(f"{t.name} {v}" for t, v in zip(self.tasks, losses) if not np.isfinite(v))
@@ -440,7 +450,7 @@ class Trainer:
         return out
 
     def _append_history(self, row: dict) -> None:
-        append_csv_row(self.run_dir / "history.csv", row)
+        append_csv_row(self.run_dir / HISTORY, row, self.log_columns()[HISTORY])
 
     def _evaluate(self, point: int) -> None:
         """Write predictions, plots and metrics of the test set at evaluation point ``point``."""
@@ -564,23 +574,6 @@ def loss_gradients(model: SegmentationModel, tasks: Sequence[Task], per_task: bo
         losses = tf.stack([t.loss(outputs[t.name], y, valid) for t, y in zip(tasks, targets)])
         objectives = tf.unstack(losses) if per_task else [tf.reduce_sum(losses)]
     return losses, [tape.gradient(y, flat, unconnected_gradients="zero") for y in objectives]
-
-
-def append_csv_row(path: Path, row: dict) -> None:
-    """Append one row to a CSV log, writing the header first when the file is new."""
-    new = not path.exists()
-    with open(path, "a", newline="") as f:
-        writer = csv.DictWriter(f, fieldnames=list(row))
-        if new:
-            writer.writeheader()
-        writer.writerow(row)
-
-
-def truncate_csv_log(path: Path, last_sweep: int) -> None:
-    """Drop the rows of a per-sweep CSV log (``sweep`` column) written after ``last_sweep``."""
-    table = pd.read_csv(path)
-    if (table["sweep"] > last_sweep).any():
-        write_atomic(path, table[table["sweep"] <= last_sweep].to_csv(index=False))
 
 
 def _mean(values: Sequence[float | None]) -> float:

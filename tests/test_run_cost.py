@@ -94,7 +94,8 @@ def test_history_scores_only_on_monitored_units(tmp_path):
     assert history[["loss_gesture", "loss_progress", "unit_seconds"]].notna().all().all()
     monitored = history["test_gesture_acc"].notna().tolist()
     assert monitored == [False, False, True, True]         # every 3 units and the last
-    assert not any(c.startswith("train_") for c in history.columns)
+    train = history.filter(like="train_")          # columns fixed per run (#29), cells empty
+    assert len(train.columns) == 4 and train.isna().all().all()
 
 
 @pytest.mark.parametrize("tensorboard", [True, False])

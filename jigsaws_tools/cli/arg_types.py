@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 from typing import Callable
 
 
@@ -93,6 +94,18 @@ def int_list(item: Callable[[str], int]) -> Callable[[str], tuple[int, ...]]:
 positive_int = int_range(1)
 #: Seeds, thread counts with 0 = all, epochs before a decay ...
 non_negative_int = int_range(0)
+
+
+def thread_count(text: str) -> int:
+    """Cores for a process: 0 (= all of them) up to this machine's (``os.cpu_count``)."""
+    value = non_negative_int(text)
+    cores = os.cpu_count() or 1
+    if value > cores:
+        raise argparse.ArgumentTypeError(f"expected at most this machine's {cores} cores, "
+                                         f"got {text!r}")
+    return value
+
+
 #: Learning rates, clipping norms, initial weight ranges ...
 positive_float = float_range(0.0, low_open=True)
 #: Weights such as GradNorm's alpha.

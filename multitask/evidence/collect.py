@@ -36,6 +36,7 @@ from rnn_seg.runs.folder import RunFolderError, is_finished, read_json
 
 from ..grid.folder import GRID_RECORD, record_runs
 from ..grid.spec import RunKey
+from .checks import OTHER_SETTINGS, other_settings
 
 KEY_COLUMNS = [f.name for f in fields(RunKey)]
 CONFIG_COLUMNS = ["annotations", "direction", "variant", "weighting"]
@@ -82,12 +83,14 @@ def run_rows(grid_dir: Path | str, allow_incomplete: bool = False,
     problems += [f"stray folder, not a run of this grid: {path}"
                  for path in _stray_folders(root, every_run)]
     recorded = of_seeds(root, every_run, seeds)
+    mismatched = other_settings(root, {run: key_from_path(root / run, root) for run in recorded})
+    problems += [f"{OTHER_SETTINGS} {root / run}: {details}" for run, details in mismatched.items()]
     unfinished = _unfinished_configs(root, recorded) if finished_only else {}
     left_out = [f"{LEFT_OUT} {'/'.join(config[:2])}/{'-'.join(config[2:])}, {done} of {total} "
                 "runs finished" for config, (done, total) in sorted(unfinished.items())]
     rows = []
     for run in recorded:
-        if _config_of(key_from_path(root / run, root)) in unfinished:
+        if run in mismatched or _config_of(key_from_path(root / run, root)) in unfinished:
             continue
         row = _run_row(root, run, problems)
         if row is not None:

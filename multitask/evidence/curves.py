@@ -19,6 +19,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from rnn_seg.config import unit_name  # noqa: E402
+from rnn_seg.runs.logs import read_log  # noqa: E402
 
 from .collect import key_from_path  # noqa: E402
 from .figures import save  # noqa: E402
@@ -37,7 +38,7 @@ def training_curves(grid_dir: Path | str, out_dir: Path) -> list[Path]:
     for path in sorted((root / "runs").glob("*/*/*/seed*/*/history.csv")):
         key = key_from_path(path.parent, root)
         configs.setdefault((key.annotations, key.direction, key.config_name), []).append(
-            (key, pd.read_csv(path)))
+            (key, read_log(path)))
     written = []
     for (labels, direction, config), runs in configs.items():
         fig = curves_figure(runs, f"{config}, {labels} annotations, {direction}")

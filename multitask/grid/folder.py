@@ -6,18 +6,17 @@ reads its run list to tell missing runs and stray folders apart. Both go through
 """
 from __future__ import annotations
 
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 
 from rnn_seg.runs.folder import RunFolderError, read_json
-
-GRID_RECORD = "grid.json"
+from rnn_seg.runs.outputs import GRID_RECORD  # noqa: F401 (re-exported)
 
 
 def read_record(grid_dir: Path | str) -> dict | None:
     """The parsed ``grid.json`` of the grid in ``grid_dir``, None when there is none.
 
     Raises ``RunFolderError`` naming the file when it is not valid JSON or holds no ``runs``
-    list of run paths (``runs/...`` strings).
+    list of run paths (``runs/...`` strings, none leading outside ``runs/``).
     """
     path = Path(grid_dir) / GRID_RECORD
     if not path.is_file():
@@ -27,7 +26,18 @@ def read_record(grid_dir: Path | str) -> dict | None:
     if not isinstance(runs, list) or not all(isinstance(run, str) for run in runs):
         raise RunFolderError(f"{path}: not a grid record: no 'runs' list of run folders "
                              f"(value: {str(runs)[:80]!r})")
+    outside = next((run for run in runs if not _under_runs(run)), None)
+    if outside is not None:
+        raise RunFolderError(f"{path}: runs: {outside!r} is not a folder under runs/ of the "
+                             "grid (a relative path without '..')")
     return record
+
+
+def _under_runs(run: str) -> bool:
+    """Whether ``run`` names a folder below the grid's ``runs/`` (so that nothing read or
+    written for it lies outside the grid, or outside an archive of it)."""
+    parts = PurePosixPath(run).parts
+    return len(parts) > 1 and parts[0] == "runs" and ".." not in parts
 
 
 def record_runs(grid_dir: Path | str) -> list[str] | None:

@@ -21,6 +21,7 @@ from jigsaws_tools.dataset import Dataset, Trial, load_dataset
 from jigsaws_tools.preprocessing import Normalisation
 from jigsaws_tools.release import discover
 from rnn_seg.runs.folder import staged_folder
+from rnn_seg.runs.outputs import check_new_output
 from rnn_seg.sweeps import sweeps_per_epoch
 from rnn_seg.trainer import predict, write_evaluation
 
@@ -28,6 +29,9 @@ from .predictions import hold
 from .trained_run import TrainedRun
 
 log = logging.getLogger(__name__)
+
+#: What an evaluation folder holds (``write_evaluation``): all ``--overwrite`` may replace.
+EVALUATION_ENTRIES = frozenset({"metrics.json", "predictions", "plots"})
 
 
 def default_evaluation_dir(run: TrainedRun, test_user: str, stream: bool) -> Path:
@@ -54,11 +58,14 @@ def evaluate_run(run: TrainedRun, out: Path, data_dir: Path | str | None = None,
         test_user: whose trials to score (default: the run's held-out user).
         stream: score the causal, streaming preprocessing (forward models only).
         plots: draw the per-trial plots.
-        overwrite: replace an existing ``out``.
+        overwrite: replace an existing ``out``, an earlier evaluation (never a run, a grid or a
+            run's own files: ``rnn_seg.runs.outputs``).
 
     Returns:
         The metrics per task.
     """
+    check_new_output(out, "multitask-evaluate", EVALUATION_ENTRIES, overwrite,
+                     run_place="evaluate")
     if stream:
         run.require_online("streaming evaluation")
     data_config = replace(run.config.data, data_dir=str(data_dir)) if data_dir else run.config.data

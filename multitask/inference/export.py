@@ -28,11 +28,15 @@ from jigsaws_tools.features import feature_columns
 from jigsaws_tools.preprocessing import butterworth
 from jigsaws_tools.release import KINEMATICS_HZ, NUM_KINEMATIC_COLUMNS
 from rnn_seg.runs.folder import staged_folder, to_jsonable, write_json
+from rnn_seg.runs.outputs import check_new_output
 
 from .trained_run import CONFIG_FILE, TrainedRun
 
 EXPORT_FORMAT = 1
 DESCRIPTION_FILE = Path("assets.extra") / "model.json"
+#: What a SavedModel folder holds: all ``--overwrite`` may replace.
+EXPORT_ENTRIES = frozenset({"saved_model.pb", "fingerprint.pb", "variables", "assets",
+                            "assets.extra"})
 
 
 def _sosfilt(sos: np.ndarray, x: tf.Tensor, state: tf.Tensor) -> tf.Tensor:
@@ -161,11 +165,13 @@ def export_run(run: TrainedRun, out: Path, overwrite: bool = False) -> Path:
     Args:
         run: the loaded run and checkpoint.
         out: the folder to create.
-        overwrite: replace an existing ``out``.
+        overwrite: replace an existing ``out``, an earlier export (never a run, a grid or a
+            run's own files: ``rnn_seg.runs.outputs``).
 
     Returns:
         ``out``.
     """
+    check_new_output(out, "multitask-export", EXPORT_ENTRIES, overwrite)
     module = ExportedRun(run)
     with staged_folder(out, overwrite) as folder:
         tf.saved_model.save(module, str(folder),

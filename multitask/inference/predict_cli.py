@@ -18,6 +18,7 @@ import numpy as np
 
 from jigsaws_tools.cli.common import run_command
 from jigsaws_tools.release import kinematics_dir
+from rnn_seg.runs.outputs import check_output_folder
 
 from .options import load_for_command, trained_run_parser
 
@@ -107,7 +108,9 @@ def _predict(args: argparse.Namespace) -> None:
 
 
 def _check_outputs(args: argparse.Namespace, files: list[Path]) -> None:
-    """Refuse to replace an earlier prediction's files unless ``--overwrite``."""
+    """Refuse a run or grid folder (``rnn_seg.runs.outputs``) and to replace an earlier
+    prediction's files unless ``--overwrite``."""
+    check_output_folder(args.out, PROG)
     outputs = [args.out / f"{f.stem}{ext}" for f in files
                for ext in (".csv",) + (() if args.no_plots else (".png",))]
     existing = [p for p in outputs + [args.out / RECORD_FILE] if p.exists()]

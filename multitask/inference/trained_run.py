@@ -21,7 +21,8 @@ from jigsaws_tools.preprocessing import Normalisation, preprocess_recording
 from jigsaws_tools.release import NUM_KINEMATIC_COLUMNS, discover, read_kinematics
 from rnn_seg.runs.checkpoints import restore_weights
 from rnn_seg.model import SegmentationModel
-from rnn_seg.runs.folder import RunFolderError, from_jsonable, is_finished, write_json
+from rnn_seg.runs.folder import (RunFolderError, from_jsonable, is_finished, read_json,
+                                 write_json)
 from rnn_seg.tasks import Task
 from rnn_seg.trainer import predict
 
@@ -112,12 +113,18 @@ class TrainedRun:
 
     def features(self, kinematics: np.ndarray, where: str = "kinematics") -> np.ndarray:
         """The run's input columns ``[n_frames, F]`` of a recording ``[n_frames, 76]``."""
-        kinematics = np.asarray(kinematics)
+        kinematics = np.asarray(kinematics, dtype=np.float64)
         if kinematics.ndim != 2 or kinematics.shape[1] != NUM_KINEMATIC_COLUMNS:
             raise ValueError(f"{where}: expected [frames, {NUM_KINEMATIC_COLUMNS}] kinematics "
                              f"(JIGSAWS columns), got shape {list(kinematics.shape)}")
         if not len(kinematics):
             raise ValueError(f"{where}: no kinematic frames")
+        bad = np.argwhere(~np.isfinite(kinematics))
+        if len(bad):
+            frame, column = bad[0]
+            raise ValueError(f"{where}: frame {frame + 1}, column {column + 1}: non-finite "
+                             f"kinematic value ({kinematics[frame, column]}); the recording "
+                             "files refuse it too")
         return kinematics[:, feature_columns(self.config.data.feature_set)]
 
     def outputs(self, inputs: list[np.ndarray]) -> dict[str, list[np.ndarray]]:
@@ -171,8 +178,9 @@ class TrainedRun:
         """
         path = self.run_dir / STREAM_NORMALISATION_FILE
         if path.is_file():
-            return from_jsonable(Normalisation, json.loads(path.read_text())["normalisation"],
-                                 f"{path}: normalisation")
+            saved = read_json(path)
+            return from_jsonable(Normalisation, saved.get("normalisation")
+                                 if isinstance(saved, dict) else saved, f"{path}: normalisation")
         stats, trials = training_normalisation(self.config, data_dir)
         try:
             write_json(path, {"normalisation": stats, "trials": trials,

@@ -24,8 +24,8 @@ import tensorflow as tf
 
 from ..config import KEEP_CHECKPOINTS, UNITS, KeepCheckpoints  # noqa: F401 (re-exported)
 from .folder import CHECKPOINTS as FOLDER
-from .folder import (RunFolderError, checkpoint_sweeps,  # noqa: F401 (re-exported)
-                     point_dir, read_json)
+from .folder import (RunFolderError, WriteFailed,  # noqa: F401 (re-exported)
+                     checkpoint_sweeps, point_dir, read_json)
 
 
 def checkpoint_prefix(run_dir: Path, sweep: int) -> Path:
@@ -53,7 +53,12 @@ class CheckpointStore:
 
     def save(self, sweep: int) -> None:
         """Write the checkpoint after ``sweep`` sweeps, then drop those no longer needed."""
-        self.checkpoint.write(str(checkpoint_prefix(self.run_dir, sweep)))
+        prefix = checkpoint_prefix(self.run_dir, sweep)
+        try:
+            self.checkpoint.write(str(prefix))
+        except tf.errors.OpError as error:      # e.g. no space left: TensorFlow's own error
+            _delete(prefix)                     # never an index without its data
+            raise WriteFailed(f"checkpoint {prefix}", _first_line(error)) from None
         saved = self.sweeps()
         self._keep_only(set(saved[-2:]) | self._kept(saved))
 

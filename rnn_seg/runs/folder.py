@@ -7,6 +7,7 @@ every file is written through a temporary file and a rename, with the user's uma
 from __future__ import annotations
 
 import dataclasses
+import errno
 import json
 import math
 import os
@@ -29,15 +30,43 @@ FINISHED = "finished.json"
 CHECKPOINTS = "checkpoints"
 _CHECKPOINT_INDEX = re.compile(r"^ckpt-(\d+)\.index$")
 T = TypeVar("T")
-#: What a run writes besides config.json and its top-level ``*.csv`` logs; ``clear_run_dir``
-#: removes exactly these (a grid's ``train.log`` and the lock file stay).
+HISTORY = "history.csv"
+#: The per-unit CSV logs a run appends to (``gradnorm.csv``: a GradNorm run's task weights);
+#: resume drops their rows past the checkpoint it continues from.
+RUN_LOGS = ("gradnorm.csv", HISTORY)
+#: What a run writes besides config.json and its logs; ``clear_run_dir`` removes exactly these,
+#: the logs and config.json (a grid's ``train.log``, the lock file and any file of the user stay).
 RUN_OUTPUTS = (CHECKPOINTS, "eval", "metrics.json", "timing.json", "tensorboard",
                "evaluate", "stream_normalisation.json", FINISHED)
+#: The folders of ``RUN_OUTPUTS``: everything below them is the package's.
+RUN_FOLDERS = (CHECKPOINTS, "eval", "tensorboard", "evaluate")
+#: A temporary file of ``write_atomic`` or folder of ``staged_folder``: ``.<name>.<random>.tmp``.
+_TEMPORARY = re.compile(r"^\.(?P<name>.+)\.[0-9a-z_]{8}\.tmp$")
 
 
 class RunFolderError(ValueError):
     """A run or grid folder cannot be used as asked: other settings, in use, unreadable, no
     weights to load."""
+
+
+class WriteFailed(RuntimeError):
+    """A run's file could not be written for lack of space (a full disk, a quota, a file size
+    limit): names the file, the reason and the space left. What was written before stays; the
+    run resumes from its last complete checkpoint."""
+
+    def __init__(self, path: Path | str, reason: str):
+        super().__init__(f"cannot write {path} ({reason}); {_free_megabytes(Path(path)):.0f} MB "
+                         "free on its file system. Make room and run the same command again to "
+                         "resume from the last complete checkpoint")
+
+
+#: ``errno`` of a write refused for lack of space: a full disk, a quota, a file size limit.
+NO_SPACE = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
+
+
+def _free_megabytes(path: Path) -> float:
+    folder = next((p for p in (path, *path.parents) if p.is_dir()), Path("."))
+    return shutil.disk_usage(folder).free / 1e6
 
 
 def to_jsonable(obj: Any) -> Any:
@@ -257,29 +286,56 @@ def mark_finished(run_dir: Path, summary: dict) -> None:
 
 
 def run_outputs(run_dir: Path) -> list[str]:
-    """Names of the run outputs present in ``run_dir`` (empty folders do not count)."""
+    """Names of the run outputs and logs present in ``run_dir`` (empty folders do not count)."""
     run_dir = Path(run_dir)
-    found = [name for name in RUN_OUTPUTS if _has_files(run_dir / name)]
-    return found + sorted(p.name for p in run_dir.glob("*.csv"))
+    return [name for name in (*RUN_OUTPUTS, *RUN_LOGS) if _has_files(run_dir / name)]
 
 
 def clear_run_dir(run_dir: Path) -> None:
-    """Delete a run's config.json and outputs (``RUN_OUTPUTS`` and top-level ``*.csv``)."""
+    """Delete a run's config.json, outputs (``RUN_OUTPUTS``) and logs (``RUN_LOGS``), by name:
+    nothing else in the folder. A symbolic link among them is removed, not followed."""
     run_dir = Path(run_dir)
-    for path in [run_dir / CONFIG, *(run_dir / name for name in RUN_OUTPUTS),
-                 *run_dir.glob("*.csv")]:
-        if path.is_dir():
-            shutil.rmtree(path)
-        else:
-            path.unlink(missing_ok=True)
+    for name in (CONFIG, *RUN_OUTPUTS, *RUN_LOGS):
+        _remove(run_dir / name)
 
 
 def remove_temporary_files(run_dir: Path) -> list[Path]:
-    """Delete the ``*.tmp`` files an interrupted ``write_atomic`` left; returns them."""
-    leftovers = sorted(Path(run_dir).rglob("*.tmp"))
+    """Delete what interrupted writes left in ``run_dir``; returns it. That is the temporary
+    file (``.<name>.<random>.tmp``) of a file the run owns (config.json, ``RUN_OUTPUTS``,
+    ``RUN_LOGS``) at the top, and any temporary file or staging folder below ``RUN_FOLDERS``
+    (an interrupted ``multitask-evaluate`` leaves one in ``evaluate/``); no other file."""
+    run_dir = Path(run_dir)
+    owned = {CONFIG, *RUN_OUTPUTS, *RUN_LOGS}
+    leftovers = [p for p in _children(run_dir)
+                 if (m := _TEMPORARY.match(p.name)) and m.group("name") in owned and p.is_file()]
+    for folder in RUN_FOLDERS:
+        leftovers += _temporary_below(run_dir / folder)
     for path in leftovers:
+        _remove(path)
+    return sorted(leftovers)
+
+
+def _children(folder: Path) -> list[Path]:
+    return sorted(folder.iterdir()) if folder.is_dir() and not folder.is_symlink() else []
+
+
+def _temporary_below(folder: Path) -> list[Path]:
+    """Temporary files and staging folders below ``folder`` (not inside those folders)."""
+    found = []
+    for path in _children(folder):
+        if _TEMPORARY.match(path.name):
+            found.append(path)
+        elif path.is_dir():
+            found += _temporary_below(path)
+    return found
+
+
+def _remove(path: Path) -> None:
+    """Delete a file or a folder; a symbolic link is removed, not followed."""
+    if path.is_dir() and not path.is_symlink():
+        shutil.rmtree(path)
+    else:
         path.unlink(missing_ok=True)
-    return leftovers
 
 
 def _has_files(path: Path) -> bool:

@@ -55,7 +55,13 @@ def hold_folder(folder: Path | str, what: str = "run folder") -> Iterator[None]:
 
 
 def _acquire(folder: Path, what: str) -> int:
-    fd = os.open(folder / LOCK_FILE, os.O_RDWR | os.O_CREAT, 0o666)
+    path = folder / LOCK_FILE
+    try:        # never through a symbolic link: a file elsewhere would be truncated
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0), 0o666)
+    except OSError as error:
+        problem = "a symbolic link" if path.is_symlink() else f"unusable ({error.strerror})"
+        raise RunFolderError(f"{path}: the lock file of the {what} is {problem}; remove it "
+                             "(nothing else holds it)") from None
     if fcntl is None:
         return fd
     try:

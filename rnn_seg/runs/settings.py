@@ -89,7 +89,11 @@ def check_run_dir(run_dir: Path, configs: dict) -> None:
                                         f"no {CONFIG}: they cannot be checked against this run's "
                                         "settings.")
         return
-    changed = differences(read_json(run_dir / CONFIG), configs)
+    recorded = read_json(run_dir / CONFIG)
+    if not isinstance(recorded, dict):
+        raise RunFolderError(f"{run_dir / CONFIG}: not a run's record: expected a JSON object "
+                             f"(value: {str(recorded)[:60]})")
+    changed = differences(recorded, configs)
     if changed:
         raise SettingsMismatchError(f"{run_dir} holds a run with other settings (recorded -> "
                                     "requested):\n  " + "\n  ".join(changed))

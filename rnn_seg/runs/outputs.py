@@ -1,0 +1,101 @@
+"""Where a command may write: never over a run or a grid it was not asked to replace.
+
+A *run folder* holds ``config.json``, ``finished.json`` or ``checkpoints/``; a *grid folder*
+holds ``grid.json`` (the record ``multitask-grid`` writes). ``check_output_folder`` refuses an
+output folder that is one of them, holds one, or lies among a run's own files (its
+``RUN_FOLDERS`` and files), so that ``--overwrite`` can only ever replace an earlier output of
+the same command. Paths are resolved first (``..``, symbolic links), so the check is of the
+place written, not of its spelling.
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from .folder import CHECKPOINTS, CONFIG, FINISHED, RUN_LOGS, RUN_OUTPUTS
+
+#: The record a grid folder holds (``multitask.grid.folder``).
+GRID_RECORD = "grid.json"
+#: The file that makes a folder a TensorFlow SavedModel (``multitask-export``'s output).
+SAVED_MODEL = "saved_model.pb"
+
+
+class OutputFolderError(ValueError):
+    """An output folder a command may not write: it would overwrite a run or a grid."""
+
+
+def folder_kind(folder: Path) -> str | None:
+    """``"run folder"``, ``"grid folder"`` or None for any other folder."""
+    folder = Path(folder)
+    if (folder / GRID_RECORD).is_file():
+        return "grid folder"
+    if any((folder / name).exists() for name in (CONFIG, FINISHED, CHECKPOINTS)):
+        return "run folder"
+    return None
+
+
+def check_output_folder(out: Path, command: str, *, run_place: str | None = None,
+                        may_be_run: bool = False) -> None:
+    """Raise ``OutputFolderError`` (naming the folders) when ``command`` may not write ``out``.
+
+    Refused: ``out`` is a grid folder, or a run folder (unless ``may_be_run``: training resumes
+    one); ``out`` holds a run or grid folder anywhere below it; ``out`` lies inside a run folder
+    among the run's own files, except below its folder ``run_place`` (``multitask-evaluate``
+    writes into ``RUN/evaluate``).
+
+    Args:
+        out: the output folder asked for (existing or not).
+        command: the command's name, for the message.
+        run_place: the one folder of a run where ``command`` writes its outputs, if any.
+        may_be_run: ``out`` may itself be a run folder.
+    """
+    out = Path(out)
+    place = out.resolve()
+    kind = folder_kind(place)
+    if kind == "grid folder" or (kind and not may_be_run):
+        raise OutputFolderError(f"{out} is a {kind}; {command} does not write into it (choose "
+                                "another output folder)")
+    for parent in place.parents:
+        if folder_kind(parent) == "run folder":
+            first = place.relative_to(parent).parts[0]
+            if first in {CONFIG, *RUN_OUTPUTS, *RUN_LOGS} and first != run_place:
+                raise OutputFolderError(f"{out} lies among the files of the run folder {parent} "
+                                        f"({first}); choose another output folder")
+    held = _run_or_grid_below(place) if place.is_dir() else None
+    if held:
+        raise OutputFolderError(f"{out} holds a {folder_kind(held)} ({held}); {command} does "
+                                "not write over it (choose another output folder)")
+
+
+def _run_or_grid_below(folder: Path) -> Path | None:
+    """The first run or grid folder strictly below ``folder`` (symbolic links not followed; a
+    SavedModel, whose ``assets.extra/`` holds a copy of its run's config.json, is not entered)."""
+    for root, dirs, files in os.walk(folder):
+        if SAVED_MODEL in files:
+            dirs.clear()
+            continue
+        for name in sorted(dirs):
+            if folder_kind(Path(root) / name):
+                return Path(root) / name
+    return None
+
+
+def check_new_output(out: Path, command: str, entries: frozenset[str], overwrite: bool,
+                     run_place: str | None = None) -> None:
+    """Check a folder ``command`` writes whole (``folder.staged_folder``) before any work:
+    ``check_output_folder``, and with ``overwrite`` an existing ``out`` must be an earlier output
+    of ``command``: a folder holding only ``entries`` at its top (``OutputFolderError`` naming
+    the first other entry)."""
+    check_output_folder(out, command, run_place=run_place)
+    out = Path(out)
+    if overwrite and (out.is_symlink() or out.is_dir()):
+        _check_replaceable(out, command, entries)
+
+
+def _check_replaceable(target: Path, command: str, entries: frozenset[str]) -> None:
+    foreign = sorted(p.name for p in Path(target).iterdir() if p.name not in entries)
+    if foreign or Path(target).is_symlink():
+        what = f"holds {foreign[0]!r}" if foreign else "is a symbolic link"
+        raise OutputFolderError(f"{target} {what}, which is not an output of {command}: "
+                                "--overwrite replaces only an earlier output of the same command "
+                                "(choose another output folder)")
