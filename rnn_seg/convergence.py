@@ -11,8 +11,11 @@ measured against them (docs/REPRODUCTION.md).
 
 ``loss_drop`` is itself an estimate: ``loss_drop_se`` is its standard error, from the slope's
 least-squares standard error (delta method), treating the unit-to-unit noise as independent.
-It says which verdicts the noise could turn (a run 1 SE above the tolerance may have converged);
-the verdict itself uses the point value.
+So every run is judged three ways (``verdict``), from each task's 95 % interval of ``loss_drop``
+(the slope's normal interval, ``slope +- 1.96 se``, carried through ``1 - exp(slope * span)``):
+*converged* when every task's interval lies below the tolerance, *still falling* when some task's
+lies above it, *undecided* otherwise. The point verdict (``converged``: every point value below the
+tolerance) is kept beside it.
 """
 from __future__ import annotations
 
@@ -22,6 +25,10 @@ from typing import Sequence
 import numpy as np
 
 MIN_POINTS = 4
+#: The three-way verdicts (``verdict``).
+VERDICTS = ("converged", "undecided", "still falling")
+#: The normal quantile of the verdict's two-sided 95 % interval.
+_Z_95 = 1.959963984540054
 
 
 @dataclass(frozen=True)
@@ -69,6 +76,26 @@ def loss_drop_fit(units: np.ndarray, losses: np.ndarray, total: float,
     return float(1.0 - kept), float(kept * span * slope_se)
 
 
+def drop_interval(drop: float, se: float, z: float = _Z_95) -> tuple[float, float]:
+    """The interval of a ``loss_drop`` with standard error ``se`` (``loss_drop_fit``): the
+    slope's ``+- z`` standard errors carried to the drop. ``se / (1 - drop)`` is the slope's
+    standard error times the horizon, so the interval needs nothing but the two numbers."""
+    kept = 1.0 - drop
+    spread = z * se / kept
+    return 1.0 - kept * np.exp(spread), 1.0 - kept * np.exp(-spread)
+
+
+def verdict(fits: Sequence[tuple[float, float]], tolerance: float) -> str:
+    """``converged``, ``still falling`` or ``undecided`` (module docstring) from every task's
+    ``(loss_drop, loss_drop_se)``."""
+    intervals = [drop_interval(drop, se) for drop, se in fits]
+    if any(low > tolerance for low, _ in intervals):
+        return "still falling"
+    if all(high < tolerance for _, high in intervals):
+        return "converged"
+    return "undecided"
+
+
 def convergence(units: np.ndarray, losses: dict[str, np.ndarray], total: float,
                 criterion: ConvergenceCriterion = ConvergenceCriterion()) -> dict:
     """Every task's ``loss_drop`` and whether all are below the tolerance.
@@ -81,8 +108,9 @@ def convergence(units: np.ndarray, losses: dict[str, np.ndarray], total: float,
 
     Returns:
         ``{"loss_drop": {task: drop}, "loss_drop_se": {task: se}, "max_loss_drop": worst,
-        "max_loss_drop_se": its se, "converged": bool | None, "criterion": {...}}``; ``worst``,
-        its se and ``converged`` are None when a task has too few units.
+        "max_loss_drop_se": its se, "converged": bool | None, "verdict": str | None,
+        "criterion": {...}}``; ``worst``, its se, ``converged`` and ``verdict`` (``VERDICTS``)
+        are None when a task has too few units.
     """
     fits = {task: loss_drop_fit(units, values, total, criterion)
             for task, values in losses.items()}
@@ -93,6 +121,8 @@ def convergence(units: np.ndarray, losses: dict[str, np.ndarray], total: float,
             "max_loss_drop": None if worst is None else known[worst][0],
             "max_loss_drop_se": None if worst is None else known[worst][1],
             "converged": None if worst is None else bool(known[worst][0] < criterion.tolerance),
+            "verdict": None if worst is None else verdict(list(known.values()),
+                                                          criterion.tolerance),
             "criterion": {"window": criterion.window, "horizon": criterion.horizon,
                           "tolerance": criterion.tolerance}}
 

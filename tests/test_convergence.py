@@ -3,8 +3,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from rnn_seg.convergence import (ConvergenceCriterion, convergence, history_convergence, loss_drop,
-                                  loss_drop_fit)
+from rnn_seg.convergence import (ConvergenceCriterion, convergence, drop_interval,
+                                  history_convergence, loss_drop, loss_drop_fit, verdict)
 
 TOTAL = 60
 
@@ -77,3 +77,43 @@ def test_convergence_reports_the_worst_tasks_standard_error():
                                  "progress": _noisy(2.0 * np.exp(-units / 15), 1)}, TOTAL)
     assert result["max_loss_drop_se"] == result["loss_drop_se"]["progress"] > 0
     assert result["loss_drop_se"]["gesture"] > 0
+
+
+def test_the_drop_interval_is_the_slopes_interval_carried_to_the_drop():
+    """From ``loss_drop`` and its standard error alone: the slope's +-1.96 se interval."""
+    units = np.arange(1, TOTAL + 1)
+    losses = _noisy(np.exp(-units / 40), seed=3)
+    drop, se = loss_drop_fit(units, losses, TOTAL)
+    keep = units > 0.8 * TOTAL
+    x, y = units[keep], np.log(losses[keep])
+    slope, intercept = np.polyfit(x, y, 1)
+    residuals = y - (slope * x + intercept)
+    slope_se = np.sqrt(residuals @ residuals / (len(x) - 2) / ((x - x.mean()) @ (x - x.mean())))
+    span = 0.1 * TOTAL
+    expected = (1 - np.exp((slope + 1.96 * slope_se) * span),
+                1 - np.exp((slope - 1.96 * slope_se) * span))
+    assert drop_interval(drop, se) == pytest.approx(expected, rel=1e-3)
+    low, high = drop_interval(0.05, 0.0)
+    assert low == high == pytest.approx(0.05)
+
+
+@pytest.mark.parametrize("fits, expected", [
+    ([(0.01, 0.005)], "converged"),                       # interval about [0.0002, 0.020]
+    ([(0.03, 0.013)], "undecided"),                       # holds 5 %
+    ([(0.093, 0.016)], "still falling"),                  # Table I's APoc, fold F: [6.2, 12.3] %
+    ([(0.01, 0.005), (0.093, 0.016)], "still falling"),   # one task still falling is enough
+    ([(0.01, 0.005), (0.04, 0.01)], "undecided"),         # every task must be below
+])
+def test_three_way_verdict(fits, expected):
+    assert verdict(fits, 0.05) == expected
+
+
+def test_convergence_records_the_three_way_verdict_beside_the_point_verdict():
+    units = np.arange(1, TOTAL + 1)
+    flat = convergence(units, {"t": 0.3 + 0.0 * units}, TOTAL)
+    assert flat["verdict"] == "converged" and flat["converged"] is True
+    steep = convergence(units, {"t": _noisy(2.0 * np.exp(-units / 15), 0)}, TOTAL)
+    assert steep["verdict"] == "still falling" and steep["converged"] is False
+    near = convergence(units, {"t": _noisy(np.exp(-units * -np.log(0.95) / 6), 1, 0.1)}, TOTAL)
+    assert near["verdict"] == "undecided"                  # 5 % per 6 units: on the threshold
+    assert convergence(np.arange(1, 4), {"t": np.array([1.0, 0.5, 0.2])}, 3)["verdict"] is None

@@ -270,10 +270,13 @@ def test_annotation_ablation_reports_revised_minus_original():
 def test_runs_table_records_convergence(tiny_grid):
     tables_main([str(tiny_grid), "--no-figures"])
     runs = pd.read_csv(tiny_grid / "tables" / "runs.csv")
-    assert {"converged", "loss_drop", "loss_drop_se"} <= set(runs.columns)
+    assert {"convergence", "converged", "loss_drop", "loss_drop_se"} <= set(runs.columns)
     assert (runs["loss_drop_se"].isna() == runs["loss_drop"].isna()).all()
+    assert set(runs["convergence"].dropna()) <= {"converged", "undecided", "still falling"}
+    assert (runs["convergence"].isna() == runs["loss_drop_se"].isna()).all()
     summary = pd.read_csv(tiny_grid / "tables" / "summary.csv")
-    assert (summary["unconverged"] >= 0).all()
+    assert (summary["still_falling"] >= 0).all() and (summary["undecided"] >= 0).all()
+    assert summary["still_falling"].sum() == (runs["convergence"] == "still falling").sum()
 
 
 def test_runs_saved_before_the_standard_error_get_it_from_their_history(tmp_path):
@@ -289,7 +292,8 @@ def test_runs_saved_before_the_standard_error_get_it_from_their_history(tmp_path
     run_dirs = [grid / f"runs/revised/bidirectional/APc-fixed/seed0/{fold}" for fold in "BC"]
     full = history_convergence(pd.read_csv(run_dirs[0] / "history.csv"),
                                ["gesture", "progress"], 40)
-    old = {**{k: v for k, v in full.items() if "_se" not in k}, "converged": True}
+    old = {**{k: v for k, v in full.items() if "_se" not in k and k != "verdict"},
+           "converged": True}
     for run in run_dirs:
         write_json(run / "metrics.json", {**read_json(run / "metrics.json"), "convergence": old})
     pd.read_csv(run_dirs[1] / "history.csv").drop(columns="loss_progress").to_csv(
@@ -301,15 +305,17 @@ def test_runs_saved_before_the_standard_error_get_it_from_their_history(tmp_path
     assert row["loss_drop_se"] == pytest.approx(full["loss_drop_se"][worst])
     assert row["loss_drop"] == pytest.approx(full["max_loss_drop"])
     assert bool(row["converged"])                                    # the saved verdict
+    assert row["convergence"] == full["verdict"]           # three-way, from drops and errors
     unreadable = rows.loc[("revised", "bidirectional", "APc", "fixed", "C")]
     assert np.isnan(unreadable["loss_drop_se"]) and bool(unreadable["converged"])
+    assert pd.isna(unreadable["convergence"])
 
 
 def test_tables_carry_rounded_and_raw_mae():
     from multitask.evidence.tables import PAPER_TABLES, paper_comparison
 
     summary = pd.DataFrame([{"annotations": "revised", "direction": "bidirectional",
-                             "variant": "APr", "weighting": "fixed", "folds": 8, "unconverged": 0,
+                             "variant": "APr", "weighting": "fixed", "folds": 8, "still_falling": 0,
                              "progress_mae_mean": 5.0, "progress_mae_std": 1.0,
                              "progress_mae_raw_mean": 7.0, "progress_mae_raw_std": 1.0}])
     table = paper_comparison(summary, PAPER_TABLES[0]).set_index("metric")
@@ -343,19 +349,24 @@ def test_experiments_may_name_their_own_seeds_first_seeds_run_first_then_by_conf
     assert job_groups(pending, 2, grid=keys) == groups[3:]
 
 
-def test_tables_mark_configurations_with_unconverged_runs():
+def test_tables_mark_runs_still_falling_and_name_undecided_ones_in_the_note():
     from multitask.evidence.tables import PAPER_TABLES, paper_comparison, to_latex
 
     row = {"annotations": "revised", "direction": "bidirectional", "weighting": "fixed",
            "folds": 8, "gesture_accuracy_mean": 85.0, "gesture_accuracy_std": 5.0}
-    summary = pd.DataFrame([{**row, "variant": "A", "unconverged": 0},
-                            {**row, "variant": "APc", "unconverged": 2}])
+    summary = pd.DataFrame([{**row, "variant": "A", "still_falling": 0, "undecided": 0},
+                            {**row, "variant": "APc", "still_falling": 2, "undecided": 1},
+                            {**row, "variant": "APoc", "still_falling": 0, "undecided": 3}])
     table = paper_comparison(summary, PAPER_TABLES[0])
-    assert set(table.model) == {"A", "APc (w1=w2=1) (unconverged: 2 runs)"}
+    assert set(table.model) == {"A", "APc (w1=w2=1) (still falling: 2 runs; undecided: 1 run)",
+                                "APoc (w1=w2=1) (undecided: 3 runs)"}
     tex = to_latex(table, "caption", "table1", ("Ours", "Paper"))
     header = tex.split(r"\toprule")[1].split(r"\midrule")[0]
-    assert r"APc$^\dagger$" in header and "unconverged" not in header
-    assert r"$^\dagger$\,APc $w_1{=}w_2{=}1$: unconverged: 2 runs" in tex
+    assert r"APc$^\dagger$" in header and "falling" not in header
+    assert r"APoc$^\dagger$" not in header and "APoc" in header
+    assert (r"$^\dagger$\,APc $w_1{=}w_2{=}1$: still falling: 2 runs; undecided: 1 run."
+            in tex)
+    assert r"holds the tolerance): APoc $w_1{=}w_2{=}1$: 3 runs." in tex
 
 
 def test_eta_weighs_the_runs_left_by_their_schedules():

@@ -148,3 +148,4 @@ def test_every_table_fits_an_ieee_two_column_page(tables, tmp_path):
                               tex, r"\end{document}", ""])
         log = _pdflatex(tmp_path, f"ieee_{name}", document)
         assert "Overfull \\hbox" not in log, f"{name} is wider than its column or page"
+        assert "Float too large" not in log, f"{name} is higher than a page"

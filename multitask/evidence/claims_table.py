@@ -1,6 +1,6 @@
 """The claims table as files: ``claims.csv`` (every column of ``claims.COLUMNS``), ``claims.tex``
-(booktabs, a ``table*`` at text width for a two-column paper) and ``claims_config.json`` (the
-statistics' settings)."""
+(booktabs ``table*`` floats at text width for a two-column paper, each at most a page high) and
+``claims_config.json`` (the statistics' settings)."""
 from __future__ import annotations
 
 import re
@@ -11,27 +11,33 @@ import pandas as pd
 
 from rnn_seg.runs.folder import write_atomic, write_json
 
-from .claims import FRAME_ACCURACY_MARGIN, MIN_PAIRS, Claim, evaluate
+from .claims import (FRAME_ACCURACY_MARGIN, MIN_PAIRS, POWER_DECIMALS, Claim, evaluate,
+                     smallest_adjusted_p)
 from .latex import escape, number, requires
-from .paired import UNIT_OF_PAIRING, BootstrapConfig, ConfigId
+from .paired import MAX_EXACT_FOLDS, UNIT_OF_PAIRING, ConfigId, StatsConfig
 from .tables import METRIC_LABELS
 from ..models.variants import get_variant
 
 _WEIGHTING_MARKS = {"fixed": "1", "gradnorm": r"\alpha"}
 _PREFIXES = {"original": r"orig.\ ", "forward": r"fwd.\ "}
-_COLUMN_SPEC = "@{\\extracolsep{\\fill}}llcrrcrcl@{}"
-_NUMBER_OF_COLUMNS = 9
+_COLUMN_SPEC = "@{\\extracolsep{\\fill}}llcrrcrrccl@{}"
+_NUMBER_OF_COLUMNS = 11
+#: Rows of one float: a family's claims plus two for its quote; families are not split, and a
+#: float of at most this many fits an IEEE page's text height with its caption.
+ROWS_PER_FLOAT = 40
+#: The task's letter of ``tables.METRIC_LABELS`` -> the claims table's prefix: gesture scores are
+#: the plain names ("Edit", so they cannot be read as model A's), progress scores say so.
+_TASK_PREFIXES = {"A": "", "P": "Progress "}
 
 
-def write_claims(runs: pd.DataFrame, out: Path,
-                 config: BootstrapConfig = BootstrapConfig(),
+def write_claims(runs: pd.DataFrame, out: Path, config: StatsConfig = StatsConfig(),
                  claims: tuple[Claim, ...] | None = None, budget: str = "") -> list[Path]:
     """Evaluate the claims on ``runs`` and write the three files into ``out``.
 
     Args:
         runs: one row per finished run (``collect.run_rows``).
         out: the folder written into.
-        config: bootstrap settings of every comparison.
+        config: the test's level and the power simulation's settings.
         claims: the claims to test; None = the paper's (``claims.CLAIMS``).
         budget: the runs' data and budget, ending the LaTeX caption
             (``captions.RunsDescription.sentence``); empty = not stated.
@@ -43,52 +49,109 @@ def write_claims(runs: pd.DataFrame, out: Path,
     paths = [out / "claims.csv", out / "claims.tex", out / "claims_config.json"]
     write_atomic(paths[0], table.to_csv(index=False, float_format="%.4f"))
     write_atomic(paths[1], claims_latex(table, config, budget))
-    write_json(paths[2], {"bootstrap": asdict(config), "ci_method": config.method,
-                          "test": "two-sided Wilcoxon signed-rank over folds, zero differences "
-                                  "discarded, exact / exhaustive permutation for n <= 13",
-                          "unit_of_pairing": UNIT_OF_PAIRING, "min_pairs_for_verdict": MIN_PAIRS,
-                          "frame_accuracy_margin": FRAME_ACCURACY_MARGIN})
+    write_json(paths[2], {
+        "statistics": asdict(config), "method": config.method,
+        "test": "two-sided exact sign-flip test of the mean per-fold difference, every one of the "
+                f"2^n sign vectors (n <= {MAX_EXACT_FOLDS}); interval: the shifts it does not "
+                "reject",
+        "families": "the claims of one quoted sentence (claim id prefix); Holm within each",
+        "power": "probability of the claimed verdict before the family's correction, fold "
+                 "differences normal with the paper's mean and our sd; simulated once per number "
+                 f"of folds, reported to {POWER_DECIMALS} decimals",
+        "power_monte_carlo_error_max": round(config.power_error, 6),
+        "unit_of_pairing": UNIT_OF_PAIRING, "min_pairs_for_verdict": MIN_PAIRS,
+        "frame_accuracy_margin": FRAME_ACCURACY_MARGIN})
     return paths
 
 
-def claims_latex(table: pd.DataFrame, config: BootstrapConfig = BootstrapConfig(),
+def claims_latex(table: pd.DataFrame, config: StatsConfig = StatsConfig(),
                  budget: str = "") -> str:
-    """``table`` (``claims.evaluate``) as a booktabs ``table*``: the claims grouped under the
-    paper's words, one line per comparison and score; the caption ends with ``budget``."""
+    """``table`` (``claims.evaluate``) as booktabs ``table*`` floats: the claims grouped under the
+    paper's words, one line per comparison and score; whole families, at most
+    ``ROWS_PER_FLOAT`` rows a float; the first float's caption ends with ``budget``, the others
+    continue it."""
     lines = [r"% The paper's claims tested on our runs (multitask-tables, claims.csv).",
-             requires("booktabs").rstrip("\n"),
-             r"\begin{table*}[t]", r"\centering", r"\footnotesize", r"\setlength{\tabcolsep}{4pt}",
-             rf"\caption{{{_caption(table, config, budget)}}}", r"\label{tab:claims}",
-             rf"\begin{{tabular*}}{{\textwidth}}{{{_COLUMN_SPEC}}}", r"\toprule",
-             rf"Comparison & Score & Expected & Paper & Ours & {_level(config)} CI & $p$ & "
-             r"Folds$\times$seeds & Verdict \\", r"\midrule"]
-    quote = None
-    for row in table.itertuples(index=False):
-        if row.quote != quote:
-            if quote is not None:
-                lines.append(r"\addlinespace")
-            quote = row.quote
-            lines.append(rf"\multicolumn{{{_NUMBER_OF_COLUMNS}}}{{@{{}}p{{0.98\textwidth}}}}"
-                         rf"{{\emph{{``{escape(quote)}''}}}} \\")
-        lines.append(" & ".join(_cells(row)) + r" \\")
-    lines += [r"\bottomrule", r"\end{tabular*}", r"\end{table*}"]
+             requires("booktabs").rstrip("\n")]
+    for k, families in enumerate(_floats(table)):
+        caption = (_caption(table, config, budget) if k == 0 else
+                   r"The paper's claims tested on our runs, continued from "
+                   r"Table~\ref{tab:claims}.")
+        lines += [r"\begin{table*}[t]", r"\centering", r"\footnotesize",
+                  r"\setlength{\tabcolsep}{3pt}", rf"\caption{{{caption}}}",
+                  r"\label{tab:claims}" if k == 0 else rf"\label{{tab:claims:{k + 1}}}",
+                  rf"\begin{{tabular*}}{{\textwidth}}{{{_COLUMN_SPEC}}}", r"\toprule",
+                  rf"Comparison & Score & Claim & Paper & Ours & {_level(config)} CI & $p$ & "
+                  r"$p_\mathrm{Holm}$ & Folds & Power & Verdict \\", r"\midrule"]
+        for i, family in enumerate(families):
+            lines += [r"\addlinespace"] * bool(i) + [
+                rf"\multicolumn{{{_NUMBER_OF_COLUMNS}}}{{@{{}}p{{0.98\textwidth}}}}"
+                rf"{{\emph{{``{escape(family.quote.iloc[0])}''}}}} \\"]
+            lines += [" & ".join(_cells(row)) + r" \\" for row in family.itertuples(index=False)]
+        lines += [r"\bottomrule", r"\end{tabular*}", r"\end{table*}"]
     return "\n".join(lines) + "\n"
+
+
+def _floats(table: pd.DataFrame) -> list[list[pd.DataFrame]]:
+    """The families of ``table`` in order, packed into floats of at most ``ROWS_PER_FLOAT``
+    rows (a family larger than that gets a float of its own)."""
+    floats, rows = [[]], 0
+    for _, family in table.groupby("family", sort=False):
+        size = len(family) + 2
+        if floats[-1] and rows + size > ROWS_PER_FLOAT:
+            floats.append([])
+            rows = 0
+        floats[-1].append(family)
+        rows += size
+    return floats
 
 
 def _cells(row) -> list[str]:
     tested = not pd.isna(row.ours_diff)
-    ci = (rf"[{number(row.ci_low)}, {number(row.ci_high)}]"
-          if tested and not pd.isna(row.ci_low) else "--")
-    return [_comparison(row.comparison), METRIC_LABELS.get(row.metric, escape(row.metric)),
-            _direction(row.direction),
-            number(row.paper_diff, signed=True),
-            number(row.ours_diff, signed=True), ci,
+    margin = _margin(row.direction)
+    paper = number(row.paper_diff, signed=True)
+    if not pd.isna(row.paper_in_ci) and not row.paper_in_ci:
+        paper += r"$^\ast$"
+    ci = (rf"[{_bound(row.ci_low, margin)}, {_bound(row.ci_high, margin)}]"
+          if tested else "--")
+    return [_comparison(row.comparison), score_label(row.metric), _direction(row.direction),
+            paper, number(row.ours_diff, digits=2, signed=True), ci,
             f"{row.p_value:.3f}" if tested else "--",
-            rf"{row.folds}$\times${row.seeds}" if tested else "--",
+            f"{row.p_adjusted:.3f}" if tested else "--",
+            row.folds_favouring if tested else "--",
+            "--" if pd.isna(row.power_at_paper_effect)
+            else f"{row.power_at_paper_effect:.{POWER_DECIMALS}f}",
             "not run" if not tested else "--" if pd.isna(row.verdict) else row.verdict]
 
 
-def _caption(table: pd.DataFrame, config: BootstrapConfig, budget: str) -> str:
+def score_label(metric: str) -> str:
+    """``gesture_edit`` -> ``Edit``, ``progress_edit`` -> ``Progress Edit`` (``tables``'
+    ``A Edit`` would read as model A's)."""
+    if metric not in METRIC_LABELS:
+        return escape(metric)
+    letter, name = METRIC_LABELS[metric].split(" ", 1)
+    return _TASK_PREFIXES.get(letter, f"{letter} ") + name
+
+
+def _margin(direction: str) -> float:
+    """The equivalence margin a ``direction`` text names (``|diff| <= 1``), else 0."""
+    match = re.fullmatch(r"\|diff\| <= (\S+)", direction)
+    return float(match.group(1)) if match else 0.0
+
+
+def _bound(value: float, margin: float = 0.0) -> str:
+    """An interval end with 2 decimals, or as many more as it takes (up to 6) for it not to
+    print as 0 or as the margin when it is not: a rounded bound never contradicts the verdict."""
+    if pd.isna(value):
+        return "--"
+    if abs(value) == float("inf"):
+        return r"$-\infty$" if value < 0 else r"$\infty$"
+    digits = 2
+    while digits < 6 and any(round(value, digits) == t != value for t in (0.0, margin, -margin)):
+        digits += 1
+    return number(value, digits=digits, signed=True)
+
+
+def _caption(table: pd.DataFrame, config: StatsConfig, budget: str) -> str:
     """What is compared and how, the verdicts' rules, and ``budget``. Claims without a published
     difference (the conjecture on another task) leave out what describes the paper's tables."""
     folds, seeds = table.folds.dropna(), table.seeds.dropna()
@@ -97,26 +160,48 @@ def _caption(table: pd.DataFrame, config: BootstrapConfig, budget: str) -> str:
     published = table.paper_diff.notna().any()
     subject = ("The paper's claims" if published
                else "The paper's conjecture (no published result)")
-    paper_column = " Paper: the same difference in the paper's tables." if published else ""
+    paper_column = (" Paper: the same difference in the paper's tables, $^\\ast$ where it lies "
+                    "outside our interval." if published else "")
+    power = (" Power: the probability of the claimed verdict before the correction if the fold "
+             "differences were normal with the paper's mean and our standard deviation."
+             if published else "")
+    alpha = f"{config.alpha:g}"
+    limits = _limits(table, config)
     return (
-        f"{subject} tested on our runs. Differences in percentage points: the mean of "
-        f"per-fold paired differences{spread} (seeds averaged within a fold).{paper_column} "
-        f"{_level(config)} CI: {config.method}, "
-        f"{config.resamples} resamples, seed {config.seed}; $p$: two-sided Wilcoxon signed-rank "
-        "test over folds. Verdicts: reproduced (expected sign, CI excludes 0), consistent "
-        "(expected sign, CI includes 0), not reproduced (opposite sign, CI includes 0), "
-        "contradicted (opposite sign, CI excludes 0); for $|\\Delta| \\le$ margin, the same "
-        "with the CI inside / outside the margin; none below "
-        f"{MIN_PAIRS} folds. Subscripts $1$: $w_1{{=}}w_2{{=}}1$, $\\alpha$: GradNorm "
-        "$\\alpha{=}1.5$; $g$(X) = X$_\\alpha$ $-$ X$_1$; orig.: original labels; fwd.: "
-        "forward LSTM."
+        f"{subject} tested on our runs, one family per quoted sentence. Differences in "
+        f"percentage points: the mean of per-fold paired differences{spread} (seeds averaged "
+        f"within a fold).{paper_column} {_level(config)} CI and $p$: the exact sign-flip test "
+        "over all $2^n$ sign vectors of the $n$ folds, and the interval that inverts it (it "
+        f"excludes 0 exactly when $p \\le {alpha}$); $p_\\mathrm{{Holm}}$: Holm's correction "
+        f"within the family. Verdict: reproduced / contradicted when $p_\\mathrm{{Holm}} \\le "
+        f"{alpha}$ with the claimed / the opposite sign, inconclusive otherwise; for "
+        "$|\\Delta| \\le$ margin, $p$ of the hypothesis our mean lies against (reproduced: the "
+        "CI lies inside the margin; contradicted: beyond it); none below "
+        f"{MIN_PAIRS} folds.{limits} Folds: folds with the claimed sign (within the "
+        f"margin).{power} Subscripts $1$: $w_1{{=}}w_2{{=}}1$, $\\alpha$: GradNorm "
+        "$\\alpha{=}1.5$; $g$(X) = X$_\\alpha$ $-$ X$_1$; $r$(X) = X $-$ orig.\\ X; orig.: "
+        "original labels; fwd.: forward LSTM."
         + (" ``Best'': ours against our strongest other model, the paper's against its "
            "runner-up. The paper's Tables II and III baselines are DiPietro et al.'s published "
            "numbers." if published else "")
         + (f" {budget}" if budget else ""))
 
 
-def _level(config: BootstrapConfig) -> str:
+def _limits(table: pd.DataFrame, config: StatsConfig) -> str:
+    """A sentence naming the families too large for any verdict but inconclusive, if any."""
+    tested = table[table.p_value.notna()]
+    blocked = [(family, len(rows), int(rows.folds.max()))
+               for family, rows in tested.groupby("family", sort=False)
+               if smallest_adjusted_p(len(rows), int(rows.folds.max())) > config.alpha]
+    if not blocked:
+        return ""
+    named = ", ".join(f"{escape(family)} ({m} claims, {n} folds: "
+                      f"{smallest_adjusted_p(m, n):.3f})" for family, m, n in blocked)
+    return (f" No $p_\\mathrm{{Holm}}$ can be below $m \\cdot 2/2^n$ for a family of $m$ claims; "
+            f"above {config.alpha:g} for {named}, which are inconclusive whatever the data.")
+
+
+def _level(config: StatsConfig) -> str:
     return f"{config.confidence * 100:g}\\,\\%"
 
 
@@ -126,18 +211,24 @@ def _span(values: pd.Series) -> str:
 
 
 def _comparison(text: str) -> str:
-    """``(APr-gradnorm - APr-fixed) - original/A-fixed`` -> ``$g$(APr) $-$ orig.\\ A``."""
-    text = _GAIN.sub(r"g:\1", text)
-    latex = [r"$-$" if t == "-" else _gain(t) if t.startswith("g:") else _config(t)
+    """``(APr-gradnorm - APr-fixed) - original/A-fixed`` -> ``$g$(APr) $-$ orig.\\ A``;
+    ``(APoc-fixed - original/APoc-fixed) - (...)`` -> ``$r$(APoc$_1$) $-$ ...``."""
+    text = _RELABEL.sub(r"r:\1", _GAIN.sub(r"g:\1", text))
+    latex = [r"$-$" if t == "-" else _gain(t) if t.startswith(("g:", "r:")) else _config(t)
              for t in text.split()]
     return " ".join(latex)
 
 
 _GAIN = re.compile(r"\((\S+)-gradnorm - \1-fixed\)")
+_RELABEL = re.compile(r"\((\S+) - original/\1\)")
 
 
 def _gain(token: str) -> str:
-    return f"$g$({_config(token.removeprefix('g:') + '-fixed', weighting=False)})"
+    """``g:APr`` -> ``$g$(APr)``, ``r:APoc-fixed`` -> ``$r$(APoc$_1$)``."""
+    kind, name = token.split(":", 1)
+    if kind == "g":
+        return f"$g$({_config(name + '-fixed', weighting=False)})"
+    return f"$r$({_config(name)})"
 
 
 def _config(label: str, weighting: bool = True) -> str:

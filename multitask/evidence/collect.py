@@ -15,10 +15,12 @@ Metric columns are ``<task>_<metric>``: ``gesture_accuracy``, ``gesture_edit``,
 ``progress_f1@10``, ``progress_mae`` (normalised MAE of the regression output rounded to the
 nearest stage and clipped, in % of the stage range: the 4-stage span for Suturing, the paper's
 metric) and ``progress_mae_raw`` (the same of the raw output). Each run's value is the mean over
-its evaluation points. Each run also has ``converged``, ``loss_drop`` and ``loss_drop_se``
-(``rnn_seg.convergence``: the relative fall of its worst task's training loss over the last 10 %
-of its schedule, and that estimate's standard error; runs finished before the standard error was
-saved get it from their ``history.csv``).
+its evaluation points. Each run also has ``convergence``, ``converged``, ``loss_drop`` and
+``loss_drop_se`` (``rnn_seg.convergence``: the three-way verdict converged / undecided / still
+falling from every task's 95 % interval, the point verdict, the relative fall of its worst task's
+training loss over the last 10 % of its schedule, and that estimate's standard error; runs
+finished before the standard error or the three-way verdict was saved get them from their
+``history.csv`` and their saved ``loss_drop``).
 """
 from __future__ import annotations
 
@@ -31,7 +33,7 @@ import numpy as np
 import pandas as pd
 
 from jigsaws_tools.task_definition import PAPER_TASK
-from rnn_seg.convergence import ConvergenceCriterion, history_convergence
+from rnn_seg.convergence import ConvergenceCriterion, history_convergence, verdict
 from rnn_seg.runs.folder import RunFolderError, is_finished, read_json
 
 from ..grid.folder import GRID_RECORD, record_runs
@@ -48,7 +50,9 @@ _RENAME = {"mae_normalised_rounded": "mae", "mae_normalised": "mae_raw"}
 #: How a line of ``run_rows``' problems that names a configuration left out starts.
 LEFT_OUT = "left out:"
 #: Per-run columns that are not metrics (not averaged over seeds).
-CONVERGENCE_COLUMNS = ["converged", "loss_drop", "loss_drop_se"]
+CONVERGENCE_COLUMNS = ["convergence", "converged", "loss_drop", "loss_drop_se"]
+#: Per fold and configuration: how many runs have each three-way verdict but "converged".
+CONVERGENCE_COUNTS = {"still_falling": "still falling", "undecided": "undecided"}
 
 
 def key_from_path(run_dir: Path, root: Path) -> RunKey:
@@ -175,7 +179,8 @@ def _run_row(root: Path, run: Path, problems: list[str]) -> dict | None:
         return None
     row = asdict(key_from_path(run_dir, root))
     convergence = _convergence(run_dir, metrics.get("convergence") or {})
-    row.update(converged=convergence.get("converged"), loss_drop=convergence.get("max_loss_drop"),
+    row.update(convergence=convergence.get("verdict"), converged=convergence.get("converged"),
+               loss_drop=convergence.get("max_loss_drop"),
                loss_drop_se=convergence.get("max_loss_drop_se"))
     for task, values in mean.items():
         for name, value in values.items():
@@ -189,20 +194,29 @@ def _run_row(root: Path, run: Path, problems: list[str]) -> dict | None:
 
 def _convergence(run_dir: Path, saved: dict) -> dict:
     """The run's saved diagnostic. One saved before ``max_loss_drop_se`` existed gets the standard
-    error from its loss history and the saved criterion; its saved verdict and ``loss_drop`` are
-    kept. A history that cannot give it leaves the standard error unknown (absent)."""
+    error from its loss history and the saved criterion; its saved point verdict and
+    ``loss_drop`` are kept. One saved before the three-way ``verdict`` existed gets it from its
+    tasks' ``loss_drop`` and standard errors. A history that cannot give the standard error leaves
+    it and the three-way verdict unknown (absent)."""
     drops = saved.get("loss_drop") or {}
-    if "max_loss_drop_se" in saved or not drops or None in drops.values():
+    if not drops or None in drops.values():
         return saved
-    try:
-        total = read_json(run_dir / "config.json")["run"]["optim"]["total"]
-        recomputed = history_convergence(pd.read_csv(run_dir / "history.csv"), list(drops),
-                                         total, ConvergenceCriterion(**saved.get("criterion", {})))
-    except (RunFolderError, KeyError, TypeError, OSError, ValueError):
+    criterion = ConvergenceCriterion(**saved.get("criterion", {}))
+    if "max_loss_drop_se" not in saved:
+        try:
+            total = read_json(run_dir / "config.json")["run"]["optim"]["total"]
+            recomputed = history_convergence(pd.read_csv(run_dir / "history.csv"), list(drops),
+                                             total, criterion)
+        except (RunFolderError, KeyError, TypeError, OSError, ValueError):
+            return saved
+        worst = max(drops, key=drops.get)
+        saved = {**saved, "loss_drop_se": recomputed["loss_drop_se"],
+                 "max_loss_drop_se": recomputed["loss_drop_se"][worst]}
+    errors = saved.get("loss_drop_se") or {}
+    if "verdict" in saved or set(errors) != set(drops) or None in errors.values():
         return saved
-    worst = max(drops, key=drops.get)
-    return {**saved, "loss_drop_se": recomputed["loss_drop_se"],
-            "max_loss_drop_se": recomputed["loss_drop_se"][worst]}
+    return {**saved, "verdict": verdict([(drops[t], errors[t]) for t in drops],
+                                        criterion.tolerance)}
 
 
 def _per_class(metric: str) -> bool:
@@ -236,26 +250,30 @@ def grid_task_name(grid_dir: Path | str) -> str:
 
 def per_fold(runs: pd.DataFrame) -> pd.DataFrame:
     """Mean over seeds for every configuration and fold (the numbers the tables summarise), with
-    ``seeds`` and ``unconverged`` (runs whose training loss was still falling) per fold."""
+    ``seeds``, ``still_falling`` and ``undecided`` (runs of that three-way convergence verdict)
+    per fold."""
     metric_cols = [c for c in runs.columns if c not in KEY_COLUMNS + CONVERGENCE_COLUMNS]
     grouped = runs.groupby(CONFIG_COLUMNS + ["fold"], sort=True)
     table = grouped[metric_cols].mean()
-    table.insert(0, "unconverged", grouped["converged"].agg(lambda c: int((c == False).sum())))  # noqa: E712
+    keys = [runs[c] for c in CONFIG_COLUMNS + ["fold"]]
+    for column, state in reversed(CONVERGENCE_COUNTS.items()):
+        table.insert(0, column, runs["convergence"].eq(state).groupby(keys).sum().astype(int))
     table.insert(0, "seeds", grouped.size())
     return table.reset_index()
 
 
 def summary(folds: pd.DataFrame) -> pd.DataFrame:
     """Mean and sample standard deviation over folds: columns ``<metric>_mean``, ``<metric>_std``,
-    plus ``folds`` (how many folds each configuration has) and ``unconverged`` (its runs whose
-    training loss was still falling)."""
-    counts = ["fold", "seeds", "unconverged"]
+    plus ``folds`` (how many folds each configuration has), ``still_falling`` and ``undecided``
+    (its runs of that three-way convergence verdict)."""
+    counts = ["fold", "seeds", *CONVERGENCE_COUNTS]
     metric_cols = [c for c in folds.columns if c not in CONFIG_COLUMNS + counts]
     grouped = folds.groupby(CONFIG_COLUMNS, sort=True)
     mean = grouped[metric_cols].mean().add_suffix("_mean")
     std = grouped[metric_cols].std(ddof=1).add_suffix("_std")
     table = pd.concat([mean, std], axis=1)
-    table.insert(0, "unconverged", grouped["unconverged"].sum())
+    for column in reversed(CONVERGENCE_COUNTS):
+        table.insert(0, column, grouped[column].sum())
     table.insert(0, "folds", grouped.size())
     return table.reset_index()
 

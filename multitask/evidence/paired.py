@@ -5,37 +5,43 @@ held-out surgeon, so fold-to-fold differences in difficulty (the 5-8 point stand
 the paper's tables) cancel in the per-fold difference. Within a fold each side is the mean over
 its seeds; seeds are not paired (seed k of X and seed k of Y share nothing but a number).
 
-For a contrast (``X - Y``, or a difference of differences ``(X1 - Y1) - (X2 - Y2)``) on a metric:
+For a contrast (``X - Y``, or a difference of differences ``(X1 - Y1) - (X2 - Y2)``) on a metric,
+one procedure gives the test and the interval, so that they cannot disagree:
 
-* the per-fold differences on the folds every side ran (the others are dropped and named), and
-  their mean;
-* a 95 % confidence interval from a two-level bootstrap: resample folds with replacement, then,
-  within each drawn fold, each side's seeds with replacement (a no-op with one seed). The interval
-  is the *expanded percentile* interval (Hesterberg 2015, "What teachers should know about the
-  bootstrap", The American Statistician 69(4)): the percentile interval at the widened level
-  ``alpha' = 2 Phi(-sqrt(n / (n - 1)) t_{1 - alpha/2, n - 1})`` (0.0115 for n = 8 folds instead
-  of 0.05). The plain percentile interval of a mean of 8 values is too narrow (simulated coverage
-  88 % for a nominal 95 %; expanded: 93-95 %); BCa does not repair that narrowness and its
-  jackknife acceleration is not defined for the two-level resampling. Resampling the seeds as
-  well counts their noise twice (it is already in the spread of the per-fold differences; Ren
-  et al. 2010, J. Appl. Stat. 37(9)), so with several seeds the interval is conservative
-  (simulated coverage 97-100 %); ``BootstrapConfig(resample_seeds=False)`` resamples folds only
-  (93-94 %). A seeded ``numpy.random.Generator`` per comparison makes every interval
-  deterministic and independent of the order in which comparisons are made;
-* the two-sided Wilcoxon signed-rank p-value of the per-fold differences
-  (``scipy.stats.wilcoxon``): exact for n <= 50 distinct differences, and an exhaustive
-  permutation over all 2^n sign flips when there are ties (n <= 13, so always for 8 folds). Zero
-  differences are discarded (``zero_method="wilcox"``, Wilcoxon's convention: a fold on which both
-  sides score the same says nothing about the sign); their number is reported, and a contrast
-  whose differences are all zero has p = 1.
+* the per-fold differences ``d`` on the folds every side ran (the others are dropped and named),
+  their mean, standard deviation and ``effect_dz`` = mean / sd;
+* the **exact paired sign-flip (permutation) test** of the mean difference: under the null
+  hypothesis "the difference is ``d0``", each ``d_i - d0`` is as likely positive as negative, so the
+  ``2^n`` sign vectors are equally likely; the two-sided p-value is the share of sign vectors ``s``
+  with ``|sum s_i (d_i - d0)| >= |sum (d_i - d0)|``. Every vector is enumerated (``2^8 = 256`` for
+  8 folds): no random draw enters. The smallest p is ``2 / 2^n`` (0.0078 for 8 folds, 0.0156 for 7);
+* the **confidence interval** is the same test inverted: the shifts ``d0`` it does not reject at
+  level ``1 - confidence``. It is computed exactly: a sign vector counts at ``d0`` exactly when
+  ``d0`` lies between the mean of ``d`` over its flipped folds and the mean over the others
+  (both sides are linear in ``d0``), so the p-value at any ``d0`` and the interval's ends come
+  from the same sorted subset means. ``p(0) <= alpha`` if and only if the interval excludes 0,
+  by construction; coverage is exact (``1 - 12/256`` = 95.3 % at 8 folds) whenever the fold
+  differences are symmetric about their mean;
+* the variance of ``d`` split into a **seed share** (each side's within-fold variance over its
+  seeds, divided by its number of seeds: what averaging the seeds leaves in a fold's mean) and a
+  **fold share** (the rest: how the effect itself varies from one test user to another). With one
+  seed per side the split is unknown.
+
+``power`` is the probability that the same test, at the same level, rejects in a given direction
+when the fold differences are normal with a given mean and standard deviation. The test and its
+interval are equivariant (shifting and scaling ``d`` shifts and scales the interval), so one
+simulation per number of folds serves every claim: ``power_samples`` standard normal vectors from
+``numpy.random.default_rng(power_seed)``, whose exact intervals are kept; the Monte-Carlo standard
+error is at most ``0.5 / sqrt(power_samples)`` (0.0005 for the default 10^6).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from functools import cached_property, lru_cache
 
 import numpy as np
 import pandas as pd
-from scipy import stats
 
 from jigsaws_tools.annotations import ANNOTATION_VERSIONS
 
@@ -43,6 +49,8 @@ from .collect import METRICS
 from ..grid.spec import DIRECTIONS
 
 UNIT_OF_PAIRING = "LOUO fold (test user); each side averaged over its seeds within the fold"
+#: The most folds the exact test enumerates (2^n sign vectors).
+MAX_EXACT_FOLDS = 16
 
 
 @dataclass(frozen=True)
@@ -126,29 +134,83 @@ class Contrast:
 
 
 @dataclass(frozen=True)
-class BootstrapConfig:
-    """The confidence interval's settings (every comparison draws from a fresh generator seeded
-    with ``seed``)."""
+class StatsConfig:
+    """The test's level and the power simulation's settings. Nothing random enters a test, an
+    interval or a verdict; ``power_seed`` seeds the power simulation alone."""
 
-    resamples: int = 20_000
     confidence: float = 0.95
-    seed: int = 0
-    resample_seeds: bool = True     # False: folds only, each fold's seed means kept as they are
+    power_samples: int = 1_000_000
+    power_seed: int = 0
 
-    @property
-    def method(self) -> str:
-        levels = "folds, then seeds within folds" if self.resample_seeds else "folds"
-        return f"expanded percentile bootstrap (Hesterberg 2015) over {levels}"
+    method = ("exact paired sign-flip (permutation) test of the mean fold difference over all "
+              "2^n sign vectors; the interval inverts the same test")
 
     def __post_init__(self):
-        if self.resamples < 100:
-            raise ValueError(f"resamples must be >= 100 (value: {self.resamples})")
         if not 0 < self.confidence < 1:
             raise ValueError(f"confidence must be in (0, 1) (value: {self.confidence})")
+        if self.power_samples < 1000:
+            raise ValueError(f"power_samples must be >= 1000 (value: {self.power_samples})")
+
+    @property
+    def alpha(self) -> float:
+        return 1 - self.confidence
+
+    @property
+    def power_error(self) -> float:
+        """The largest Monte-Carlo standard error of a simulated power (at power 0.5)."""
+        return 0.5 / math.sqrt(self.power_samples)
 
 
 class NotPaired(ValueError):
     """The runs hold no fold on which every side of a contrast has a value."""
+
+
+class SignFlip:
+    """The exact sign-flip test of the mean of ``differences`` ``[n]`` and its inverted interval.
+
+    Each of the ``2^(n-1) - 1`` splits of the folds into two non-empty groups (a sign vector and
+    its negation are one split) counts towards the p-value at ``d0`` when ``d0`` lies between the
+    two groups' means (``low``, ``high``); the two constant sign vectors always count."""
+
+    def __init__(self, differences, confidence: float = 0.95):
+        d = np.asarray(differences, float)
+        if not 1 <= d.size <= MAX_EXACT_FOLDS:
+            raise ValueError(f"the exact sign-flip test takes 1 to {MAX_EXACT_FOLDS} paired folds "
+                             f"(value: {d.size})")
+        self.n, self.alpha = d.size, 1 - confidence
+        groups = _split_masks(d.size)                                     # [M, n] bool
+        sizes = groups.sum(axis=1)
+        flipped = (groups @ d) / sizes
+        others = (~groups @ d) / (d.size - sizes)
+        self.low = np.sort(np.minimum(flipped, others))
+        self.high = np.sort(np.maximum(flipped, others))
+        self.half = 2 ** (d.size - 1)                                     # sign vectors / 2
+        # the fewest splits that must count at d0 for the test not to reject it
+        self.needed = next(k for k in range(self.half + 1) if (1 + k) / self.half > self.alpha)
+
+    def p_value(self, d0: float = 0.0) -> float:
+        """Two-sided p-value of the hypothesis "the mean difference is ``d0``"."""
+        counting = np.searchsorted(self.low, d0, side="right") - np.searchsorted(
+            self.high, d0, side="left")
+        return (1 + int(counting)) / self.half
+
+    def interval(self) -> tuple[float, float]:
+        """The ``d0`` the test does not reject (infinite when it can reject none)."""
+        if self.needed == 0:
+            return -math.inf, math.inf
+        return float(self.low[self.needed - 1]), float(self.high[-self.needed])
+
+    @property
+    def smallest_p(self) -> float:
+        return 1 / self.half
+
+
+@lru_cache(maxsize=None)
+def _split_masks(n: int) -> np.ndarray:
+    """``[2^(n-1) - 1, n]``: every split of ``n`` folds into two non-empty groups, as the mask of
+    the group without the last fold."""
+    codes = np.arange(1, 2 ** (n - 1))
+    return ((codes[:, None] >> np.arange(n)) & 1).astype(bool)
 
 
 @dataclass(frozen=True)
@@ -162,17 +224,64 @@ class PairedResult:
     differences: tuple[float, ...]      # per paired fold, same order
     dropped: dict[str, str]             # fold -> the sides that lack it
     seeds: tuple[int, int]              # fewest and most seeds of a side on a paired fold
-    mean: float
-    ci_low: float                       # NaN with fewer than 2 pairs
-    ci_high: float
-    p_value: float                      # two-sided Wilcoxon signed-rank over the folds
-    zero_differences: int               # discarded by the Wilcoxon test
-    bootstrap: BootstrapConfig
+    seed_variance: float                # what the seeds' noise adds to var(d); NaN with 1 seed
+    config: StatsConfig
     unit: str = UNIT_OF_PAIRING
 
     @property
     def pairs(self) -> int:
         return len(self.folds)
+
+    @property
+    def mean(self) -> float:
+        return float(np.mean(self.differences))
+
+    @property
+    def sd(self) -> float:
+        """Sample standard deviation of the per-fold differences (NaN with one fold)."""
+        return float(np.std(self.differences, ddof=1)) if self.pairs > 1 else math.nan
+
+    @property
+    def effect_dz(self) -> float:
+        """Mean / sd of the per-fold differences (NaN when they do not vary)."""
+        return self.mean / self.sd if self.sd > 0 else math.nan
+
+    @cached_property
+    def test(self) -> SignFlip:
+        return SignFlip(self.differences, self.config.confidence)
+
+    @property
+    def p_value(self) -> float:
+        return self.test.p_value(0.0)
+
+    @property
+    def ci(self) -> tuple[float, float]:
+        """The test inverted at ``config.confidence``: ``(ci_low, ci_high)``."""
+        return self.test.interval()
+
+    @property
+    def ci_low(self) -> float:
+        return self.ci[0]
+
+    @property
+    def ci_high(self) -> float:
+        return self.ci[1]
+
+    @property
+    def seed_share(self) -> float:
+        """Share of var(d) that the seeds' noise explains, clipped to [0, 1]; NaN when unknown."""
+        if math.isnan(self.seed_variance) or not self.sd > 0:
+            return math.nan
+        return min(1.0, self.seed_variance / self.sd ** 2)
+
+    def favouring(self, sign: int) -> int:
+        """How many folds have a difference of ``sign`` (+1 / -1)."""
+        return int(np.sum(np.sign(self.differences) == sign))
+
+    def power(self, mean: float, sign: int) -> float:
+        """Probability that the test rejects with the sign ``sign`` when the fold differences are
+        normal with ``mean`` and our standard deviation (``power``)."""
+        return power(self.pairs, mean, self.sd, sign, self.config)
 
     def describe(self) -> str:
         """A few lines for a terminal."""
@@ -180,22 +289,22 @@ class PairedResult:
                  else f"{self.seeds[0]}-{self.seeds[1]}")
         per_fold = "  ".join(f"{f} {d:+.2f}" for f, d in zip(self.folds, self.differences))
         dropped = ", ".join(f"{f} (no {sides})" for f, sides in self.dropped.items()) or "none"
-        level = f"{self.bootstrap.confidence:.0%}"
-        ci = (f"{level} CI [{self.ci_low:+.2f}, {self.ci_high:+.2f}] ({self.bootstrap.method}; "
-              f"{self.bootstrap.resamples} resamples, seed {self.bootstrap.seed})"
-              if self.pairs > 1 else "no CI from one fold")
+        low, high = self.ci
+        shares = ("unknown with one seed" if math.isnan(self.seed_share) else
+                  f"seeds {self.seed_share:.0%}, folds {1 - self.seed_share:.0%}")
         return "\n".join([
             f"{self.contrast} on {self.metric}",
             f"unit of pairing: {self.unit}",
             f"pairs: {self.pairs} folds, {seeds} seed(s) per side and fold; dropped: {dropped}",
             f"per-fold differences: {per_fold}",
-            f"mean difference: {self.mean:+.2f}, {ci}",
-            (f"Wilcoxon signed-rank, two-sided: p = {self.p_value:.3g} "
-             f"({self.zero_differences} zero difference(s) discarded)")])
+            f"mean difference: {self.mean:+.3f} (sd {self.sd:.3f}, d_z {self.effect_dz:+.2f}; "
+            f"variance shares: {shares})",
+            f"{self.config.confidence:.0%} CI [{low:+.3f}, {high:+.3f}], p = {self.p_value:.4f} "
+            f"(smallest attainable {self.test.smallest_p:.4f}): {self.config.method}"])
 
 
 def paired(runs: pd.DataFrame, contrast: Contrast, metric: str,
-           config: BootstrapConfig = BootstrapConfig()) -> PairedResult:
+           config: StatsConfig = StatsConfig()) -> PairedResult:
     """Paired statistics of ``contrast`` on ``metric`` over the folds every side ran.
 
     Args:
@@ -203,7 +312,7 @@ def paired(runs: pd.DataFrame, contrast: Contrast, metric: str,
             weighting, seed, fold`` and the metrics.
         contrast: the per-fold quantity, e.g. ``Contrast(ConfigId("APc"), ConfigId("A"))``.
         metric: a metric column, e.g. ``gesture_edit``.
-        config: bootstrap settings.
+        config: the test's level and the power simulation's settings.
 
     Raises:
         NotPaired: a side has no run with a value of ``metric``, or the sides share no fold.
@@ -219,16 +328,29 @@ def paired(runs: pd.DataFrame, contrast: Contrast, metric: str,
         raise NotPaired(f"{contrast.label} on {metric}: the sides share no fold")
     dropped = {fold: ", ".join(side.label for side, values in sides.items() if fold not in values)
                for fold in sorted(set().union(*sides.values()) - set(common))}
-    padded = {side: _padded([values[f] for f in common]) for side, values in sides.items()}
-    differences = sum(coef * _fold_means(*padded[side]) for side, coef in terms.items())
-    counts = np.concatenate([padded[side][1] for side in terms])
-    low, high = _bootstrap_ci(padded, terms, config)
+    differences = sum(coef * np.array([sides[side][f].mean() for f in common])
+                      for side, coef in terms.items())
+    counts = [len(sides[side][f]) for side in terms for f in common]
     return PairedResult(
         contrast=contrast.label, metric=metric, folds=tuple(common),
         differences=tuple(float(d) for d in differences), dropped=dropped,
-        seeds=(int(counts.min()), int(counts.max())), mean=float(differences.mean()),
-        ci_low=low, ci_high=high, p_value=_wilcoxon(differences),
-        zero_differences=int(np.sum(differences == 0)), bootstrap=config)
+        seeds=(min(counts), max(counts)),
+        seed_variance=_seed_variance([[sides[side][f] for f in common] for side in terms]),
+        config=config)
+
+
+def _seed_variance(per_side: list[list[np.ndarray]]) -> float:
+    """What the seed-to-seed noise of every side adds to the variance of a per-fold difference:
+    per side, its within-fold seed variance (pooled over the folds with 2 or more seeds) times the
+    mean over folds of 1 / seeds; summed over sides (coefficients are +-1). NaN when a side has
+    one seed on every fold."""
+    total = 0.0
+    for folds in per_side:
+        within = [np.var(v, ddof=1) for v in folds if len(v) > 1]
+        if not within:
+            return math.nan
+        total += float(np.mean(within)) * float(np.mean([1 / len(v) for v in folds]))
+    return total
 
 
 def config_labels(runs: pd.DataFrame) -> list[str]:
@@ -248,54 +370,67 @@ def _seed_values(runs: pd.DataFrame, side: ConfigId, metric: str) -> dict[str, n
     return {str(fold): group[metric].to_numpy(float) for fold, group in values.groupby("fold")}
 
 
-def _padded(per_fold: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
-    """Ragged per-fold seed values as ``[folds, max seeds]`` (NaN-padded) and the counts
-    ``[folds]``."""
-    counts = np.array([len(v) for v in per_fold])
-    values = np.full((len(per_fold), counts.max()), np.nan)
-    for i, v in enumerate(per_fold):
-        values[i, :len(v)] = v
-    return values, counts
+def power(folds: int, mean: float, sd: float, sign: int,
+          config: StatsConfig = StatsConfig()) -> float:
+    """Probability that the sign-flip test over ``folds`` normal fold differences with ``mean`` and
+    standard deviation ``sd`` rejects "no difference" at ``config``'s level with the sign ``sign``
+    (+1: the interval lies above 0; -1: below). NaN when ``sd`` is not positive or unknown.
+
+    The interval of ``mean + sd * z`` is ``mean + sd * interval(z)``, so the power is the share of
+    the simulated standard normal ``z`` (``simulated_intervals``) whose interval end lies beyond
+    ``-mean / sd``.
+    """
+    if not sd > 0 or math.isnan(mean):
+        return math.nan
+    low, high = simulated_intervals(folds, config)
+    beyond = low > -mean / sd if sign > 0 else high < -mean / sd
+    return float(np.mean(beyond))
 
 
-def _fold_means(values: np.ndarray, counts: np.ndarray) -> np.ndarray:
-    return np.nansum(values, axis=-1) / counts
+def equivalence_power(folds: int, mean: float, sd: float, margin: float,
+                      config: StatsConfig = StatsConfig()) -> float:
+    """Probability that the interval lies inside ``(-margin, margin)`` when the fold differences
+    are normal with ``mean`` and ``sd`` (as ``power``)."""
+    if not sd > 0 or math.isnan(mean):
+        return math.nan
+    low, high = simulated_intervals(folds, config)
+    return float(np.mean((mean + sd * low > -margin) & (mean + sd * high < margin)))
 
 
-def _bootstrap_ci(padded: dict[ConfigId, tuple[np.ndarray, np.ndarray]],
-                  terms: dict[ConfigId, int], config: BootstrapConfig) -> tuple[float, float]:
-    """Expanded percentile interval of the mean per-fold contrast; folds resampled, then (unless
-    ``config.resample_seeds`` is off) each side's seeds within every drawn fold."""
-    n = next(iter(padded.values()))[1].size
-    if n < 2:
-        return float("nan"), float("nan")
-    rng = np.random.default_rng(config.seed)
-    folds = rng.integers(0, n, size=(config.resamples, n))               # [B, n]
-    total = np.zeros((config.resamples, n))
-    for side, coef in terms.items():
-        values, counts = padded[side]
-        if not config.resample_seeds:
-            total += coef * _fold_means(values, counts)[folds]
-            continue
-        drawn_counts = counts[folds]                                     # [B, n]
-        slots = np.arange(values.shape[1])                              # [S]
-        picks = (rng.random((*folds.shape, slots.size)) * drawn_counts[..., None]).astype(int)
-        drawn = values[folds[..., None], picks]                          # [B, n, S]
-        used = slots < drawn_counts[..., None]
-        total += coef * np.where(used, drawn, 0.0).sum(axis=-1) / drawn_counts
-    means = total.mean(axis=1)                                           # [B]
-    alpha = _expanded_alpha(1 - config.confidence, n)
-    low, high = np.quantile(means, [alpha / 2, 1 - alpha / 2])
-    return float(low), float(high)
+@lru_cache(maxsize=8)
+def simulated_intervals(folds: int, config: StatsConfig) -> tuple[np.ndarray, np.ndarray]:
+    """The exact intervals of ``config.power_samples`` vectors of ``folds`` standard normal
+    differences, drawn from ``numpy.random.default_rng(config.power_seed)``: ``(low, high)``,
+    ``[power_samples]`` each (infinite where the test can reject nothing)."""
+    rng = np.random.default_rng(config.power_seed)
+    z = rng.standard_normal((config.power_samples, folds))
+    groups = _split_masks(folds).astype(float)                            # [M, n]
+    sizes = groups.sum(axis=1)
+    needed = SignFlip(np.zeros(folds), config.confidence).needed
+    if needed == 0:
+        infinite = np.full(config.power_samples, np.inf)
+        return -infinite, infinite
+    low, high = np.empty(config.power_samples), np.empty(config.power_samples)
+    chunk = max(1, 2 ** 19 // len(groups))                              # fits a cache
+    for start in range(0, config.power_samples, chunk):
+        block = z[start:start + chunk]                                    # [B, n]
+        flipped = block @ groups.T / sizes
+        others = (block.sum(axis=1, keepdims=True) - block @ groups.T) / (folds - sizes)
+        lows, highs = np.minimum(flipped, others), np.maximum(flipped, others)
+        low[start:start + chunk] = np.partition(lows, needed - 1, axis=1)[:, needed - 1]
+        high[start:start + chunk] = -np.partition(-highs, needed - 1, axis=1)[:, needed - 1]
+    return low, high
 
 
-def _expanded_alpha(alpha: float, n: int) -> float:
-    """Hesterberg's widened level for the percentile interval of a mean of ``n`` values."""
-    return float(2 * stats.norm.cdf(-np.sqrt(n / (n - 1)) * stats.t.ppf(1 - alpha / 2, n - 1)))
-
-
-def _wilcoxon(differences: np.ndarray) -> float:
-    if not np.any(differences):
-        return 1.0
-    return float(stats.wilcoxon(differences, zero_method="wilcox", alternative="two-sided",
-                                method="auto").pvalue)
+def holm(p_values) -> np.ndarray:
+    """Holm's step-down adjusted p-values (same order as ``p_values``; NaN stays NaN and does not
+    count): the i-th smallest of m is ``max_{j <= i} min(1, (m - j + 1) p_(j))``."""
+    p = np.asarray(p_values, float)
+    adjusted = np.full(p.shape, np.nan)
+    tested = np.flatnonzero(~np.isnan(p))
+    order = tested[np.argsort(p[tested], kind="stable")]
+    m, running = len(order), 0.0
+    for rank, index in enumerate(order):
+        running = max(running, min(1.0, (m - rank) * p[index]))
+        adjusted[index] = running
+    return adjusted

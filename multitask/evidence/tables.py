@@ -21,7 +21,7 @@ from itertools import groupby
 
 import pandas as pd
 
-from .collect import LOWER_IS_BETTER, METRICS, finite, lookup
+from .collect import CONVERGENCE_COUNTS, LOWER_IS_BETTER, METRICS, finite, lookup
 from .latex import bold, escape, mean_std, number, requires
 from .paper_results import TABLE_1, TABLE_2, TABLE_2_RELATED, TABLE_3, Number
 
@@ -176,17 +176,18 @@ def _row(label: str, config: str, metric: str, left: Number, right: Number, fold
 
 def _marked(label: str, *summary_rows: pd.Series) -> str:
     """``label``, followed by what its summary rows say against the evidence: "(incomplete: n/m
-    runs)" when a configuration lacks runs (``multitask-tables --allow-incomplete``),
-    "(unconverged: n runs)" when some of its runs' training loss was still falling
-    (``rnn_seg.convergence``)."""
+    runs)" when a configuration lacks runs (``multitask-tables --allow-incomplete``), "(still
+    falling: n runs)" and "(undecided: n runs)" for its runs of those three-way convergence
+    verdicts (``rnn_seg.convergence``), in one parenthesis separated by "; "."""
     notes = []
     if not all(row.get("complete", True) for row in summary_rows):
         runs = sum(int(row["runs"]) for row in summary_rows)
         expected = sum(int(row["runs_expected"]) for row in summary_rows)
         notes.append(f"incomplete: {runs}/{expected} runs")
-    unconverged = sum(int(row.get("unconverged", 0)) for row in summary_rows)
-    if unconverged:
-        notes.append(f"unconverged: {unconverged} run{'s' if unconverged > 1 else ''}")
+    for column, state in CONVERGENCE_COUNTS.items():
+        count = sum(int(row.get(column, 0)) for row in summary_rows)
+        if count:
+            notes.append(f"{state}: {count} run{'s' if count > 1 else ''}")
     return f"{label} ({'; '.join(notes)})" if notes else label
 
 
@@ -223,9 +224,16 @@ def to_latex(frame: pd.DataFrame, caption: str, label: str, sides: tuple[str, st
             + ("" if ours_only or right_best is None else
                f"; in the {sides[1]} rows, as the paper prints it (best of its table)") + ".")
     marked = [(name, evidence) for name, evidence in map(_split_evidence, models) if evidence]
-    if marked:
+    flagged = [(name, e) for name, e in marked if _flagged(e)]
+    if flagged:
         note += (r" $^\dagger$\," + "; ".join(f"{_latex_model(name)}: {escape(evidence)}"
-                                              for name, evidence in marked) + ".")
+                                              for name, evidence in flagged) + ".")
+    undecided = [(name, e) for name, e in marked if not _flagged(e)]
+    if undecided:
+        note += (" Runs of undecided convergence (the 95\\,\\% interval of the final loss "
+                 "drop holds the tolerance): " + "; ".join(
+                     f"{_latex_model(name)}: {escape(evidence.removeprefix('undecided: '))}"
+                     for name, evidence in undecided) + ".")
     return "".join([
         requires(*PACKAGES),
         f"\\begin{{{env}}}[t]\n\\centering\n\\footnotesize\n",
@@ -264,14 +272,20 @@ def _body(frame: pd.DataFrame, models: list[str], rows: list[tuple[str, str]], l
 
 
 #: What ``_marked`` appends to a model's label about its evidence, split off for LaTeX.
-_EVIDENCE = re.compile(r"(.*) \(((?:incomplete|unconverged): [^()]*)\)")
+_EVIDENCE = re.compile(r"(.*) \(((?:incomplete|still falling|undecided): [^()]*)\)")
 
 
 def _split_evidence(model: str) -> tuple[str, str]:
-    """``"APc (w1=w2=1) (unconverged: 2 runs)"`` -> ``("APc (w1=w2=1)", "unconverged: 2 runs")``;
-    an unmarked label -> ``(label, "")``."""
+    """``"APc (w1=w2=1) (still falling: 2 runs)"`` -> ``("APc (w1=w2=1)", "still falling: 2
+    runs")``; an unmarked label -> ``(label, "")``."""
     match = _EVIDENCE.fullmatch(model)
     return (match.group(1), match.group(2)) if match else (model, "")
+
+
+def _flagged(evidence: str) -> bool:
+    """Whether ``_marked``'s evidence calls for a dagger: runs missing or still falling (runs
+    that are only undecided are named in the note alone)."""
+    return evidence.startswith(("incomplete", "still falling")) or "; still falling" in evidence
 
 
 def _name_and_detail(model: str) -> tuple[str, str]:
@@ -298,7 +312,7 @@ def _header(models: list[str], labels: int) -> list[str]:
     for model in models:
         base, evidence = _split_evidence(model)
         name, detail = _name_and_detail(base)
-        names.append(escape(name) + (r"$^\dagger$" if evidence else ""))
+        names.append(escape(name) + (r"$^\dagger$" if _flagged(evidence) else ""))
         details.append(_latex_detail(detail))
     blank = [""] * labels
     header = [" & ".join(blank + names) + r" \\"]
