@@ -152,3 +152,17 @@ def test_tables_command_draws_curves_and_the_chosen_trial(tmp_path, capsys):
     for name in ("per_gesture_accuracy", "segmentation_example", "progress_example",
                  "fold_accuracy", "gradnorm_weights"):
         assert (out / "figures" / f"{name}.png").stat().st_size > 0
+
+
+def test_seeds_name_each_configuration_they_leave_out(tmp_path, capsys):
+    from multitask.grid.spec import Experiment
+
+    experiments = (Experiment(variants=("A", "APc"), seeds=(0, 1)),
+                   Experiment(variants=("APoc",), weightings=("gradnorm",)))
+    grid = write_fake_grid(tmp_path / "grid", seeds=(0,), experiments=experiments)
+    assert tables_main([str(grid), "--seeds", "1", "--no-figures", "--out",
+                        str(tmp_path / "t")]) == 0
+    err = capsys.readouterr().err
+    assert "left out: revised/bidirectional/APoc-gradnorm, no run of seed(s) 1" in err
+    assert "A-fixed, no run" not in err and "APc-fixed, no run" not in err
+    assert set(pd.read_csv(tmp_path / "t" / "runs.csv").variant) == {"A", "APc"}

@@ -4,7 +4,7 @@ from __future__ import annotations
 import pandas as pd
 import pytest
 
-from fake_grid import FOLDS, write_fake_grid
+from tests.fake_grid import FOLDS, write_fake_grid
 from multitask.evidence.cli import main as tables_main
 from multitask.evidence.collect import run_rows
 from multitask.grid.spec import Experiment

@@ -90,8 +90,11 @@ def run_rows(grid_dir: Path | str, allow_incomplete: bool = False,
     mismatched = other_settings(root, {run: key_from_path(root / run, root) for run in recorded})
     problems += [f"{OTHER_SETTINGS} {root / run}: {details}" for run, details in mismatched.items()]
     unfinished = _unfinished_configs(root, recorded) if finished_only else {}
-    left_out = [f"{LEFT_OUT} {'/'.join(config[:2])}/{'-'.join(config[2:])}, {done} of {total} "
-                "runs finished" for config, (done, total) in sorted(unfinished.items())]
+    left_out = [f"{LEFT_OUT} {_config_label(config)}, {done} of {total} runs finished"
+                for config, (done, total) in sorted(unfinished.items())]
+    left_out += [f"{LEFT_OUT} {_config_label(config)}, no run of seed(s) "
+                 f"{', '.join(map(str, seeds))}" for config in _configs_without(root, every_run,
+                                                                               recorded)]
     rows = []
     for run in recorded:
         if run in mismatched or _config_of(key_from_path(root / run, root)) in unfinished:
@@ -133,6 +136,19 @@ def of_seeds(root: Path, runs: list[Path], seeds: tuple[int, ...] | None) -> lis
 def _config_of(key: RunKey) -> tuple[str, ...]:
     """``key``'s configuration: its ``CONFIG_COLUMNS`` values."""
     return tuple(getattr(key, column) for column in CONFIG_COLUMNS)
+
+
+def _config_label(config: tuple[str, ...]) -> str:
+    """``revised/bidirectional/APc-fixed``: a configuration's ``CONFIG_COLUMNS`` values."""
+    return f"{'/'.join(config[:2])}/{'-'.join(config[2:])}"
+
+
+def _configs_without(root: Path, every_run: list[Path], chosen: list[Path]) -> list[tuple]:
+    """The configurations of ``every_run`` with no run among ``chosen`` (e.g. none of the
+    requested seeds), sorted."""
+    def configs(runs: list[Path]) -> set[tuple]:
+        return {_config_of(key_from_path(root / run, root)) for run in runs}
+    return sorted(configs(every_run) - configs(chosen))
 
 
 def _unfinished_configs(root: Path, recorded: list[Path]) -> dict[tuple, tuple[int, int]]:
