@@ -37,6 +37,7 @@ error is at most ``0.5 / sqrt(power_samples)`` (0.0005 for the default 10^6).
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 from functools import cached_property, lru_cache
 
@@ -45,7 +46,7 @@ import pandas as pd
 
 from jigsaws_tools.annotations import ANNOTATION_VERSIONS
 
-from .collect import METRICS
+from .collect import CONVERGENCE_COLUMNS, KEY_COLUMNS
 from ..grid.spec import DIRECTIONS
 
 UNIT_OF_PAIRING = "LOUO fold (test user); each side averaged over its seeds within the fold"
@@ -303,6 +304,12 @@ class PairedResult:
             f"(smallest attainable {self.test.smallest_p:.4f}): {self.config.method}"])
 
 
+def _scores(runs: pd.DataFrame) -> list[str]:
+    """The metric columns of a per-run table other than per-class accuracies, in its order."""
+    return [column for column in runs.columns if column not in KEY_COLUMNS + CONVERGENCE_COLUMNS
+            and not re.search(r"_accuracy_(?!pooled$)", column)]
+
+
 def paired(runs: pd.DataFrame, contrast: Contrast, metric: str,
            config: StatsConfig = StatsConfig()) -> PairedResult:
     """Paired statistics of ``contrast`` on ``metric`` over the folds every side ran.
@@ -319,8 +326,9 @@ def paired(runs: pd.DataFrame, contrast: Contrast, metric: str,
         ValueError: ``metric`` is not a column of ``runs``.
     """
     if metric not in runs.columns:
-        known = [m for m in METRICS if m in runs.columns]
-        raise ValueError(f"metric {metric!r} is not in the runs table; known: {', '.join(known)}")
+        raise ValueError(f"metric {metric!r} is not in the runs table; known: "
+                         f"{', '.join(_scores(runs))} and the per-class accuracies "
+                         "(<task>_accuracy_<class>, e.g. gesture_accuracy_G2)")
     terms = contrast.terms()
     sides = {side: _seed_values(runs, side, metric) for side in terms}
     common = sorted(set.intersection(*(set(values) for values in sides.values())))
