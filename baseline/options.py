@@ -12,6 +12,7 @@ from pathlib import Path
 from jigsaws_tools.cli.arg_types import (momentum, non_negative_int, positive_float, positive_int,
                                          positive_int_list, probability, thread_count)
 from jigsaws_tools.dataset import DataConfig
+from jigsaws_tools.release import require_layout
 from jigsaws_tools.features import FEATURE_SETS
 from jigsaws_tools.cli.options import add_data_arguments, data_dir_from_args
 from jigsaws_tools.cli.task_options import task_from_options
@@ -167,7 +168,9 @@ def run_config_from_args(args: argparse.Namespace, optim: OptimConfig,
                         tensorboard=args.tensorboard, keep_checkpoints=args.keep_checkpoints)
     check_eval_points(eval_points, optim)
     require_native_precision(encoder.precision)
-    data = DataConfig(str(data_dir_from_args(args, task)), feature_set=args.features,
-                      annotations=args.annotations, task=task)
+    data_dir = data_dir_from_args(args, task)
+    require_layout(Path(data_dir), task)         # before any output: no folder for a typo
+    data = DataConfig(str(data_dir), feature_set=args.features, annotations=args.annotations,
+                      task=task)
     return RunConfig(data=data, test_user=args.test_user, encoder=encoder, optim=optim,
                      train=train)

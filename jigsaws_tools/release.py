@@ -105,6 +105,17 @@ def meta_path(root: Path, task: TaskDefinition = SUTURING) -> Path:
     return Path(root) / f"meta_file_{task.name}.txt"
 
 
+def require_layout(root: Path, task: TaskDefinition = SUTURING) -> None:
+    """Raise ``ReleaseNotFoundError`` unless ``root`` is a folder holding a release's kinematics
+    and transcriptions folders (nothing in them is read)."""
+    if not root.is_dir():
+        raise ReleaseNotFoundError(root, f"JIGSAWS {task.name} folder")
+    for folder, what in ((kinematics_dir(root), "kinematics folder"),
+                         (transcriptions_dir(root), "transcriptions folder")):
+        if not folder.is_dir():
+            raise ReleaseNotFoundError(folder, what)
+
+
 def discover(root: Path | str, task: TaskDefinition = SUTURING) -> ReleaseIndex:
     """Index the trials of ``task`` in a release folder, sorted by user letter then trial number.
 
@@ -114,12 +125,8 @@ def discover(root: Path | str, task: TaskDefinition = SUTURING) -> ReleaseIndex:
     warning per folder.
     """
     root = Path(root)
-    if not root.is_dir():
-        raise ReleaseNotFoundError(root, f"JIGSAWS {task.name} folder")
+    require_layout(root, task)
     kin_dir, tr_dir = kinematics_dir(root), transcriptions_dir(root)
-    for folder, what in ((kin_dir, "kinematics folder"), (tr_dir, "transcriptions folder")):
-        if not folder.is_dir():
-            raise ReleaseNotFoundError(folder, what)
     kin, kin_unusable = _trial_files(kin_dir, task)
     trans, trans_unusable = _trial_files(tr_dir, task)
     unusable = {**trans_unusable, **kin_unusable}

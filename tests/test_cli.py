@@ -243,3 +243,14 @@ def test_dry_run_lists_only_the_runs_still_to_run(synth_dir, tmp_path, capsys):
     assert grid_main([*command, "--dry-run"]) == 0
     after = capsys.readouterr().out
     assert "seed0/C" not in after and "1 runs, 1 already finished, 0 to run" in after
+
+
+@pytest.mark.parametrize("module", ["multitask.train_cli", "baseline.cli"])
+def test_a_missing_release_stops_before_any_output(tmp_path, capsys, module):
+    main = importlib.import_module(module).main
+    out = tmp_path / "ghost"
+    assert main(["--data-dir", str(tmp_path / "nope"), "--out", str(out)]) == 2
+    captured = capsys.readouterr()
+    assert "error: JIGSAWS Suturing folder not found" in captured.err
+    assert captured.out == ""                            # no configuration header
+    assert not out.exists()                              # no folder, no .lock left behind
