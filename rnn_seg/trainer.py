@@ -268,6 +268,7 @@ class Trainer:
                 start = self.resume()
                 with self.clock.phase("trace"):
                     self.compile()
+                self._last_line = (start, time.time())     # time per unit: sweeps, not tracing
                 for sweep in range(start, self.total_sweeps):
                     lr = self.optim.learning_rate_at(sweep, self.sweeps_per_epoch)
                     with self.clock.phase("train"):
