@@ -508,6 +508,22 @@ def test_allow_incomplete_leaves_a_run_of_other_settings_out_and_marks_it(tiny_g
     assert not summary.loc["A", "complete"] and summary.loc["APc", "complete"]
 
 
+def test_figures_never_read_a_run_folder_the_tables_left_out(tiny_grid, tmp_path, capsys):
+    grid = _copy_grid(tiny_grid, tmp_path / "grid")
+    target = _run(grid, "APc", "B")
+    shutil.rmtree(target)
+    shutil.copytree(_run(grid, "A", "B"), target)             # model A's run as APc's
+    out = tmp_path / "tables"
+    code, err = _cli(tables_main, [str(grid), "--out", str(out), "--allow-incomplete",
+                                   "--curves"], capsys)
+    assert code == 0 and "Traceback" not in err, err
+    assert "no example-trial, GradNorm-weight or training-curve figures" in err
+    drawn = {path.stem for path in (out / "figures").glob("*.png")}
+    assert not drawn & {"segmentation_example", "progress_example", "gradnorm_weights"}
+    assert not (out / "figures" / "curves").exists()
+    assert "per_gesture_accuracy" in drawn                    # from the checked table
+
+
 @pytest.mark.parametrize("text", ["{}", "[1, 2]", '{"run": 3}', "{"])
 def test_a_malformed_config_of_a_grid_run_is_one_line_naming_it(tiny_grid, tmp_path, capsys,
                                                                 text):

@@ -81,13 +81,17 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
     from .curves import training_curves
     from .figures import all_figures, example_trial as choose_example
 
-    runs = _runs(grid_dir, allow_incomplete, seeds, finished_only)
+    runs, foreign = _runs(grid_dir, allow_incomplete, seeds, finished_only)
     folds = per_fold(runs)
     expected = expected_runs(grid_dir, of_seeds(Path(grid_dir), recorded_runs(Path(grid_dir))[0],
                                                 seeds))
     stats = summary(folds).merge(completeness(runs, expected), on=CONFIG_COLUMNS, how="left")
-    example = choose_example(Path(grid_dir), folds, example_trial) if figures else None
-    if figures and example is None:
+    if foreign and (figures or curves):      # these read run folders, not the checked table
+        print("note: no example-trial, GradNorm-weight or training-curve figures: they read run "
+              "folders, and folders of other settings were left out (above)", file=sys.stderr)
+    example = (choose_example(Path(grid_dir), folds, example_trial)
+               if figures and not foreign else None)
+    if figures and example is None and not foreign:
         print("note: no example-trial figures (figures/segmentation_example, progress_example): "
               "no seed-0 A-fixed run of the grid kept its predictions (a scores archive keeps "
               "none)", file=sys.stderr)
@@ -100,22 +104,25 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
     else:
         written += write_claims(runs, out, claims=CONJECTURE_CLAIMS, budget=budget)
     if figures:
-        written += all_figures(Path(grid_dir), folds, out / "figures", example)
-    if curves:
+        written += all_figures(Path(grid_dir), folds, out / "figures", example,
+                               gradnorm=not foreign)
+    if curves and not foreign:
         written += training_curves(grid_dir, out / "figures" / "curves")
     return written
 
 
 def _runs(grid_dir: Path, allow_incomplete: bool, seeds: tuple[int, ...] | None,
           finished_only: bool):
-    """``collect.run_rows``, each problem and configuration left out reported on stderr."""
+    """``collect.run_rows``, each problem and configuration left out reported on stderr; and
+    whether a run folder of other settings than the grid's was left out."""
+    from .checks import OTHER_SETTINGS
     from .collect import LEFT_OUT, run_rows
 
     runs, problems = run_rows(grid_dir, allow_incomplete, seeds, finished_only)
     for problem in problems:
         print(problem if problem.startswith(LEFT_OUT) else f"incomplete: {problem}",
               file=sys.stderr)
-    return runs
+    return runs, any(problem.startswith(OTHER_SETTINGS) for problem in problems)
 
 
 def _paper_tables(grid_dir: Path, runs, stats, out: Path, ours_only: bool) -> list[Path]:
@@ -152,7 +159,7 @@ def _compare(grid_dir: Path, compare: list[str], minus: list[str] | None, metric
 
     x, y = map(ConfigId.parse, compare)
     contrast = Contrast(x, y, tuple(map(ConfigId.parse, minus)) if minus else None)
-    runs = _runs(grid_dir, allow_incomplete, seeds, finished_only)
+    runs, _ = _runs(grid_dir, allow_incomplete, seeds, finished_only)
     try:
         return paired(runs, contrast, metric).describe()
     except NotPaired as error:

@@ -302,7 +302,7 @@ def example_trial(grid_dir: Path, folds: pd.DataFrame, requested: str | None = N
 
 
 def all_figures(grid_dir: Path, folds: pd.DataFrame, out_dir: Path,
-                example: tuple[str, str] | None) -> list[Path]:
+                example: tuple[str, str] | None, gradnorm: bool = True) -> list[Path]:
     """Every figure the grid has the runs for.
 
     Args:
@@ -312,6 +312,7 @@ def all_figures(grid_dir: Path, folds: pd.DataFrame, out_dir: Path,
         example: ``(trial, fold)`` of the example figures (``example_trial``); None = no
             example figures. A figure not drawn (its runs are missing) is removed from
             ``out_dir`` if an earlier call left one there.
+        gradnorm: also draw the GradNorm weights (read from every GradNorm run's folder).
 
     Returns:
         Every PNG and PDF written.
@@ -321,7 +322,8 @@ def all_figures(grid_dir: Path, folds: pd.DataFrame, out_dir: Path,
         trial, fold = example
         written += segmentation_example(grid_dir, trial, fold, out_dir)
         written += progress_example(grid_dir, trial, fold, out_dir)
-    written += fold_accuracy(folds, out_dir) + gradnorm_weights(grid_dir, out_dir)
+    written += fold_accuracy(folds, out_dir)
+    written += gradnorm_weights(grid_dir, out_dir) if gradnorm else []
     _remove_stale(out_dir, set(FIGURES) - {path.stem for path in written})
     return written
 
