@@ -81,8 +81,10 @@ def _git() -> dict:
 
     def git(*args: str) -> str | None:
         try:
-            result = subprocess.run(["git", "-C", str(root), *args], capture_output=True,
-                                    text=True, timeout=10)
+            # --no-optional-locks: status must not take the index lock, which a status killed
+            # by the timeout (a loaded machine) would leave behind in the user's checkout
+            result = subprocess.run(["git", "--no-optional-locks", "-C", str(root), *args],
+                                    capture_output=True, text=True, timeout=10)
         except (OSError, subprocess.TimeoutExpired):
             return None
         return result.stdout.strip() if result.returncode == 0 else None
