@@ -45,21 +45,21 @@ PAPER_WIDTH = 1024
 class WidthEvidence:
     """One grid's part of the study: its width, the seeds used and their runs."""
 
-    grid: Path
     hidden: int
     seeds: tuple[int, ...]
     runs: pd.DataFrame            # one row per run of A and APoc (``collect.run_rows``)
     epochs: dict[str, int]        # model name (``MODELS``) -> its schedule's length in epochs
 
 
-def _model_runs(grid: Path) -> dict[int, list[Path]]:
-    """Seed -> the A and APoc run folders the grid records for it."""
+def _model_runs(grid: Path) -> dict[int, dict[ConfigId, list[Path]]]:
+    """Seed -> model (``MODELS``) -> the run folders the grid records for it."""
     recorded, _ = recorded_runs(grid)
-    by_seed: dict[int, list[Path]] = {}
+    by_seed: dict[int, dict[ConfigId, list[Path]]] = {}
     for run in recorded:
         key = key_from_path(grid / run, grid)
-        if ConfigId(key.variant, key.weighting, key.annotations, key.direction) in MODELS.values():
-            by_seed.setdefault(key.seed, []).append(grid / run)
+        model = ConfigId(key.variant, key.weighting, key.annotations, key.direction)
+        if model in MODELS.values():
+            by_seed.setdefault(key.seed, {}).setdefault(model, []).append(grid / run)
     return by_seed
 
 
@@ -70,14 +70,14 @@ def width_evidence(grid: Path) -> WidthEvidence:
         ValueError: no such seed, or a finished run without usable metrics.
     """
     by_seed = _model_runs(grid)
-    seeds = tuple(seed for seed, runs in sorted(by_seed.items())
-                  if all(is_finished(run) for run in runs)
-                  and all(any(_is(model, grid, run) for run in runs) for model in MODELS.values()))
+    seeds = tuple(seed for seed, models in sorted(by_seed.items())
+                  if len(models) == len(MODELS)
+                  and all(is_finished(run) for runs in models.values() for run in runs))
     if not seeds:
         raise ValueError(f"{grid}: no seed with every run of A-fixed and APoc-gradnorm finished")
     every, problems = run_rows(grid, allow_incomplete=True, seeds=seeds)
     runs = pd.concat([model.select(every) for model in MODELS.values()], ignore_index=True)
-    expected = sum(len(by_seed[seed]) for seed in seeds)
+    expected = sum(len(folders) for seed in seeds for folders in by_seed[seed].values())
     if len(runs) != expected:
         raise ValueError(f"{grid}: {expected - len(runs)} finished run(s) of A or APoc without "
                          "usable metrics:\n  " + "\n  ".join(problems))
@@ -85,13 +85,8 @@ def width_evidence(grid: Path) -> WidthEvidence:
     widths = {hidden for hidden, _ in budgets.values()}
     if len(widths) > 1:
         raise ValueError(f"{grid}: A and APoc were trained at different widths {sorted(widths)}")
-    return WidthEvidence(grid, widths.pop(), seeds, runs,
+    return WidthEvidence(widths.pop(), seeds, runs,
                          {name: epochs for name, (_, epochs) in budgets.items()})
-
-
-def _is(model: ConfigId, grid: Path, run: Path) -> bool:
-    key = key_from_path(run, grid)
-    return ConfigId(key.variant, key.weighting, key.annotations, key.direction) == model
 
 
 def _budget(grid: Path, runs: pd.DataFrame) -> tuple[int, int]:
