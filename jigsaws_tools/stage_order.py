@@ -21,10 +21,10 @@ from collections import Counter
 import numpy as np
 import pandas as pd
 
-from .annotations import apply_amendments
 from .gestures import UNLABELLED
 from .progress import progress_labels
-from .release import ReleaseIndex, frame_labels, read_kinematics, read_transcription
+from .release import ReleaseIndex
+from .summary import trial_labels
 from .task_definition import TaskDefinition
 
 KINDS = ("next", "new cycle", "back", "skip", "after end")
@@ -69,10 +69,7 @@ def stage_order(index: ReleaseIndex, version: str) -> tuple[pd.DataFrame, Counte
     task = index.task
     rows, breaks = [], Counter()
     for trial in index.trials:
-        n_frames = len(read_kinematics(trial.kinematics))
-        labels = frame_labels(read_transcription(trial.transcription, n_frames, task), n_frames,
-                              task)
-        labels, _ = apply_amendments(trial.name, labels, version, task)
+        _, labels = trial_labels(trial, task, version)
         transitions = trial_transitions(labels, task)
         counts = Counter(kind for kind, _, _ in transitions)
         rows.append({"trial": trial.name, **{kind: counts[kind] for kind in KINDS}})

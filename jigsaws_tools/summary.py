@@ -7,7 +7,9 @@ import pandas as pd
 from .annotations import apply_amendments
 from .gestures import UNLABELLED
 from .progress import progress_labels
-from .release import ReleaseIndex, frame_labels, read_kinematics, read_transcription
+from .release import (ReleaseIndex, TrialFiles, frame_labels, read_kinematics,
+                      read_transcription)
+from .task_definition import TaskDefinition
 
 
 def release_summary(index: ReleaseIndex, version: str) -> pd.DataFrame:
@@ -16,9 +18,7 @@ def release_summary(index: ReleaseIndex, version: str) -> pd.DataFrame:
     task = index.task
     rows = []
     for t in index.trials:
-        n_frames = len(read_kinematics(t.kinematics))
-        labels = frame_labels(read_transcription(t.transcription, n_frames, task), n_frames, task)
-        labels, _ = apply_amendments(t.name, labels, version, task)
+        n_frames, labels = trial_labels(t, task, version)
         labelled = labels[labels != UNLABELLED]
         progress = progress_labels(labelled, task)
         row = {"trial": t.name, "frames": n_frames, "labelled": len(labelled)}
@@ -26,3 +26,12 @@ def release_summary(index: ReleaseIndex, version: str) -> pd.DataFrame:
         row.update(zip(task.stage_labels, np.bincount(progress, minlength=task.num_stages)))
         rows.append(row)
     return pd.DataFrame(rows).set_index("trial")
+
+
+def trial_labels(trial: TrialFiles, task: TaskDefinition, version: str) -> tuple[int, np.ndarray]:
+    """A trial's kinematic frame count and its ``[n_frames]`` gesture class per 30 Hz frame
+    (``UNLABELLED`` where the transcription says nothing) in annotation ``version``."""
+    n_frames = len(read_kinematics(trial.kinematics))
+    labels = frame_labels(read_transcription(trial.transcription, n_frames, task), n_frames, task)
+    labels, _ = apply_amendments(trial.name, labels, version, task)
+    return n_frames, labels
