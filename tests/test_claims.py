@@ -217,7 +217,7 @@ def test_a_claim_needs_a_sign_or_a_margin():
 
 def _full_grid(rng: np.random.Generator, seeds: int = 3) -> pd.DataFrame:
     """Every configuration the claims compare, every metric of ``collect.METRICS``, no effects."""
-    configs = {c for claim in CLAIMS for c in _configs(claim)}
+    configs = sorted({c for claim in CLAIMS for c in _configs(claim)}, key=str)  # hash-free order
     difficulty = rng.normal(0, 5, len(FOLDS))
     return pd.DataFrame([
         {"annotations": c.annotations, "direction": c.direction, "variant": c.variant,
@@ -252,7 +252,9 @@ def test_families_are_the_quoted_sentences_and_holm_runs_within_each():
     assert (table.groupby("quote").family.nunique() == 1).all()
     for _, family in table.groupby("family"):
         assert family.p_adjusted.to_numpy() == pytest.approx(holm(family.p_value.to_numpy()))
-    assert not table.duplicated(["comparison", "metric"]).any()
+    # No two claims test the same definition; a best-of claim may still resolve to the contrast
+    # of another claim when the data make that rival the strongest.
+    assert len({(claim.comparison, claim.metric) for claim in CLAIMS}) == len(CLAIMS)
     especially = table.set_index("claim").loc["revised-labels:APoc-more-than-APc:gesture_edit"]
     assert especially.comparison == ("(APoc-fixed - original/APoc-fixed) - "
                                      "(APc-fixed - original/APc-fixed)")
