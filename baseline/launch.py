@@ -13,7 +13,7 @@ import sys
 from pathlib import Path
 from typing import Callable, TypeVar
 
-from rnn_seg.runs.folder import NO_SPACE, WriteFailed
+from rnn_seg.runs.folder import WriteFailed
 from rnn_seg.runs.lock import hold_folder
 from rnn_seg.runs.outputs import check_output_folder
 from rnn_seg.trainer import TrainingDiverged
@@ -49,9 +49,10 @@ def run_training(prog: str, out: Path, configure: Callable[[], Config],
         print(f"{prog}: failed: {error}", file=sys.stderr)
         return EXIT_FAILED, None
     except OSError as error:
-        if error.errno not in NO_SPACE:
+        failure = WriteFailed.from_os_error(error)
+        if failure is None:
             raise
-        print(f"{prog}: failed: {WriteFailed(error.filename, error.strerror)}", file=sys.stderr)
+        print(f"{prog}: failed: {failure}", file=sys.stderr)
         return EXIT_FAILED, None
     except KeyboardInterrupt:
         print(f"{prog}: interrupted; run the same command again to resume {out} from its last "

@@ -1,6 +1,8 @@
-"""Errors raised for missing or malformed JIGSAWS input."""
+"""Errors raised for missing or malformed JIGSAWS input, and for a write the disk refused."""
 from __future__ import annotations
 
+import errno
+import shutil
 from pathlib import Path
 
 OBTAIN_HINT = (
@@ -48,3 +50,27 @@ class DefinitionError(JigsawsError, ValueError):
         self.key = key
         self.value = value
         self.problem = problem
+
+
+#: ``errno`` of a write refused for lack of space: a full disk, a quota, a file size limit.
+NO_SPACE = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
+
+
+class WriteFailed(RuntimeError):
+    """A file could not be written for lack of space (``NO_SPACE``): names the file, the reason
+    and the space left. Not the user's input: commands report it as a failure (exit 1). What was
+    written before stays; a run resumes from its last complete checkpoint."""
+
+    def __init__(self, path: Path | str, reason: str):
+        folder = next((p for p in (Path(path), *Path(path).parents) if p.is_dir()), Path("."))
+        free = shutil.disk_usage(folder).free / 1e6
+        super().__init__(f"cannot write {path} ({reason}); {free:.0f} MB free on its file "
+                         "system. Make room and run the same command again (a run resumes from "
+                         "its last complete checkpoint)")
+
+    @classmethod
+    def from_os_error(cls, error: OSError) -> WriteFailed | None:
+        """The failure an ``OSError`` stands for when it is a lack of space, else None."""
+        if error.errno not in NO_SPACE:
+            return None
+        return cls(error.filename or "a file", error.strerror or str(error))

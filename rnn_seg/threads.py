@@ -65,17 +65,24 @@ def configure_threads(cores: int, hidden: int, precision: str = "fp32",
     """Apply ``thread_plan`` to TensorFlow's thread pools and return ``(intra_op, inter_op)``.
 
     Args:
-        cores: cores this process may use; 0 = all of this machine's.
+        cores: cores this process may use: 0 = all of this machine's, at most as many as it has.
         hidden: LSTM width H.
         precision: ``"fp32"`` or ``"bf16"``, the products' operand type (weight bytes).
         bidirectional: two directions' loops (else one, forward only).
 
     TensorFlow fixes its pools when the first op runs; called later in the same process (a
     notebook, a test) this keeps the pools as they are and returns their sizes (0 = default).
+
+    Raises:
+        ValueError: ``cores`` negative or above this machine's (a pool of 100 000 threads would
+            take the memory before it hangs).
     """
     import tensorflow as tf
 
-    intra, inter = thread_plan(cores or os.cpu_count() or 1, hidden, precision,
+    available = os.cpu_count() or 1
+    if not 0 <= cores <= available:
+        raise ValueError(f"cores: expected 0 (all) up to this machine's {available}, got {cores}")
+    intra, inter = thread_plan(cores or available, hidden, precision,
                                bidirectional=bidirectional)
     try:
         tf.config.threading.set_intra_op_parallelism_threads(intra)

@@ -295,6 +295,55 @@ def test_training_refuses_a_grid_root_or_a_folder_of_runs(small_dir, tmp_path, c
     assert _snapshot(root) == before
 
 
+@pytest.mark.parametrize("place", ["run", "inside", "holder"])
+def test_a_grid_writes_only_into_a_new_folder_or_its_own_grid(trained, tmp_path, capsys, place):
+    """``multitask-grid --out``: a run folder, a place among a run's files, or a folder of the
+    user's runs is refused before any work; the grid's own folder is resumed (tiny_grid)."""
+    holder = tmp_path / "mine"
+    shutil.copytree(trained, holder / "run")
+    out = {"run": holder / "run", "inside": holder / "run" / "eval" / "grid", "holder": holder}
+    before = _snapshot(holder)
+    code, err = _cli(grid_main, ["--spec", str(ROOT / "results" / "smoke.toml"),
+                                 "--out", str(out[place])], capsys)
+    _refused(code, err, str(holder / "run"))
+    assert _snapshot(holder) == before
+
+
+def test_tables_refuse_a_run_folder_and_write_beside_grids(tiny_grid, trained, tmp_path, capsys):
+    before = _snapshot(trained)
+    code, err = _cli(tables_main, [str(tiny_grid), "--out", str(trained), "--no-figures"],
+                     capsys)
+    _refused(code, err, str(trained), "run folder")
+    assert _snapshot(trained) == before
+    beside = tmp_path / "results"
+    _copy_grid(tiny_grid, beside / "grid")
+    assert tables_main([str(beside / "grid"), "--out", str(beside), "--no-figures"]) == 0
+    assert (beside / "runs.csv").is_file()
+
+
+def test_an_evaluation_the_disk_refuses_is_one_line_and_exit_1(trained, tmp_path):
+    """A file size limit refuses the evaluation's files: a failure (exit 1) naming the file and
+    the space left, not a usage error (2); nothing left that looks finished."""
+    out = tmp_path / "evaluation"
+    limited = ("import resource, sys; resource.setrlimit(resource.RLIMIT_FSIZE, (200, 200)); "
+               "from multitask.inference.evaluate_cli import main; sys.exit(main(sys.argv[1:]))")
+    done = subprocess.run([sys.executable, "-c", limited, str(trained), "--out", str(out),
+                           "--no-plots"], env=ENV, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 1 and "Traceback" not in done.stderr, done.stderr
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and "failed: cannot write" in lines[0] and "MB free" in lines[0]
+    assert not out.exists()
+
+
+def test_thread_counts_beyond_the_machine_are_refused_by_the_python_api():
+    from rnn_seg.threads import configure_threads
+
+    with pytest.raises(ValueError, match="this machine's"):
+        configure_threads((os.cpu_count() or 1) + 1, hidden=8)
+    with pytest.raises(ValueError, match="got -1"):
+        configure_threads(-1, hidden=8)
+
+
 # -- 4. writes outside the folder named, and values nobody checked ------------------------------
 def test_a_lock_file_symlinked_elsewhere_is_refused_not_followed(small_dir, tmp_path, capsys):
     victim = tmp_path / "victim.txt"

@@ -54,7 +54,7 @@ import tempfile
 import traceback
 from typing import Any, Callable, Sequence
 
-from ..errors import JigsawsError
+from ..errors import JigsawsError, WriteFailed
 
 DISTRIBUTION = "mtrnn-jigsaws"
 TF_LOG_LEVEL_ENV = "TF_CPP_MIN_LOG_LEVEL"
@@ -220,17 +220,21 @@ def run_command(prog: str, verbose: bool, body: Callable[[], int | None]) -> int
         body: the command's work; returns its exit code or None.
 
     Returns:
-        The exit code: ``body``'s, 0 if it returns None, 2 after a user error (``USER_ERRORS``:
-        one line ``<prog>: error: ...``), 130 after Ctrl-C.
+        The exit code: ``body``'s, 0 if it returns None, 1 after a write the disk refused
+        (``WriteFailed``, or an ``OSError`` of ``NO_SPACE``: one line ``<prog>: failed: ...``),
+        2 after a user error (``USER_ERRORS``: one line ``<prog>: error: ...``), 130 after Ctrl-C.
     """
     configure_output(verbose)
     try:
         code = body()
-    except USER_ERRORS as error:
+    except (WriteFailed, *USER_ERRORS) as error:
         if verbose:
             traceback.print_exc()
-        print(f"{prog}: error: {error}", file=sys.stderr)
-        return 2
+        if isinstance(error, OSError):
+            error = WriteFailed.from_os_error(error) or error
+        failed = isinstance(error, WriteFailed)
+        print(f"{prog}: {'failed' if failed else 'error'}: {error}", file=sys.stderr)
+        return 1 if failed else 2
     except KeyboardInterrupt:
         print(f"{prog}: interrupted", file=sys.stderr)
         return 130

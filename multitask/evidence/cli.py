@@ -49,6 +49,7 @@ import sys
 from pathlib import Path
 
 from jigsaws_tools.cli.common import command_parser, run_command
+from rnn_seg.runs.outputs import check_output_folder
 
 PROG = "multitask-tables"
 
@@ -256,6 +257,8 @@ def _run(args: argparse.Namespace) -> None:
         finished, recorded = archive_grid(args.grid_dir, args.archive)
         print(f"{args.archive}: {finished} of {recorded} runs archived (finished ones)")
         return
+    if args.out:                 # tables and figures go beside grids, never into a run's files
+        check_output_folder(args.out, PROG, may_hold=True)
     if args.widths:
         from .width import write_width
 

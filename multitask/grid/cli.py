@@ -23,6 +23,7 @@ from jigsaws_tools.cli.common import (command_parser, deprecated_alias, import_t
 from jigsaws_tools.cli.options import DEFAULT_DATA_DIR_TEXT
 from rnn_seg.config import LOOPS, require_native_precision
 from rnn_seg.runs.folder import is_finished
+from rnn_seg.runs.outputs import check_output_folder
 from rnn_seg.runs.provenance import set_command
 
 from .spec import (DEFAULT_PRESET, PRESETS, GridSpec, expand, job_groups, load_spec,
@@ -94,6 +95,7 @@ def _run(args: argparse.Namespace) -> int:
         raise ValueError("--stack vectorises the runs' steps, which turns XLA's compiled loops "
                          "back into TensorFlow ops: use --stack 1 with loops xla (or graph loops "
                          "with --stack)")
+    check_output_folder(args.out, PROG, may_be_grid=True)       # resumes a grid, nothing else
     keys = expand(spec, release_users(spec))
     budget = spec.budget
     print(f"grid: task {spec.task}, preset {spec.preset}, H={budget.hidden}, "

@@ -7,7 +7,6 @@ every file is written through a temporary file and a rename, with the user's uma
 from __future__ import annotations
 
 import dataclasses
-import errno
 import json
 import math
 import os
@@ -22,6 +21,8 @@ from pathlib import Path
 from typing import Any, Iterator, Literal, TypeVar, Union
 
 import numpy as np
+
+from jigsaws_tools.errors import WriteFailed  # noqa: F401 (re-exported)
 
 from ..config import unit_name
 
@@ -47,26 +48,6 @@ _TEMPORARY = re.compile(r"^\.(?P<name>.+)\.[0-9a-z_]{8}\.tmp$")
 class RunFolderError(ValueError):
     """A run or grid folder cannot be used as asked: other settings, in use, unreadable, no
     weights to load."""
-
-
-class WriteFailed(RuntimeError):
-    """A run's file could not be written for lack of space (a full disk, a quota, a file size
-    limit): names the file, the reason and the space left. What was written before stays; the
-    run resumes from its last complete checkpoint."""
-
-    def __init__(self, path: Path | str, reason: str):
-        super().__init__(f"cannot write {path} ({reason}); {_free_megabytes(Path(path)):.0f} MB "
-                         "free on its file system. Make room and run the same command again to "
-                         "resume from the last complete checkpoint")
-
-
-#: ``errno`` of a write refused for lack of space: a full disk, a quota, a file size limit.
-NO_SPACE = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
-
-
-def _free_megabytes(path: Path) -> float:
-    folder = next((p for p in (path, *path.parents) if p.is_dir()), Path("."))
-    return shutil.disk_usage(folder).free / 1e6
 
 
 def to_jsonable(obj: Any) -> Any:

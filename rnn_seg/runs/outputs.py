@@ -35,24 +35,29 @@ def folder_kind(folder: Path) -> str | None:
 
 
 def check_output_folder(out: Path, command: str, *, run_place: str | None = None,
-                        may_be_run: bool = False) -> None:
+                        may_be_run: bool = False, may_be_grid: bool = False,
+                        may_hold: bool = False) -> None:
     """Raise ``OutputFolderError`` (naming the folders) when ``command`` may not write ``out``.
 
-    Refused: ``out`` is a grid folder, or a run folder (unless ``may_be_run``: training resumes
-    one); ``out`` holds a run or grid folder anywhere below it; ``out`` lies inside a run folder
-    among the run's own files, except below its folder ``run_place`` (``multitask-evaluate``
-    writes into ``RUN/evaluate``).
+    Refused: ``out`` is a grid folder (unless ``may_be_grid``: ``multitask-grid`` resumes one)
+    or a run folder (unless ``may_be_run``: training resumes one); ``out`` holds a run or grid
+    folder anywhere below it (unless it is that grid, or ``may_hold``: tables written beside the
+    grids they summarise); ``out`` lies inside a run folder among the run's own files, except
+    below its folder ``run_place`` (``multitask-evaluate`` writes into ``RUN/evaluate``).
 
     Args:
         out: the output folder asked for (existing or not).
         command: the command's name, for the message.
         run_place: the one folder of a run where ``command`` writes its outputs, if any.
         may_be_run: ``out`` may itself be a run folder.
+        may_be_grid: ``out`` may itself be a grid folder.
+        may_hold: ``out`` may hold run and grid folders (``command`` writes only its own named
+            files and folders into it).
     """
     out = Path(out)
     place = out.resolve()
     kind = folder_kind(place)
-    if kind == "grid folder" or (kind and not may_be_run):
+    if kind and not {"run folder": may_be_run, "grid folder": may_be_grid}[kind]:
         raise OutputFolderError(f"{out} is a {kind}; {command} does not write into it (choose "
                                 "another output folder)")
     for parent in place.parents:
@@ -61,7 +66,8 @@ def check_output_folder(out: Path, command: str, *, run_place: str | None = None
             if first in {CONFIG, *RUN_OUTPUTS, *RUN_LOGS} and first != run_place:
                 raise OutputFolderError(f"{out} lies among the files of the run folder {parent} "
                                         f"({first}); choose another output folder")
-    held = _run_or_grid_below(place) if place.is_dir() else None
+    held = (_run_or_grid_below(place)
+            if place.is_dir() and not may_hold and kind != "grid folder" else None)
     if held:
         raise OutputFolderError(f"{out} holds a {folder_kind(held)} ({held}); {command} does "
                                 "not write over it (choose another output folder)")
