@@ -44,7 +44,8 @@ setup(
              "JIGSAWS",
     python_requires=">=3.11",
     packages=find_packages(include=["jigsaws_tools*", "rnn_seg*", "baseline*", "multitask*"]),
-    package_data={"jigsaws_tools": ["data/*.csv", "data/tasks/*.toml"]},
+    package_data={"jigsaws_tools": ["data/*.csv", "data/tasks/*.toml",
+                                   "data/formats/*.toml"]},
     install_requires=[
         "tensorflow-cpu>=2.21,<3",
         "numpy>=2.4,<3",

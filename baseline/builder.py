@@ -44,7 +44,7 @@ def data_fingerprint(data: DataConfig) -> str:
     level = release_log.level
     release_log.setLevel(logging.ERROR)      # loading the data reports incomplete trials already
     try:
-        return cache_key(data, discover(data.data_dir, data.task))
+        return cache_key(data, discover(data.data_dir, data.task, data.recording_format))
     finally:
         release_log.setLevel(level)
 

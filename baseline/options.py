@@ -11,9 +11,11 @@ from pathlib import Path
 
 from jigsaws_tools.cli.arg_types import (momentum, non_negative_int, positive_float, positive_int,
                                          positive_int_list, probability, thread_count)
-from jigsaws_tools.dataset import DataConfig
+from jigsaws_tools.dataset import DataConfig, check_format_fits
+from jigsaws_tools.preprocessing import PreprocessConfig
 from jigsaws_tools.release import require_layout
 from jigsaws_tools.features import FEATURE_SETS
+from jigsaws_tools.cli.format_options import add_format_option, format_from_options
 from jigsaws_tools.cli.options import add_data_arguments, data_dir_from_args
 from jigsaws_tools.cli.task_options import task_from_options
 from rnn_seg.config import (KEEP_CHECKPOINTS, LOOPS, PLOT_POINTS, PRECISIONS, PREDICTION_MODES,
@@ -38,6 +40,7 @@ def add_run_arguments(parser: argparse.ArgumentParser, optim: OptimConfig,
     data.add_argument("--features", choices=list(FEATURE_SETS), default=DataConfig.feature_set,
                       help="kinematic inputs: the paper's 14 PSM position, velocity and gripper "
                            "columns, all 38 PSM columns, or all 76")
+    add_format_option(data, "the data folder's recordings")
     model = parser.add_argument_group("model")
     model.add_argument("--hidden", type=positive_int, default=encoder.hidden, metavar="H",
                        help="LSTM units per direction")
@@ -168,9 +171,11 @@ def run_config_from_args(args: argparse.Namespace, optim: OptimConfig,
                         tensorboard=args.tensorboard, keep_checkpoints=args.keep_checkpoints)
     check_eval_points(eval_points, optim)
     require_native_precision(encoder.precision)
+    recording_format = format_from_options(args)
+    check_format_fits(recording_format, args.features, PreprocessConfig(), args.format or "")
     data_dir = data_dir_from_args(args, task)
-    require_layout(Path(data_dir), task)         # before any output: no folder for a typo
+    require_layout(Path(data_dir), task, recording_format)  # before any output
     data = DataConfig(str(data_dir), feature_set=args.features, annotations=args.annotations,
-                      task=task)
+                      task=task, recording_format=recording_format)
     return RunConfig(data=data, test_user=args.test_user, encoder=encoder, optim=optim,
                      train=train)

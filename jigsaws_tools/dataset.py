@@ -22,12 +22,13 @@ from typing import ClassVar
 import numpy as np
 
 from .annotations import amendment_table_text, apply_amendments, check_version
-from .errors import JigsawsError
-from .features import DEFAULT_FEATURE_SET, feature_columns
-from .preprocessing import PreprocessConfig, preprocess
+from .errors import DefinitionError, JigsawsError
+from .features import DEFAULT_FEATURE_SET, feature_names
+from .preprocessing import PreprocessConfig, decimation, preprocess
 from .progress import progress_labels
-from .release import (ReleaseIndex, TrialFiles, discover, frame_labels, meta_path, read_kinematics,
-                      read_meta, read_transcription)
+from .recording_format import JIGSAWS_FORMAT, RecordingFormat, load_format
+from .release import (ReleaseIndex, TrialFiles, discover, frame_labels, meta_path, read_meta,
+                      read_recording, read_transcription)
 from .task_definition import PAPER_TASK, SUTURING, TaskDefinition, load_task
 
 CACHE_FORMAT = 2
@@ -39,27 +40,59 @@ log = logging.getLogger(__name__)
 
 @dataclass(frozen=True)
 class DataConfig:
-    """Which release, which inputs, which labels, of which task.
+    """Which release, which inputs, which labels, of which task, in which recording format.
 
     ``task`` accepts a built-in task's name or a definition file's path too, and holds the
-    definition itself after construction (so ``config.json`` records the vocabulary and grammar).
+    definition itself after construction (so ``config.json`` records the vocabulary and grammar);
+    so does ``recording_format`` (a built-in format's name, a format file's path, or None for the
+    release's).
     """
 
     #: Left out of the settings a run folder is checked against (``rnn_seg.runs.settings``): where
     #: the release is, not what it holds, which the run's data fingerprint (``cache_key``) hashes. A
     #: run resumes with its release reached by another path (relative, moved, a node's local copy).
     output_fields: ClassVar[tuple[str, ...]] = ("data_dir",)
+    #: Not recorded (config.json, settings, fingerprint) while they hold their default, so runs
+    #: written before the field existed keep their settings and fingerprint.
+    unrecorded_defaults: ClassVar[tuple[str, ...]] = ("recording_format",)
 
     data_dir: str
     feature_set: str = DEFAULT_FEATURE_SET
     annotations: str = "revised"
     preprocessing: PreprocessConfig = field(default_factory=PreprocessConfig)
     task: TaskDefinition = SUTURING
+    recording_format: RecordingFormat = JIGSAWS_FORMAT
 
     def __post_init__(self):
         check_version(self.annotations)
-        feature_columns(self.feature_set)
         object.__setattr__(self, "task", load_task(self.task))
+        object.__setattr__(self, "recording_format", load_format(self.recording_format))
+        check_format_fits(self.recording_format, self.feature_set, self.preprocessing)
+
+    @property
+    def features(self) -> tuple[str, ...]:
+        """The model's input features, in order (``jigsaws_tools.features.feature_names``)."""
+        return feature_names(self.feature_set)
+
+
+def check_format_fits(recording_format: RecordingFormat, feature_set: str,
+                      preprocessing: PreprocessConfig, where: str = "") -> None:
+    """Raise ``DefinitionError`` (naming ``where``, default the format's name, its key and value)
+    unless recordings in ``recording_format`` can give ``feature_set``'s features at the model's
+    rate: its rate is a whole multiple of the model's (``decimation``) and, without a header, its
+    columns hold every feature."""
+    fmt = recording_format
+    where = where or f"recording format {fmt.name}"
+    try:
+        decimation(preprocessing, fmt.rate_hz)
+    except ValueError as error:
+        raise DefinitionError(where, "rate_hz", fmt.rate_hz, str(error)) from None
+    for feature in feature_names(feature_set):
+        if not fmt.header and fmt.column_of(feature) not in fmt.columns:
+            raise DefinitionError(where, "columns",
+                                  fmt.column_of(feature),
+                                  f"no column holds feature {feature} of feature set "
+                                  f"{feature_set} (map it in [features])")
 
 
 @dataclass(frozen=True)
@@ -67,8 +100,8 @@ class Trial:
     """One demonstration after preprocessing (``T`` samples at ``sample_hz``, 5 Hz by default).
 
     inputs ``[T, F]`` float32; gestures ``[T]`` int64 class ``0..num_gestures-1`` of the task;
-    progress ``[T]`` int64 stage ``0..num_stages-1``; frames ``[T]`` int64 1-based 30 Hz frame each
-    sample came from.
+    progress ``[T]`` int64 stage ``0..num_stages-1``; frames ``[T]`` int64 1-based frame (row of
+    the recording: 30 Hz in the release, else the format's rate) each sample came from.
     """
 
     name: str
@@ -140,14 +173,14 @@ def load_trial(files: TrialFiles, skill: str, config: DataConfig) -> Trial:
         The trial's samples at ``config.preprocessing.sample_hz`` (5 Hz by default).
     """
     task = config.task
-    kinematics = read_kinematics(files.kinematics)
+    kinematics = read_recording(files.kinematics, config.recording_format, config.features)
     segments = read_transcription(files.transcription, len(kinematics), task)
     gestures, _ = apply_amendments(files.name, frame_labels(segments, len(kinematics), task),
                                    config.annotations, task)
     labels = np.stack([gestures, progress_labels(gestures, task)], axis=1)
     try:
-        inputs, labels, frames = preprocess(kinematics[:, feature_columns(config.feature_set)],
-                                            labels, config.preprocessing)
+        inputs, labels, frames = preprocess(kinematics, labels, config.preprocessing,
+                                            config.recording_format.rate_hz)
     except ValueError as error:                 # e.g. too short for the low-pass filter
         raise JigsawsError(f"{files.kinematics}: trial {files.name}: {error}") from None
     return Trial(files.name, files.user, files.trial, skill, inputs,
@@ -164,7 +197,7 @@ def load_dataset(config: DataConfig, cache_dir: Path | str | None = None,
         cache_dir: the cache folder; None = ``$JIGSAWS_CACHE_DIR`` or ``~/.cache/mtrnn-jigsaws``.
         use_cache: read and write the cache; False = always read the release, write nothing.
     """
-    index = discover(config.data_dir, config.task)
+    index = discover(config.data_dir, config.task, config.recording_format)
     cache_dir = Path(cache_dir) if cache_dir is not None else default_cache_dir()
     key = cache_key(config, index)
     if use_cache:
@@ -190,11 +223,18 @@ def cache_key(config: DataConfig, index: ReleaseIndex) -> str:
     if meta_path(index.root, config.task).is_file():
         paths.append(meta_path(index.root, config.task))
     files = [(p.relative_to(index.root).as_posix(), _file_digest(p)) for p in paths]
-    options = {k: v for k, v in asdict(config).items() if k != "data_dir"}
+    options = {k: v for k, v in asdict(config).items()
+               if k != "data_dir" and not _unrecorded(config, k)}
     payload = json.dumps({"format": CACHE_FORMAT, "config": options,
                           "amendments": amendment_table_text(config.annotations, config.task),
                           "files": files}, sort_keys=True)
     return hashlib.sha256(payload.encode()).hexdigest()[:24]
+
+
+def _unrecorded(config: DataConfig, name: str) -> bool:
+    """``name`` is one of ``unrecorded_defaults`` and holds its default."""
+    return (name in config.unrecorded_defaults
+            and getattr(config, name) == DataConfig.__dataclass_fields__[name].default)
 
 
 def _file_digest(path: Path) -> str:

@@ -1,4 +1,6 @@
-"""Named kinematic feature sets: which of the 76 release columns feed the network."""
+"""Named kinematic feature sets: which of the 76 release columns feed the network, and the names
+of those columns, by which a recording format (``recording_format``) finds them in other
+layouts."""
 from __future__ import annotations
 
 from .errors import JigsawsError
@@ -29,6 +31,15 @@ FEATURE_SETS: dict[str, tuple[int, ...]] = {
 }
 DEFAULT_FEATURE_SET = "psm_pos_vel_grip"
 
+_ARM_QUANTITIES = (("pos_x", "pos_y", "pos_z")
+                   + tuple(f"rot_{i}{j}" for i in (1, 2, 3) for j in (1, 2, 3))
+                   + ("vel_x", "vel_y", "vel_z", "angvel_x", "angvel_y", "angvel_z", "gripper"))
+#: Name of each release column, index = column - 1: per arm (master left / right, PSM1, PSM2)
+#: tool-tip position xyz [m], rotation matrix R11..R33, linear velocity xyz, angular velocity xyz
+#: and gripper angle, e.g. ``psm1_pos_x`` (column 39).
+FEATURE_NAMES: tuple[str, ...] = tuple(f"{arm}_{q}" for arm in ("mtml", "mtmr", "psm1", "psm2")
+                                       for q in _ARM_QUANTITIES)
+
 
 def feature_columns(name: str) -> tuple[int, ...]:
     """0-based column indices of the named feature set."""
@@ -37,3 +48,8 @@ def feature_columns(name: str) -> tuple[int, ...]:
     except KeyError:
         raise JigsawsError(
             f"unknown feature set {name!r}; choose one of {', '.join(FEATURE_SETS)}") from None
+
+
+def feature_names(name: str) -> tuple[str, ...]:
+    """Names (``FEATURE_NAMES``) of the named feature set's columns, in network input order."""
+    return tuple(FEATURE_NAMES[c] for c in feature_columns(name))

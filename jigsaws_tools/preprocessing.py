@@ -4,6 +4,9 @@ Order (documented in docs/REPRODUCTION.md): (1) zero-phase low-pass filter on th
 30 Hz signal, (2) removal of unlabelled frames, (3) resampling 30 Hz -> 5 Hz by keeping every 6th
 sample, (4) z-normalisation per trial. Filtering comes first because it needs the contiguous
 signal; normalisation comes last so that the network sees exactly zero mean / unit variance.
+A recording at another rate (``recording_format``) takes the same filter, its cut-off in Hz,
+designed at its own rate, and keeps one sample in ``decimation(config, rate_hz)``, so that the
+model sees 5 Hz samples of the same frequency band.
 
 Unlabelled recordings (prediction) keep every frame: ``preprocess_recording``. Online use needs
 causal steps: ``CausalLowpass`` (one forward pass, state carried between calls), normalisation
@@ -141,6 +144,26 @@ def causal_lowpass(x: np.ndarray, cutoff_hz: float, order: int, fs_hz: float = K
     return CausalLowpass(cutoff_hz, order, fs_hz)(x)
 
 
+def decimation(config: PreprocessConfig, rate_hz: float) -> int:
+    """How many samples of a recording at ``rate_hz`` give one of the model's
+    (``config.sample_hz``): ``config.resample_factor`` at the release's 30 Hz.
+
+    Raises:
+        ValueError: ``rate_hz`` is not a whole multiple of the model's rate (keeping every k-th
+            sample would give another rate), or the low-pass cut-off is not below its Nyquist
+            frequency (the message names the rate).
+    """
+    factor = rate_hz / config.sample_hz
+    if round(factor) < 1 or abs(factor - round(factor)) > 1e-9 * factor:
+        raise ValueError(f"sample rate {rate_hz:g} Hz is not a whole multiple of the model's "
+                         f"{config.sample_hz:g} Hz (ratio {factor:g}); resample the recording "
+                         f"to a multiple of {config.sample_hz:g} Hz first")
+    if config.lowpass and not config.cutoff_hz < rate_hz / 2:
+        raise ValueError(f"sample rate {rate_hz:g} Hz: the {config.cutoff_hz:g} Hz low-pass "
+                         f"filter needs a rate above {2 * config.cutoff_hz:g} Hz")
+    return round(factor)
+
+
 def resample(x: np.ndarray, factor: int) -> np.ndarray:
     """Keep every ``factor``-th sample starting with the first: ``ceil(n / factor)`` rows."""
     return x[::factor]
@@ -188,79 +211,87 @@ class Normalisation:
         return _standardise(x, np.asarray(self.mean), np.asarray(self.std))
 
 
-def preprocess(features: np.ndarray, labels: np.ndarray, config: PreprocessConfig
-               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def preprocess(features: np.ndarray, labels: np.ndarray, config: PreprocessConfig,
+               rate_hz: float = KINEMATICS_HZ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Apply the configured steps to one trial.
 
     Args:
-        features: ``[n_frames, F]`` float at 30 Hz.
+        features: ``[n_frames, F]`` float at ``rate_hz``.
         labels: ``[n_frames, L]`` int label channels (e.g. gesture and progress), each
             ``UNLABELLED`` (-1) on the frames no transcription segment covers.
+        config: the switches.
+        rate_hz: the recording's sample rate (the release's 30 Hz by default; ``decimation``).
 
     Returns:
         ``(features [T, F] float32, labels [T, L] int64, frames [T] int64)`` where ``frames`` holds
-        the 1-based 30 Hz frame number each kept sample came from.
+        the 1-based frame (row of the recording) each kept sample came from.
     """
+    factor = decimation(config, rate_hz)
     frames = np.arange(1, len(features) + 1)
     x = features.astype(np.float64)
     if config.lowpass:
-        x = lowpass(x, config.cutoff_hz, config.filter_order)
+        x = lowpass(x, config.cutoff_hz, config.filter_order, rate_hz)
     if config.drop_unlabelled:
         keep = (labels != UNLABELLED).all(axis=1)
         x, labels, frames = x[keep], labels[keep], frames[keep]
-    x, labels, frames = (resample(a, config.resample_factor) for a in (x, labels, frames))
+    x, labels, frames = (resample(a, factor) for a in (x, labels, frames))
     if config.normalise:
         x = znormalise(x)
     return x.astype(np.float32), labels.astype(np.int64), frames.astype(np.int64)
 
 
 def preprocess_recording(features: np.ndarray, config: PreprocessConfig, causal: bool = False,
-                         normalisation: Normalisation | None = None
-                         ) -> tuple[np.ndarray, np.ndarray]:
+                         normalisation: Normalisation | None = None,
+                         rate_hz: float = KINEMATICS_HZ) -> tuple[np.ndarray, np.ndarray]:
     """Preprocess an unlabelled recording as ``preprocess`` does a trial, keeping every frame.
 
-    Steps: low-pass on the whole recording, every ``resample_factor``-th frame from the first,
+    Steps: low-pass on the whole recording, every ``decimation``-th frame from the first,
     normalisation over the recording's samples (``drop_unlabelled`` does not apply: there are no
     labels). With ``causal`` the filter is ``causal_lowpass`` and ``normalisation`` (required when
     ``config.normalise``) replaces the per-recording statistics, so each sample depends only on
     the frames up to it, as in ``StreamingPreprocessor``.
 
     Args:
-        features: ``[n_frames, F]`` float at 30 Hz.
+        features: ``[n_frames, F]`` float at ``rate_hz``.
         config: the run's preprocessing switches.
         causal: forward-only filter and fixed statistics instead of the offline steps.
         normalisation: fixed statistics (with ``causal``; None = per-recording z-normalisation).
+        rate_hz: the recording's sample rate (the release's 30 Hz by default; ``decimation``).
 
     Returns:
-        ``(inputs [T, F] float32, frames [T] int64)``, ``T = ceil(n_frames / resample_factor)``,
-        ``frames`` the 1-based 30 Hz frame each sample came from.
+        ``(inputs [T, F] float32, frames [T] int64)``, ``T = ceil(n_frames / decimation)``,
+        ``frames`` the 1-based frame (row of the recording) each sample came from.
     """
     if causal and config.normalise and normalisation is None:
         raise ValueError("causal preprocessing needs fixed normalisation statistics")
+    factor = decimation(config, rate_hz)
     x = np.asarray(features, dtype=np.float64)
     if config.lowpass:
-        x = (causal_lowpass if causal else lowpass)(x, config.cutoff_hz, config.filter_order)
-    x = resample(x, config.resample_factor)
+        x = (causal_lowpass if causal else lowpass)(x, config.cutoff_hz, config.filter_order,
+                                                    rate_hz)
+    x = resample(x, factor)
     if config.normalise:
         x = normalisation.apply(x) if normalisation is not None else znormalise(x)
-    frames = resample(np.arange(1, len(features) + 1, dtype=np.int64), config.resample_factor)
+    frames = resample(np.arange(1, len(features) + 1, dtype=np.int64), factor)
     return x.astype(np.float32), frames
 
 
 class StreamingPreprocessor:
-    """``preprocess_recording(..., causal=True)`` one 30 Hz frame at a time.
+    """``preprocess_recording(..., causal=True)`` one frame at a time (30 Hz, or ``rate_hz``).
 
-    ``push(frame)`` filters the frame (state carried over) and, on every ``resample_factor``-th
+    ``push(frame)`` filters the frame (state carried over) and, on every ``decimation``-th
     frame from the first, returns the normalised 5 Hz sample ``[F]`` float32; otherwise None.
     """
 
-    def __init__(self, config: PreprocessConfig, normalisation: Normalisation | None):
+    def __init__(self, config: PreprocessConfig, normalisation: Normalisation | None,
+                 rate_hz: float = KINEMATICS_HZ):
         if config.normalise and normalisation is None:
             raise ValueError("streaming preprocessing needs fixed normalisation statistics")
         self.config, self.normalisation = config, normalisation
+        self.factor = decimation(config, rate_hz)
         self.frames = 0                    # frames pushed so far
-        self._filter = CausalLowpass(config.cutoff_hz, config.filter_order) if config.lowpass \
-            else None
+        self._filter = (CausalLowpass(config.cutoff_hz, config.filter_order, rate_hz)
+                        if config.lowpass else None)
 
     def push(self, frame: np.ndarray) -> np.ndarray | None:
         """Next frame ``[F]`` -> its sample ``[F]`` float32 when it is kept, else None."""
@@ -268,7 +299,7 @@ class StreamingPreprocessor:
         if self._filter is not None:
             x = self._filter(x)
         self.frames += 1
-        if (self.frames - 1) % self.config.resample_factor:
+        if (self.frames - 1) % self.factor:
             return None
         if self.config.normalise:
             x = self.normalisation.apply(x)

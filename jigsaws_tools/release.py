@@ -7,7 +7,9 @@ Layout::
     <root>/meta_file_<Task>.txt                              name, skill level, GRS, 6 GRS items
 
 ``<Task>`` is ``TaskDefinition.name``; every function that depends on it takes the task (default:
-the paper's Suturing).
+the paper's Suturing). Another layout of recordings (columns, rate, folders, file names) is a
+``RecordingFormat`` (``recording_format``); ``discover`` and ``read_recording`` take one, the
+release's by default.
 """
 from __future__ import annotations
 
@@ -16,11 +18,13 @@ import re
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Sequence
 
 import numpy as np
 
 from .errors import FormatError, JigsawsError, ReleaseNotFoundError
 from .gestures import UNLABELLED
+from .recording_format import JIGSAWS_FORMAT, RecordingFormat
 from .task_definition import SUTURING, TaskDefinition
 
 NUM_KINEMATIC_COLUMNS = 76
@@ -76,6 +80,7 @@ class ReleaseIndex:
     missing_transcription: tuple[str, ...]
     task: TaskDefinition = SUTURING
     unusable: tuple[str, ...] = ()
+    recording_format: RecordingFormat = JIGSAWS_FORMAT
 
     @property
     def users(self) -> tuple[str, ...]:
@@ -105,30 +110,37 @@ def meta_path(root: Path, task: TaskDefinition = SUTURING) -> Path:
     return Path(root) / f"meta_file_{task.name}.txt"
 
 
-def require_layout(root: Path, task: TaskDefinition = SUTURING) -> None:
+def require_layout(root: Path, task: TaskDefinition = SUTURING,
+                   recording_format: RecordingFormat = JIGSAWS_FORMAT) -> None:
     """Raise ``ReleaseNotFoundError`` unless ``root`` is a folder holding a release's kinematics
-    and transcriptions folders (nothing in them is read)."""
+    and transcriptions folders (those ``recording_format`` names; nothing in them is read)."""
     if not root.is_dir():
-        raise ReleaseNotFoundError(root, f"JIGSAWS {task.name} folder")
-    for folder, what in ((kinematics_dir(root), "kinematics folder"),
-                         (transcriptions_dir(root), "transcriptions folder")):
+        what = "JIGSAWS" if recording_format.is_default else f"{recording_format.name} data"
+        raise ReleaseNotFoundError(root, f"{what} {task.name} folder")
+    for folder, what in ((root / recording_format.recordings, "kinematics folder"),
+                         (root / recording_format.transcriptions, "transcriptions folder")):
         if not folder.is_dir():
             raise ReleaseNotFoundError(folder, what)
 
 
-def discover(root: Path | str, task: TaskDefinition = SUTURING) -> ReleaseIndex:
+def discover(root: Path | str, task: TaskDefinition = SUTURING,
+             recording_format: RecordingFormat = JIGSAWS_FORMAT) -> ReleaseIndex:
     """Index the trials of ``task`` in a release folder, sorted by user letter then trial number.
+
+    Its recordings and transcriptions are found in the folders and by the file names that
+    ``recording_format`` declares (the release's by default).
 
     A trial that cannot be used (only one of kinematics / transcription, an empty file, a folder or
     a broken link where a file should be) is reported in one warning line (logger
-    ``jigsaws_tools.release``) and left out of ``trials``. Files named ``.TXT`` are read, with one
-    warning per folder.
+    ``jigsaws_tools.release``) and left out of ``trials``. Files named with an upper-case extension
+    (``.TXT``) are read, with one warning per folder.
     """
     root = Path(root)
-    require_layout(root, task)
-    kin_dir, tr_dir = kinematics_dir(root), transcriptions_dir(root)
-    kin, kin_unusable = _trial_files(kin_dir, task)
-    trans, trans_unusable = _trial_files(tr_dir, task)
+    fmt = recording_format
+    require_layout(root, task, fmt)
+    kin_dir, tr_dir = root / fmt.recordings, root / fmt.transcriptions
+    kin, kin_unusable = _trial_files(kin_dir, task, fmt, fmt.extension)
+    trans, trans_unusable = _trial_files(tr_dir, task, fmt, ".txt")
     unusable = {**trans_unusable, **kin_unusable}
     missing_kin = tuple(sorted(set(trans) - set(kin) - set(kin_unusable)))
     missing_tr = tuple(sorted(set(kin) - set(trans) - set(trans_unusable)))
@@ -141,9 +153,11 @@ def discover(root: Path | str, task: TaskDefinition = SUTURING) -> ReleaseIndex:
         if reasons:
             log.warning("%s: %s; trial skipped", name, "; ".join(reasons))
     trials = []
+    pattern = fmt.trial_pattern(task)
     for name in sorted(set(kin) & set(trans)):
-        user, number = name.removeprefix(f"{task.name}_")[0], name[-3:]
-        trials.append(TrialFiles(name, user, int(number), kin[name], trans[name]))
+        match = pattern.fullmatch(name)
+        trials.append(TrialFiles(name, match["user"], int(match["trial"]), kin[name],
+                                 trans[name]))
     if not trials:
         others = _other_tasks(kin_dir, task)
         if others:
@@ -152,22 +166,27 @@ def discover(root: Path | str, task: TaskDefinition = SUTURING) -> ReleaseIndex:
         raise ReleaseNotFoundError(root, f"a {task.name} trial with both kinematics and a "
                                          f"transcription")
     return ReleaseIndex(root, tuple(trials), missing_kin, missing_tr, task,
-                        tuple(reason for _, reason in sorted(unusable.items())))
+                        tuple(reason for _, reason in sorted(unusable.items())), fmt)
 
 
-def _trial_files(folder: Path, task: TaskDefinition) -> tuple[dict[str, Path], dict[str, str]]:
-    """``folder``'s trial files of ``task``: usable ones (name -> path) and unusable ones (name ->
-    why). A ``.TXT`` file is used (warned once per folder) unless a ``.txt`` twin exists."""
-    pattern = re.compile(rf"^{re.escape(task.name)}_[A-Z]\d{{3}}\.txt$", re.IGNORECASE)
+def _trial_files(folder: Path, task: TaskDefinition, recording_format: RecordingFormat,
+                 extension: str) -> tuple[dict[str, Path], dict[str, str]]:
+    """``folder``'s trial files of ``task`` named as ``recording_format`` says, with
+    ``extension``: usable ones (name -> path) and unusable ones (name -> why). A file with the
+    extension in other case (``.TXT``) is used (warned once per folder) unless a twin with the
+    exact extension exists."""
+    pattern = recording_format.trial_pattern(task)
+    prefix = recording_format.trial_prefix(task)
     usable: dict[str, Path] = {}
     unusable: dict[str, str] = {}
     upper = []
     for path in sorted(folder.iterdir()):
-        if not pattern.match(path.name) or not path.name.startswith(f"{task.name}_"):
+        name, suffix = path.name[:-len(extension)], path.name[-len(extension):]
+        if (suffix.lower() != extension.lower() or not pattern.fullmatch(name)
+                or not path.name.startswith(prefix)):
             continue
-        name = path.name[:-4]
-        if path.suffix != ".txt":
-            if (folder / f"{name}.txt").exists():
+        if suffix != extension:
+            if (folder / f"{name}{extension}").exists():
                 continue
             upper.append(path.name)
         problem = _unusable(path)
@@ -214,24 +233,93 @@ def _check_readable(path: Path, what: str) -> None:
 
 def read_kinematics(path: Path | str) -> np.ndarray:
     """Read a kinematics file: ``[n_frames, 76]`` float64, one row per 30 Hz frame."""
-    path = Path(path)
+    return read_recording(path)
+
+
+def read_recording(path: Path | str, recording_format: RecordingFormat = JIGSAWS_FORMAT,
+                   features: Sequence[str] | None = None) -> np.ndarray:
+    """Read a recording in ``recording_format``: ``[n_rows, F]`` float64, one row per sample at
+    the format's ``rate_hz``.
+
+    Args:
+        path: the recording file.
+        recording_format: its layout (the release's by default).
+        features: the model features to return, in order (``jigsaws_tools.features``; each read
+            from ``recording_format.column_of(feature)``); None = every column of the file.
+
+    Raises:
+        FormatError: naming the file, the line, the column and the value: a missing column, a
+            row of another width, a non-numeric or non-finite value, times (``time_column``) that
+            do not increase or whose rate is not the format's.
+    """
+    path, fmt = Path(path), recording_format
     _check_readable(path, "kinematics file")
+    names, header_line = _column_names(path, fmt)
+    wanted = list(names) if features is None else [fmt.column_of(f) for f in features]
+    for column, feature in zip(wanted, features or wanted):
+        if column not in names:
+            _missing_column(path, fmt, header_line, names, column, feature)
     try:
         with warnings.catch_warnings():
             warnings.filterwarnings("ignore", "loadtxt: input contained no data")
-            data = np.loadtxt(path, dtype=np.float64, ndmin=2, encoding="utf-8-sig")
+            data = np.loadtxt(path, dtype=np.float64, ndmin=2, delimiter=fmt.separator,
+                              skiprows=header_line, encoding="utf-8-sig")
     except ValueError:
-        _diagnose_kinematics(path)
+        _diagnose_rows(path, names, fmt.separator, header_line)
         raise
     if len(data) == 0:
         raise FormatError(path, None, "", "kinematics file has only blank lines")
-    if data.shape[1] != NUM_KINEMATIC_COLUMNS:
-        _diagnose_kinematics(path)
+    if data.shape[1] != len(names):
+        _diagnose_rows(path, names, fmt.separator, header_line)
     if not np.isfinite(data).all():
-        row = int(np.argwhere(~np.isfinite(data))[0, 0])
-        raise FormatError(path, _data_line_number(path, row), "nan/inf",
-                          "non-finite kinematic value")
-    return data
+        row, column = np.argwhere(~np.isfinite(data))[0]
+        raise FormatError(path, _data_line_number(path, row + (header_line > 0)), "nan/inf",
+                          f"non-finite kinematic value in column {column + 1} ({names[column]})")
+    if fmt.time_column:
+        _check_times(path, fmt, data[:, names.index(fmt.time_column)], header_line > 0)
+    return data[:, [names.index(c) for c in wanted]]
+
+
+def _column_names(path: Path, fmt: RecordingFormat) -> tuple[list[str], int]:
+    """The file's column names and the 1-based line of its header (0: none; ``fmt.columns``)."""
+    if not fmt.header:
+        return list(fmt.columns), 0
+    with open(path, encoding="utf-8-sig", errors="replace") as f:
+        for number, line in enumerate(f, start=1):
+            if line.strip():
+                names = [n.strip().strip('"\'') for n in
+                         (line.split(fmt.separator) if fmt.separator else line.split())]
+                repeated = next((n for n in names if names.count(n) > 1), None)
+                if repeated is not None:
+                    raise FormatError(path, number, repeated, "column name repeated in the header")
+                if fmt.time_column and fmt.time_column not in names:
+                    _missing_column(path, fmt, number, names, fmt.time_column, "time_column")
+                return names, number
+    raise FormatError(path, None, "", "kinematics file has only blank lines")
+
+
+def _missing_column(path: Path, fmt: RecordingFormat, header_line: int, names: list[str],
+                    column: str, feature: str) -> None:
+    shown = ", ".join(names[:8]) + (", ..." if len(names) > 8 else "")
+    where = "header" if header_line else f"{fmt.name} format's columns"
+    raise FormatError(path, header_line or None, column,
+                      f"no column {column!r} for {feature} in the {where} ({shown})")
+
+
+def _check_times(path: Path, fmt: RecordingFormat, times: np.ndarray, header: bool) -> None:
+    """Times [s] must increase, their median step giving ``fmt.rate_hz`` within 1 %."""
+    steps = np.diff(times)
+    if len(steps) and steps.min() <= 0:
+        row = int(np.argmin(steps > 0)) + 1
+        raise FormatError(path, _data_line_number(path, row + header), times[row],
+                          f"time column {fmt.time_column!r} does not increase "
+                          f"(previous row: {times[row - 1]:g} s)")
+    if len(steps):
+        rate = 1 / float(np.median(steps))
+        if abs(rate - fmt.rate_hz) > 0.01 * fmt.rate_hz:
+            raise FormatError(path, None, f"{rate:.4g} Hz", f"time column {fmt.time_column!r}: "
+                              f"samples {1 / rate:.4g} s apart, but the {fmt.name} format "
+                              f"declares rate_hz = {fmt.rate_hz:g}")
 
 
 def _data_line_number(path: Path, row: int) -> int:
@@ -246,22 +334,23 @@ def _data_line_number(path: Path, row: int) -> int:
     return row + 1
 
 
-def _diagnose_kinematics(path: Path) -> None:
-    """Find the first malformed line of a kinematics file and raise a FormatError naming it."""
+def _diagnose_rows(path: Path, names: list[str], separator: str | None, header_line: int
+                   ) -> None:
+    """Find the first malformed row after the header and raise a FormatError naming it."""
     with open(path, encoding="utf-8-sig", errors="replace") as f:
         for number, line in enumerate(f, start=1):
-            fields = line.split()
-            if not fields:
+            if number <= header_line or not line.strip():
                 continue
-            if len(fields) != NUM_KINEMATIC_COLUMNS:
+            fields = line.split(separator) if separator else line.split()
+            if len(fields) != len(names):
                 raise FormatError(path, number, len(fields),
-                                  f"expected {NUM_KINEMATIC_COLUMNS} kinematic columns")
+                                  f"expected {len(names)} kinematic columns")
             for column, field in enumerate(fields, start=1):
                 try:
                     float(field)
                 except ValueError:
-                    raise FormatError(path, number, field,
-                                      f"non-numeric kinematic value in column {column}") from None
+                    raise FormatError(path, number, field, f"non-numeric kinematic value in "
+                                      f"column {column} ({names[column - 1]})") from None
 
 
 def read_transcription(path: Path | str, n_frames: int | None = None,

@@ -105,7 +105,9 @@ def causal_outputs(run: TrainedRun, trials: list[Trial], data_dir: str,
     Returns:
         Per task, one ``[T_i, K]`` array per trial, aligned with ``Trial.frames``.
     """
-    files = {t.name: t.kinematics for t in discover(data_dir, run.config.data.task).trials}
+    data = run.config.data
+    files = {t.name: t.kinematics
+             for t in discover(data_dir, data.task, data.recording_format).trials}
     outputs: dict[str, list] = {t.name: [] for t in run.tasks}
     for trial in trials:
         prediction = run.predict(files[trial.name], causal=True, normalisation=normalisation)

@@ -78,6 +78,9 @@ class ExportedRun(tf.Module):
 
     def __init__(self, run: TrainedRun):
         super().__init__(name="exported_run")
+        if not run.config.data.recording_format.is_default:
+            raise ValueError(f"{run.run_dir}: trained on {run.config.data.recording_format.name} "
+                             "recordings; an export serves JIGSAWS-layout kinematics only")
         self.model = run.model
         self._tasks = run.tasks
         self._prep = run.config.data.preprocessing

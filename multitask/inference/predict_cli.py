@@ -1,11 +1,12 @@
 """``multitask-predict``: label new recordings with a trained run.
 
 INPUT is a JIGSAWS-layout kinematics file (76 columns, one line per 30 Hz frame; no transcription
-needed) or a folder of them. For each recording NAME the output folder gets NAME.csv (one row per
-30 Hz frame: the predicted gesture name, its class probabilities, the progress stage and scores
-when the model has a progress head) and NAME.png (ribbons at 5 Hz), then prediction.json, written
-last, records the run, the checkpoint and the inputs. See docs/REPRODUCTION.md for how prediction
-treats every frame.
+needed) or a folder of them; with --format, a recording in that format (e.g. a CSV at 100 Hz with
+its own column names) or a folder of them. For each recording NAME the output folder gets NAME.csv
+(one row per frame of the recording: the predicted gesture name, its class probabilities, the
+progress stage and scores when the model has a progress head) and NAME.png (ribbons at 5 Hz), then
+prediction.json, written last, records the run, the checkpoint and the inputs. See
+docs/REPRODUCTION.md for how prediction treats every frame.
 """
 from __future__ import annotations
 
@@ -17,7 +18,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from jigsaws_tools.cli.common import run_command
-from jigsaws_tools.release import kinematics_dir
+from jigsaws_tools.cli.format_options import add_format_option
+from jigsaws_tools.recording_format import JIGSAWS_FORMAT, RecordingFormat
 from rnn_seg.runs.outputs import check_output_folder
 
 from .options import load_for_command, trained_run_parser
@@ -49,21 +51,26 @@ def build_parser() -> argparse.ArgumentParser:
                              "data folder)")
     parser.add_argument("--no-plots", action="store_true",
                         help="write the CSVs only (default: CSVs and plots)")
+    add_format_option(parser, "the INPUT recordings (default: the format the run trained on)")
     return parser
 
 
-def kinematics_files(inputs: list[Path]) -> list[Path]:
+def kinematics_files(inputs: list[Path], recording_format: RecordingFormat = JIGSAWS_FORMAT
+                     ) -> list[Path]:
     """The kinematics files named by INPUT arguments, in order; folders expand to their sorted
-    ``*.txt`` files (or a release folder's ``kinematics/AllGestures``)."""
+    files with the format's extension (``*.txt``; or those of a data folder's recordings folder,
+    a release's ``kinematics/AllGestures``)."""
     files: list[Path] = []
+    pattern = f"*{recording_format.extension}"
     for path in inputs:
         if path.is_file():
             files.append(path)
         elif path.is_dir():
-            folder = kinematics_dir(path) if kinematics_dir(path).is_dir() else path
-            found = sorted(p for p in folder.glob("*.txt") if p.is_file())
+            recordings = path / recording_format.recordings
+            folder = recordings if recordings.is_dir() else path
+            found = sorted(p for p in folder.glob(pattern) if p.is_file())
             if not found:
-                raise ValueError(f"{folder}: no kinematics files (*.txt)")
+                raise ValueError(f"{folder}: no kinematics files ({pattern})")
             files.extend(found)
         else:
             raise ValueError(f"{path}: no such file or folder")
@@ -76,17 +83,21 @@ def kinematics_files(inputs: list[Path]) -> list[Path]:
 
 
 def _predict(args: argparse.Namespace) -> None:
-    from jigsaws_tools.release import read_kinematics
+    from jigsaws_tools.recording_format import load_format
     from rnn_seg.runs.folder import write_json
+
+    from .trained_run import read_run_config
 
     if args.data_dir and not args.stream:
         raise ValueError("--data-dir only applies with --stream (offline prediction normalises "
                          "each recording by itself)")
-    files = kinematics_files(args.inputs)
+    recording_format = (load_format(args.format) if args.format
+                        else read_run_config(args.run_dir)[0].data.recording_format)
+    files = kinematics_files(args.inputs, recording_format)
     _check_outputs(args, files)
     run = load_for_command(args)
-    recordings = {f: read_kinematics(f) for f in files}
-    predictions, normalisation = _predict_all(run, recordings, args)   # every input checked first
+    recording_format = run.recording_format(args.format)        # checked against the run
+    predictions, normalisation = _predict_all(run, files, recording_format, args)
     (args.out / RECORD_FILE).unlink(missing_ok=True)       # an older record would vouch for us
     mode = "stream" if args.stream else "offline"
     record = {"run_dir": str(args.run_dir.resolve()), "variant": run.variant,
@@ -119,15 +130,22 @@ def _check_outputs(args: argparse.Namespace, files: list[Path]) -> None:
                          "to replace it, or another --out")
 
 
-def _predict_all(run: TrainedRun, recordings: dict[Path, np.ndarray], args: argparse.Namespace
+def _predict_all(run: TrainedRun, files: list[Path], recording_format: RecordingFormat,
+                 args: argparse.Namespace
                  ) -> tuple[dict[Path, RecordingPrediction], Normalisation | None]:
     """Every recording's predictions (offline, or frame by frame with ``--stream``) and the fixed
-    statistics a stream used."""
+    statistics a stream used; every input is read and checked before anything is written."""
+    from jigsaws_tools.release import read_kinematics
+
     from .streaming import StreamingPredictor, stream_recording
 
     if not args.stream:
-        return {f: run.predict(k, where=str(f)) for f, k in recordings.items()}, None
+        return {f: run.predict(f, recording_format=recording_format) for f in files}, None
+    if not recording_format.is_default:
+        raise ValueError(f"--stream reads JIGSAWS-layout recordings only, not format "
+                         f"{recording_format.name}; predict offline (without --stream)")
     run.require_online("--stream")
+    recordings = {f: read_kinematics(f) for f in files}
     streamer = StreamingPredictor(run, run.stream_normalisation(args.data_dir))
     return ({f: stream_recording(streamer, k, str(f)) for f, k in recordings.items()},
             streamer.normalisation)

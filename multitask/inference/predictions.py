@@ -38,10 +38,11 @@ def hold(sample_frames: np.ndarray, frames: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True)
 class RecordingPrediction:
-    """Predictions of every task for one recording of ``n_frames`` 30 Hz frames.
+    """Predictions of every task for one recording of ``n_frames`` frames at ``frame_hz`` (the
+    release's 30 Hz, or its recording format's rate).
 
     ``outputs``: raw head outputs ``[T, K_task]`` per task at the 5 Hz samples, taken at the
-    1-based 30 Hz frames ``sample_frames`` ``[T]``; ``sample_hz``: their rate.
+    1-based frames ``sample_frames`` ``[T]``; ``sample_hz``: their rate.
     """
 
     tasks: tuple[Task, ...]
@@ -49,6 +50,7 @@ class RecordingPrediction:
     sample_frames: np.ndarray
     n_frames: int
     sample_hz: float
+    frame_hz: float = KINEMATICS_HZ
 
     @property
     def frames(self) -> np.ndarray:
@@ -110,7 +112,7 @@ class RecordingPrediction:
 
 def plot_predictions(prediction: RecordingPrediction, path: Path, title: str) -> Path:
     """Ribbons of every task's predicted labels at the samples, over the recording's time in
-    seconds (from its 30 Hz frames).
+    seconds (from its frames at ``frame_hz``).
 
     Args:
         prediction: the recording's predictions.
@@ -120,7 +122,7 @@ def plot_predictions(prediction: RecordingPrediction, path: Path, title: str) ->
     Returns:
         ``path``.
     """
-    times = (prediction.sample_frames - 1) / KINEMATICS_HZ
+    times = (prediction.sample_frames - 1) / prediction.frame_hz
     return plot_ribbons([Ribbon(t.name, prediction.sample_labels(t.name), times, t.class_names,
                                 task_colours(t.num_classes, t.ordered))
                          for t in prediction.tasks], path, title)

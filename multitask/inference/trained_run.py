@@ -4,7 +4,8 @@
 tasks (the variant's, or model A's for a ``baseline-train`` run) and model, and restores a
 checkpoint's weights. ``TrainedRun.predict`` then labels a recording's raw kinematics with the
 run's own preprocessing, keeping every frame (``jigsaws_tools.preprocessing.preprocess_recording``;
-docs/REPRODUCTION.md, "Prediction on unlabelled recordings").
+docs/REPRODUCTION.md, "Prediction on unlabelled recordings"), in the run's recording format or
+another (``jigsaws_tools.recording_format``: columns, sample rate).
 """
 from __future__ import annotations
 
@@ -16,9 +17,11 @@ from pathlib import Path
 import numpy as np
 
 from baseline.config import RunConfig
+from jigsaws_tools.dataset import check_format_fits
 from jigsaws_tools.features import feature_columns
 from jigsaws_tools.preprocessing import Normalisation, preprocess_recording
-from jigsaws_tools.release import NUM_KINEMATIC_COLUMNS, discover, read_kinematics
+from jigsaws_tools.recording_format import RecordingFormat, load_format
+from jigsaws_tools.release import discover, read_recording
 from rnn_seg.runs.checkpoints import restore_weights
 from rnn_seg.model import SegmentationModel
 from rnn_seg.runs.folder import (RunFolderError, from_jsonable, is_finished, read_json,
@@ -111,12 +114,31 @@ class TrainedRun:
     def sample_hz(self) -> float:
         return self.config.data.preprocessing.sample_hz
 
-    def features(self, kinematics: np.ndarray, where: str = "kinematics") -> np.ndarray:
-        """The run's input columns ``[n_frames, F]`` of a recording ``[n_frames, 76]``."""
+    def recording_format(self, recording_format: str | Path | RecordingFormat | None = None
+                         ) -> RecordingFormat:
+        """``recording_format`` (a built-in name, a format file, a format), checked to give this
+        run's features at its sample rate; None = the format the run trained on (the JIGSAWS
+        release's unless it was trained with one)."""
+        if recording_format is None:
+            return self.config.data.recording_format
+        fmt = load_format(recording_format)
+        where = str(recording_format) if isinstance(recording_format, (str, Path)) else ""
+        check_format_fits(fmt, self.config.data.feature_set, self.config.data.preprocessing,
+                          where)
+        return fmt
+
+    def features(self, kinematics: np.ndarray, where: str = "kinematics",
+                 recording_format: RecordingFormat | None = None) -> np.ndarray:
+        """The run's input columns ``[n_frames, F]`` of a recording ``[n_frames, C]`` whose
+        columns are those ``recording_format`` lists (default: the run's; the release's 76)."""
+        fmt = self.recording_format(recording_format)
+        if fmt.header:
+            raise ValueError(f"{where}: format {fmt.name} names its columns in a header line; "
+                             "pass the recording's file, whose header says which is which")
         kinematics = np.asarray(kinematics, dtype=np.float64)
-        if kinematics.ndim != 2 or kinematics.shape[1] != NUM_KINEMATIC_COLUMNS:
-            raise ValueError(f"{where}: expected [frames, {NUM_KINEMATIC_COLUMNS}] kinematics "
-                             f"(JIGSAWS columns), got shape {list(kinematics.shape)}")
+        if kinematics.ndim != 2 or kinematics.shape[1] != len(fmt.columns):
+            raise ValueError(f"{where}: expected [frames, {len(fmt.columns)}] kinematics "
+                             f"({fmt.name} columns), got shape {list(kinematics.shape)}")
         if not len(kinematics):
             raise ValueError(f"{where}: no kinematic frames")
         bad = np.argwhere(~np.isfinite(kinematics))
@@ -125,7 +147,8 @@ class TrainedRun:
             raise ValueError(f"{where}: frame {frame + 1}, column {column + 1}: non-finite "
                              f"kinematic value ({kinematics[frame, column]}); the recording "
                              "files refuse it too")
-        return kinematics[:, feature_columns(self.config.data.feature_set)]
+        return kinematics[:, [fmt.columns.index(fmt.column_of(f))
+                              for f in self.config.data.features]]
 
     def outputs(self, inputs: list[np.ndarray]) -> dict[str, list[np.ndarray]]:
         """Raw head outputs ``[T_i, K]`` per task of preprocessed sequences ``[T_i, F]``, each
@@ -133,36 +156,44 @@ class TrainedRun:
         return predict(self.model, inputs, "per_sequence")
 
     def predict(self, kinematics: np.ndarray | str | Path, causal: bool = False,
-                normalisation: Normalisation | None = None, where: str = "kinematics"
+                normalisation: Normalisation | None = None, where: str = "kinematics",
+                recording_format: str | Path | RecordingFormat | None = None
                 ) -> RecordingPrediction:
         """Predict every task for one recording.
 
         Args:
-            kinematics: ``[n_frames, 76]`` JIGSAWS-layout kinematics at 30 Hz, or the path of a
-                kinematics file.
+            kinematics: the path of a recording file, or its values ``[n_frames, C]`` in the
+                columns of a format without header (the release's: ``[n_frames, 76]`` at 30 Hz).
             causal: preprocess as a stream would (causal filter, fixed statistics); forward
                 models only. Default: the run's offline preprocessing.
             normalisation: the fixed statistics for ``causal`` (None = ``stream_normalisation()``).
             where: the recording's name in error messages (default: the path, if one is given).
+            recording_format: the recording's layout and rate (a built-in name, a format file or
+                a ``RecordingFormat``; default: the run's, the JIGSAWS release's unless it
+                trained on another).
 
         Returns:
-            The predictions per 5 Hz sample and per 30 Hz frame.
+            The predictions per 5 Hz sample and per frame (row) of the recording.
         """
+        fmt = self.recording_format(recording_format)
         if isinstance(kinematics, (str, Path)):
-            where, kinematics = str(kinematics), read_kinematics(kinematics)
-        features = self.features(kinematics, where)
+            where = str(kinematics)
+            features = read_recording(kinematics, fmt, self.config.data.features)
+        else:
+            features = self.features(kinematics, where, fmt)
         if causal:
             self.require_online("causal (streaming) preprocessing")
             if normalisation is None:
                 normalisation = self.stream_normalisation()
         try:
             inputs, frames = preprocess_recording(features, self.config.data.preprocessing,
-                                                  causal, normalisation)
+                                                  causal, normalisation, fmt.rate_hz)
         except ValueError as error:
             raise ValueError(f"{where}: {len(features)} frames cannot be preprocessed: "
                              f"{error}") from None
         outputs = {name: seqs[0] for name, seqs in self.outputs([inputs]).items()}
-        return RecordingPrediction(self.tasks, outputs, frames, len(features), self.sample_hz)
+        return RecordingPrediction(self.tasks, outputs, frames, len(features), self.sample_hz,
+                                   fmt.rate_hz)
 
     def require_online(self, what: str) -> None:
         if not self.online:
@@ -199,12 +230,13 @@ def training_normalisation(config: RunConfig, data_dir: Path | str | None = None
 
     ``data_dir``: the release holding them (default: the run's ``data.data_dir``).
     """
-    index = discover(data_dir or config.data.data_dir, config.data.task)
+    data = config.data
+    index = discover(data_dir or data.data_dir, data.task, data.recording_format)
     trials = [t for t in index.trials if t.user != config.test_user]
-    columns = feature_columns(config.data.feature_set)
-    steps = replace(config.data.preprocessing, normalise=False)
-    samples = [preprocess_recording(read_kinematics(t.kinematics)[:, columns], steps,
-                                    causal=True)[0] for t in trials]
+    steps = replace(data.preprocessing, normalise=False)
+    samples = [preprocess_recording(read_recording(t.kinematics, data.recording_format,
+                                                   data.features), steps, causal=True,
+                                    rate_hz=data.recording_format.rate_hz)[0] for t in trials]
     return Normalisation.fit(samples), [t.name for t in trials]
 
 

@@ -52,9 +52,12 @@ class RunFolderError(ValueError):
 
 def to_jsonable(obj: Any) -> Any:
     """Dataclasses (nested), tuples, paths and numpy values as plain JSON values; NaN and
-    infinities become None (``null``)."""
+    infinities become None (``null``). A field a dataclass names in its ``unrecorded_defaults``
+    class attribute is left out while it holds its default (a field added later, so that earlier
+    records and their settings hashes stay the same; ``from_jsonable`` restores the default)."""
     if dataclasses.is_dataclass(obj):
-        return {f.name: to_jsonable(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+        return {f.name: to_jsonable(getattr(obj, f.name)) for f in dataclasses.fields(obj)
+                if not _unrecorded_default(obj, f)}
     if isinstance(obj, dict):
         return {str(k): to_jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple, np.ndarray)):
@@ -66,6 +69,14 @@ def to_jsonable(obj: Any) -> Any:
     if isinstance(obj, float) and not math.isfinite(obj):
         return None
     return obj
+
+
+def _unrecorded_default(obj: Any, field: dataclasses.Field) -> bool:
+    if field.name not in getattr(type(obj), "unrecorded_defaults", ()):
+        return False
+    default = (field.default_factory() if field.default_factory is not dataclasses.MISSING
+               else field.default)
+    return getattr(obj, field.name) == default
 
 
 class ConfigError(ValueError):

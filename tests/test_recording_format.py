@@ -1,0 +1,202 @@
+"""Recordings in another layout (issue #31): a synthetic release converted to a robot's CSVs at
+100 Hz with its own column names, read through a recording format file, trained on and
+predicted; bad format files and bad recordings give one-line errors (exit 2)."""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from jigsaws_tools.errors import DefinitionError, FormatError
+from jigsaws_tools.features import FEATURE_NAMES, feature_names
+from jigsaws_tools.gestures import GESTURES
+from jigsaws_tools.preprocessing import PreprocessConfig, decimation
+from jigsaws_tools.recording_format import JIGSAWS_FORMAT, read_format_file
+from jigsaws_tools.release import (discover, frame_labels, read_kinematics, read_recording,
+                                   read_transcription)
+from multitask.inference.predict_cli import main as predict_main
+from multitask.inference.trained_run import load_run
+from multitask.train_cli import main as train_main
+
+RATE = 100
+USERS = ("B", "C", "D", "E")
+#: The robot's name of each model feature: a 14-feature run reads these columns.
+COLUMNS = {f: f"arm{f[3]}_{f[5:]}" for f in feature_names("psm_pos_vel_grip")}
+FORMAT = f"""name = "my_robot"
+rate_hz = {RATE}
+delimiter = ","
+header = true
+time_column = "time_s"
+
+[features]
+{chr(10).join(f'{feature} = "{column}"' for feature, column in COLUMNS.items())}
+
+[files]
+recordings = "recordings"
+transcriptions = "labels"
+trial = "{{task}}-{{user}}-{{trial}}"
+extension = ".csv"
+"""
+
+
+def _upsample(kinematics: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """30 Hz frames ``[n, C]`` -> ``(times [m] in s, values [m, C])`` at RATE, linearly
+    interpolated over the same time span."""
+    times = np.arange(int((len(kinematics) - 1) / 30 * RATE) + 1) / RATE
+    frame_times = np.arange(len(kinematics)) / 30
+    return times, np.stack([np.interp(times, frame_times, c) for c in kinematics.T], axis=1)
+
+
+def _row(frame: int) -> int:
+    """The 1-based RATE row where 30 Hz frame ``frame`` (1-based) starts."""
+    return int((frame - 1) * RATE / 30) + 1
+
+
+@pytest.fixture(scope="module")
+def robot_dir(synth_dir, tmp_path_factory):
+    """Users B-E of the synthetic release as the robot's data folder, and its format file."""
+    root = tmp_path_factory.mktemp("robot")
+    (root / "data" / "recordings").mkdir(parents=True)
+    (root / "data" / "labels").mkdir()
+    columns = [JIGSAWS_FORMAT.columns.index(f) for f in COLUMNS]
+    for t in discover(synth_dir).trials:
+        if t.user not in USERS:
+            continue
+        times, values = _upsample(read_kinematics(t.kinematics)[:, columns])
+        table = pd.DataFrame(values, columns=list(COLUMNS.values()))
+        table.insert(0, "time_s", times)
+        table["battery"] = 1.0                       # a column the model does not use
+        name = f"Suturing-{t.user}-{t.trial}"
+        table.to_csv(root / "data" / "recordings" / f"{name}.csv", index=False,
+                     float_format="%.8f")
+        lines = [f"{_row(s.start)} {min(_row(s.end + 1) - 1, len(times))} {s.gesture}"
+                 for s in read_transcription(t.transcription)]
+        (root / "data" / "labels" / f"{name}.txt").write_text("\n".join(lines) + "\n")
+    (root / "my_robot.toml").write_text(FORMAT)
+    return root
+
+
+@pytest.fixture(scope="module")
+def robot_run(robot_dir):
+    out = robot_dir / "run"
+    assert train_main(["--data-dir", str(robot_dir / "data"), "--format",
+                       str(robot_dir / "my_robot.toml"), "--variant", "APc", "--hidden", "16",
+                       "--epochs", "6", "--test-user", "B", "--no-plots", "--threads", "1",
+                       "--out", str(out)]) == 0
+    return out
+
+
+def test_jigsaws_format_is_the_release():
+    assert JIGSAWS_FORMAT.columns == FEATURE_NAMES and JIGSAWS_FORMAT.rate_hz == 30
+    assert JIGSAWS_FORMAT.is_default and not JIGSAWS_FORMAT.header
+
+
+def test_decimation_keeps_the_model_rate_and_refuses_other_ratios():
+    config = PreprocessConfig()
+    assert decimation(config, 30) == config.resample_factor
+    assert decimation(config, 100) == 20 and decimation(config, 5) == 1
+    for rate in (33.0, 7.5, 2.5):
+        with pytest.raises(ValueError, match=f"sample rate {rate:g} Hz"):
+            decimation(config, rate)
+
+
+def test_reads_and_discovers_the_declared_layout(robot_dir, synth_dir):
+    fmt = read_format_file(robot_dir / "my_robot.toml")
+    index = discover(robot_dir / "data", recording_format=fmt)
+    assert index.users == USERS and len(index.trials) == 5 * len(USERS)
+    b1 = next(t for t in index.trials if (t.user, t.trial) == ("B", 1))
+    values = read_recording(b1.kinematics, fmt, feature_names("psm_pos_vel_grip"))
+    original = read_kinematics(next(t for t in discover(synth_dir).trials
+                                    if t.name == "Suturing_B001").kinematics)
+    assert values.shape == (len(_upsample(original)[0]), 14)
+    np.testing.assert_allclose(values[::10], original[::3][:len(values[::10]),
+                               [JIGSAWS_FORMAT.columns.index(f) for f in COLUMNS]], atol=1e-6)
+
+
+def test_trains_and_predicts_a_100hz_recording(robot_run, robot_dir, synth_dir, tmp_path):
+    recording = robot_dir / "data" / "recordings" / "Suturing-B-1.csv"
+    out = tmp_path / "pred"
+    assert predict_main([str(robot_run), str(recording), "--out", str(out), "--no-plots"]) == 0
+    table = pd.read_csv(out / "Suturing-B-1.csv")
+    rows = len(pd.read_csv(recording))
+    assert len(table) == rows
+    # held-out user B: the row labels are well above chance
+    segments = read_transcription(robot_dir / "data" / "labels" / "Suturing-B-1.txt")
+    truth = frame_labels(segments, rows)
+    labelled = truth >= 0
+    predicted = np.array([GESTURES.index(g) for g in table["gesture"]])
+    accuracy = 100 * np.mean(predicted[labelled] == truth[labelled])
+    majority = 100 * np.bincount(truth[labelled]).max() / labelled.sum()
+    assert accuracy > majority + 15, (accuracy, majority)
+    # the API gives the same, and the same recording at 30 Hz in the release's format nearly so
+    run = load_run(robot_run)
+    api = run.predict(recording)
+    np.testing.assert_array_equal(api.labels("gesture"), predicted)
+    release_file = next(t for t in discover(synth_dir).trials
+                        if t.name == "Suturing_B001").kinematics
+    at_30hz = run.predict(release_file, recording_format="jigsaws")
+    same_time = at_30hz.labels("gesture")[(np.arange(rows) * 30) // RATE]
+    assert np.mean(same_time == predicted) > 0.8
+
+
+def _error_line(capsys) -> str:
+    err = capsys.readouterr().err.strip()
+    assert "\n" not in err and "Traceback" not in err, err
+    return err
+
+
+def _bad_copy(robot_dir, tmp_path, edit) -> str:
+    table = pd.read_csv(robot_dir / "data" / "recordings" / "Suturing-B-1.csv", dtype=str)
+    path = tmp_path / "bad.csv"
+    edit(table).to_csv(path, index=False)
+    return str(path)
+
+
+@pytest.mark.parametrize("edit, expected", [
+    (lambda t: t.rename(columns={"arm1_pos_x": "x"}), ["'arm1_pos_x'", "psm1_pos_x", ":1:"]),
+    (lambda t: t.assign(time_s=(t.time_s.astype(float) * RATE / 30).map(str)),
+     ["'time_s'", "30 Hz", "rate_hz = 100"]),
+    (lambda t: t.head(12), ["12 frames", "low-pass"]),
+    (lambda t: t.assign(arm2_gripper=t.arm2_gripper.where(t.index != 40, "abc")),
+     [":42:", "'abc'", "arm2_gripper"]),
+])
+def test_a_bad_recording_is_one_line_naming_file_column_and_value(robot_run, robot_dir, tmp_path,
+                                                                  capsys, edit, expected):
+    bad = _bad_copy(robot_dir, tmp_path, edit)
+    assert predict_main([str(robot_run), bad, "--out", str(tmp_path / "out"), "--no-plots"]) == 2
+    err = _error_line(capsys)
+    assert bad in err and all(e in err for e in expected), err
+    assert not (tmp_path / "out" / "bad.csv").exists()
+
+
+@pytest.mark.parametrize("change, expected", [
+    # a valid file, but 5 Hz samples cannot be taken one in k from 33 Hz
+    (("rate_hz = 100", "rate_hz = 33"), ["rate_hz", "33", "whole multiple"]),
+    (("header = true", "header = false"), ["columns", "with header = false"]),
+    (("delimiter = \",\"", "delimiter = \"|\""), ["delimiter", "'|'"]),
+    (("psm1_pos_x =", "psm9_pos_x ="), ["features.psm9_pos_x", "not a model feature"]),
+    (('trial = "{task}-{user}-{trial}"', 'trial = "{task}-{trial}"'), ["files.trial"]),
+    (("rate_hz = 100", "rate = 100"), ["rate", "unknown key"]),
+])
+def test_a_bad_format_file_is_one_line_naming_file_key_and_value(robot_run, robot_dir, tmp_path,
+                                                                 capsys, change, expected):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(FORMAT.replace(*change))
+    if "rate_hz = 33" not in change:
+        with pytest.raises(DefinitionError):
+            read_format_file(bad)
+    recording = robot_dir / "data" / "recordings" / "Suturing-B-1.csv"
+    assert predict_main([str(robot_run), str(recording), "--format", str(bad), "--out",
+                         str(tmp_path / "out")]) == 2
+    err = _error_line(capsys)
+    assert str(bad) in err and all(e in err for e in expected), err
+    assert train_main(["--data-dir", str(robot_dir / "data"), "--format", str(bad), "--epochs",
+                       "1", "--out", str(tmp_path / "run")]) == 2
+    assert str(bad) in _error_line(capsys) and not (tmp_path / "run").exists()
+
+
+def test_a_release_file_of_another_width_is_refused(tmp_path):
+    path = tmp_path / "narrow.txt"
+    path.write_text("1 2 3\n4 5 6\n")
+    with pytest.raises(FormatError, match=r"narrow.txt:1: expected 76 kinematic columns"):
+        read_recording(path, JIGSAWS_FORMAT, ["psm1_pos_x"])
