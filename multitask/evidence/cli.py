@@ -36,6 +36,12 @@ continues after a copy, on any machine.
 
     multitask-tables results/grid --widths results/width/h256 results/paper/grid --out results/width
 
+A folder of runs trained one by one (``multitask-train``, ``baseline-train``; no grid.json) gets
+``runs.csv`` (with each run's folder), ``per_fold.csv`` and ``summary.csv``, and ``--compare``;
+each run's configuration, seed and fold come from its config.json (``standalone``).
+
+    multitask-tables runs/ --out runs/tables
+
 ``--compare X Y --metric M`` prints the paired statistics of one comparison instead, e.g.
 ``multitask-tables GRID --compare APc-fixed A-fixed --metric gesture_edit``; a configuration is
 ``[annotations/][direction/]<variant>-<weighting>`` as in the grid's run folders
@@ -81,7 +87,10 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
                           per_fold, recorded_runs, summary)
     from .curves import training_curves
     from .figures import all_figures, example_trial as choose_example
+    from .standalone import is_run_collection
 
+    if is_run_collection(grid_dir):
+        return _run_collection_tables(grid_dir, out, allow_incomplete or finished_only, seeds)
     runs, foreign = _runs(grid_dir, allow_incomplete, seeds, finished_only)
     folds = per_fold(runs)
     expected = expected_runs(grid_dir, of_seeds(Path(grid_dir), recorded_runs(Path(grid_dir))[0],
@@ -118,12 +127,32 @@ def _runs(grid_dir: Path, allow_incomplete: bool, seeds: tuple[int, ...] | None,
     whether a run folder of other settings than the grid's was left out."""
     from .checks import OTHER_SETTINGS
     from .collect import LEFT_OUT, run_rows
+    from .standalone import is_run_collection, standalone_rows
 
-    runs, problems = run_rows(grid_dir, allow_incomplete, seeds, finished_only)
+    if is_run_collection(grid_dir):
+        runs, problems = standalone_rows(grid_dir, allow_incomplete or finished_only, seeds)
+    else:
+        runs, problems = run_rows(grid_dir, allow_incomplete, seeds, finished_only)
     for problem in problems:
         print(problem if problem.startswith(LEFT_OUT) else f"incomplete: {problem}",
               file=sys.stderr)
     return runs, any(problem.startswith(OTHER_SETTINGS) for problem in problems)
+
+
+def _run_collection_tables(folder: Path, out: Path, allow_incomplete: bool,
+                           seeds: tuple[int, ...] | None) -> list[Path]:
+    """``runs.csv`` (with each run's folder), ``per_fold.csv`` and ``summary.csv`` of runs
+    trained one by one (``standalone``)."""
+    from .collect import per_fold, summary
+    from .standalone import RUN_COLUMN
+
+    runs, _ = _runs(folder, allow_incomplete, seeds, finished_only=False)
+    folds = per_fold(runs.drop(columns=RUN_COLUMN))
+    print(f"note: {folder} holds runs trained one by one, not a grid: runs, per-fold and summary "
+          "tables only (the paper's tables, the claims and the figures pair configurations over "
+          "the folds and seeds of a grid: multitask-grid)", file=sys.stderr)
+    return [_csv(runs, out / "runs.csv"), _csv(folds, out / "per_fold.csv"),
+            _csv(summary(folds), out / "summary.csv")]
 
 
 def _paper_tables(grid_dir: Path, runs, stats, out: Path, ours_only: bool) -> list[Path]:
@@ -184,7 +213,9 @@ def _tex(text: str, path: Path) -> Path:
 def build_parser() -> argparse.ArgumentParser:
     parser = command_parser(PROG, __doc__)
     parser.add_argument("grid_dir", type=Path, metavar="GRID_DIR",
-                        help="output folder of multitask-grid")
+                        help="output folder of multitask-grid, or a folder of runs trained one "
+                             "by one (multitask-train, baseline-train: runs, per-fold and "
+                             "summary tables only)")
     parser.add_argument("--out", type=Path, metavar="DIR",
                         help="where to write (default: GRID_DIR/tables)")
     parser.add_argument("--no-figures", action="store_true", help="write the tables only")

@@ -179,7 +179,14 @@ def completeness(runs: pd.DataFrame, expected: pd.DataFrame) -> pd.DataFrame:
 def _run_row(root: Path, run: Path, problems: list[str]) -> dict | None:
     """Key columns and mean metrics of the finished run ``root / run``; None (and a problem)
     when it is missing, unfinished, unreadable or has a NaN metric."""
-    run_dir = root / run
+    metrics = run_metrics(root / run, problems)
+    return None if metrics is None else {**asdict(key_from_path(root / run, root)), **metrics}
+
+
+def run_metrics(run_dir: Path, problems: list[str]) -> dict | None:
+    """The convergence columns and mean metrics (``<task>_<metric>``) of the finished run
+    ``run_dir``; None (and a problem appended to ``problems``) when it is missing, unfinished,
+    unreadable or has a NaN metric."""
     if not is_finished(run_dir):
         problems.append(f"not finished: {run_dir}")
         return None
@@ -193,9 +200,8 @@ def _run_row(root: Path, run: Path, problems: list[str]) -> dict | None:
     if not isinstance(mean, dict) or not all(isinstance(v, dict) for v in mean.values()):
         problems.append(f"unreadable metrics: {path}: no 'mean' metrics per task")
         return None
-    row = asdict(key_from_path(run_dir, root))
     convergence = _convergence(run_dir, metrics.get("convergence") or {})
-    row.update(convergence=convergence.get("verdict"), converged=convergence.get("converged"),
+    row = dict(convergence=convergence.get("verdict"), converged=convergence.get("converged"),
                loss_drop=convergence.get("max_loss_drop"),
                loss_drop_se=convergence.get("max_loss_drop_se"))
     for task, values in mean.items():

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Iterator
 
 from .folder import CHECKPOINTS, CONFIG, FINISHED, RUN_LOGS, RUN_OUTPUTS
 
@@ -74,16 +75,24 @@ def check_output_folder(out: Path, command: str, *, run_place: str | None = None
 
 
 def _run_or_grid_below(folder: Path) -> Path | None:
-    """The first run or grid folder strictly below ``folder`` (symbolic links not followed; a
-    SavedModel, whose ``assets.extra/`` holds a copy of its run's config.json, is not entered)."""
+    """The first run or grid folder strictly below ``folder`` (``folders_below``)."""
+    return next((path for path, _ in folders_below(folder)), None)
+
+
+def folders_below(folder: Path) -> Iterator[tuple[Path, str]]:
+    """``(path, kind)`` of the run and grid folders strictly below ``folder``, top down and in
+    name order; neither they nor a SavedModel (whose ``assets.extra/`` holds a copy of its run's
+    config.json) are entered, and symbolic links are not followed."""
     for root, dirs, files in os.walk(folder):
         if SAVED_MODEL in files:
             dirs.clear()
             continue
-        for name in sorted(dirs):
-            if folder_kind(Path(root) / name):
-                return Path(root) / name
-    return None
+        dirs.sort()
+        for name in list(dirs):
+            kind = folder_kind(Path(root) / name)
+            if kind:
+                dirs.remove(name)
+                yield Path(root) / name, kind
 
 
 def check_new_output(out: Path, command: str, entries: frozenset[str], overwrite: bool,
