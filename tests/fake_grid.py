@@ -10,11 +10,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from jigsaws_tools.task_definition import SUTURING
 from multitask.grid.spec import PAPER_EXPERIMENTS, Experiment, GridSpec, expand, run_config
 from rnn_seg.runs.folder import to_jsonable, write_json
 
-GESTURES = ("G1", "G2", "G3", "G4", "G5", "G6", "G8", "G9", "G10", "G11")
-STAGES = ("P0", "P1", "P2", "P3", "P4")
+GESTURES = SUTURING.gestures
+STAGES = SUTURING.stage_names
 FOLDS = ("B", "C", "D", "E", "F", "G", "H", "I")
 #: Test trials per fold: user G has one trial fewer, as in the real release.
 TRIALS = {fold: 4 if fold == "G" else 5 for fold in FOLDS}
@@ -88,17 +89,20 @@ def _labels(rng: np.random.Generator, classes: int) -> np.ndarray:
 
 
 def _predictions(rng: np.random.Generator, tasks: list[str], variant: str) -> pd.DataFrame:
-    columns: dict[str, np.ndarray] = {"frame": 1 + 6 * np.arange(SAMPLES)}
+    """One row per 5 Hz sample, in the format of ``rnn_seg.predictions``."""
+    frames = 1 + 6 * np.arange(SAMPLES)
+    columns: dict[str, np.ndarray] = {"frame": frames, "time_s": (frames - 1) / 30,
+                                      "sample": np.arange(SAMPLES)}
     for task, names in (("gesture", GESTURES), ("progress", STAGES)):
         if task not in tasks:
             continue
         true = _labels(rng, len(names))
         pred = np.where(rng.random(SAMPLES) < 0.8, true, _labels(rng, len(names)))
-        columns[f"{task}_true"], columns[f"{task}_pred"] = true, pred
+        columns[task], columns[f"{task}_true"] = np.asarray(names)[pred], np.asarray(names)[true]
         if task == "progress" and variant.endswith("Pr"):          # regression: the raw output
             columns["progress_value"] = true + rng.normal(0, 0.4, SAMPLES)
         elif task == "progress" and variant.endswith("oc"):        # ordinal: sigmoid outputs
-            columns.update({f"progress_y{k}": (pred >= k) * 0.9 for k in range(len(names))})
+            columns.update({f"progress_y_{n}": (pred >= k) * 0.9 for k, n in enumerate(names)})
         else:                                                       # softmax probabilities
             columns.update({f"{task}_p_{n}": (pred == k) * 0.9 + 0.01
                             for k, n in enumerate(names)})
