@@ -128,7 +128,7 @@ def confusion_figure(matrices: dict[str, tuple[tuple[str, ...], np.ndarray]], ou
         ax.set_xticks(ticks, classes, rotation=90, fontsize=7)
         ax.set_yticks(ticks, classes, fontsize=7)
         ax.set_xlabel("predicted gesture")
-        ax.set_title(f"{CONFIG_LABELS.get(config, config)} ({int(counts.sum())} samples)",
+        ax.set_title(f"{CONFIG_LABELS.get(config, config)} ({int(counts.sum())} predictions)",
                      fontsize=9)
     axes[0][0].set_ylabel("true gesture")
     fig.colorbar(image, ax=axes[0].tolist(), shrink=0.8, label="share of the true gesture [%]")
