@@ -195,6 +195,9 @@ def test_per_gesture_table_and_confusion_figure_from_saved_matrices(tmp_path, ca
     saved = [json.loads((grid / f"runs/revised/bidirectional/A-fixed/seed0/{f}/metrics.json")
                         .read_text())["mean"]["gesture"]["f1_G3"] for f in FOLDS]
     assert rows.loc[("A-fixed", "G3"), "f1"] == pytest.approx(np.mean(saved), abs=1e-4)
+    from multitask.evidence.collect import per_class         # NaN allowed for these alone
+    assert per_class("f1_G3") and per_class("precision_reach") and per_class("accuracy_G1")
+    assert not any(map(per_class, ("accuracy", "f1@10", "f1@10_pooled", "accuracy_pooled")))
     shares = row_normalised(np.array([[3, 1], [0, 0]]))
     np.testing.assert_allclose(shares[0], [75, 25]) and np.isnan(shares[1]).all()
 

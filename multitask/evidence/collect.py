@@ -241,7 +241,8 @@ def _convergence(run_dir: Path, saved: dict) -> dict:
 def per_class(metric: str) -> bool:
     """Whether ``metric`` (without its task, e.g. ``precision_G2``) is a per-class score (NaN
     when the class is absent or, for precision, never predicted)."""
-    return metric.split("_", 1)[0] in PER_CLASS and metric != "accuracy_pooled"
+    kind, _, name = metric.partition("_")
+    return kind in PER_CLASS and bool(name) and metric != "accuracy_pooled"
 
 
 def _stray_folders(root: Path, recorded: list[Path]) -> list[Path]:
