@@ -14,7 +14,8 @@ from .task_definition import TaskDefinition
 
 def release_summary(index: ReleaseIndex, version: str) -> pd.DataFrame:
     """One row per complete trial: frames, labelled frames, frames per gesture of the index's
-    task (columns named as its gestures) and per progress stage (columns named as its stages, e.g. ``reach``)."""
+    task (columns named as its gestures) and per progress stage (columns named as its stages,
+    e.g. ``reach``)."""
     task = index.task
     rows = []
     for t in index.trials:

@@ -108,7 +108,8 @@ def _class_scores(confusion: dict) -> dict[str, float]:
     from rnn_seg.metrics import class_scores
 
     return {f"{kind}_{c}": float(v)
-            for kind, values in zip(("precision", "recall", "f1"), class_scores(confusion["counts"]))
+            for kind, values in zip(("precision", "recall", "f1"),
+                                    class_scores(confusion["counts"]))
             for c, v in zip(confusion["classes"], values)}
 
 

@@ -7,9 +7,10 @@ folds), ``table1|2|3.csv/.tex`` (ours against the paper), ``ablation_annotations
 statistics over folds and seeds, settings in ``claims_config.json``), ``per_gesture.csv`` and
 ``figures/confusion.png|pdf`` (per-gesture precision, recall, F1 and confusion matrices of A and
 APoc, ``confusion``; runs finished before these were saved get a one-line note instead),
-``figures/*.png|pdf`` and, with ``--curves``, ``figures/curves/*.png|pdf`` (training curves). The paper's tables, the
-annotation ablation and its claims are Suturing's: a grid of another task gets instead the claims
-of the paper's conjecture (multi-task against model A on that task, ``claims.CONJECTURE_CLAIMS``).
+``figures/*.png|pdf`` and, with ``--curves``, ``figures/curves/*.png|pdf`` (training curves). The
+paper's tables, the annotation ablation and its claims are Suturing's: a grid of another task gets
+instead the claims of the paper's conjecture (multi-task against model A on that task,
+``claims.CONJECTURE_CLAIMS``).
 
     multitask-tables runs/converged --out results --example-trial Suturing_D003 --curves
 

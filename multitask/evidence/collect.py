@@ -3,25 +3,26 @@
 Tables refuse incomplete evidence. Against the grid's own record of its runs (grid.json), every
 recorded run must be finished with a readable ``metrics.json`` whose metrics are finite (NaN is
 allowed only for a per-class score, ``<task>_<kind>_<class>`` with a kind of ``PER_CLASS``: the
-class is absent from that fold's test trials, or never predicted), and every folder under ``runs/`` must be a recorded run (a stray copy such as
-``C.old`` is not a fold). Otherwise ``IncompleteEvidence`` names every problem; with
-``allow_incomplete`` the problems are returned instead and the configurations they touch are
-marked incomplete (``completeness``), never silently averaged over fewer runs. For a grid
-still running, ``finished_only`` leaves out whole configurations with an unfinished run (and
-says which); ``seeds`` restricts the evidence to some seeds' runs.
+class is absent from that fold's test trials, or never predicted), and every folder under ``runs/``
+must be a recorded run (a stray copy such as ``C.old`` is not a fold). Otherwise
+``IncompleteEvidence`` names every problem; with ``allow_incomplete`` the problems are returned
+instead and the configurations they touch are marked incomplete (``completeness``), never silently
+averaged over fewer runs. For a grid still running, ``finished_only`` leaves out whole
+configurations with an unfinished run (and says which); ``seeds`` restricts the evidence to some
+seeds' runs.
 
-Metric columns are ``<task>_<metric>``: ``gesture_accuracy``, ``gesture_edit``,
-``gesture_f1@10``, ``gesture_accuracy_G1`` ... (and, for runs finished since they were saved,
-``gesture_precision_G1``, ``gesture_recall_G1``, ``gesture_f1_G1`` ...), ``progress_accuracy``, ``progress_edit``,
-``progress_f1@10``, ``progress_mae`` (normalised MAE of the regression output rounded to the
-nearest stage and clipped, in % of the stage range: the 4-stage span for Suturing, the paper's
-metric) and ``progress_mae_raw`` (the same of the raw output). Each run's value is the mean over
-its evaluation points. Each run also has ``convergence``, ``converged``, ``loss_drop`` and
-``loss_drop_se`` (``rnn_seg.convergence``: the three-way verdict converged / undecided / still
-falling from every task's 95 % interval, the point verdict, the relative fall of its worst task's
-training loss over the last 10 % of its schedule, and that estimate's standard error; runs
-finished before the standard error or the three-way verdict was saved get them from their
-``history.csv`` and their saved ``loss_drop``).
+Metric columns are ``<task>_<metric>``: ``gesture_accuracy``, ``gesture_edit``, ``gesture_f1@10``,
+``gesture_accuracy_G1`` ... (and, for runs finished since they were saved, ``gesture_precision_G1``,
+``gesture_recall_G1``, ``gesture_f1_G1`` ...), ``progress_accuracy``, ``progress_edit``,
+``progress_f1@10``, ``progress_mae`` (normalised MAE of the regression output rounded to the nearest
+stage and clipped, in % of the stage range: the 4-stage span for Suturing, the paper's metric) and
+``progress_mae_raw`` (the same of the raw output). Each run's value is the mean over its evaluation
+points. Each run also has ``convergence``, ``converged``, ``loss_drop`` and ``loss_drop_se``
+(``rnn_seg.convergence``: the three-way verdict converged / undecided / still falling from every
+task's 95 % interval, the point verdict, the relative fall of its worst task's training loss over
+the last 10 % of its schedule, and that estimate's standard error; runs finished before the standard
+error or the three-way verdict was saved get them from their ``history.csv`` and their saved
+``loss_drop``).
 """
 from __future__ import annotations
 
@@ -50,7 +51,7 @@ LOWER_IS_BETTER = {"progress_mae", "progress_mae_raw"}
 _RENAME = {"mae_normalised_rounded": "mae", "mae_normalised": "mae_raw"}
 #: How a line of ``run_rows``' problems that names a configuration left out starts.
 LEFT_OUT = "left out:"
-#: The kinds of per-class score, ``<kind>_<class>`` in metrics.json (``rnn_seg.tasks.task_metrics``).
+#: Per-class scores: ``<kind>_<class>`` in metrics.json (``rnn_seg.tasks.task_metrics``).
 PER_CLASS = ("accuracy", "precision", "recall", "f1")
 #: Per-run columns that are not metrics (not averaged over seeds).
 CONVERGENCE_COLUMNS = ["convergence", "converged", "loss_drop", "loss_drop_se"]
