@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Callable, Sequence
 
 from jigsaws_tools.dataset import DataConfig, Dataset, Trial, cache_key, load_dataset
-from jigsaws_tools.release import discover
+from jigsaws_tools.release import KINEMATICS_HZ, discover
 from jigsaws_tools.task_definition import SUTURING, TaskDefinition
 from rnn_seg.model import SegmentationModel
 from rnn_seg.tasks import SoftmaxClassification, Task
@@ -31,7 +31,7 @@ def to_sequences(trials: Sequence[Trial], tasks: Sequence[Task]) -> SequenceSet:
         names=[t.name for t in trials],
         inputs=[t.inputs for t in trials],
         labels={task.name: [getattr(t, LABEL_FIELDS[task.name]) for t in trials] for task in tasks},
-        frames=[t.frames for t in trials])
+        frames=[t.frames for t in trials], frame_hz=KINEMATICS_HZ)
 
 
 TrainerFactory = Callable[..., Trainer]

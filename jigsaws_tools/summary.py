@@ -14,7 +14,8 @@ from .task_definition import TaskDefinition
 
 def release_summary(index: ReleaseIndex, version: str) -> pd.DataFrame:
     """One row per complete trial: frames, labelled frames, frames per gesture of the index's
-    task (columns named as its gestures) and per progress stage (``P0``, ``P1``, ...)."""
+    task (columns named as its gestures) and per progress stage (columns named as its stages,
+    e.g. ``reach``)."""
     task = index.task
     rows = []
     for t in index.trials:
@@ -23,7 +24,7 @@ def release_summary(index: ReleaseIndex, version: str) -> pd.DataFrame:
         progress = progress_labels(labelled, task)
         row = {"trial": t.name, "frames": n_frames, "labelled": len(labelled)}
         row.update(zip(task.gestures, np.bincount(labelled, minlength=task.num_gestures)))
-        row.update(zip(task.stage_labels, np.bincount(progress, minlength=task.num_stages)))
+        row.update(zip(task.stage_names, np.bincount(progress, minlength=task.num_stages)))
         rows.append(row)
     return pd.DataFrame(rows).set_index("trial")
 

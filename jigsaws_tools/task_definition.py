@@ -128,18 +128,13 @@ class TaskDefinition:
             stages[[self.gesture_index[n] for n in names]] = stage
         return stages
 
-    @property
-    def stage_labels(self) -> tuple[str, ...]:
-        """Class names of the progress heads: ``P0 .. P{K-1}``."""
-        return tuple(f"P{k}" for k in range(self.num_stages))
-
     def describe(self) -> str:
         """Multi-line summary: vocabulary with descriptions, then the progress grammar."""
         lines = [f"task {self.name}: {self.summary}".rstrip(": "), "gestures:"]
         lines += [f"  {i:2d} {g:>4}  {d}" for i, (g, d) in
                   enumerate(zip(self.gestures, self.descriptions or [""] * self.num_gestures))]
         lines.append("progress stages:")
-        lines += [f"  P{k} {name}: {', '.join(names)}"
+        lines += [f"  {k} {name}: {', '.join(names)}"
                   for k, (name, names) in enumerate(zip(self.stage_names, self.stages))]
         lines.append(f"adjustments (stage of the next essential gesture): "
                      f"{', '.join(self.adjustments) or 'none'}")
@@ -316,6 +311,9 @@ def _check_task(task: TaskDefinition) -> None:
                               "progress needs at least two stages")
     if len(task.stage_names) != len(task.stages):
         raise DefinitionError("", "progress.stages", task.stage_names, "one name per stage")
+    if len(set(task.stage_names)) != len(task.stage_names):
+        raise DefinitionError("", "progress.stages", task.stage_names, "stage names must differ "
+                              "(they name the progress classes)")
     places = [(g, f"progress.stages[{k}].gestures") for k, s in enumerate(task.stages) for g in s]
     places += [(g, "progress.adjustments") for g in task.adjustments]
     seen: dict[str, str] = {}

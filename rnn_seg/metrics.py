@@ -10,6 +10,10 @@
   ``k`` is in percent everywhere (``f1@10``: k = 10).
   Reported per sequence and averaged (Lea's TCN code), or pooled: TP/FP/FN summed over sequences
   before one F1 (MS-TCN's code). Tables name which.
+* per class, frame-wise over the pooled frames of all sequences (``confusion_matrix``,
+  ``class_scores``): precision TP / (TP + FP), recall TP / (TP + FN) (= the class's accuracy) and
+  F1 2 TP / (2 TP + FP + FN), each NaN when its denominator is 0 (a class neither present nor
+  predicted, or never predicted for precision).
 """
 from __future__ import annotations
 
@@ -142,6 +146,38 @@ def class_accuracy(preds: Sequence[np.ndarray], trues: Sequence[np.ndarray], num
     totals = np.bincount(true, minlength=num_classes)
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(totals > 0, 100.0 * hits / totals, np.nan)
+
+
+def confusion_matrix(preds: Sequence[np.ndarray], trues: Sequence[np.ndarray], num_classes: int
+                     ) -> np.ndarray:
+    """Counts of (true, predicted) label pairs, pooled over the sequences.
+
+    Args:
+        preds: one ``[T_i]`` int64 array of predicted labels per sequence.
+        trues: the ``[T_i]`` int64 true labels, in 0..num_classes-1, in the order of ``preds``.
+        num_classes: number of classes K.
+
+    Returns:
+        ``[K, K]`` int64: row = true class, column = predicted class; sums to ``sum(T_i)``.
+    """
+    for p, y in zip(preds, trues, strict=True):
+        check_same_length(p, y)
+    pred, true = np.concatenate(preds), np.concatenate(trues)
+    return np.bincount(true * num_classes + pred, minlength=num_classes ** 2).reshape(
+        num_classes, num_classes)
+
+
+def class_scores(confusion: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Frame-wise ``(precision, recall, f1)`` of each class, in percent, from a ``[K, K]``
+    confusion matrix (rows true, columns predicted): each ``[K]`` float64, NaN where undefined
+    (module docstring)."""
+    confusion = np.asarray(confusion, dtype=np.float64)
+    tp = np.diag(confusion)
+    predicted, true = confusion.sum(axis=0), confusion.sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return (100.0 * tp / np.where(predicted > 0, predicted, np.nan),
+                100.0 * tp / np.where(true > 0, true, np.nan),
+                100.0 * 2 * tp / np.where(predicted + true > 0, predicted + true, np.nan))
 
 
 def segmentation_metrics(preds: Sequence[np.ndarray], trues: Sequence[np.ndarray]

@@ -116,14 +116,29 @@ def task_metrics(task: Task, outputs: Sequence[np.ndarray], labels: Sequence[np.
         labels: the ``[T_i]`` int64 true labels, in the order of ``outputs``.
 
     Returns:
-        ``segmentation_metrics``' scores, ``accuracy_<class>`` per class (NaN if absent) and
-        ``task.extra_metrics``; all in percent except ``edit_distance`` (segments).
+        ``segmentation_metrics``' scores; per class ``accuracy_<class>``, ``precision_<class>``,
+        ``recall_<class>`` and ``f1_<class>`` (frame-wise over the pooled steps,
+        ``rnn_seg.metrics.class_scores``; NaN where undefined, e.g. a class absent from the
+        labels); and ``task.extra_metrics``; all in percent except ``edit_distance`` (segments).
     """
-    from .metrics import class_accuracy, segmentation_metrics
+    from .metrics import class_accuracy, class_scores, segmentation_metrics
 
     preds = [task.decode(o) for o in outputs]
     metrics = segmentation_metrics(preds, labels)
     per_class = class_accuracy(preds, labels, task.num_classes)
     metrics.update({f"accuracy_{c}": float(a) for c, a in zip(task.class_names, per_class)})
+    scores = class_scores(task_confusion(task, outputs, labels))
+    for kind, values in zip(("precision", "recall", "f1"), scores):
+        metrics.update({f"{kind}_{c}": float(v) for c, v in zip(task.class_names, values)})
     metrics.update(task.extra_metrics(outputs, labels))
     return metrics
+
+
+def task_confusion(task: Task, outputs: Sequence[np.ndarray], labels: Sequence[np.ndarray]
+                   ) -> np.ndarray:
+    """``[K, K]`` int64 counts of (true, decoded) class pairs over every step of the sequences
+    (``rnn_seg.metrics.confusion_matrix``; rows true, columns predicted, in ``task.class_names``
+    order). Arguments as ``task_metrics``'."""
+    from .metrics import confusion_matrix
+
+    return confusion_matrix([task.decode(o) for o in outputs], labels, task.num_classes)

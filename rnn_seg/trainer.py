@@ -12,11 +12,12 @@ A run directory holds::
                                  fill, empty where not computed (``rnn_seg.runs.logs``)
     timing.json                  seconds per phase of the last session (``rnn_seg.runs.timing``)
     tensorboard/                 the same scalars for TensorBoard, with ``tensorboard``
-    eval/<unit><N>/metrics.json  test metrics at evaluation point N
+    eval/<unit><N>/metrics.json  test metrics and confusion matrices at evaluation point N
     eval/<unit><N>/predictions/<sequence>.csv, plots/<sequence>.png (figures: last point only,
-                                 unless ``plots="all"``)
-    metrics.json                 every evaluation point, their mean, and whether the training
-                                 loss had stopped falling (``rnn_seg.convergence``)
+                                 unless ``plots="all"``; CSV format: ``rnn_seg.predictions``)
+    metrics.json                 every evaluation point, their mean, the confusion matrices summed
+                                 over the points, and whether the training loss had stopped
+                                 falling (``rnn_seg.convergence``)
     finished.json                written last (settings hash, start and end time, provenance); a
                                  run without it is incomplete and resumes
     .lock                        held by the process training the run (rnn_seg.runs.lock)
@@ -50,7 +51,8 @@ from .runs.folder import (CONFIG, HISTORY, RUN_LOGS, clear_run_dir, is_finished,
                           point_dir, read_json, remove_temporary_files, write_atomic, write_json)
 from .runs.logs import append_csv_row, resume_log  # noqa: F401 (append_csv_row re-exported)
 from .sweeps import make_sweep, reset_flags, sweep_indices, sweeps_per_epoch
-from .tasks import Task, task_metrics
+from .predictions import prediction_csv, prediction_table
+from .tasks import Task, task_confusion, task_metrics
 from .runs.provenance import now, provenance
 from .runs.settings import SettingsMismatchError, check_run_dir, settings_hash
 from .runs.timing import PhaseClock
@@ -68,12 +70,24 @@ class TrainingDiverged(RuntimeError):
 @dataclass
 class SequenceSet:
     """Named sequences: inputs ``[T_i, F]`` float32, integer labels ``[T_i]`` per task, and the
-    source frame number ``[T_i]`` of each sample (written next to predictions)."""
+    1-based source frame number ``[T_i]`` of each sample at ``frame_hz`` (written next to
+    predictions; without them each sample is its own frame, at the sampling rate)."""
 
     names: list[str]
     inputs: list[np.ndarray]
     labels: dict[str, list[np.ndarray]]
     frames: list[np.ndarray] = field(default_factory=list)
+    frame_hz: float | None = None
+
+    def __post_init__(self):
+        if self.frames and self.frame_hz is None:
+            raise ValueError("SequenceSet: frames given without their rate (frame_hz)")
+
+    def time_base(self, i: int, sample_hz: float) -> tuple[np.ndarray, float]:
+        """``(frames [T_i], their rate in Hz)`` of sequence ``i``, sampled at ``sample_hz``."""
+        if self.frames:
+            return self.frames[i], self.frame_hz
+        return np.arange(1, len(self.inputs[i]) + 1), sample_hz
 
     def __len__(self) -> int:
         return len(self.names)
@@ -473,13 +487,15 @@ class Trainer:
         """Write ``metrics.json`` (every evaluation point, their mean, the convergence
         diagnostic) and ``timing.json``, prune the checkpoints (``TrainConfig.keep_checkpoints``)
         and mark the run finished (once); returns the metrics. A metric that is NaN at every
-        point (e.g. the accuracy of a class absent from the test set) is ``null``."""
+        point (e.g. the accuracy of a class absent from the test set) is ``null``. The confusion
+        matrices are summed over the points (``summed_confusion``)."""
         if self.finished():
             self.log(f"{self.run_dir}: already finished")
             return read_json(self.run_dir / "metrics.json")
         points = sorted(self.eval_sweeps.values())
-        per_point = {p: read_json(point_dir(self.run_dir, self.optim.unit, p) / "metrics.json")
-                     ["metrics"] for p in points}
+        saved = {p: read_json(point_dir(self.run_dir, self.optim.unit, p) / "metrics.json")
+                 for p in points}
+        per_point = {p: saved[p]["metrics"] for p in points}
         mean = {task: {k: _mean([per_point[p][task][k] for p in points])
                        for k in per_point[points[0]][task]}
                 for task in per_point[points[0]]}
@@ -487,6 +503,9 @@ class Trainer:
                   "convergence": history_convergence(pd.read_csv(self.run_dir / "history.csv"),
                                                      [t.name for t in self.tasks],
                                                      self.optim.total)}
+        confusion = summed_confusion([saved[p].get("confusion") for p in points])
+        if confusion is not None:
+            result["confusion"] = confusion
         write_json(self.run_dir / "metrics.json", result)
         write_json(self.run_dir / "timing.json", self.clock.report())
         self._store.finalize()
@@ -501,7 +520,10 @@ def write_evaluation(folder: Path, tasks: Sequence[Task], data: SequenceSet,
                      outputs: dict[str, list[np.ndarray]], header: dict, label: str,
                      sample_hz: float, plots: bool = True) -> dict[str, dict[str, float]]:
     """Score ``outputs`` against ``data``'s labels and write an evaluation folder: one predictions
-    CSV (and plot) per sequence and ``metrics.json`` (``header``'s keys, then ``metrics``).
+    CSV (``rnn_seg.predictions``: one row per scored sample, true labels beside the predicted
+    ones) and plot per sequence, and ``metrics.json`` (``header``'s keys, then ``metrics`` and
+    ``confusion``: per task its ``classes`` and ``counts`` ``[K, K]``, rows true, columns
+    predicted, summing to the samples scored).
 
     Args:
         folder: where to write (``predictions/``, ``plots/``, ``metrics.json``).
@@ -517,22 +539,32 @@ def write_evaluation(folder: Path, tasks: Sequence[Task], data: SequenceSet,
         The metrics per task (``task_metrics``).
     """
     metrics = {t.name: task_metrics(t, outputs[t.name], data.labels[t.name]) for t in tasks}
+    confusion = {t.name: {"classes": list(t.class_names),
+                          "counts": task_confusion(t, outputs[t.name], data.labels[t.name])}
+                 for t in tasks}
     for i, name in enumerate(data.names):
         true = {t.name: data.labels[t.name][i] for t in tasks}
-        pred = {t.name: t.decode(outputs[t.name][i]) for t in tasks}
-        columns = {"frame": data.frames[i] if data.frames else np.arange(len(data.inputs[i]))}
-        for t in tasks:
-            columns[f"{t.name}_true"] = true[t.name]
-            columns[f"{t.name}_pred"] = pred[t.name]
-            columns.update(zip([f"{t.name}_{c}" for c in t.score_columns()],
-                               t.scores(outputs[t.name][i]).T))
-        write_atomic(folder / "predictions" / f"{name}.csv",
-                     pd.DataFrame(columns).to_csv(index=False, float_format="%.5f"))
+        frames, frame_hz = data.time_base(i, sample_hz)
+        table = prediction_table(tasks, {t.name: outputs[t.name][i] for t in tasks},
+                                 np.arange(len(frames)), frames, frame_hz, true)
+        write_atomic(folder / "predictions" / f"{name}.csv", prediction_csv(table))
         if plots:
+            pred = {t.name: t.decode(outputs[t.name][i]) for t in tasks}
             plot_sequence(f"{name} - {label}", tasks, true, pred, folder / "plots" / f"{name}.png",
                           sample_hz)
-    write_json(folder / "metrics.json", {**header, "metrics": metrics})
+    write_json(folder / "metrics.json", {**header, "metrics": metrics, "confusion": confusion})
     return metrics
+
+
+def summed_confusion(points: Sequence[dict | None]) -> dict | None:
+    """Per task, the ``classes`` and ``counts`` of evaluation points' confusion matrices (their
+    ``metrics.json`` ``confusion``) summed over the points; None when a point has none (written
+    before confusion matrices were saved)."""
+    if not points or any(p is None for p in points):
+        return None
+    return {task: {"classes": first["classes"],
+                   "counts": np.sum([p[task]["counts"] for p in points], axis=0)}
+            for task, first in points[0].items()}
 
 
 def metrics_summary(tasks: Sequence[Task], metrics: dict[str, dict[str, float]]) -> str:

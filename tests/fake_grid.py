@@ -10,11 +10,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from jigsaws_tools.task_definition import SUTURING
 from multitask.grid.spec import PAPER_EXPERIMENTS, Experiment, GridSpec, expand, run_config
 from rnn_seg.runs.folder import to_jsonable, write_json
 
-GESTURES = ("G1", "G2", "G3", "G4", "G5", "G6", "G8", "G9", "G10", "G11")
-STAGES = ("P0", "P1", "P2", "P3", "P4")
+GESTURES = SUTURING.gestures
+STAGES = SUTURING.stage_names
 FOLDS = ("B", "C", "D", "E", "F", "G", "H", "I")
 #: Test trials per fold: user G has one trial fewer, as in the real release.
 TRIALS = {fold: 4 if fold == "G" else 5 for fold in FOLDS}
@@ -28,9 +29,12 @@ SAMPLES = 60                       # per test trial, at 5 Hz
 def write_fake_grid(root: Path, seeds: tuple[int, ...] = (0, 1), hidden: int = 16,
                     epochs: int = 12,
                     experiments: tuple[Experiment, ...] = PAPER_EXPERIMENTS,
-                    schedule_factors: dict[str, float] | None = None) -> Path:
+                    schedule_factors: dict[str, float] | None = None,
+                    per_class: bool = False) -> Path:
     """Every run of a grid (default: the paper's, 22 configurations) over 8 folds and ``seeds``
-    under ``root``; every variant at the paper's relative length unless ``schedule_factors``."""
+    under ``root``; every variant at the paper's relative length unless ``schedule_factors``.
+    ``per_class``: metrics.json holds per-class precision, recall, F1 and the confusion matrices
+    (as runs finished since they were saved); without it, as an older archive's runs."""
     spec = GridSpec(data_dir=str(root / "data" / "Suturing"), seeds=seeds, hidden=hidden,
                     epochs=epochs, experiments=experiments,
                     schedule_factors=schedule_factors or {})
@@ -57,8 +61,12 @@ def write_fake_grid(root: Path, seeds: tuple[int, ...] = (0, 1), hidden: int = 1
             pd.DataFrame({"sweep": 7 * n, "unit": n, "w_end_gesture": w,
                           "w_end_progress": 2 - w}).to_csv(run_dir / "gradnorm.csv", index=False)
         mean = {task: _scores(rng, task, key.variant) for task in tasks}
-        _write_json(run_dir / "metrics.json", {"points": {str(point): mean}, "mean": mean,
-                                               "unit": "epochs"})
+        metrics = {"points": {str(point): mean}, "mean": mean, "unit": "epochs"}
+        if per_class:
+            metrics["confusion"] = {task: _confusion(rng, task) for task in tasks}
+            for task in tasks:
+                mean[task].update(_class_scores(metrics["confusion"][task]))
+        _write_json(run_dir / "metrics.json", metrics)
         _write_json(run_dir / "finished.json", {"sweeps": 7 * config.optim.total})
     _write_json(root / "grid.json", {"runs": [str(key.path()) for key in keys]})
     return root
@@ -81,6 +89,30 @@ def _scores(rng: np.random.Generator, task: str, variant: str) -> dict[str, floa
     return scores
 
 
+def _confusion(rng: np.random.Generator, task: str) -> dict:
+    """A confusion matrix of ``task``'s classes with a heavy diagonal; ``ABSENT`` gestures never
+    occur (an empty row) and ``NEVER_RECOGNISED`` is never predicted (an empty column)."""
+    classes = GESTURES if task == "gesture" else STAGES
+    counts = rng.integers(0, 5, size=(len(classes), len(classes))) + 40 * np.eye(len(classes),
+                                                                                 dtype=int)
+    for k, name in enumerate(classes):
+        if name in ABSENT:
+            counts[k] = 0
+        if name == NEVER_RECOGNISED:
+            counts[:, k] = 0
+    return {"classes": list(classes), "counts": counts}
+
+
+def _class_scores(confusion: dict) -> dict[str, float]:
+    """The per-class precision, recall and F1 of a confusion matrix (rnn_seg.metrics)."""
+    from rnn_seg.metrics import class_scores
+
+    return {f"{kind}_{c}": float(v)
+            for kind, values in zip(("precision", "recall", "f1"),
+                                    class_scores(confusion["counts"]))
+            for c, v in zip(confusion["classes"], values)}
+
+
 def _labels(rng: np.random.Generator, classes: int) -> np.ndarray:
     lengths = rng.integers(4, 12, size=SAMPLES)
     labels = np.repeat(rng.integers(0, classes, size=SAMPLES), lengths)
@@ -88,17 +120,20 @@ def _labels(rng: np.random.Generator, classes: int) -> np.ndarray:
 
 
 def _predictions(rng: np.random.Generator, tasks: list[str], variant: str) -> pd.DataFrame:
-    columns: dict[str, np.ndarray] = {"frame": 1 + 6 * np.arange(SAMPLES)}
+    """One row per 5 Hz sample, in the format of ``rnn_seg.predictions``."""
+    frames = 1 + 6 * np.arange(SAMPLES)
+    columns: dict[str, np.ndarray] = {"frame": frames, "time_s": (frames - 1) / 30,
+                                      "sample": np.arange(SAMPLES)}
     for task, names in (("gesture", GESTURES), ("progress", STAGES)):
         if task not in tasks:
             continue
         true = _labels(rng, len(names))
         pred = np.where(rng.random(SAMPLES) < 0.8, true, _labels(rng, len(names)))
-        columns[f"{task}_true"], columns[f"{task}_pred"] = true, pred
+        columns[task], columns[f"{task}_true"] = np.asarray(names)[pred], np.asarray(names)[true]
         if task == "progress" and variant.endswith("Pr"):          # regression: the raw output
             columns["progress_value"] = true + rng.normal(0, 0.4, SAMPLES)
         elif task == "progress" and variant.endswith("oc"):        # ordinal: sigmoid outputs
-            columns.update({f"progress_y{k}": (pred >= k) * 0.9 for k in range(len(names))})
+            columns.update({f"progress_y_{n}": (pred >= k) * 0.9 for k, n in enumerate(names)})
         else:                                                       # softmax probabilities
             columns.update({f"{task}_p_{n}": (pred == k) * 0.9 + 0.01
                             for k, n in enumerate(names)})

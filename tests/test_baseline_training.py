@@ -9,6 +9,7 @@ from baseline.cli import main as baseline_main
 from baseline.config import RunConfig
 from baseline.builder import train_baseline
 from jigsaws_tools.dataset import DataConfig, load_dataset
+from jigsaws_tools.gestures import GESTURES
 from rnn_seg.lstm import EncoderConfig
 from rnn_seg.optim import OptimConfig
 from rnn_seg.runs.folder import is_finished
@@ -51,7 +52,10 @@ def test_run_outputs(synth_dir, tmp_path):
         csvs = sorted((run / "eval" / point / "predictions").glob("*.csv"))
         assert [p.stem for p in csvs] == [f"Suturing_B00{i}" for i in range(1, 6)]
         table = pd.read_csv(csvs[0])
-        assert list(table.columns[:3]) == ["frame", "gesture_true", "gesture_pred"]
+        assert list(table.columns[:5]) == ["frame", "time_s", "sample", "gesture", "gesture_true"]
+        assert list(table["sample"]) == list(range(len(table)))      # one row per 5 Hz sample
+        np.testing.assert_allclose(table["time_s"], (table["frame"] - 1) / 30, atol=1e-5)
+        assert set(table["gesture"]) | set(table["gesture_true"]) <= set(GESTURES)
         np.testing.assert_allclose(table.filter(like="gesture_p_").sum(axis=1), 1.0, atol=1e-3)
         assert len(list((run / "eval" / point / "plots").glob("*.png"))) == 5
     history = pd.read_csv(run / "history.csv")
@@ -88,7 +92,7 @@ def test_resume_after_interruption_matches_uninterrupted(synth_dir, tmp_path, mo
     assert list(pd.read_csv(resumed / "history.csv")["n"]) == [1, 2, 3, 4]
     for csv in (straight / "eval/epoch0004/predictions").glob("*.csv"):
         a, b = pd.read_csv(csv), pd.read_csv(resumed / "eval/epoch0004/predictions" / csv.name)
-        np.testing.assert_allclose(a.to_numpy(), b.to_numpy(), atol=1e-4)
+        pd.testing.assert_frame_equal(a, b, atol=1e-4)      # names equal, scores close
     # a finished run is not trained again
     messages.clear()
     train_baseline(config, resumed, log=messages.append)

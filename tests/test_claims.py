@@ -424,7 +424,7 @@ def test_cli_errors_are_one_line_and_exit_2(tmp_path, capsys):
     assert "'sideways'" in capsys.readouterr().err
     assert tables_main([str(tmp_path), "--compare", "A-fixed", "A-fixed", "--metric", "f1"]) == 2
     error = capsys.readouterr().err
-    assert "known: gesture_accuracy, gesture_edit and the per-class accuracies" in error
+    assert "known: gesture_accuracy, gesture_edit and the per-class scores" in error
     assert len(error.splitlines()) == 1                  # every score the table has, one line
     with pytest.raises(SystemExit) as exit_info:
         tables_main([str(tmp_path), "--compare", "APc-fixed", "A-fixed"])

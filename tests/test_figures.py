@@ -166,3 +166,46 @@ def test_seeds_name_each_configuration_they_leave_out(tmp_path, capsys):
     assert "left out: revised/bidirectional/APoc-gradnorm, no run of seed(s) 1" in err
     assert "A-fixed, no run" not in err and "APc-fixed, no run" not in err
     assert set(pd.read_csv(tmp_path / "t" / "runs.csv").variant) == {"A", "APc"}
+
+
+def test_per_gesture_table_and_confusion_figure_from_saved_matrices(tmp_path, capsys):
+    import json
+
+    from multitask.evidence.confusion import row_normalised
+
+    grid = write_fake_grid(tmp_path / "grid", seeds=(0,), per_class=True, experiments=(
+        Experiment(("A", "APc"), ("fixed",)), Experiment(("APoc",), ("gradnorm",))))
+    out = tmp_path / "tables"
+    assert tables_main([str(grid), "--out", str(out)]) == 0
+    assert "per-class" not in capsys.readouterr().err
+    assert (out / "figures" / "confusion.png").stat().st_size > 0
+    table = pd.read_csv(out / "per_gesture.csv")
+    assert list(table.columns) == ["configuration", "gesture", "folds", "precision", "recall",
+                                   "f1"]
+    assert set(table.configuration) == {"A-fixed", "APoc-gradnorm"}       # not APc
+    assert list(table.gesture[table.configuration == "A-fixed"]) == list(GESTURES)
+    rows = table.set_index(["configuration", "gesture"])
+    for gesture in ABSENT:                                   # absent everywhere: NaN, not an error
+        assert rows.loc[("A-fixed", gesture), "folds"] == 0
+        assert np.isnan(rows.loc[("A-fixed", gesture), "recall"])
+        assert rows.loc[("A-fixed", gesture), "f1"] == 0         # predicted although absent
+    never = rows.loc[("A-fixed", NEVER_RECOGNISED)]
+    assert never.folds == len(FOLDS) and never.recall == 0 and np.isnan(never.precision)
+    # the mean over folds of each run's saved score
+    saved = [json.loads((grid / f"runs/revised/bidirectional/A-fixed/seed0/{f}/metrics.json")
+                        .read_text())["mean"]["gesture"]["f1_G3"] for f in FOLDS]
+    assert rows.loc[("A-fixed", "G3"), "f1"] == pytest.approx(np.mean(saved), abs=1e-4)
+    from multitask.evidence.collect import per_class         # NaN allowed for these alone
+    assert per_class("f1_G3") and per_class("precision_reach") and per_class("accuracy_G1")
+    assert not any(map(per_class, ("accuracy", "f1@10", "f1@10_pooled", "accuracy_pooled")))
+    shares = row_normalised(np.array([[3, 1], [0, 0]]))
+    np.testing.assert_allclose(shares[0], [75, 25]) and np.isnan(shares[1]).all()
+
+
+def test_an_archive_without_confusion_matrices_is_tabulated_with_one_note(grid, tmp_path,
+                                                                          capsys):
+    out = tmp_path / "tables"
+    assert tables_main([str(grid), "--out", str(out), "--no-figures"]) == 0
+    notes = [line for line in capsys.readouterr().err.splitlines() if "per-gesture" in line]
+    assert len(notes) == 1 and "predate per-class scores" in notes[0]
+    assert not (out / "per_gesture.csv").exists() and (out / "summary.csv").is_file()

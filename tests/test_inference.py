@@ -17,6 +17,7 @@ from jigsaws_tools.dataset import DataConfig, load_dataset
 from jigsaws_tools.gestures import GESTURES
 from jigsaws_tools.release import frame_labels, kinematics_dir, read_kinematics, read_transcription
 from jigsaws_tools.release import transcriptions_dir
+from jigsaws_tools.task_definition import SUTURING
 from multitask.inference.evaluate_cli import main as evaluate_main
 from multitask.inference.export_cli import main as export_main
 from multitask.models.fold_run import train_variant
@@ -84,7 +85,9 @@ def test_predict_labels_every_frame_of_a_recording_without_transcription(bi_run,
     assert list(table["frame"]) == list(range(1, len(truth) + 1))
     assert set(table["gesture"]) <= set(GESTURES)
     np.testing.assert_allclose(table.filter(like="gesture_p_").sum(axis=1), 1.0, atol=1e-4)
-    assert set(table["progress"]) <= set(range(5)) and "progress_y4" in table
+    assert list(table.columns[:3]) == ["frame", "time_s", "sample"]
+    np.testing.assert_allclose(table["time_s"], (table["frame"] - 1) / 30, atol=1e-5)
+    assert set(table["progress"]) <= set(SUTURING.stage_names) and "progress_y_drop" in table
     assert (tmp_path / "out" / "mine.png").is_file()
     record = json.loads((tmp_path / "out" / "prediction.json").read_text())
     assert record["recordings"]["mine"]["frames"] == len(truth) and record["mode"] == "offline"
@@ -140,10 +143,35 @@ def test_evaluate_reproduces_the_runs_last_evaluation_exactly(bi_run, tmp_path):
     assert evaluate_main([str(bi_run), "--out", str(out), "--no-plots"]) == 0
     saved = json.loads((_last_point(bi_run) / "metrics.json").read_text())
     again = json.loads((out / "metrics.json").read_text())
-    assert again["metrics"] == saved["metrics"]
+    assert again["metrics"] == saved["metrics"] and again["confusion"] == saved["confusion"]
     assert (again["point"], again["unit"]) == (saved["point"], saved["unit"])
     for csv in sorted((_last_point(bi_run) / "predictions").glob("*.csv")):
         assert (out / "predictions" / csv.name).read_text() == csv.read_text()
+
+
+def test_every_predictions_csv_has_predicts_columns_and_names(bi_run, synth_dir, tmp_path):
+    """One format: multitask-predict's columns (per 30 Hz frame) are all in an evaluation point's
+    CSV (per 5 Hz sample, true labels beside), with class names, never indices; the confusion
+    matrices count exactly the rows written."""
+    kinematics = _held_out(synth_dir)[0]
+    assert predict_main([str(bi_run), str(kinematics), "--out", str(tmp_path / "p"),
+                         "--no-plots"]) == 0
+    predicted = pd.read_csv(tmp_path / "p" / f"{kinematics.stem}.csv")
+    evaluation = pd.read_csv(_last_point(bi_run) / "predictions" / f"{kinematics.stem}.csv")
+    assert set(predicted.columns) < set(evaluation.columns)
+    assert set(evaluation.columns) - set(predicted.columns) == {"gesture_true", "progress_true"}
+    stages = SUTURING.stage_names
+    for table in (predicted, evaluation):
+        assert set(table["gesture"]) <= set(GESTURES) and set(table["progress"]) <= set(stages)
+        np.testing.assert_allclose(table["time_s"], (table["frame"] - 1) / 30, atol=1e-5)
+    assert set(evaluation["progress_true"]) <= set(stages)
+    assert list(evaluation["sample"]) == list(range(len(evaluation)))    # one row per sample
+    assert list(predicted["frame"]) == list(range(1, len(predicted) + 1))  # one row per frame
+    saved = json.loads((_last_point(bi_run) / "metrics.json").read_text())
+    rows = sum(len(pd.read_csv(c)) for c in (_last_point(bi_run) / "predictions").glob("*.csv"))
+    for task, names in (("gesture", list(GESTURES)), ("progress", list(stages))):
+        assert saved["confusion"][task]["classes"] == names
+        assert np.sum(saved["confusion"][task]["counts"]) == rows
 
 
 # -- streaming -------------------------------------------------------------------------------------
@@ -224,7 +252,8 @@ def test_exported_model_alone_reproduces_multitask_predict(bi_run, synth_dir, tm
     np.testing.assert_array_equal(exported["frame"], table["frame"])
     np.testing.assert_array_equal(exported["sample"], table["sample"])
     np.testing.assert_array_equal(np.asarray(GESTURES)[exported["gesture"]], table["gesture"])
-    np.testing.assert_array_equal(exported["progress"], table["progress"])
+    np.testing.assert_array_equal(np.asarray(SUTURING.stage_names)[exported["progress"]],
+                                  table["progress"])
     for task, prefix in (("gesture", "gesture_p_"), ("progress", "progress_y")):
         np.testing.assert_allclose(exported[f"{task}_scores"], table.filter(like=prefix),
                                    atol=1e-5)              # the CSV's 5 decimals, float32 outputs

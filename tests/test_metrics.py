@@ -2,8 +2,10 @@
 import numpy as np
 import pytest
 
-from rnn_seg.metrics import (accuracy, class_accuracy, edit_distance, edit_score, f1_score,
-                             overlap_counts, segmentation_metrics, segments)
+from rnn_seg.metrics import (accuracy, class_accuracy, class_scores, confusion_matrix,
+                             edit_distance, edit_score, f1_score, overlap_counts,
+                             segmentation_metrics, segments)
+from rnn_seg.tasks import SoftmaxClassification, task_confusion, task_metrics
 
 
 def test_segments():
@@ -72,3 +74,34 @@ def test_unequal_lengths_are_a_clear_error():
         edit_score(np.zeros(3, int), np.zeros(5, int))
     with pytest.raises(ValueError, match="2 predicted sequences but 1 true"):
         segmentation_metrics([np.zeros(2, int)] * 2, [np.zeros(2, int)])
+
+
+def test_confusion_matrix_and_per_class_scores_by_hand():
+    # classes 0..3; class 3 neither occurs nor is predicted, class 2 is predicted but absent
+    preds = [np.array([0, 0, 1, 1]), np.array([1, 2, 0])]
+    trues = [np.array([0, 1, 1, 1]), np.array([1, 1, 0])]
+    confusion = confusion_matrix(preds, trues, 4)
+    assert confusion.tolist() == [[2, 0, 0, 0],      # row = true, column = predicted
+                                  [1, 3, 1, 0],
+                                  [0, 0, 0, 0],
+                                  [0, 0, 0, 0]]
+    assert confusion.sum() == 7                      # every step counted once
+    precision, recall, f1 = class_scores(confusion)
+    # class 0: TP 2, FP 1, FN 0; class 1: TP 3, FP 0, FN 2; class 2: TP 0, FP 1, FN 0
+    np.testing.assert_allclose(precision[:3], [100 * 2 / 3, 100.0, 0.0])
+    np.testing.assert_allclose(recall[:2], [100.0, 60.0])
+    np.testing.assert_allclose(f1[:3], [100 * 4 / 5, 100 * 6 / 8, 0.0])
+    assert np.isnan(recall[2]) and np.isnan(precision[3]) and np.isnan(recall[3])
+    assert np.isnan(f1[3])
+    np.testing.assert_allclose(recall[:2], class_accuracy(preds, trues, 4)[:2])
+
+
+def test_task_metrics_name_per_class_scores_and_confusion_by_class():
+    task = SoftmaxClassification("gesture", ["a", "b", "c"])
+    outputs = [np.eye(3, dtype=np.float32)[[0, 1, 1, 0]]]          # decodes to a b b a
+    labels = [np.array([0, 1, 0, 0])]
+    metrics = task_metrics(task, outputs, labels)
+    assert metrics["precision_a"] == 100.0 and metrics["recall_a"] == pytest.approx(200 / 3)
+    assert metrics["f1_b"] == pytest.approx(100 * 2 / 3) and metrics["precision_b"] == 50.0
+    assert all(np.isnan(metrics[f"{k}_c"]) for k in ("precision", "recall", "f1", "accuracy"))
+    assert task_confusion(task, outputs, labels).tolist() == [[2, 1, 0], [0, 1, 0], [0, 0, 0]]

@@ -10,6 +10,7 @@ import tensorflow as tf
 from baseline.cli import main as baseline_main
 from baseline.config import RunConfig
 from jigsaws_tools.dataset import DataConfig, load_dataset
+from jigsaws_tools.task_definition import SUTURING
 from multitask.train_cli import main as multitask_main
 from multitask.models.gradnorm import GradNormConfig, GradNormTrainer, shared_layer_variables
 from multitask.models.heads import OrdinalProgress, ProgressClassification, ProgressRegression
@@ -221,7 +222,11 @@ def test_multitask_cli_outputs_progress_columns_and_plots(synth_dir, tmp_path, m
                            "--out", str(out)]) == 0
     assert "progress: accuracy" in capsys.readouterr().out
     table = pd.read_csv(next((out / "eval/epoch0002/predictions").glob("*.csv")))
-    assert {"progress_true", "progress_pred", "progress_y0", "gesture_p_G11"} <= set(table.columns)
+    stages = SUTURING.stage_names
+    assert {"progress", "progress_true", "gesture_p_G11"} <= set(table.columns)
+    assert [c for c in table.columns if c.startswith("progress_y")] == [f"progress_y_{s}"
+                                                                          for s in stages]
+    assert set(table["progress"]) | set(table["progress_true"]) <= set(stages)
     assert len(list((out / "eval/epoch0002/plots").glob("*.png"))) == 5
     metrics = json.loads((out / "metrics.json").read_text())
     assert set(metrics["mean"]) == {"gesture", "progress"} and set(metrics["points"]) == {"1", "2"}

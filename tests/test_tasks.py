@@ -205,7 +205,7 @@ def test_inspect_real_knot_tying(knot_dir, capsys):
     out = capsys.readouterr().out
     trials = [line.split()[0] for line in out.splitlines() if line.startswith("Knot_Tying_")]
     assert len(trials) == 36 and "36 complete trials" in out
-    assert "gestures: G1 " in out and "G15" in out and "progress: P0 " in out and "P4" not in out
+    assert "gestures: G1 " in out and "G15" in out and "progress: reach " in out and "drop " in out
     assert "Knot_Tying_H002" in out.split("unusable files:")[1]
 
 
@@ -242,7 +242,7 @@ def test_synthetic_release_of_every_task_trains(tmp_path, name, capsys):
     config = json.loads((out / "config.json").read_text())
     assert config["run"]["data"]["task"]["name"] == name
     metrics = json.loads((out / "metrics.json").read_text())["mean"]
-    for head, classes in (("gesture", task.gestures), ("progress", task.stage_labels)):
+    for head, classes in (("gesture", task.gestures), ("progress", task.stage_names)):
         per_class = {k for k in metrics[head] if k.startswith("accuracy_")} - {"accuracy_pooled"}
         assert per_class == {f"accuracy_{c}" for c in classes}
 
@@ -264,7 +264,7 @@ def test_made_up_task_drives_synth_inspect_and_training(tmp_path, capsys):
     assert (release / "kinematics/AllGestures/Toy_Sort_B001.txt").is_file()
     assert tools_main(["inspect", str(release), "--task-file", str(definition)]) == 0
     out = capsys.readouterr().out
-    assert "40 complete trials" in out and "progress: P0 " in out and " P2 " in out
+    assert "40 complete trials" in out and "progress: pick " in out and " place " in out
     assert "gestures: R " in out
     run = tmp_path / "run"
     assert train_main(["--task-file", str(definition), "--data-dir", str(release),
@@ -272,9 +272,10 @@ def test_made_up_task_drives_synth_inspect_and_training(tmp_path, capsys):
                        "--out", str(run)]) == 0
     table = pd.read_csv(next((run / "eval/epoch0002/predictions").glob("Toy_Sort_D00*.csv")))
     assert {f"gesture_p_{g}" for g in "RLCAP"} <= set(table.columns)
-    assert {"progress_p_P0", "progress_p_P2"} <= set(table.columns)
-    assert "progress_p_P3" not in table.columns
-    assert set(table.gesture_true) <= set(range(5)) and set(table.progress_true) <= {0, 1, 2}
+    assert [c for c in table.columns if c.startswith("progress_p_")] == [
+        "progress_p_pick", "progress_p_carry", "progress_p_place"]
+    assert set(table.gesture_true) <= set("RLCAP")
+    assert set(table.progress) | set(table.progress_true) <= {"pick", "carry", "place"}
     assert len(list((run / "eval/epoch0002/plots").glob("*.png"))) == 5
 
 
@@ -297,8 +298,8 @@ def test_knot_tying_grid_tables_and_figures(tmp_path, capsys):
     tables = grid / "tables"
     assert (tables / "summary.csv").is_file() and not list(tables.glob("table*.csv"))
     summary = pd.read_csv(tables / "summary.csv")
-    assert "gesture_accuracy_G15_mean" in summary and "progress_accuracy_P3_mean" in summary
-    assert "progress_accuracy_P4_mean" not in summary
+    assert "gesture_accuracy_G15_mean" in summary and "progress_accuracy_drop_mean" in summary
+    assert "progress_accuracy_push_mean" not in summary      # a Suturing stage
     assert (tables / "figures/per_gesture_accuracy.png").is_file()
     claims = pd.read_csv(tables / "claims.csv")         # the paper's conjecture, not its claims
     assert claims["claim"].str.startswith("conjecture").all()

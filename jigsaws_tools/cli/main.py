@@ -49,7 +49,7 @@ def _inspect(args: argparse.Namespace) -> None:
     print(f"\n{len(table)} complete trials, {table['frames'].sum()} frames at 30 Hz, "
           f"{table['labelled'].sum()} labelled ({args.annotations} annotations)")
     print("gestures:", _histogram(table[list(task.gestures)].sum()))
-    print("progress:", _histogram(table[list(task.stage_labels)].sum()))
+    print("progress:", _histogram(table[list(task.stage_names)].sum()))
     print("missing kinematics:", ", ".join(index.missing_kinematics) or "none")
     print("missing transcription:", ", ".join(index.missing_transcription) or "none")
     print("unusable files:", "; ".join(index.unusable) or "none")
@@ -109,7 +109,7 @@ def _plot(args: argparse.Namespace) -> None:
                         task=task)
     dataset = load_dataset(config)
     out = plot_dataset(dataset.trials, args.out, config.preprocessing.sample_hz, task.gestures,
-                       task.stage_labels)
+                       task.stage_names)
     print(f"wrote {out}")
 
 

@@ -4,10 +4,13 @@ Writes to ``--out`` (default ``GRID_DIR/tables``): ``runs.csv`` (one row per fin
 ``per_fold.csv`` (mean over seeds per configuration and fold), ``summary.csv`` (mean and std over
 folds), ``table1|2|3.csv/.tex`` (ours against the paper), ``ablation_annotations.csv/.tex``
 (revised against original labels), ``claims.csv/.tex`` (the paper's claims tested with paired
-statistics over folds and seeds, settings in ``claims_config.json``), ``figures/*.png|pdf`` and,
-with ``--curves``, ``figures/curves/*.png|pdf`` (training curves). The paper's tables, the
-annotation ablation and its claims are Suturing's: a grid of another task gets instead the claims
-of the paper's conjecture (multi-task against model A on that task, ``claims.CONJECTURE_CLAIMS``).
+statistics over folds and seeds, settings in ``claims_config.json``), ``per_gesture.csv`` and
+``figures/confusion.png|pdf`` (per-gesture precision, recall, F1 and confusion matrices of A and
+APoc, ``confusion``; runs finished before these were saved get a one-line note instead),
+``figures/*.png|pdf`` and, with ``--curves``, ``figures/curves/*.png|pdf`` (training curves). The
+paper's tables, the annotation ablation and its claims are Suturing's: a grid of another task gets
+instead the claims of the paper's conjecture (multi-task against model A on that task,
+``claims.CONJECTURE_CLAIMS``).
 
     multitask-tables runs/converged --out results --example-trial Suturing_D003 --curves
 
@@ -85,6 +88,7 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
     from .claims_table import write_claims
     from .collect import (CONFIG_COLUMNS, completeness, expected_runs, grid_task_name, of_seeds,
                           per_fold, recorded_runs, summary)
+    from .confusion import write_per_class
     from .curves import training_curves
     from .figures import all_figures, example_trial as choose_example
     from .standalone import is_run_collection
@@ -113,6 +117,7 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
         written += write_claims(runs, out, budget=budget)
     else:
         written += write_claims(runs, out, claims=CONJECTURE_CLAIMS, budget=budget)
+    written += write_per_class(Path(grid_dir), runs, folds, out, figures)
     if figures:
         written += all_figures(Path(grid_dir), folds, out / "figures", example,
                                gradnorm=not foreign)

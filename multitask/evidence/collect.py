@@ -2,25 +2,27 @@
 
 Tables refuse incomplete evidence. Against the grid's own record of its runs (grid.json), every
 recorded run must be finished with a readable ``metrics.json`` whose metrics are finite (NaN is
-allowed only for a per-class accuracy, ``<task>_accuracy_<class>``: the class is absent from that
-fold's test trials), and every folder under ``runs/`` must be a recorded run (a stray copy such as
-``C.old`` is not a fold). Otherwise ``IncompleteEvidence`` names every problem; with
-``allow_incomplete`` the problems are returned instead and the configurations they touch are
-marked incomplete (``completeness``), never silently averaged over fewer runs. For a grid
-still running, ``finished_only`` leaves out whole configurations with an unfinished run (and
-says which); ``seeds`` restricts the evidence to some seeds' runs.
+allowed only for a per-class score, ``<task>_<kind>_<class>`` with a kind of ``PER_CLASS``: the
+class is absent from that fold's test trials, or never predicted), and every folder under ``runs/``
+must be a recorded run (a stray copy such as ``C.old`` is not a fold). Otherwise
+``IncompleteEvidence`` names every problem; with ``allow_incomplete`` the problems are returned
+instead and the configurations they touch are marked incomplete (``completeness``), never silently
+averaged over fewer runs. For a grid still running, ``finished_only`` leaves out whole
+configurations with an unfinished run (and says which); ``seeds`` restricts the evidence to some
+seeds' runs.
 
-Metric columns are ``<task>_<metric>``: ``gesture_accuracy``, ``gesture_edit``,
-``gesture_f1@10``, ``gesture_accuracy_G1`` ..., ``progress_accuracy``, ``progress_edit``,
-``progress_f1@10``, ``progress_mae`` (normalised MAE of the regression output rounded to the
-nearest stage and clipped, in % of the stage range: the 4-stage span for Suturing, the paper's
-metric) and ``progress_mae_raw`` (the same of the raw output). Each run's value is the mean over
-its evaluation points. Each run also has ``convergence``, ``converged``, ``loss_drop`` and
-``loss_drop_se`` (``rnn_seg.convergence``: the three-way verdict converged / undecided / still
-falling from every task's 95 % interval, the point verdict, the relative fall of its worst task's
-training loss over the last 10 % of its schedule, and that estimate's standard error; runs
-finished before the standard error or the three-way verdict was saved get them from their
-``history.csv`` and their saved ``loss_drop``).
+Metric columns are ``<task>_<metric>``: ``gesture_accuracy``, ``gesture_edit``, ``gesture_f1@10``,
+``gesture_accuracy_G1`` ... (and, for runs finished since they were saved, ``gesture_precision_G1``,
+``gesture_recall_G1``, ``gesture_f1_G1`` ...), ``progress_accuracy``, ``progress_edit``,
+``progress_f1@10``, ``progress_mae`` (normalised MAE of the regression output rounded to the nearest
+stage and clipped, in % of the stage range: the 4-stage span for Suturing, the paper's metric) and
+``progress_mae_raw`` (the same of the raw output). Each run's value is the mean over its evaluation
+points. Each run also has ``convergence``, ``converged``, ``loss_drop`` and ``loss_drop_se``
+(``rnn_seg.convergence``: the three-way verdict converged / undecided / still falling from every
+task's 95 % interval, the point verdict, the relative fall of its worst task's training loss over
+the last 10 % of its schedule, and that estimate's standard error; runs finished before the standard
+error or the three-way verdict was saved get them from their ``history.csv`` and their saved
+``loss_drop``).
 """
 from __future__ import annotations
 
@@ -49,6 +51,8 @@ LOWER_IS_BETTER = {"progress_mae", "progress_mae_raw"}
 _RENAME = {"mae_normalised_rounded": "mae", "mae_normalised": "mae_raw"}
 #: How a line of ``run_rows``' problems that names a configuration left out starts.
 LEFT_OUT = "left out:"
+#: Per-class scores: ``<kind>_<class>`` in metrics.json (``rnn_seg.tasks.task_metrics``).
+PER_CLASS = ("accuracy", "precision", "recall", "f1")
 #: Per-run columns that are not metrics (not averaged over seeds).
 CONVERGENCE_COLUMNS = ["convergence", "converged", "loss_drop", "loss_drop_se"]
 #: Per fold and configuration: how many runs have each three-way verdict but "converged".
@@ -207,7 +211,7 @@ def run_metrics(run_dir: Path, problems: list[str]) -> dict | None:
     for task, values in mean.items():
         for name, value in values.items():
             value = math.nan if value is None else value
-            if not isinstance(value, (int, float)) or (math.isnan(value) and not _per_class(name)):
+            if not isinstance(value, (int, float)) or (math.isnan(value) and not per_class(name)):
                 problems.append(f"{task}_{name} is {value!r}, not a number: {path}")
                 return None
             row[f"{task}_{_RENAME.get(name, name)}"] = value
@@ -241,9 +245,11 @@ def _convergence(run_dir: Path, saved: dict) -> dict:
                                         criterion.tolerance)}
 
 
-def _per_class(metric: str) -> bool:
-    """Whether ``metric`` is a per-class accuracy (NaN when the class is absent)."""
-    return metric.startswith("accuracy_") and metric != "accuracy_pooled"
+def per_class(metric: str) -> bool:
+    """Whether ``metric`` (without its task, e.g. ``precision_G2``) is a per-class score (NaN
+    when the class is absent or, for precision, never predicted)."""
+    kind, _, name = metric.partition("_")
+    return kind in PER_CLASS and bool(name) and metric != "accuracy_pooled"
 
 
 def _stray_folders(root: Path, recorded: list[Path]) -> list[Path]:

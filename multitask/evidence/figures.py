@@ -31,9 +31,11 @@ import pandas as pd  # noqa: E402
 from jigsaws_tools.plots import (Ribbon, draw_ribbon, layout_with_legends,  # noqa: E402
                                  task_colours)
 from jigsaws_tools.release import KINEMATICS_HZ  # noqa: E402
+from jigsaws_tools.task_definition import load_task  # noqa: E402
 
 from ..grid.archive import kept_predictions  # noqa: E402
 from ..grid.spec import RunKey  # noqa: E402
+from .collect import grid_task_name  # noqa: E402
 from .tables import CONFIG_LABELS  # noqa: E402
 
 OFFLINE = {"annotations": "revised", "direction": "bidirectional"}
@@ -163,6 +165,11 @@ def accuracy_classes(folds: pd.DataFrame, task: str = "gesture") -> tuple[str, .
                  if c.startswith(prefix) and c != f"{prefix}pooled")
 
 
+def _indices(labels: pd.Series, names: Sequence[str]) -> np.ndarray:
+    """``[T]`` class indices of a predictions column of class names (``rnn_seg.predictions``)."""
+    return pd.Categorical(labels, categories=list(names)).codes.astype(np.int64)
+
+
 def _seconds(predictions: pd.DataFrame) -> np.ndarray:
     """Time of each sample from the 30 Hz frame (1-based) it came from."""
     return (predictions.frame.to_numpy() - 1) / KINEMATICS_HZ
@@ -187,8 +194,8 @@ def segmentation_example(grid_dir: Path, trial: str, fold: str, out_dir: Path) -
     names = class_names(first, "gesture")
     colours = task_colours(len(names), ordered=False)
     times = _seconds(first)
-    ribbons = [Ribbon("ground truth", first.gesture_true.to_numpy(), times, names, colours)]
-    ribbons += [Ribbon(_label(c), p.gesture_pred.to_numpy(), times, names, colours)
+    ribbons = [Ribbon("ground truth", _indices(first.gesture_true, names), times, names, colours)]
+    ribbons += [Ribbon(_label(c), _indices(p.gesture, names), times, names, colours)
                 for c, p in runs.items()]
     fig, axes = plt.subplots(len(ribbons), 1, figsize=(10, 2.2), sharex=True)
     for ax, ribbon in zip(axes, ribbons):
@@ -210,16 +217,17 @@ def progress_example(grid_dir: Path, trial: str, fold: str, out_dir: Path) -> li
     fig, ax = plt.subplots(figsize=(9, 2.8))
     first = next(iter(runs.values()))
     times = _seconds(first)
-    ax.step(times, first.progress_true, where="post", color="k", lw=2, label="truth")
+    names = load_task(grid_task_name(grid_dir)).stage_names
+    ax.step(times, _indices(first.progress_true, names), where="post", color="k", lw=2,
+            label="truth")
     for config, predictions in runs.items():
         if "progress_value" in predictions:
             ax.plot(times, predictions.progress_value, color="tab:red", lw=1,
                     label=f"{_label(config)}: regression output")
         else:
-            ax.step(times, predictions.progress_pred, where="post", alpha=0.8, label=_label(config))
-    names = next((n for p in runs.values() if (n := class_names(p, "progress"))), ())
-    stages = max(len(names), int(first.progress_true.max()) + 1)
-    ax.set_yticks(range(stages), names or range(stages))
+            ax.step(times, _indices(predictions.progress, names), where="post", alpha=0.8,
+                    label=_label(config))
+    ax.set_yticks(range(len(names)), names)
     ax.set_ylabel("progress stage")
     ax.set_xlabel("time [s]")
     ax.set_xlim(times[0], times[-1])

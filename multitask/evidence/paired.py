@@ -37,7 +37,6 @@ error is at most ``0.5 / sqrt(power_samples)`` (0.0005 for the default 10^6).
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import dataclass
 from functools import cached_property, lru_cache
 
@@ -46,7 +45,7 @@ import pandas as pd
 
 from jigsaws_tools.annotations import ANNOTATION_VERSIONS
 
-from .collect import CONVERGENCE_COLUMNS, KEY_COLUMNS
+from .collect import CONVERGENCE_COLUMNS, KEY_COLUMNS, per_class
 from ..grid.spec import DIRECTIONS
 
 UNIT_OF_PAIRING = "LOUO fold (test user); each side averaged over its seeds within the fold"
@@ -305,9 +304,9 @@ class PairedResult:
 
 
 def _scores(runs: pd.DataFrame) -> list[str]:
-    """The metric columns of a per-run table other than per-class accuracies, in its order."""
+    """The metric columns of a per-run table other than per-class scores, in its order."""
     return [column for column in runs.columns if column not in KEY_COLUMNS + CONVERGENCE_COLUMNS
-            and not re.search(r"_accuracy_(?!pooled$)", column)]
+            and not per_class(column.split("_", 1)[-1])]
 
 
 def paired(runs: pd.DataFrame, contrast: Contrast, metric: str,
@@ -327,8 +326,9 @@ def paired(runs: pd.DataFrame, contrast: Contrast, metric: str,
     """
     if metric not in runs.columns:
         raise ValueError(f"metric {metric!r} is not in the runs table; known: "
-                         f"{', '.join(_scores(runs))} and the per-class accuracies "
-                         "(<task>_accuracy_<class>, e.g. gesture_accuracy_G2)")
+                         f"{', '.join(_scores(runs))} and the per-class scores "
+                         "(<task>_<accuracy|precision|recall|f1>_<class>, e.g. "
+                         "gesture_accuracy_G2)")
     terms = contrast.terms()
     sides = {side: _seed_values(runs, side, metric) for side in terms}
     common = sorted(set.intersection(*(set(values) for values in sides.values())))

@@ -15,6 +15,7 @@ import pandas as pd
 
 from jigsaws_tools.plots import Ribbon, plot_ribbons, task_colours
 from jigsaws_tools.release import KINEMATICS_HZ
+from rnn_seg.predictions import prediction_csv, prediction_table
 from rnn_seg.runs.folder import write_atomic
 from rnn_seg.tasks import Task
 
@@ -83,16 +84,11 @@ class RecordingPrediction:
         return self.task(name).scores(self.outputs[name])[self.frame_samples]
 
     def table(self) -> pd.DataFrame:
-        """One row per frame: ``frame``, ``sample``, then per task its prediction (the class name;
-        the stage number for ordered tasks such as progress) and its score columns
-        (``<task>_<column>``, as in a training run's predictions)."""
-        columns: dict[str, np.ndarray] = {"frame": self.frames, "sample": self.frame_samples}
-        for t in self.tasks:
-            labels = self.labels(t.name)
-            columns[t.name] = labels if t.ordered else np.asarray(t.class_names)[labels]
-            columns.update(zip([f"{t.name}_{c}" for c in t.score_columns()],
-                               self.scores(t.name).T))
-        return pd.DataFrame(columns)
+        """One row per 30 Hz frame in the format of every predictions CSV
+        (``rnn_seg.predictions``): ``frame``, ``time_s``, ``sample``, then per task the predicted
+        class name (a gesture, a progress stage) and its score columns ``<task>_<column>``."""
+        return prediction_table(self.tasks, self.outputs, self.frame_samples, self.frames,
+                                KINEMATICS_HZ)
 
     def write(self, folder: Path, name: str, title: str, plot: bool = True) -> list[Path]:
         """Write the predictions of this recording; returns the paths written.
@@ -104,7 +100,7 @@ class RecordingPrediction:
             plot: also draw ``<name>.png`` (one ribbon per task at the samples).
         """
         csv = Path(folder) / f"{name}.csv"
-        write_atomic(csv, self.table().to_csv(index=False, float_format="%.5f"))
+        write_atomic(csv, prediction_csv(self.table()))
         if not plot:
             return [csv]
         return [csv, plot_predictions(self, Path(folder) / f"{name}.png", title)]

@@ -2,8 +2,8 @@
 
 Each reads the shared ``2H`` BiLSTM features through its own fully connected layer (built by
 ``rnn_seg.model``); here are their targets, losses and decoding. Progress stages are
-``0..num_stages-1``, the task's (``TaskDefinition.num_stages``; 5 for the paper's Suturing, the
-default), named ``P0``, ``P1``, ...
+``0..K-1``, the task's (``TaskDefinition.stage_names``; for the paper's Suturing, the default:
+reach, position, push, pull, drop), and the heads' class names are the stages' names.
 """
 from __future__ import annotations
 
@@ -18,14 +18,14 @@ from rnn_seg.tasks import SoftmaxClassification, Task, step_mean
 
 from .config import ORDINAL_LOSSES, HeadConfig, OrdinalLoss  # noqa: F401 (re-exported)
 
-PAPER_STAGES = SUTURING.num_stages
+PAPER_STAGES = SUTURING.stage_names
 
 
-def stage_names(num_stages: int) -> tuple[str, ...]:
-    """Class names of the progress heads: ``P0 .. P{num_stages-1}``."""
-    if num_stages < 2:
-        raise ValueError(f"progress needs at least 2 stages, not {num_stages}")
-    return tuple(f"P{k}" for k in range(num_stages))
+def stage_classes(stages: Sequence[str]) -> tuple[str, ...]:
+    """Class names of the progress heads: the stages' names, in order (at least two)."""
+    if len(stages) < 2:
+        raise ValueError(f"progress needs at least 2 stages, not {len(stages)}")
+    return tuple(stages)
 
 
 class ProgressRegression(Task):
@@ -34,8 +34,8 @@ class ProgressRegression(Task):
 
     ordered = True
 
-    def __init__(self, num_stages: int = PAPER_STAGES):
-        super().__init__("progress", stage_names(num_stages))
+    def __init__(self, stages: Sequence[str] = PAPER_STAGES):
+        super().__init__("progress", stage_classes(stages))
 
     @property
     def num_outputs(self) -> int:
@@ -81,8 +81,8 @@ class ProgressClassification(SoftmaxClassification):
 
     ordered = True
 
-    def __init__(self, num_stages: int = PAPER_STAGES):
-        super().__init__("progress", stage_names(num_stages))
+    def __init__(self, stages: Sequence[str] = PAPER_STAGES):
+        super().__init__("progress", stage_classes(stages))
 
 
 class OrdinalProgress(Task):
@@ -92,8 +92,8 @@ class OrdinalProgress(Task):
 
     ordered = True
 
-    def __init__(self, num_stages: int = PAPER_STAGES, reduction: OrdinalLoss = "sum"):
-        super().__init__("progress", stage_names(num_stages))
+    def __init__(self, stages: Sequence[str] = PAPER_STAGES, reduction: OrdinalLoss = "sum"):
+        super().__init__("progress", stage_classes(stages))
         self.reduction = reduction
 
     def encode(self, labels):
@@ -110,7 +110,8 @@ class OrdinalProgress(Task):
         return 1.0 / (1.0 + np.exp(-outputs))
 
     def score_columns(self):
-        return [f"y{k}" for k in range(self.num_classes)]
+        """``y_<stage>``: the sigmoid output for "progress has reached this stage"."""
+        return [f"y_{c}" for c in self.class_names]
 
     def decode(self, outputs):
         return ordinal_decode(self.scores(outputs))

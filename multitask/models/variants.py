@@ -43,11 +43,11 @@ class Variant:
 
         tasks = [gesture_task(task)] if self.gestures else []
         if self.progress == "r":
-            tasks.append(ProgressRegression(task.num_stages))
+            tasks.append(ProgressRegression(task.stage_names))
         elif self.progress == "c":
-            tasks.append(ProgressClassification(task.num_stages))
+            tasks.append(ProgressClassification(task.stage_names))
         elif self.progress == "oc":
-            tasks.append(OrdinalProgress(task.num_stages, heads.ordinal_loss))
+            tasks.append(OrdinalProgress(task.stage_names, heads.ordinal_loss))
         return tasks
 
     @property
