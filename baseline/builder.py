@@ -7,7 +7,7 @@ from pathlib import Path
 from typing import Callable, Sequence
 
 from jigsaws_tools.dataset import DataConfig, Dataset, Trial, cache_key, load_dataset
-from jigsaws_tools.release import KINEMATICS_HZ, discover
+from jigsaws_tools.release import discover
 from jigsaws_tools.task_definition import SUTURING, TaskDefinition
 from rnn_seg.model import SegmentationModel
 from rnn_seg.tasks import SoftmaxClassification, Task
@@ -25,13 +25,15 @@ def gesture_task(task: TaskDefinition = SUTURING) -> Task:
     return SoftmaxClassification("gesture", task.gestures)
 
 
-def to_sequences(trials: Sequence[Trial], tasks: Sequence[Task]) -> SequenceSet:
-    """Trials -> the engine's named sequences with one label list per task."""
+def to_sequences(trials: Sequence[Trial], tasks: Sequence[Task], data: DataConfig
+                 ) -> SequenceSet:
+    """Trials -> the engine's named sequences with one label list per task; their frames at the
+    rate of ``data``'s recording format (30 Hz for the release)."""
     return SequenceSet(
         names=[t.name for t in trials],
         inputs=[t.inputs for t in trials],
         labels={task.name: [getattr(t, LABEL_FIELDS[task.name]) for t in trials] for task in tasks},
-        frames=[t.frames for t in trials], frame_hz=KINEMATICS_HZ)
+        frames=[t.frames for t in trials], frame_hz=data.recording_format.rate_hz)
 
 
 TrainerFactory = Callable[..., Trainer]
@@ -85,8 +87,9 @@ def build_trainer(config: RunConfig, tasks: Sequence[Task], run_dir: Path,
     loading = time.perf_counter() - began
     train, test = dataset.louo_split(config.test_user)
     model = SegmentationModel(dataset.num_features, config.encoder, tasks, config.train.seed)
-    built = trainer(model, tasks, config.optim, config.train, to_sequences(train, tasks),
-                    to_sequences(test, tasks), run_dir, run_configs(config, tasks, extra_configs),
+    built = trainer(model, tasks, config.optim, config.train,
+                    to_sequences(train, tasks, config.data), to_sequences(test, tasks, config.data),
+                    run_dir, run_configs(config, tasks, extra_configs),
                     config.data.preprocessing.sample_hz, log=log)
     built.clock.add("data", loading)
     return built

@@ -75,7 +75,7 @@ def evaluate_run(run: TrainedRun, out: Path, data_dir: Path | str | None = None,
     if test_user != run.config.test_user:
         log.warning("user %s's trials were in this run's training set (it held out user %s): "
                     "these scores are not held-out scores", test_user, run.config.test_user)
-    data = to_sequences(trials, run.tasks)
+    data = to_sequences(trials, run.tasks, data_config)
     if stream:
         outputs = causal_outputs(run, trials, data_config.data_dir,
                                  run.stream_normalisation(data_dir))

@@ -84,11 +84,11 @@ class RecordingPrediction:
         return self.task(name).scores(self.outputs[name])[self.frame_samples]
 
     def table(self) -> pd.DataFrame:
-        """One row per 30 Hz frame in the format of every predictions CSV
+        """One row per frame (at ``frame_hz``) in the format of every predictions CSV
         (``rnn_seg.predictions``): ``frame``, ``time_s``, ``sample``, then per task the predicted
         class name (a gesture, a progress stage) and its score columns ``<task>_<column>``."""
         return prediction_table(self.tasks, self.outputs, self.frame_samples, self.frames,
-                                KINEMATICS_HZ)
+                                self.frame_hz)
 
     def write(self, folder: Path, name: str, title: str, plot: bool = True) -> list[Path]:
         """Write the predictions of this recording; returns the paths written.
