@@ -84,8 +84,13 @@ def test_per_gesture_accuracy_has_error_bars_and_tells_absent_from_never_recogni
     folds = per_fold(run_rows(grid)[0])
     figures.per_gesture_accuracy(folds, GESTURES, grid / "figures")
     ax = captured["per_gesture_accuracy"].axes[0]
-    assert [t.get_text() for t in ax.get_xticklabels()] == list(GESTURES)
-    assert sum(isinstance(c, ErrorbarContainer) for c in ax.containers) == 3
+    assert [t.get_text() for t in ax.get_xticklabels()] == [
+        f"{g}\n0 of {len(FOLDS)}\nfolds" if g in ABSENT else g for g in GESTURES]
+    assert ax.get_title() == ""
+    bars = [c for c in ax.containers if isinstance(c, ErrorbarContainer)]
+    assert len(bars) == 3
+    ends = np.concatenate([np.concatenate(c.lines[2][0].get_segments()) for c in bars])
+    assert ends[:, 1].min() >= 0 and ends[:, 1].max() <= 100       # clipped to [0, 100]
     a = folds[(folds.variant == "A") & (folds.annotations == "revised")
               & (folds.direction == "bidirectional")]
     heights = [p.get_height() for p in ax.containers[1].patches]      # model A's bars
@@ -116,11 +121,25 @@ def test_example_figures_take_the_chosen_trial_and_show_seconds(grid, captured):
         figures.example_trial(grid, folds, "Suturing_Z001")
 
 
-def test_fold_letters_label_the_points(grid, captured):
+def test_fold_letters_label_the_points_apart_and_a_stands_beside_apoc(grid, captured):
     figures.fold_accuracy(per_fold(run_rows(grid)[0]), grid / "figures")
-    letters = [t.get_text() for t in captured["fold_accuracy"].axes[0].texts]
-    assert sorted(letters) == sorted(FOLDS * 2)
-    assert min(t.get_fontsize() for t in captured["fold_accuracy"].axes[0].texts) >= 8
+    per_model, scatter = captured["fold_accuracy"].axes
+    assert [t.get_text() for t in per_model.get_xticklabels()] == sorted(FOLDS)
+    assert [t.get_text() for t in per_model.get_legend().get_texts()][0] == "A"
+    labels = scatter.texts
+    assert sorted(t.get_text() for t in labels) == sorted(FOLDS)
+    assert min(t.get_fontsize() for t in labels) >= 8
+    places = np.array([t.get_position() for t in labels])         # axes fractions
+    apart = np.abs(places[:, None, :] - places[None, :, :]).max(axis=2) >= 0.07
+    assert apart[~np.eye(len(places), dtype=bool)].all()
+
+
+def test_gradnorm_panels_in_the_paper_order_on_one_epoch_axis(grid, captured):
+    figures.gradnorm_weights(grid, grid / "figures")
+    axes = captured["gradnorm_weights"].axes
+    variants = [ax.get_title().split()[0] for ax in axes]
+    assert variants == [v for v in figures.GRADNORM_ORDER if v in variants] and variants
+    assert len({ax.get_xlim() for ax in axes}) == 1
 
 
 @pytest.mark.filterwarnings("ignore:More than 20 figures")

@@ -1,14 +1,16 @@
 """The paper's figures from a grid's runs, each saved as PNG and PDF.
 
 * ``per_gesture_accuracy``: accuracy of each gesture, A vs APoc (paper Fig. 4): the mean over the
-  folds whose test trials contain the gesture, their standard deviation as error bar; a gesture
-  that occurs but is never recognised shows as 0, one absent from every test set as n/a;
+  folds whose test trials contain the gesture, one standard deviation each side (clipped to
+  [0, 100]) as error bar, and under a gesture missing from some folds the number it occurs in; a
+  gesture that occurs but is never recognised shows as 0, one absent from every test set as n/a;
 * ``segmentation_example``: ground truth, A and APoc ribbons of one test trial (Fig. 5);
-* ``progress_example``: true progress and APr's regression output, APc's and APoc's predicted
-  stages over time (Fig. 6);
-* ``fold_accuracy``: gesture vs progress accuracy of each fold, APoc (Fig. 7; without APoc runs,
-  every two-task configuration);
-* ``gradnorm_weights``: task weights over training for the GradNorm runs.
+* ``progress_example``: true progress (a grey band) and APr's regression output, APc's and APoc's
+  predicted stages over time, stages named from the task file (Fig. 6);
+* ``fold_accuracy``: per fold, the gesture accuracy of A beside APoc, and gesture vs progress
+  accuracy of APoc (Fig. 7; without APoc runs, the first two-task configuration);
+* ``gradnorm_weights``: task weights over training for the GradNorm runs, in the paper's order of
+  the variants, on a common epoch axis.
 
 Figures read the revised-annotation, bidirectional runs of seed 0 where one run is needed; the
 example trial is a choice (``--example-trial``); the two example figures need that trial's
@@ -30,8 +32,9 @@ import pandas as pd  # noqa: E402
 
 from jigsaws_tools.plots import (Ribbon, draw_ribbon, layout_with_legends,  # noqa: E402
                                  task_colours)
-from jigsaws_tools.release import KINEMATICS_HZ  # noqa: E402
 from jigsaws_tools.task_definition import load_task  # noqa: E402
+
+from rnn_seg.runs.folder import read_json  # noqa: E402
 
 from ..grid.archive import kept_predictions  # noqa: E402
 from ..grid.spec import RunKey  # noqa: E402
@@ -43,7 +46,13 @@ COMPARED = ("A-fixed", "APoc-fixed", "APoc-gradnorm")
 #: Runs shown by the example figures: segmentation, then progress (regression output first).
 SEGMENTATION_RUNS = ("A-fixed", "APoc-fixed")
 PROGRESS_RUNS = ("APr-fixed", "APc-fixed", "APoc-fixed")
-FOLD_RUNS = ("APoc-fixed", "APoc-gradnorm")
+#: The multi-task model of the gesture-vs-progress panel, first the grid ran (paper's Fig. 7).
+FOLD_RUNS = ("APoc-gradnorm", "APoc-fixed")
+#: GradNorm panels in the paper's order of the variants.
+GRADNORM_ORDER = ("APr", "APc", "APoc")
+#: Legend name -> (gradnorm.csv column, colour) of the task-weight lines.
+WEIGHT_LINES = {"gesture weight $w_1$": ("w_end_gesture", "tab:blue"),
+                "progress weight $w_2$": ("w_end_progress", "tab:red")}
 #: Every figure ``all_figures`` draws (file names without extension).
 FIGURES = ("per_gesture_accuracy", "segmentation_example", "progress_example", "fold_accuracy",
            "gradnorm_weights")
@@ -68,8 +77,16 @@ def save(fig: plt.Figure, out_dir: Path, name: str) -> list[Path]:
     return paths
 
 
-def _label(config: str) -> str:
-    return CONFIG_LABELS.get(config, config)
+#: Parenthesised detail of a model label (``tables.CONFIG_LABELS``) -> its mathtext in figures.
+_MATH_DETAILS = {"w1=w2=1": "$w_1 = w_2 = 1$", "alpha=1.5": r"GradNorm, $\alpha = 1.5$"}
+
+
+def label(config: str) -> str:
+    """A configuration's name in figures, e.g. ``APoc (GradNorm, $\alpha = 1.5$)``."""
+    text = CONFIG_LABELS.get(config, config)
+    for plain, math in _MATH_DETAILS.items():
+        text = text.replace(plain, math)
+    return text
 
 
 def _offline_folds(folds: pd.DataFrame, config: str) -> pd.DataFrame:
@@ -81,8 +98,9 @@ def _offline_folds(folds: pd.DataFrame, config: str) -> pd.DataFrame:
 
 def per_gesture_accuracy(folds: pd.DataFrame, gestures: Sequence[str], out_dir: Path
                          ) -> list[Path]:
-    """Grouped bars, one per compared model: each gesture's accuracy (percent), mean and std over
-    the folds where it occurs.
+    """Grouped bars, one per compared model: each gesture's accuracy (percent), mean over the
+    folds where it occurs, with one standard deviation each side clipped to [0, 100]; a gesture
+    missing from some folds' test trials says in how many it occurs.
 
     Args:
         folds: one row per configuration and fold (``collect.per_fold``), with the columns
@@ -97,25 +115,30 @@ def per_gesture_accuracy(folds: pd.DataFrame, gestures: Sequence[str], out_dir: 
     rows = {c: r for c in COMPARED if not (r := _offline_folds(folds, c)).empty}
     if not rows or not gestures:
         return []
-    fig, ax = plt.subplots(figsize=(8, 3.2))
+    fig, ax = plt.subplots(figsize=(8, 3.0))
     width = 0.8 / len(rows)
     x = np.arange(len(gestures))
     for k, (config, table) in enumerate(rows.items()):
         values = table.reindex(columns=[f"gesture_accuracy_{g}" for g in gestures])
-        mean, std = values.mean(), values.std(ddof=1).fillna(0.0)
+        mean, std = values.mean().to_numpy(), values.std(ddof=1).fillna(0.0).to_numpy()
+        below = np.nan_to_num(mean - np.clip(mean - std, 0, 100))
+        above = np.nan_to_num(np.clip(mean + std, 0, 100) - mean)
         at = x + (k - (len(rows) - 1) / 2) * width
-        ax.bar(at, mean.fillna(0.0), width, yerr=std, capsize=2, label=_label(config),
-               error_kw={"elinewidth": 0.8})
+        ax.bar(at, np.nan_to_num(mean), width, yerr=[below, above], capsize=2,
+               label=label(config), error_kw={"elinewidth": 0.8})
         for position, value in zip(at, mean):
             if np.isnan(value) or value == 0:       # absent everywhere / never recognised
                 ax.text(position, 1.5, "n/a" if np.isnan(value) else "0", ha="center",
                         va="bottom", fontsize=6, rotation=90, color="0.35")
-    ax.set_xticks(x, gestures)
+    occurs = next(iter(rows.values())).reindex(
+        columns=[f"gesture_accuracy_{g}" for g in gestures]).notna().sum().to_numpy()
+    total = len(next(iter(rows.values())))
+    ax.set_xticks(x, [g if n == total else f"{g}\n{n} of {total}\nfolds"
+                      for g, n in zip(gestures, occurs)], fontsize=8)
     ax.set_ylabel("accuracy [%]")
-    ax.set_ylim(0, 105)
-    ax.set_title("Recognition accuracy of individual gestures: mean and std over the folds where "
-                 "each occurs (0: never recognised, n/a: in no test set)", fontsize=8)
-    ax.legend(fontsize=7, ncol=len(rows), loc="upper center", bbox_to_anchor=(0.5, -0.1))
+    ax.set_ylim(0, 100)
+    ax.legend(fontsize=8, ncol=len(rows), loc="lower center", bbox_to_anchor=(0.5, 1.0),
+              frameon=False)
     return save(fig, out_dir, "per_gesture_accuracy")
 
 
@@ -171,8 +194,8 @@ def _indices(labels: pd.Series, names: Sequence[str]) -> np.ndarray:
 
 
 def _seconds(predictions: pd.DataFrame) -> np.ndarray:
-    """Time of each sample from the 30 Hz frame (1-based) it came from."""
-    return (predictions.frame.to_numpy() - 1) / KINEMATICS_HZ
+    """Time of each row in seconds (the predictions CSV's ``time_s``, ``rnn_seg.predictions``)."""
+    return predictions.time_s.to_numpy()
 
 
 def segmentation_example(grid_dir: Path, trial: str, fold: str, out_dir: Path) -> list[Path]:
@@ -195,7 +218,7 @@ def segmentation_example(grid_dir: Path, trial: str, fold: str, out_dir: Path) -
     colours = task_colours(len(names), ordered=False)
     times = _seconds(first)
     ribbons = [Ribbon("ground truth", _indices(first.gesture_true, names), times, names, colours)]
-    ribbons += [Ribbon(_label(c), _indices(p.gesture, names), times, names, colours)
+    ribbons += [Ribbon(label(c), _indices(p.gesture, names), times, names, colours)
                 for c, p in runs.items()]
     fig, axes = plt.subplots(len(ribbons), 1, figsize=(10, 2.2), sharex=True)
     for ax, ribbon in zip(axes, ribbons):
@@ -207,82 +230,124 @@ def segmentation_example(grid_dir: Path, trial: str, fold: str, out_dir: Path) -
 
 
 def progress_example(grid_dir: Path, trial: str, fold: str, out_dir: Path) -> list[Path]:
-    """True progress of one test trial and the predictions over time in seconds: APr's raw
-    regression output (a line), APc's and APoc's stages (steps). Arguments and return value as
-    ``segmentation_example``'s.
+    """True progress of one test trial (a wide grey band, so that it shows beneath the
+    predictions) and the predictions over time in seconds: APr's raw regression output (a line),
+    APc's and APoc's stages (steps); stages named from the grid's task file. Arguments and return
+    value as ``segmentation_example``'s.
     """
     runs = _trial_predictions(grid_dir, PROGRESS_RUNS, trial, fold)
     if not runs:
         return []
-    fig, ax = plt.subplots(figsize=(9, 2.8))
+    fig, ax = plt.subplots(figsize=(9, 3.0))
     first = next(iter(runs.values()))
     times = _seconds(first)
     names = load_task(grid_task_name(grid_dir)).stage_names
-    ax.step(times, _indices(first.progress_true, names), where="post", color="k", lw=2,
-            label="truth")
+    ax.step(times, _indices(first.progress_true, names), where="post", color="0.55", lw=6,
+            alpha=0.5, solid_capstyle="butt", label="ground truth", zorder=1)
     for config, predictions in runs.items():
         if "progress_value" in predictions:
-            ax.plot(times, predictions.progress_value, color="tab:red", lw=1,
-                    label=f"{_label(config)}: regression output")
+            ax.plot(times, predictions.progress_value, color="tab:red", lw=1, zorder=3,
+                    label=f"{label(config)}: regression output")
         else:
-            ax.step(times, _indices(predictions.progress, names), where="post", alpha=0.8,
-                    label=_label(config))
+            ax.step(times, _indices(predictions.progress, names), where="post", lw=1.2,
+                    zorder=2, label=label(config))
     ax.set_yticks(range(len(names)), names)
     ax.set_ylabel("progress stage")
     ax.set_xlabel("time [s]")
     ax.set_xlim(times[0], times[-1])
     ax.set_title(f"{trial}: progress prediction", fontsize=9)
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1))
+    ax.legend(fontsize=8, loc="upper left", framealpha=0.9)
     return save(fig, out_dir, "progress_example")
 
 
 def fold_accuracy(folds: pd.DataFrame, out_dir: Path) -> list[Path]:
-    """Gesture vs progress accuracy, one point per fold labelled with its test user: APoc's (the
-    paper's Fig. 7), or every two-task configuration's if the grid ran no APoc."""
+    """Two panels per fold (test user): left, the gesture accuracy of each compared model, A
+    beside APoc; right, gesture vs progress accuracy of one multi-task model (the paper's Fig. 7:
+    APoc with GradNorm, else APoc with fixed weights, else the first two-task configuration), one
+    point per fold labelled with its test user."""
     if not {"gesture_accuracy", "progress_accuracy"} <= set(folds):
         return []
     both = folds.dropna(subset=["gesture_accuracy", "progress_accuracy"])
-    configs = [c for c in FOLD_RUNS if not _offline_folds(both, c).empty] or list(dict.fromkeys(
-        f"{r.variant}-{r.weighting}" for r in both.itertuples()))
-    tables = {c: t for c in configs if not (t := _offline_folds(both, c)).empty}
-    if not tables:
+    two_task = [c for c in FOLD_RUNS if not _offline_folds(both, c).empty] or list(
+        dict.fromkeys(f"{r.variant}-{r.weighting}" for r in both.itertuples()))
+    compared = {c: t for c in COMPARED if not (t := _offline_folds(folds, c)).empty}
+    scatter = _offline_folds(both, two_task[0]) if two_task else both.iloc[:0]
+    if scatter.empty:
         return []
-    fig, ax = plt.subplots(figsize=(4.5, 4))
-    for config, table in tables.items():
-        points = ax.scatter(table.gesture_accuracy, table.progress_accuracy, s=22,
-                            label=_label(config))
-        for row in table.itertuples():
-            ax.annotate(row.fold, (row.gesture_accuracy, row.progress_accuracy), fontsize=9,
-                        xytext=(4, 3), textcoords="offset points",
-                        color=points.get_facecolor()[0])
-    ax.set_xlabel("gesture accuracy [%]")
-    ax.set_ylabel("progress accuracy [%]")
-    ax.set_title("Per fold (test user): gesture vs progress accuracy", fontsize=9)
-    ax.legend(fontsize=7)
+    fig, (left, right) = plt.subplots(1, 2, figsize=(9, 3.6), width_ratios=(1.2, 1))
+    letters = sorted(set().union(*(t.fold for t in compared.values())) or scatter.fold)
+    width = 0.8 / max(len(compared), 1)
+    for k, (config, table) in enumerate(compared.items()):
+        at = [letters.index(f) + (k - (len(compared) - 1) / 2) * width for f in table.fold]
+        left.plot(at, table.gesture_accuracy, "o", ms=5, label=label(config))
+    left.set_xticks(range(len(letters)), letters)
+    left.set_xlabel("fold (test user)")
+    left.set_ylabel("gesture accuracy [%]")
+    left.legend(fontsize=7, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=len(compared),
+                frameon=False, handletextpad=0.1, columnspacing=0.8)
+    right.scatter(scatter.gesture_accuracy, scatter.progress_accuracy, s=18, color="tab:green")
+    _label_points(right, scatter.gesture_accuracy.to_numpy(),
+                  scatter.progress_accuracy.to_numpy(), list(scatter.fold))
+    right.set_xlabel("gesture accuracy [%]")
+    right.set_ylabel("progress accuracy [%]")
+    right.set_title(label(two_task[0]), fontsize=9)
+    fig.tight_layout()
     return save(fig, out_dir, "fold_accuracy")
 
 
+def _padded(values: np.ndarray) -> tuple[float, float]:
+    """Axis limits around ``values`` with a margin of 10 % of their range plus half a point."""
+    margin = 0.1 * np.ptp(values) + 0.5
+    return values.min() - margin, values.max() + margin
+
+
+def _label_points(ax: plt.Axes, x: np.ndarray, y: np.ndarray, texts: Sequence[str],
+                  gap: float = 0.07) -> None:
+    """Write ``texts`` beside the points ``(x, y)``, each moved down in steps of ``gap`` (a
+    fraction of the axes) until it is clear of the labels already written, with a thin line
+    to its point when moved."""
+    ax.set_xlim(*_padded(x))
+    ax.set_ylim(*_padded(y))
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    placed: list[tuple[float, float]] = []
+    for i in np.argsort(-y):
+        fx, fy = (x[i] - x0) / (x1 - x0) + 0.02, (y[i] - y0) / (y1 - y0) + 0.02
+        start = fy
+        while any(abs(fx - px) < gap and abs(fy - py) < gap for px, py in placed):
+            fy -= gap
+        placed.append((fx, fy))
+        ax.annotate(texts[i], (x[i], y[i]), xytext=(fx, fy), textcoords="axes fraction",
+                    fontsize=9, va="bottom",
+                    arrowprops={"arrowstyle": "-", "lw": 0.5, "color": "0.5"}
+                    if fy != start else None)
+
+
 def gradnorm_weights(grid_dir: Path, out_dir: Path) -> list[Path]:
-    """Task weights of every GradNorm run (thin lines per fold), one panel per variant."""
-    logs = sorted((grid_dir / "runs" / OFFLINE["annotations"] / OFFLINE["direction"])
-                  .glob("*-gradnorm/seed0/*/gradnorm.csv"))
-    by_variant: dict[str, list[pd.DataFrame]] = {}
-    for log in logs:
-        by_variant.setdefault(log.parts[-4].removesuffix("-gradnorm"), []).append(pd.read_csv(log))
-    if not by_variant:
+    """Task weights over training of every GradNorm run of seed 0 (a thin line per fold), one
+    panel per variant in the paper's order (APr, APc, APoc) on a common epoch axis; each panel
+    names its GradNorm alpha (from the runs' config.json, where it records one)."""
+    root = grid_dir / "runs" / OFFLINE["annotations"] / OFFLINE["direction"]
+    panels = {v: sorted(root.glob(f"{v}-gradnorm/seed0/*/gradnorm.csv")) for v in GRADNORM_ORDER}
+    panels = {v: logs for v, logs in panels.items() if logs}
+    if not panels:
         return []
-    fig, axes = plt.subplots(1, len(by_variant), figsize=(3.3 * len(by_variant), 2.8),
-                             squeeze=False, sharey=True)
-    for ax, (variant, frames) in zip(axes[0], sorted(by_variant.items())):
-        for frame in frames:
-            for column, color in (("w_end_gesture", "tab:blue"), ("w_end_progress", "tab:red")):
-                ax.plot(frame.unit, frame[column], color=color, alpha=0.35, lw=1)
-        ax.plot([], [], color="tab:blue", label="w gesture")
-        ax.plot([], [], color="tab:red", label="w progress")
-        ax.set_title(f"{variant} (alpha 1.5)", fontsize=9)
+    fig, axes = plt.subplots(1, len(panels), figsize=(3.3 * len(panels), 2.9), squeeze=False,
+                             sharex=True, sharey=True)
+    for ax, (variant, logs) in zip(axes[0], panels.items()):
+        for log in logs:
+            frame = pd.read_csv(log)
+            for column, colour in WEIGHT_LINES.values():
+                ax.plot(frame.unit, frame[column], color=colour, alpha=0.35, lw=1)
+        alpha = read_json(logs[0].parent / "config.json").get("gradnorm", {}).get("alpha")
+        detail = "" if alpha is None else rf", $\alpha = {alpha:g}$"
+        ax.set_title(f"{variant} (GradNorm{detail})", fontsize=9)
         ax.set_xlabel("epoch")
     axes[0][0].set_ylabel("task weight")
-    axes[0][0].legend(fontsize=7)
+    handles = [plt.Line2D([], [], color=colour, label=name)
+               for name, (_, colour) in WEIGHT_LINES.items()]
+    axes[0][-1].legend(handles=handles, fontsize=7, title="one line per fold", title_fontsize=7,
+                       loc="center right")
+    fig.tight_layout()
     return save(fig, out_dir, "gradnorm_weights")
 
 
