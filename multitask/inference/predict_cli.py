@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from jigsaws_tools.cli.common import run_command
+from jigsaws_tools.cli.common import import_tensorflow, run_command
 from jigsaws_tools.cli.format_options import add_format_option
 from jigsaws_tools.recording_format import JIGSAWS_FORMAT, RecordingFormat
 from rnn_seg.runs.outputs import check_output_folder
@@ -86,6 +86,7 @@ def _predict(args: argparse.Namespace) -> None:
     from jigsaws_tools.recording_format import load_format
     from rnn_seg.runs.folder import write_json
 
+    import_tensorflow()                 # quietly, before trained_run imports it
     from .trained_run import read_run_config
 
     if args.data_dir and not args.stream:
