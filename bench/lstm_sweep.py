@@ -2,19 +2,27 @@
 
 Compares ``rnn_seg``'s layer in float32 (``rnn_seg``), with bfloat16 products (``rnn_seg_bf16``,
 when the CPU has native bfloat16) and with XLA-compiled loops (``rnn_seg_xla``) with a per-gate
-reference written like the original code, at paper size (H=1024, B=5, 14 inputs, T=800) and
-H=256, in the same run. Each (implementation, H) runs in its own process so its peak resident memory is its own; ``rnn_seg``
-uses its own thread plan (rnn_seg.threads), the reference TensorFlow's default (its fastest
-here). Also times the bare float32 recurrent product on this machine, which gives the float32
-floor: T steps x 2 directions x 3 products. Prints medians, ratios to the floor and the
-reference, and peak memory.
+reference written like the original code and with two peers doing the same workload, PyTorch's
+``nn.LSTM`` (``torch``, ``torch_bf16``: CPU autocast) and Keras's ``Bidirectional(LSTM)`` in our
+TensorFlow (``keras``, ``keras_bf16``: the ``mixed_bfloat16`` policy), at paper size (H=1024,
+B=5, 14 inputs, T=800) and H=256, in the same run. The peers' cells have no peepholes
+(``lstm_peers.py`` lists what else differs); a peer not installed is skipped (``pip install -e
+".[bench]"`` installs PyTorch). Each (implementation, H) runs in its own process so its peak
+resident memory is its own; ``rnn_seg`` uses its own thread plan (rnn_seg.threads), the
+reference TensorFlow's default (its fastest here), the peers every core in each op and as many
+ops at once (intra = inter = cores). Also times the bare float32 recurrent product on this
+machine, which gives the float32 floor: T steps x 2 directions x 3 products. Prints medians,
+ratios to the floor, the reference and the peers, and peak memory.
 
     python bench/lstm_sweep.py [--hidden 1024 256] [--repeats 5] [--steps 800]
     python bench/lstm_sweep.py --threads 1,2     # force a thread plan (intra, inter) on rnn_seg
+                                                 # and the peers
+    python bench/lstm_sweep.py --impl rnn_seg torch keras     # a subset
 """
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import os
 import resource
@@ -28,7 +36,18 @@ os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "2")
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "bench")]
 F, K, B = 14, 10, 5
-IMPLEMENTATIONS = ("rnn_seg", "rnn_seg_bf16", "rnn_seg_xla", "per_gate")
+IMPLEMENTATIONS = ("rnn_seg", "rnn_seg_bf16", "rnn_seg_xla", "per_gate", "torch", "torch_bf16",
+                   "keras", "keras_bf16")
+#: Each peer's package (the first part of its name) and how to install it.
+PEERS = {"torch": "pip install -e '.[bench]'", "keras": "pip install keras"}
+#: (label, slower, faster): each prints ``slower``'s median over ``faster``'s when both ran.
+RATIOS = (("rnn_seg vs per_gate", "per_gate", "rnn_seg"),
+          ("bf16 vs fp32", "rnn_seg", "rnn_seg_bf16"),
+          ("xla loops vs graph", "rnn_seg", "rnn_seg_xla"),
+          ("rnn_seg vs torch (fp32)", "torch", "rnn_seg"),
+          ("rnn_seg vs torch (bf16)", "torch_bf16", "rnn_seg_bf16"),
+          ("rnn_seg vs keras (fp32)", "keras", "rnn_seg"),
+          ("rnn_seg vs keras (bf16)", "keras_bf16", "rnn_seg_bf16"))
 
 
 def _step_function(impl: str, hidden: int):
@@ -79,34 +98,81 @@ def _step_function(impl: str, hidden: int):
 
 
 def worker(impl: str, hidden: int, steps: int, repeats: int, plan: str | None = None) -> dict:
+    """Time ``repeats`` sweeps of ``impl`` after one warm-up, in this process.
+
+    ``plan`` is ``"intra,inter"`` or None (``rnn_seg``: its own plan; ``per_gate``: TensorFlow's
+    default). Returns seconds per sweep, peak resident MB and the threads used, or, where the
+    peer cannot run the variant here, why it was skipped.
+    """
+    from lstm_peers import Unsupported
+
+    x, r, y = _batch(steps)
+    build = _torch_sweep if impl.startswith("torch") else _tensorflow_sweep
+    try:
+        sweep, threads = build(impl, hidden, x, r, y, plan)
+    except Unsupported as reason:
+        return {"impl": impl, "hidden": hidden, "skipped": str(reason)}
+    sweep()                                             # trace and warm up
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        sweep()
+        times.append(time.perf_counter() - start)
+    peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    return {"impl": impl, "hidden": hidden, "times": times, "peak_mb": peak_mb, "threads": threads}
+
+
+def _batch(steps: int) -> tuple:
+    """One batch as NumPy: inputs ``[B, T, F]`` float32 normal, resets ``[B, T]`` bool (step 0
+    only), one-hot targets ``[B, T, K]`` float32."""
     import numpy as np
+
+    rng = np.random.default_rng(0)
+    x = rng.normal(size=(B, steps, F)).astype(np.float32)
+    r = np.eye(1, steps, dtype=bool).repeat(B, 0)
+    y = np.eye(K, dtype=np.float32)[rng.integers(0, K, (B, steps))]
+    return x, r, y
+
+
+def _tensorflow_sweep(impl: str, hidden: int, x, r, y, plan: str | None):
+    """``rnn_seg*``, ``per_gate`` or ``keras*``: (a call running one sweep, threads used)."""
     import tensorflow as tf
 
+    from lstm_peers import keras_step
     from rnn_seg.threads import configure_threads
 
     if plan:
-        intra, inter = (int(v) for v in plan.split(","))
+        intra, inter = _threads(plan)
         tf.config.threading.set_intra_op_parallelism_threads(intra)
         tf.config.threading.set_inter_op_parallelism_threads(inter)
         threads = (intra, inter)
     else:
-        precision = "bf16" if impl.endswith("bf16") else "fp32"
-        threads = (configure_threads(0, hidden, precision) if impl.startswith("rnn_seg")
+        threads = (configure_threads(0, hidden, _precision(impl)) if impl.startswith("rnn_seg")
                    else "TF default")
-
-    rng = np.random.default_rng(0)
-    x = tf.constant(rng.normal(size=(B, steps, F)).astype(np.float32))
-    r = tf.constant(np.eye(1, steps, dtype=bool).repeat(B, 0))
-    y = tf.constant(np.eye(K, dtype=np.float32)[rng.integers(0, K, (B, steps))])
+    if impl.startswith("keras"):
+        return keras_step(hidden, _precision(impl), x, y), threads
     step = _step_function(impl, hidden)
-    step(x, r, y).numpy()                               # trace and warm up
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        step(x, r, y).numpy()
-        times.append(time.perf_counter() - start)
-    peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    return {"impl": impl, "hidden": hidden, "times": times, "peak_mb": peak_mb, "threads": threads}
+    x, r, y = tf.constant(x), tf.constant(r), tf.constant(y)
+    return (lambda: step(x, r, y).numpy()), threads
+
+
+def _torch_sweep(impl: str, hidden: int, x, r, y, plan: str):
+    """``torch*``: (a call running one sweep, threads used); no TensorFlow in this process.
+    PyTorch's LSTM takes no resets: the batch's only one is at step 0, its zero initial state."""
+    from lstm_peers import torch_step
+
+    threads = _threads(plan)
+    return torch_step(hidden, _precision(impl), x, y, threads), threads
+
+
+def _threads(plan: str) -> tuple[int, int]:
+    """``"intra,inter"`` -> (intra, inter)."""
+    intra, inter = (int(v) for v in plan.split(","))
+    return intra, inter
+
+
+def _precision(impl: str) -> str:
+    return "bf16" if impl.endswith("bf16") else "fp32"
 
 
 def product_time(hidden: int, repeats: int) -> float:
@@ -134,49 +200,82 @@ def product_time(hidden: int, repeats: int) -> float:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawTextHelpFormatter)
     parser.add_argument("--hidden", type=int, nargs="+", default=[1024, 256])
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--steps", type=int, default=800)
-    parser.add_argument("--impl", nargs="+", default=list(IMPLEMENTATIONS))
-    parser.add_argument("--threads", help="thread plan 'intra,inter' for rnn_seg (default: its "
-                                          "own plan, rnn_seg.threads)")
+    parser.add_argument("--impl", nargs="+", choices=IMPLEMENTATIONS,
+                        default=list(IMPLEMENTATIONS))
+    parser.add_argument("--threads", help="thread plan 'intra,inter' for rnn_seg and the peers "
+                                          "(default: rnn_seg its own plan, rnn_seg.threads; the "
+                                          "peers every core, intra = inter = cores)")
     parser.add_argument("--worker", nargs=2, metavar=("IMPL", "HIDDEN"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
         impl, hidden = args.worker[0], int(args.worker[1])
         result = (product_time(hidden, args.repeats) if impl == "product"
-                  else worker(impl, hidden, args.steps, args.repeats,
-                              args.threads if impl.startswith("rnn_seg") else None))
+                  else worker(impl, hidden, args.steps, args.repeats, args.threads))
         print(json.dumps(result))
         return
-    if not _native_bf16():
-        args.impl = [i for i in args.impl if i != "rnn_seg_bf16"]
-        print("no native bfloat16 on this CPU: rnn_seg_bf16 skipped")
+    impls = _runnable(args.impl)
     print(f"training sweep: bidirectional LSTM, B={B}, F={F}, T={args.steps}, "
           f"{args.repeats} timed repeats after one warm-up; {os.cpu_count()} cores")
+    if any(impl.split("_")[0] in PEERS for impl in impls):
+        print("peers (torch, keras): LSTM cells without peepholes, one input dropout mask for "
+              "both directions (bench/lstm_peers.py)")
     for hidden in args.hidden:
-        product = _run_worker("product", hidden, args)
-        floor = product * args.steps * 2 * 3        # 2 directions; 1 product forward, 2 backward
-        print(f"H={hidden:5d} recurrent product {product * 1e6:.0f} us -> floor "
-              f"{args.steps} x 2 x 3 x product = {floor:.3f} s per sweep")
-        results = {impl: _run_worker(impl, hidden, args) for impl in args.impl}
-        for impl, res in results.items():
-            med = statistics.median(res["times"])
-            print(f"H={hidden:5d} {impl:9s} median {med:7.3f} s  "
-                  f"(min {min(res['times']):.3f}, max {max(res['times']):.3f})  "
-                  f"{med / floor:.2f}x floor  peak RSS {res['peak_mb']:6.0f} MB  "
-                  f"threads (intra, inter) {res['threads']}")
-        medians = {impl: statistics.median(res["times"]) for impl, res in results.items()}
-        if {"rnn_seg", "per_gate"} <= set(medians):
-            print(f"H={hidden:5d} speed-up rnn_seg vs per_gate: "
-                  f"{medians['per_gate'] / medians['rnn_seg']:.2f}x")
-        if {"rnn_seg", "rnn_seg_bf16"} <= set(medians):
-            print(f"H={hidden:5d} speed-up bf16 vs fp32: "
-                  f"{medians['rnn_seg'] / medians['rnn_seg_bf16']:.2f}x")
-        if {"rnn_seg", "rnn_seg_xla"} <= set(medians):
-            print(f"H={hidden:5d} speed-up xla loops vs graph: "
-                  f"{medians['rnn_seg'] / medians['rnn_seg_xla']:.2f}x")
+        _sweep_size(hidden, impls, args)
+
+
+def _runnable(impls: list[str]) -> list[str]:
+    """``impls`` less those this machine cannot run, with one line per reason naming them."""
+    native = _native_bf16()
+    reasons = {impl: _skip_reason(impl, native) for impl in impls}
+    for reason in dict.fromkeys(r for r in reasons.values() if r):
+        print(f"{reason}: {', '.join(i for i, r in reasons.items() if r == reason)} skipped")
+    return [impl for impl, reason in reasons.items() if not reason]
+
+
+def _skip_reason(impl: str, native_bf16: bool) -> str | None:
+    """Why ``impl`` cannot run here (its peer not installed, no native bfloat16), or None."""
+    package = impl.split("_")[0]
+    if package in PEERS and importlib.util.find_spec(package) is None:
+        return f"{package} not installed ({PEERS[package]})"
+    if impl.endswith("bf16") and not native_bf16:
+        return "no native bfloat16 on this CPU"
+    return None
+
+
+def _sweep_size(hidden: int, impls: list[str], args) -> None:
+    """Time the floor and every implementation at ``hidden`` units; print them and the ratios."""
+    product = _run_worker("product", hidden, None, args)
+    floor = product * args.steps * 2 * 3        # 2 directions; 1 product forward, 2 backward
+    print(f"H={hidden:5d} recurrent product {product * 1e6:.0f} us -> floor "
+          f"{args.steps} x 2 x 3 x product = {floor:.3f} s per sweep")
+    medians = {}
+    for impl in impls:
+        res = _run_worker(impl, hidden, _plan(impl, args.threads), args)
+        if "skipped" in res:
+            print(f"H={hidden:5d} {impl:12s} skipped: {res['skipped']}")
+            continue
+        medians[impl] = statistics.median(res["times"])
+        print(f"H={hidden:5d} {impl:12s} median {medians[impl]:7.3f} s  "
+              f"(min {min(res['times']):.3f}, max {max(res['times']):.3f})  "
+              f"{medians[impl] / floor:.2f}x floor  peak RSS {res['peak_mb']:6.0f} MB  "
+              f"threads (intra, inter) {res['threads']}")
+    for label, slower, faster in RATIOS:
+        if {slower, faster} <= set(medians):
+            print(f"H={hidden:5d} speed-up {label}: {medians[slower] / medians[faster]:.2f}x")
+
+
+def _plan(impl: str, threads: str | None) -> str | None:
+    """The thread plan ``impl``'s worker gets: ``--threads`` for ``rnn_seg`` (None: its own) and
+    the peers (None: every core), never for the per-gate reference (TensorFlow's default)."""
+    if impl == "per_gate":
+        return None
+    cores = os.cpu_count() or 1
+    return threads or (None if impl.startswith("rnn_seg") else f"{cores},{cores}")
 
 
 def _native_bf16() -> bool:
@@ -184,11 +283,11 @@ def _native_bf16() -> bool:
     return native_bf16()
 
 
-def _run_worker(impl: str, hidden: int, args):
+def _run_worker(impl: str, hidden: int, plan: str | None, args):
     command = [sys.executable, __file__, "--worker", impl, str(hidden), "--steps",
                str(args.steps), "--repeats", str(args.repeats)]
-    if args.threads:
-        command += ["--threads", args.threads]
+    if plan:
+        command += ["--threads", plan]
     out = subprocess.run(command, check=True, capture_output=True, text=True).stdout
     return json.loads(out.strip().splitlines()[-1])
 
