@@ -25,7 +25,7 @@ import argparse
 import importlib.util
 import json
 import os
-import resource
+import re
 import statistics
 import subprocess
 import sys
@@ -118,8 +118,15 @@ def worker(impl: str, hidden: int, steps: int, repeats: int, plan: str | None = 
         start = time.perf_counter()
         sweep()
         times.append(time.perf_counter() - start)
-    peak_mb = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
-    return {"impl": impl, "hidden": hidden, "times": times, "peak_mb": peak_mb, "threads": threads}
+    return {"impl": impl, "hidden": hidden, "times": times, "peak_mb": _peak_mb(),
+            "threads": threads}
+
+
+def _peak_mb() -> float:
+    """This process's peak resident memory in MB (Linux: ``VmHWM``). Not ``ru_maxrss``: a worker
+    spawned by the parent inherits the parent's (TensorFlow imported, ~600 MB) across ``exec``."""
+    status = Path("/proc/self/status").read_text()
+    return int(re.search(r"^VmHWM:\s+(\d+) kB", status, re.M).group(1)) / 1024
 
 
 def _batch(steps: int) -> tuple:
