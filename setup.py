@@ -59,6 +59,8 @@ setup(
         "test": ["pytest>=9,<10", "dask[distributed]>=2026.8"],
         # TensorBoard, to view what --tensorboard writes (training writes it without)
         "tensorboard": ["tensorboard>=2.21,<3"],
+        # PyTorch, a peer bench/lstm_sweep.py times beside rnn_seg (pinned: numbers name one version)
+        "bench": ["torch==2.13.0"],
     },
     entry_points={
         "console_scripts": [
