@@ -228,3 +228,19 @@ def test_an_archive_without_confusion_matrices_is_tabulated_with_one_note(grid, 
     notes = [line for line in capsys.readouterr().err.splitlines() if "per-gesture" in line]
     assert len(notes) == 1 and "predate per-class scores" in notes[0]
     assert not (out / "per_gesture.csv").exists() and (out / "summary.csv").is_file()
+
+
+def test_predictions_of_earlier_versions_are_read_into_the_one_format(tmp_path):
+    """Class indices in ``<task>_pred`` / ``<task>_true`` and no ``time_s``: a run folder of an
+    earlier version still draws its example figures."""
+    old = tmp_path / "Suturing_B001.csv"
+    pd.DataFrame({"frame": [1, 7, 13], "gesture_true": [0, 2, 2], "gesture_pred": [0, 1, 2],
+                  "gesture_p_G1": [0.8, 0.1, 0.1], "gesture_p_G2": [0.1, 0.8, 0.1],
+                  "gesture_p_G3": [0.1, 0.1, 0.8], "progress_true": [0, 0, 1],
+                  "progress_pred": [0, 1, 1]}).to_csv(old, index=False)
+    table = figures.read_predictions(old, ("reach", "position"))
+    assert table.gesture.tolist() == ["G1", "G2", "G3"]
+    assert table.gesture_true.tolist() == ["G1", "G3", "G3"]
+    assert table.progress.tolist() == ["reach", "position", "position"]
+    assert table.progress_true.tolist() == ["reach", "reach", "position"]
+    np.testing.assert_allclose(table.time_s, [0, 0.2, 0.4])

@@ -32,6 +32,7 @@ import pandas as pd  # noqa: E402
 
 from jigsaws_tools.plots import (Ribbon, draw_ribbon, layout_with_legends,  # noqa: E402
                                  task_colours)
+from jigsaws_tools.release import KINEMATICS_HZ  # noqa: E402
 from jigsaws_tools.task_definition import load_task  # noqa: E402
 
 from rnn_seg.runs.folder import read_json  # noqa: E402
@@ -157,8 +158,27 @@ def _trial_predictions(grid_dir: Path, configs: Sequence[str], trial: str, fold:
                        ) -> dict[str, pd.DataFrame]:
     """The predictions of ``trial`` (one row per 5 Hz sample) by each of ``configs`` whose run on
     ``fold`` predicted it, by configuration."""
-    return {c: pd.read_csv(files[trial]) for c in configs
+    stages = load_task(grid_task_name(grid_dir)).stage_names
+    return {c: read_predictions(files[trial], stages) for c in configs
             if trial in (files := _predictions(grid_dir, c, fold))}
+
+
+def read_predictions(path: Path, stages: Sequence[str]) -> pd.DataFrame:
+    """A predictions CSV in the one format (``rnn_seg.predictions``). One written before that
+    format (runs of earlier versions: class indices in ``<task>_pred`` and ``<task>_true``, no
+    ``time_s``) is read into it: gesture names from its score columns, stage names ``stages``
+    from the task file, time from its 30 Hz frames."""
+    table = pd.read_csv(path)
+    if "time_s" in table:
+        return table
+    table["time_s"] = (table.frame - 1) / KINEMATICS_HZ
+    for task, names in (("gesture", class_names(table, "gesture")), ("progress", stages)):
+        for column in (f"{task}_pred", f"{task}_true"):
+            if column in table:
+                table[column] = np.asarray(names)[table[column].to_numpy()]
+        if f"{task}_pred" in table:
+            table = table.rename(columns={f"{task}_pred": task})
+    return table
 
 
 def trial_folds(grid_dir: Path, folds: Sequence[str], config: str = SEGMENTATION_RUNS[0]
