@@ -23,7 +23,7 @@ from jigsaws_tools.cli.common import (command_parser, deprecated_alias, import_t
 from jigsaws_tools.cli.options import DEFAULT_DATA_DIR_TEXT
 from rnn_seg.config import LOOPS, require_native_precision
 from rnn_seg.runs.folder import is_finished
-from rnn_seg.runs.outputs import check_output_folder
+from rnn_seg.runs.outputs import OutputFolderError, check_output_folder, folders_below
 from rnn_seg.runs.provenance import set_command
 
 from .spec import (DEFAULT_PRESET, PRESETS, GridSpec, expand, job_groups, load_spec,
@@ -79,6 +79,21 @@ def main(argv: list[str] | None = None) -> int:
     return run_command(PROG, args.verbose, lambda: _run(args))
 
 
+def _check_grid_folder(out: Path) -> None:
+    """Refuse an ``--out`` that is a run folder or lies among a run's files
+    (``check_output_folder``), or that holds a run or grid folder anywhere but at a grid's own
+    places, under ``out/runs/`` (a grid of an earlier version has no grid.json to show it)."""
+    check_output_folder(out, PROG, may_be_grid=True, may_hold=True)
+    if not Path(out).is_dir():
+        return
+    own = Path(out).resolve() / "runs"
+    for path, kind in folders_below(Path(out).resolve()):
+        if kind == "grid folder" or not path.is_relative_to(own):
+            raise OutputFolderError(f"{out} holds a {kind} ({path}) outside a grid's runs/; "
+                                    f"{PROG} does not write over it (choose another output "
+                                    "folder)")
+
+
 def _run(args: argparse.Namespace) -> int:
     import_tensorflow()          # quietly: checking run folders builds the runs' tasks
     from rnn_seg.runs.lock import hold_folder
@@ -95,7 +110,7 @@ def _run(args: argparse.Namespace) -> int:
         raise ValueError("--stack vectorises the runs' steps, which turns XLA's compiled loops "
                          "back into TensorFlow ops: use --stack 1 with loops xla (or graph loops "
                          "with --stack)")
-    check_output_folder(args.out, PROG, may_be_grid=True)       # resumes a grid, nothing else
+    _check_grid_folder(args.out)
     keys = expand(spec, release_users(spec))
     budget = spec.budget
     print(f"grid: task {spec.task}, preset {spec.preset}, H={budget.hidden}, "
