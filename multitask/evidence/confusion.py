@@ -29,8 +29,7 @@ from rnn_seg.runs.folder import read_json, write_atomic  # noqa: E402
 
 from ..grid.spec import RunKey  # noqa: E402
 from .collect import KEY_COLUMNS  # noqa: E402
-from .figures import COMPARED, OFFLINE, save  # noqa: E402
-from .tables import CONFIG_LABELS  # noqa: E402
+from .figures import COMPARED, OFFLINE, label, save  # noqa: E402
 
 TASK = "gesture"
 SCORES = ("precision", "recall", "f1")
@@ -128,7 +127,7 @@ def confusion_figure(matrices: dict[str, tuple[tuple[str, ...], np.ndarray]], ou
         ax.set_xticks(ticks, classes, rotation=90, fontsize=7)
         ax.set_yticks(ticks, classes, fontsize=7)
         ax.set_xlabel("predicted gesture")
-        ax.set_title(f"{CONFIG_LABELS.get(config, config)} ({int(counts.sum())} predictions)",
+        ax.set_title(f"{label(config)} ({int(counts.sum())} predictions)",
                      fontsize=9)
     axes[0][0].set_ylabel("true gesture")
     fig.colorbar(image, ax=axes[0].tolist(), shrink=0.8, label="share of the true gesture [%]")
