@@ -127,27 +127,6 @@ def f1_score(pred: np.ndarray, true: np.ndarray, k: int) -> float:
     return overlap_counts(pred, true, k).f1
 
 
-def class_accuracy(preds: Sequence[np.ndarray], trues: Sequence[np.ndarray], num_classes: int
-                   ) -> np.ndarray:
-    """Percent of each true class's frames labelled correctly, pooled over the sequences.
-
-    Args:
-        preds: one ``[T_i]`` int64 array of predicted labels per sequence.
-        trues: the ``[T_i]`` int64 true labels, in 0..num_classes-1, in the order of ``preds``.
-        num_classes: number of classes K.
-
-    Returns:
-        ``[num_classes]`` float64 percent; NaN for a class with no true frame.
-    """
-    for p, y in zip(preds, trues, strict=True):
-        check_same_length(p, y)
-    pred, true = np.concatenate(preds), np.concatenate(trues)
-    hits = np.bincount(true[pred == true], minlength=num_classes)
-    totals = np.bincount(true, minlength=num_classes)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.where(totals > 0, 100.0 * hits / totals, np.nan)
-
-
 def confusion_matrix(preds: Sequence[np.ndarray], trues: Sequence[np.ndarray], num_classes: int
                      ) -> np.ndarray:
     """Counts of (true, predicted) label pairs, pooled over the sequences.

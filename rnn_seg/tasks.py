@@ -121,14 +121,13 @@ def task_metrics(task: Task, outputs: Sequence[np.ndarray], labels: Sequence[np.
         ``rnn_seg.metrics.class_scores``; NaN where undefined, e.g. a class absent from the
         labels); and ``task.extra_metrics``; all in percent except ``edit_distance`` (segments).
     """
-    from .metrics import class_accuracy, class_scores, segmentation_metrics
+    from .metrics import class_scores, confusion_matrix, segmentation_metrics
 
     preds = [task.decode(o) for o in outputs]
     metrics = segmentation_metrics(preds, labels)
-    per_class = class_accuracy(preds, labels, task.num_classes)
-    metrics.update({f"accuracy_{c}": float(a) for c, a in zip(task.class_names, per_class)})
-    scores = class_scores(task_confusion(task, outputs, labels))
-    for kind, values in zip(("precision", "recall", "f1"), scores):
+    precision, recall, f1 = class_scores(confusion_matrix(preds, labels, task.num_classes))
+    for kind, values in (("accuracy", recall), ("precision", precision), ("recall", recall),
+                         ("f1", f1)):          # a class's accuracy is its recall
         metrics.update({f"{kind}_{c}": float(v) for c, v in zip(task.class_names, values)})
     metrics.update(task.extra_metrics(outputs, labels))
     return metrics
