@@ -35,15 +35,14 @@ from __future__ import annotations
 
 import math
 import re
-import tomllib
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any
 
 from .errors import DefinitionError, JigsawsError
 from .features import FEATURE_NAMES
-from .task_definition import TaskDefinition, _known_keys, _table, _typed
+from .task_definition import TaskDefinition
+from .toml_files import known_keys, read_definition, table, typed
 
 #: The release's format, the default wherever a format can be omitted.
 DEFAULT_FORMAT = "jigsaws"
@@ -133,19 +132,7 @@ def load_format(recording_format: str | Path | RecordingFormat | None) -> Record
 
 def read_format_file(path: Path | str) -> RecordingFormat:
     """Parse and check a recording format file; errors name the file, the key and the value."""
-    path = Path(path)
-    try:
-        raw = tomllib.loads(path.read_text(encoding="utf-8-sig"))
-    except FileNotFoundError:
-        raise DefinitionError(path, None, str(path), "recording format file not found") from None
-    except (OSError, UnicodeDecodeError) as error:
-        raise DefinitionError(path, None, str(path), f"cannot read: {error}") from None
-    except tomllib.TOMLDecodeError as error:
-        raise DefinitionError(path, None, "", f"not valid TOML: {error}") from None
-    try:
-        return _format_from_toml(raw)
-    except DefinitionError as error:
-        raise DefinitionError(path, error.key, error.value, error.problem) from None
+    return read_definition(path, "recording format", _format_from_toml)
 
 
 def _builtin_dir():
@@ -153,28 +140,28 @@ def _builtin_dir():
 
 
 def _format_from_toml(raw: dict) -> RecordingFormat:
-    _known_keys(raw, "", ("name", "summary", "rate_hz", "delimiter", "header", "columns",
+    known_keys(raw, "", ("name", "summary", "rate_hz", "delimiter", "header", "columns",
                           "time_column", "features", "files"), required=("name", "rate_hz"))
-    rate = _typed(raw["rate_hz"], "rate_hz", (int, float), "a number of samples per second")
-    columns = _typed(raw.get("columns", []), "columns", list, "a list of column names")
-    features = _table(raw.get("features", {}), "features")
-    files = _table(raw.get("files", {}), "files")
-    _known_keys(files, "files", ("recordings", "transcriptions", "trial", "extension"),
+    rate = typed(raw["rate_hz"], "rate_hz", (int, float), "a number of samples per second")
+    columns = typed(raw.get("columns", []), "columns", list, "a list of column names")
+    features = table(raw.get("features", {}), "features")
+    files = table(raw.get("files", {}), "files")
+    known_keys(files, "files", ("recordings", "transcriptions", "trial", "extension"),
                 required=())
     defaults = RecordingFormat.__dataclass_fields__
     return RecordingFormat(
-        name=_typed(raw["name"], "name", str, "a string"),
+        name=typed(raw["name"], "name", str, "a string"),
         rate_hz=float(rate),
-        delimiter=_typed(raw.get("delimiter", "whitespace"), "delimiter", str,
+        delimiter=typed(raw.get("delimiter", "whitespace"), "delimiter", str,
                          f"one of {', '.join(map(repr, DELIMITERS))}"),
-        header=_typed(raw.get("header", False), "header", bool, "true or false"),
-        columns=tuple(_typed(c, "columns", str, "a list of column names") for c in columns),
-        time_column=_typed(raw.get("time_column", ""), "time_column", str, "a column name"),
-        features=tuple((f, _typed(c, f"features.{f}", str, "a column name"))
+        header=typed(raw.get("header", False), "header", bool, "true or false"),
+        columns=tuple(typed(c, "columns", str, "a list of column names") for c in columns),
+        time_column=typed(raw.get("time_column", ""), "time_column", str, "a column name"),
+        features=tuple((f, typed(c, f"features.{f}", str, "a column name"))
                        for f, c in features.items()),
-        **{key: _typed(files.get(key, defaults[key].default), f"files.{key}", str, "a string")
+        **{key: typed(files.get(key, defaults[key].default), f"files.{key}", str, "a string")
            for key in ("recordings", "transcriptions", "trial", "extension")},
-        summary=_typed(raw.get("summary", ""), "summary", str, "a string"))
+        summary=typed(raw.get("summary", ""), "summary", str, "a string"))
 
 
 def _check_format(fmt: RecordingFormat) -> None:

@@ -36,7 +36,6 @@ from __future__ import annotations
 
 import math
 import re
-import tomllib
 from dataclasses import dataclass, field
 from functools import cached_property
 from importlib import resources
@@ -46,6 +45,7 @@ from typing import Any
 import numpy as np
 
 from .errors import DefinitionError, JigsawsError
+from .toml_files import known_keys, read_definition, table, typed
 
 #: The paper's task, the default wherever a task can be omitted.
 PAPER_TASK = "Suturing"
@@ -161,19 +161,7 @@ def load_task(task: str | Path | TaskDefinition) -> TaskDefinition:
 
 def read_task_file(path: Path | str) -> TaskDefinition:
     """Parse and check a task definition file; errors name the file, the key and the value."""
-    path = Path(path)
-    try:
-        raw = tomllib.loads(path.read_text(encoding="utf-8-sig"))
-    except FileNotFoundError:
-        raise DefinitionError(path, None, str(path), "task definition file not found") from None
-    except (OSError, UnicodeDecodeError) as error:
-        raise DefinitionError(path, None, str(path), f"cannot read: {error}") from None
-    except tomllib.TOMLDecodeError as error:
-        raise DefinitionError(path, None, "", f"not valid TOML: {error}") from None
-    try:
-        return _task_from_toml(raw)
-    except DefinitionError as error:
-        raise DefinitionError(path, error.key, error.value, error.problem) from None
+    return read_definition(path, "task definition", _task_from_toml)
 
 
 def _builtin_dir():
@@ -182,40 +170,40 @@ def _builtin_dir():
 
 # -- parsing: TOML tables -> dataclasses, with the key of every value ------------------------------
 def _task_from_toml(raw: dict) -> TaskDefinition:
-    _known_keys(raw, "", ("name", "summary", "gestures", "progress", "synthetic"),
+    known_keys(raw, "", ("name", "summary", "gestures", "progress", "synthetic"),
                 required=("name", "gestures", "progress"))
-    gestures = _table(raw["gestures"], "gestures")
+    gestures = table(raw["gestures"], "gestures")
     for key, value in gestures.items():
-        _typed(value, f"gestures.{key}", str, "a description string")
-    progress = _table(raw["progress"], "progress")
-    _known_keys(progress, "progress", ("stages", "adjustments"), required=("stages",))
+        typed(value, f"gestures.{key}", str, "a description string")
+    progress = table(raw["progress"], "progress")
+    known_keys(progress, "progress", ("stages", "adjustments"), required=("stages",))
     stages = _list(progress["stages"], "progress.stages")
     for k, stage in enumerate(stages):
-        _known_keys(_table(stage, f"progress.stages[{k}]"), f"progress.stages[{k}]",
+        known_keys(table(stage, f"progress.stages[{k}]"), f"progress.stages[{k}]",
                     ("name", "gestures"), required=("gestures",))
     return TaskDefinition(
-        name=_typed(raw["name"], "name", str, "a string"),
+        name=typed(raw["name"], "name", str, "a string"),
         gestures=tuple(gestures),
         stages=tuple(_names(s["gestures"], f"progress.stages[{k}].gestures")
                      for k, s in enumerate(stages)),
         adjustments=_names(progress.get("adjustments", []), "progress.adjustments", empty=True),
-        stage_names=tuple(_typed(s.get("name", f"stage {k}"), f"progress.stages[{k}].name", str,
+        stage_names=tuple(typed(s.get("name", f"stage {k}"), f"progress.stages[{k}].name", str,
                                  "a string") for k, s in enumerate(stages)),
         descriptions=tuple(gestures.values()),
-        summary=_typed(raw.get("summary", ""), "summary", str, "a string"),
+        summary=typed(raw.get("summary", ""), "summary", str, "a string"),
         synthetic=_synthetic_from_toml(raw["synthetic"]) if "synthetic" in raw else None)
 
 
 def _synthetic_from_toml(raw: Any) -> SynthGrammar:
-    raw = _table(raw, "synthetic")
-    _known_keys(raw, "synthetic", ("cycles", "lead_in", "tail", "opening", "cycle", "closing",
+    raw = table(raw, "synthetic")
+    known_keys(raw, "synthetic", ("cycles", "lead_in", "tail", "opening", "cycle", "closing",
                                    "gestures"),
                 required=("cycles", "lead_in", "tail", "cycle", "gestures"))
-    timings = _table(raw["gestures"], "synthetic.gestures")
+    timings = table(raw["gestures"], "synthetic.gestures")
     return SynthGrammar(
         cycles=_int_pair(raw["cycles"], "synthetic.cycles"),
-        lead_in=_typed(raw["lead_in"], "synthetic.lead_in", str, "a gesture name"),
-        tail=_typed(raw["tail"], "synthetic.tail", str, "a gesture name"),
+        lead_in=typed(raw["lead_in"], "synthetic.lead_in", str, "a gesture name"),
+        tail=typed(raw["tail"], "synthetic.tail", str, "a gesture name"),
         opening=_steps(raw.get("opening", []), "synthetic.opening"),
         cycle=_steps(raw["cycle"], "synthetic.cycle"),
         closing=_steps(raw.get("closing", []), "synthetic.closing"),
@@ -227,60 +215,39 @@ def _steps(raw: Any, key: str) -> tuple[SynthStep, ...]:
     steps = []
     for i, step in enumerate(_list(raw, key)):
         where = f"{key}[{i}]"
-        _known_keys(_table(step, where), where, ("gesture", "weights", "p", "cycles"),
+        known_keys(table(step, where), where, ("gesture", "weights", "p", "cycles"),
                     required=("gesture",))
         value = step["gesture"]
         gestures = (_names(value, f"{where}.gesture") if isinstance(value, list)
-                    else (_typed(value, f"{where}.gesture", str, "a gesture name or a list"),))
+                    else (typed(value, f"{where}.gesture", str, "a gesture name or a list"),))
         weights = step.get("weights", [1.0] * len(gestures))
         weights = tuple(_number(w, f"{where}.weights") for w in _list(weights, f"{where}.weights"))
         steps.append(SynthStep(gestures, weights, _number(step.get("p", 1.0), f"{where}.p"),
-                               _typed(step.get("cycles", "every"), f"{where}.cycles", str,
+                               typed(step.get("cycles", "every"), f"{where}.cycles", str,
                                       f"one of {', '.join(CYCLE_SCOPES)}")))
     return tuple(steps)
 
 
 def _timing(name: str, raw: Any, key: str) -> SynthGesture:
-    _known_keys(_table(raw, key), key, ("frames", "like"), required=("frames",))
+    known_keys(table(raw, key), key, ("frames", "like"), required=("frames",))
     low, high = _int_pair(raw["frames"], f"{key}.frames")
-    return SynthGesture(name, low, high, _typed(raw.get("like", ""), f"{key}.like", str,
+    return SynthGesture(name, low, high, typed(raw.get("like", ""), f"{key}.like", str,
                                                 "a gesture name"))
 
 
-def _known_keys(raw: dict, key: str, known: tuple[str, ...], required: tuple[str, ...]) -> None:
-    prefix = f"{key}." if key else ""
-    for name in raw:
-        if name not in known:
-            raise DefinitionError("", f"{prefix}{name}", raw[name],
-                                  f"unknown key; known keys here: {', '.join(known)}")
-    for name in required:
-        if name not in raw:
-            raise DefinitionError("", f"{prefix}{name}", None, "required key missing")
-
-
-def _typed(value: Any, key: str, kind: type, what: str):
-    if not isinstance(value, kind) or isinstance(value, bool) and kind is not bool:
-        raise DefinitionError("", key, value, f"expected {what}")
-    return value
-
-
-def _table(value: Any, key: str) -> dict:
-    return _typed(value, key, dict, "a table")
-
-
 def _list(value: Any, key: str) -> list:
-    return _typed(value, key, list, "a list")
+    return typed(value, key, list, "a list")
 
 
 def _names(value: Any, key: str, empty: bool = False) -> tuple[str, ...]:
     names = _list(value, key)
     if not names and not empty:
         raise DefinitionError("", key, value, "expected at least one gesture")
-    return tuple(_typed(n, key, str, "a list of gesture names") for n in names)
+    return tuple(typed(n, key, str, "a list of gesture names") for n in names)
 
 
 def _number(value: Any, key: str) -> float:
-    number = float(_typed(value, key, (int, float), "a number"))
+    number = float(typed(value, key, (int, float), "a number"))
     if not math.isfinite(number):           # TOML allows nan and inf
         raise DefinitionError("", key, value, "expected a finite number")
     return number
