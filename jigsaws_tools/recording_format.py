@@ -36,13 +36,13 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
 
-from .errors import DefinitionError, JigsawsError
+from .errors import DefinitionError
 from .features import FEATURE_NAMES
 from .task_definition import TaskDefinition
-from .toml_files import known_keys, read_definition, table, typed
+from .toml_files import (builtin_names, builtin_path, find_definition, known_keys,
+                         read_definition, table, typed)
 
 #: The release's format, the default wherever a format can be omitted.
 DEFAULT_FORMAT = "jigsaws"
@@ -111,8 +111,7 @@ class RecordingFormat:
 
 def builtin_format_names() -> tuple[str, ...]:
     """Names of the formats shipped with the package."""
-    return tuple(sorted(p.name.removesuffix(".toml") for p in _builtin_dir().iterdir()
-                        if p.name.endswith(".toml")))
+    return builtin_names("formats")
 
 
 def load_format(recording_format: str | Path | RecordingFormat | None) -> RecordingFormat:
@@ -122,21 +121,12 @@ def load_format(recording_format: str | Path | RecordingFormat | None) -> Record
         return JIGSAWS_FORMAT
     if isinstance(recording_format, RecordingFormat):
         return recording_format
-    if str(recording_format) in builtin_format_names():
-        return read_format_file(_builtin_dir() / f"{recording_format}.toml")
-    if str(recording_format).endswith(".toml"):
-        return read_format_file(recording_format)
-    raise JigsawsError(f"unknown recording format {str(recording_format)!r}; built-in formats "
-                       f"are {', '.join(builtin_format_names())}, or pass a format file (*.toml)")
+    return find_definition(recording_format, "formats", "recording format", read_format_file)
 
 
 def read_format_file(path: Path | str) -> RecordingFormat:
     """Parse and check a recording format file; errors name the file, the key and the value."""
     return read_definition(path, "recording format", _format_from_toml)
-
-
-def _builtin_dir():
-    return resources.files("jigsaws_tools") / "data" / "formats"
 
 
 def _format_from_toml(raw: dict) -> RecordingFormat:
@@ -199,4 +189,4 @@ def _check_format(fmt: RecordingFormat) -> None:
 
 
 #: The JIGSAWS release's format, read from its shipped file.
-JIGSAWS_FORMAT = read_format_file(_builtin_dir() / f"{DEFAULT_FORMAT}.toml")
+JIGSAWS_FORMAT = read_format_file(builtin_path("formats", DEFAULT_FORMAT))

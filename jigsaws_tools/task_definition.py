@@ -38,14 +38,14 @@ import math
 import re
 from dataclasses import dataclass, field
 from functools import cached_property
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .errors import DefinitionError, JigsawsError
-from .toml_files import known_keys, read_definition, table, typed
+from .errors import DefinitionError
+from .toml_files import (builtin_names, find_definition, known_keys, read_definition, table,
+                         typed)
 
 #: The paper's task, the default wherever a task can be omitted.
 PAPER_TASK = "Suturing"
@@ -143,29 +143,19 @@ class TaskDefinition:
 
 def builtin_task_names() -> tuple[str, ...]:
     """Names of the definitions shipped with the package."""
-    return tuple(sorted(p.name.removesuffix(".toml") for p in _builtin_dir().iterdir()
-                        if p.name.endswith(".toml")))
+    return builtin_names("tasks")
 
 
 def load_task(task: str | Path | TaskDefinition) -> TaskDefinition:
     """A built-in task by name, a definition file by path (``*.toml``), or ``task`` itself."""
     if isinstance(task, TaskDefinition):
         return task
-    if str(task) in builtin_task_names():
-        return read_task_file(_builtin_dir() / f"{task}.toml")
-    if str(task).endswith(".toml"):
-        return read_task_file(task)
-    raise JigsawsError(f"unknown task {str(task)!r}; built-in tasks are "
-                       f"{', '.join(builtin_task_names())}, or pass a definition file (*.toml)")
+    return find_definition(task, "tasks", "task", read_task_file)
 
 
 def read_task_file(path: Path | str) -> TaskDefinition:
     """Parse and check a task definition file; errors name the file, the key and the value."""
     return read_definition(path, "task definition", _task_from_toml)
-
-
-def _builtin_dir():
-    return resources.files("jigsaws_tools") / "data" / "tasks"
 
 
 # -- parsing: TOML tables -> dataclasses, with the key of every value ------------------------------

@@ -1,14 +1,51 @@
-"""The package's TOML definition files (task definitions, recording formats): reading one, and
-checking its keys and value types, each error naming the file, the key and the value."""
+"""The package's TOML definition files (task definitions, recording formats): finding a built-in
+one by name, reading one, and checking its keys and value types, each error naming the file, the
+key and the value."""
 from __future__ import annotations
 
 import tomllib
+from importlib import resources
 from pathlib import Path
 from typing import Any, Callable, TypeVar
 
-from .errors import DefinitionError
+from .errors import DefinitionError, JigsawsError
 
 T = TypeVar("T")
+
+
+def builtin_names(kind: str) -> tuple[str, ...]:
+    """Names of the definitions shipped in ``jigsaws_tools/data/<kind>/`` (``"tasks"``,
+    ``"formats"``), sorted."""
+    return tuple(sorted(p.name.removesuffix(".toml") for p in _builtin_dir(kind).iterdir()
+                        if p.name.endswith(".toml")))
+
+
+def builtin_path(kind: str, name: str) -> Path:
+    """The shipped definition file ``name`` of ``kind``."""
+    return _builtin_dir(kind) / f"{name}.toml"
+
+
+def _builtin_dir(kind: str):
+    return resources.files("jigsaws_tools") / "data" / kind
+
+
+def find_definition(value: str | Path, kind: str, what: str, read: Callable[[Path], T]) -> T:
+    """``read`` of a built-in definition of ``kind`` named ``value``, or of the file ``value``
+    (``*.toml``); any other value is a ``JigsawsError`` listing the built-in names.
+
+    Args:
+        value: a built-in name (e.g. ``"Suturing"``) or a file's path.
+        kind: the folder of the built-in definitions, ``"tasks"`` or ``"formats"``.
+        what: what a definition is, for the message (``"task"``, ``"recording format"``).
+        read: a definition file -> its object.
+    """
+    names = builtin_names(kind)
+    if str(value) in names:
+        return read(builtin_path(kind, str(value)))
+    if str(value).endswith(".toml"):
+        return read(Path(value))
+    raise JigsawsError(f"unknown {what} {str(value)!r}; built-in {what}s are {', '.join(names)}, "
+                       f"or pass a {what} file (*.toml)")
 
 
 def read_definition(path: Path | str, what: str, parse: Callable[[dict], T]) -> T:
