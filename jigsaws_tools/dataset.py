@@ -8,6 +8,7 @@ warning, and a cache folder that cannot be written is one warning and no cache.
 """
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import logging
@@ -17,7 +18,7 @@ import zipfile
 import zlib
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -224,17 +225,23 @@ def cache_key(config: DataConfig, index: ReleaseIndex) -> str:
         paths.append(meta_path(index.root, config.task))
     files = [(p.relative_to(index.root).as_posix(), _file_digest(p)) for p in paths]
     options = {k: v for k, v in asdict(config).items()
-               if k != "data_dir" and not _unrecorded(config, k)}
+               if k != "data_dir" and not holds_unrecorded_default(config, k)}
     payload = json.dumps({"format": CACHE_FORMAT, "config": options,
                           "amendments": amendment_table_text(config.annotations, config.task),
                           "files": files}, sort_keys=True)
     return hashlib.sha256(payload.encode()).hexdigest()[:24]
 
 
-def _unrecorded(config: DataConfig, name: str) -> bool:
-    """``name`` is one of ``unrecorded_defaults`` and holds its default."""
-    return (name in config.unrecorded_defaults
-            and getattr(config, name) == DataConfig.__dataclass_fields__[name].default)
+def holds_unrecorded_default(obj: Any, name: str) -> bool:
+    """Field ``name`` of dataclass ``obj`` is one its class lists in ``unrecorded_defaults`` (as
+    ``DataConfig`` does) and holds its default: records (config.json, settings, the data
+    fingerprint) leave it out, so records written before the field existed stay the same."""
+    if name not in getattr(type(obj), "unrecorded_defaults", ()):
+        return False
+    declared = type(obj).__dataclass_fields__[name]
+    default = (declared.default_factory() if declared.default_factory is not dataclasses.MISSING
+               else declared.default)
+    return getattr(obj, name) == default
 
 
 def _file_digest(path: Path) -> str:

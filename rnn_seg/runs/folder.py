@@ -22,6 +22,7 @@ from typing import Any, Iterator, Literal, TypeVar, Union
 
 import numpy as np
 
+from jigsaws_tools.dataset import holds_unrecorded_default
 from jigsaws_tools.errors import WriteFailed  # noqa: F401 (re-exported)
 
 from ..config import unit_name
@@ -57,7 +58,7 @@ def to_jsonable(obj: Any) -> Any:
     records and their settings hashes stay the same; ``from_jsonable`` restores the default)."""
     if dataclasses.is_dataclass(obj):
         return {f.name: to_jsonable(getattr(obj, f.name)) for f in dataclasses.fields(obj)
-                if not _unrecorded_default(obj, f)}
+                if not holds_unrecorded_default(obj, f.name)}
     if isinstance(obj, dict):
         return {str(k): to_jsonable(v) for k, v in obj.items()}
     if isinstance(obj, (list, tuple, np.ndarray)):
@@ -69,14 +70,6 @@ def to_jsonable(obj: Any) -> Any:
     if isinstance(obj, float) and not math.isfinite(obj):
         return None
     return obj
-
-
-def _unrecorded_default(obj: Any, field: dataclasses.Field) -> bool:
-    if field.name not in getattr(type(obj), "unrecorded_defaults", ()):
-        return False
-    default = (field.default_factory() if field.default_factory is not dataclasses.MISSING
-               else field.default)
-    return getattr(obj, field.name) == default
 
 
 class ConfigError(ValueError):
