@@ -382,6 +382,20 @@ def test_thread_counts_are_bounded_by_the_machine(small_dir, tmp_path, capsys):
     assert not (tmp_path / "run").exists()
 
 
+def test_grid_threads_are_bounded_by_this_machine_only_when_it_trains_them(small_dir, tmp_path,
+                                                                         capsys):
+    """Locally, more threads than cores is one line before any work; with ``--scheduler`` the
+    runs train on the cluster's workers, so the head node's cores do not bound the count."""
+    spec = ["--spec", str(ROOT / "results" / "smoke.toml"), "--data-dir", str(small_dir),
+            "--threads", "100000"]
+    code, err = _cli(grid_main, [*spec, "--out", str(tmp_path / "local")], capsys)
+    _refused(code, err, "--threads", f"this machine's {os.cpu_count()} cores", "'100000'")
+    assert not (tmp_path / "local").exists()
+    code, err = _cli(grid_main, [*spec, "--scheduler", "tcp://head:8786", "--dry-run",
+                                 "--out", str(tmp_path / "cluster")], capsys)
+    assert code == 0 and "Traceback" not in err, err
+
+
 def test_a_trial_too_short_for_the_filter_is_named_with_the_minimum(tmp_path, capsys):
     data = write_release(tmp_path / "Suturing", SynthConfig(users=("B", "C", "D"),
                                                             trials_per_user=2))

@@ -17,7 +17,7 @@ import sys
 from pathlib import Path
 
 from baseline.options import add_threads_argument
-from jigsaws_tools.cli.arg_types import positive_int
+from jigsaws_tools.cli.arg_types import positive_int, thread_count
 from jigsaws_tools.cli.common import (command_parser, deprecated_alias, import_tensorflow,
                                       run_command)
 from jigsaws_tools.cli.options import DEFAULT_DATA_DIR_TEXT
@@ -55,7 +55,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="Dask scheduler address (tcp://host:8786): run the jobs on that "
                              "cluster (default: none, local workers)")
     threads = add_threads_argument(parser, "cores per run (default: 0 = the machine's cores / "
-                                           "--workers locally, 1 on Dask)")
+                                           "--workers locally, 1 on Dask)", this_machine=False)
     deprecated_alias(parser, "--threads-per-job", threads)
     parser.add_argument("--stack", type=positive_int, default=1, metavar="N",
                         help="train up to N runs of one configuration (folds, seeds) together in "
@@ -106,6 +106,11 @@ def _run(args: argparse.Namespace) -> int:
     spec = with_budget(spec.with_absolute_paths())              # as recorded, one path
     if not args.scheduler:                       # a cluster's workers have their own CPUs
         require_native_precision(spec.precision)
+        try:
+            thread_count(str(args.threads))
+        except argparse.ArgumentTypeError as error:
+            raise ValueError(f"--threads: {error} (with --scheduler, each worker checks its "
+                             "own)") from None
     if args.stack > 1 and spec.loops == "xla":
         raise ValueError("--stack vectorises the runs' steps, which turns XLA's compiled loops "
                          "back into TensorFlow ops: use --stack 1 with loops xla (or graph loops "
