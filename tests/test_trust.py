@@ -5,6 +5,7 @@ recovery; none exits 0 with wrong or partial results. Tiny models on a small syn
 """
 from __future__ import annotations
 
+import errno
 import json
 import os
 import shutil
@@ -24,13 +25,14 @@ from baseline.builder import build_trainer, gesture_task
 from baseline.cli import main as baseline_main
 from baseline.config import RunConfig
 from jigsaws_tools.dataset import DataConfig
+from jigsaws_tools.errors import WriteFailed
 from jigsaws_tools.synth import SynthConfig, write_release
 from multitask.grid.cli import main as grid_main
 from multitask.grid.record import prepare_grid
 from multitask.grid.spec import expand, load_spec, with_budget
 from multitask.evidence.cli import main as tables_main
 from multitask.train_cli import main as multitask_main
-from rnn_seg.runs.checkpoints import checkpoint_prefix, restore_weights
+from rnn_seg.runs.checkpoints import CheckpointStore, checkpoint_prefix, restore_weights
 from rnn_seg.runs.lock import hold_folder
 from rnn_seg.lstm import EncoderConfig
 from rnn_seg.model import SegmentationModel
@@ -776,3 +778,28 @@ def test_allow_incomplete_marks_the_configuration(tmp_path, capsys):
     assert list(summary.folds) == [1] and not summary.complete[0]
     table = pd.read_csv(tmp_path / "tables/table1.csv")
     assert (table.model == "A (incomplete: 1/2 runs)").all()
+
+
+class _RefusingCheckpoint:
+    """A ``tf.train.Checkpoint`` stand-in whose write fails with TensorFlow's error ``reason``."""
+
+    def __init__(self, reason: str):
+        self.reason = reason
+
+    def write(self, prefix: str) -> None:
+        Path(prefix + ".index").write_bytes(b"partial")
+        raise tf.errors.UnknownError(None, None, f"{prefix}.index; {self.reason}")
+
+
+@pytest.mark.parametrize("reason,refusal", [(os.strerror(errno.ENOSPC), WriteFailed),
+                                            ("Permission denied", OSError)])
+def test_a_refused_checkpoint_names_its_file_and_leaves_no_part(tmp_path, reason, refusal):
+    """Lack of space is a failure naming the checkpoint and the space of the run's own disk;
+    any other refusal is an error naming the checkpoint; neither leaves a partial checkpoint."""
+    (tmp_path / "checkpoints").mkdir()
+    store = CheckpointStore(tmp_path, _RefusingCheckpoint(reason), "final", (), print)
+    with pytest.raises(refusal) as raised:
+        store.save(7)
+    assert str(checkpoint_prefix(tmp_path, 7)) in str(raised.value)
+    assert isinstance(raised.value, WriteFailed) == (refusal is WriteFailed)
+    assert not list((tmp_path / "checkpoints").iterdir())

@@ -16,11 +16,14 @@ removed when a run starts.
 from __future__ import annotations
 
 import gc
+import os
 import shutil
 from pathlib import Path
 from typing import Callable, Collection
 
 import tensorflow as tf
+
+from jigsaws_tools.errors import NO_SPACE
 
 from ..config import KEEP_CHECKPOINTS, UNITS, KeepCheckpoints  # noqa: F401 (re-exported)
 from .folder import CHECKPOINTS as FOLDER
@@ -56,9 +59,12 @@ class CheckpointStore:
         prefix = checkpoint_prefix(self.run_dir, sweep)
         try:
             self.checkpoint.write(str(prefix))
-        except tf.errors.OpError as error:      # e.g. no space left: TensorFlow's own error
+        except tf.errors.OpError as error:      # TensorFlow's own error, not an OSError
             _delete(prefix)                     # never an index without its data
-            raise WriteFailed(f"checkpoint {prefix}", _first_line(error)) from None
+            reason = _first_line(error)
+            if any(os.strerror(code) in reason for code in NO_SPACE):
+                raise WriteFailed(prefix, reason) from None
+            raise OSError(f"cannot write checkpoint {prefix}: {reason}") from None
         saved = self.sweeps()
         self._keep_only(set(saved[-2:]) | self._kept(saved))
 
