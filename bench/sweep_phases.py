@@ -62,7 +62,7 @@ def rnn_seg_phases(hidden: int, steps: int, repeats: int) -> dict[str, float]:
     import tensorflow as tf
 
     from lstm_sweep import _batch, _step_function
-    from rnn_seg.lstm import _backward_factors, _backward_loop, _forward_loop, _shift
+    from rnn_seg.lstm import _backward_loop, _forward_loop, _shift
     from rnn_seg.threads import configure_threads
 
     threads = configure_threads(0, hidden, "fp32")

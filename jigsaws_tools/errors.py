@@ -61,10 +61,12 @@ class WriteFailed(RuntimeError):
     and the space left. Not the user's input: commands report it as a failure (exit 1). What was
     written before stays; a run resumes from its last complete checkpoint."""
 
-    def __init__(self, path: Path | str, reason: str):
+    def __init__(self, path: Path | str, reason: str, what: str = ""):
+        """``what`` the file is, named before its path (e.g. ``"checkpoint"``)."""
         folder = next((p for p in (Path(path), *Path(path).parents) if p.is_dir()), Path("."))
         free = shutil.disk_usage(folder).free / 1e6
-        super().__init__(f"cannot write {path} ({reason}); {free:.0f} MB free on its file "
+        named = f"{what} {path}" if what else str(path)
+        super().__init__(f"cannot write {named} ({reason}); {free:.0f} MB free on its file "
                          "system. Make room and run the same command again (a run resumes from "
                          "its last complete checkpoint)")
 

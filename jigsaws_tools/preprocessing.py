@@ -82,7 +82,7 @@ def lowpass(x: np.ndarray, cutoff_hz: float, order: int, fs_hz: float = KINEMATI
 
     Args:
         x: ``[n_frames, n_features]`` float at ``fs_hz``; needs more frames than scipy's edge
-            padding (``lowpass_min_frames``: 16 for order 4).
+            padding (16 for order 4; a shorter ``x`` is refused, naming the minimum).
         cutoff_hz: cut-off frequency, in Hz.
         order: Butterworth order of one pass (the forward-backward filter doubles it).
         fs_hz: sampling rate of ``x``, in Hz (30 Hz frames by default).

@@ -41,8 +41,7 @@ from pathlib import Path
 from .errors import DefinitionError
 from .features import FEATURE_NAMES
 from .task_definition import TaskDefinition
-from .toml_files import (builtin_names, builtin_path, find_definition, known_keys,
-                         read_definition, table, typed)
+from .toml_files import builtin_path, find_definition, known_keys, read_definition, table, typed
 
 #: The release's format, the default wherever a format can be omitted.
 DEFAULT_FORMAT = "jigsaws"
@@ -109,11 +108,6 @@ class RecordingFormat:
         return self == JIGSAWS_FORMAT
 
 
-def builtin_format_names() -> tuple[str, ...]:
-    """Names of the formats shipped with the package."""
-    return builtin_names("formats")
-
-
 def load_format(recording_format: str | Path | RecordingFormat | None) -> RecordingFormat:
     """A built-in format by name, a format file by path (``*.toml``), ``recording_format`` itself,
     or the default (JIGSAWS) for None."""
@@ -171,6 +165,8 @@ def _check_format(fmt: RecordingFormat) -> None:
                               "the file in order")
     if len(set(fmt.columns)) != len(fmt.columns):
         raise DefinitionError("", "columns", list(fmt.columns), "column names must be unique")
+    if fmt.columns and fmt.time_column and fmt.time_column not in fmt.columns:
+        raise DefinitionError("", "time_column", fmt.time_column, "not one of columns")
     for feature, column in fmt.features:
         if feature not in FEATURE_NAMES:
             raise DefinitionError("", f"features.{feature}", column, "not a model feature (one "

@@ -259,6 +259,8 @@ def read_recording(path: Path | str, recording_format: RecordingFormat = JIGSAWS
     for column, feature in zip(wanted, features or wanted):
         if column not in names:
             _missing_column(path, fmt, header_line, names, column, feature)
+    if fmt.time_column and fmt.time_column not in names:
+        _missing_column(path, fmt, header_line, names, fmt.time_column, "time_column")
     try:
         with warnings.catch_warnings():
             warnings.filterwarnings("ignore", "loadtxt: input contained no data")

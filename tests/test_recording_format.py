@@ -159,6 +159,7 @@ def _bad_copy(robot_dir, tmp_path, edit) -> str:
     (lambda t: t.head(12), ["12 frames", "low-pass"]),
     (lambda t: t.assign(arm2_gripper=t.arm2_gripper.where(t.index != 40, "abc")),
      [":42:", "'abc'", "arm2_gripper"]),
+    (lambda t: t.rename(columns={"time_s": "t"}), ["'time_s'", "time_column"]),
 ])
 def test_a_bad_recording_is_one_line_naming_file_column_and_value(robot_run, robot_dir, tmp_path,
                                                                   capsys, edit, expected):
@@ -177,6 +178,8 @@ def test_a_bad_recording_is_one_line_naming_file_column_and_value(robot_run, rob
     (("psm1_pos_x =", "psm9_pos_x ="), ["features.psm9_pos_x", "not a model feature"]),
     (('trial = "{task}-{user}-{trial}"', 'trial = "{task}-{trial}"'), ["files.trial"]),
     (("rate_hz = 100", "rate = 100"), ["rate", "unknown key"]),
+    (("header = true", 'header = false\ncolumns = ["t"]'),
+     ["time_column", "'time_s'", "not one of columns"]),
 ])
 def test_a_bad_format_file_is_one_line_naming_file_key_and_value(robot_run, robot_dir, tmp_path,
                                                                  capsys, change, expected):

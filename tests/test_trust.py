@@ -800,6 +800,6 @@ def test_a_refused_checkpoint_names_its_file_and_leaves_no_part(tmp_path, reason
     store = CheckpointStore(tmp_path, _RefusingCheckpoint(reason), "final", (), print)
     with pytest.raises(refusal) as raised:
         store.save(7)
-    assert str(checkpoint_prefix(tmp_path, 7)) in str(raised.value)
+    assert f"checkpoint {checkpoint_prefix(tmp_path, 7)}" in str(raised.value)
     assert isinstance(raised.value, WriteFailed) == (refusal is WriteFailed)
     assert not list((tmp_path / "checkpoints").iterdir())

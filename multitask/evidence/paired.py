@@ -274,10 +274,6 @@ class PairedResult:
             return math.nan
         return min(1.0, self.seed_variance / self.sd ** 2)
 
-    def favouring(self, sign: int) -> int:
-        """How many folds have a difference of ``sign`` (+1 / -1)."""
-        return int(np.sum(np.sign(self.differences) == sign))
-
     def power(self, mean: float, sign: int) -> float:
         """Probability that the test rejects with the sign ``sign`` when the fold differences are
         normal with ``mean`` and our standard deviation (``power``)."""

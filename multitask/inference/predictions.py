@@ -1,9 +1,11 @@
-"""A model's predictions for one recording: per 5 Hz sample, per 30 Hz frame, as CSV and ribbons.
+"""A model's predictions for one recording: per 5 Hz sample, per row of the recording (a 30 Hz
+frame in JIGSAWS), as CSV and ribbons.
 
-The network sees one sample per ``resample_factor`` frames (5 Hz). Each 30 Hz frame takes the
-prediction of the last sample at or before it (a zero-order hold: sample k, taken at frame
-``6k + 1``, stands for frames ``6k + 1 .. 6k + 6``), which is also what a streaming model has
-output when that frame arrives. ``hold`` maps frames to samples.
+The network sees one sample per ``f`` rows (5 Hz; ``f = 6`` for JIGSAWS's 30 Hz frames,
+``jigsaws_tools.preprocessing.decimation`` for another rate). Each row takes the prediction of
+the last sample at or before it (a zero-order hold: sample k, taken at row ``k f + 1``, stands
+for rows ``k f + 1 .. k f + f``), which is also what a streaming model has output when that row
+arrives. ``hold`` maps rows to samples.
 """
 from __future__ import annotations
 

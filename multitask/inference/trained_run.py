@@ -19,7 +19,7 @@ import numpy as np
 from baseline.config import RunConfig
 from jigsaws_tools.dataset import check_format_fits
 from jigsaws_tools.features import feature_columns
-from jigsaws_tools.preprocessing import Normalisation, preprocess_recording
+from jigsaws_tools.preprocessing import Normalisation, decimation, preprocess_recording
 from jigsaws_tools.recording_format import RecordingFormat, load_format
 from jigsaws_tools.release import discover, read_recording
 from rnn_seg.runs.checkpoints import restore_weights
@@ -213,11 +213,12 @@ class TrainedRun:
             return from_jsonable(Normalisation, saved.get("normalisation")
                                  if isinstance(saved, dict) else saved, f"{path}: normalisation")
         stats, trials = training_normalisation(self.config, data_dir)
+        data = self.config.data
+        rows = decimation(data.preprocessing, data.recording_format.rate_hz)
         try:
             write_json(path, {"normalisation": stats, "trials": trials,
-                              "steps": "causal low-pass on each whole trial, one frame in "
-                                       f"{self.config.data.preprocessing.resample_factor} "
-                                       "from the first, unlabelled frames included"})
+                              "steps": f"causal low-pass on each whole trial, one row in {rows} "
+                                       "from the first, unlabelled rows included"})
         except OSError as error:
             log.warning("%s: not saved (%s); computed again next time", path, error)
         return stats

@@ -63,7 +63,7 @@ class CheckpointStore:
             _delete(prefix)                     # never an index without its data
             reason = _first_line(error)
             if any(os.strerror(code) in reason for code in NO_SPACE):
-                raise WriteFailed(prefix, reason) from None
+                raise WriteFailed(prefix, reason, "checkpoint") from None
             raise OSError(f"cannot write checkpoint {prefix}: {reason}") from None
         saved = self.sweeps()
         self._keep_only(set(saved[-2:]) | self._kept(saved))
