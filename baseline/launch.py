@@ -3,8 +3,8 @@
 Shared by ``baseline-train`` and ``multitask-train``, inside
 ``jigsaws_tools.cli.common.run_command``: errors a user can act on (bad values or data, a folder
 in use or holding other settings) propagate to it, which prints one line ``prog: error: ...``
-(and the traceback with ``-v``) and exits with 2.
-Handled here: a loss that diverged or a write refused for lack of space (one line, exit 1) and
+(and the traceback with ``-v``) and exits with 2, and so does a write refused for lack of space
+(``prog: failed: ...``, exit 1). Handled here: a loss that diverged (one line, exit 1) and
 Ctrl-C during training, which leaves a resumable run (exit 130 and how to resume).
 """
 from __future__ import annotations
@@ -13,7 +13,6 @@ import sys
 from pathlib import Path
 from typing import Callable, TypeVar
 
-from rnn_seg.runs.folder import WriteFailed
 from rnn_seg.runs.lock import hold_folder
 from rnn_seg.runs.outputs import check_output_folder
 from rnn_seg.trainer import TrainingDiverged
@@ -38,21 +37,16 @@ def run_training(prog: str, out: Path, configure: Callable[[], Config],
 
     Raises:
         The errors of ``configure``, ``train`` and the lock (``FolderLockedError``) other than
-        ``TrainingDiverged``, for ``run_command`` to report.
+        ``TrainingDiverged``, for ``run_command`` to report (a write refused for lack of space
+        included).
     """
     config = configure()
     check_output_folder(out, prog, may_be_run=True)
     try:
         with hold_folder(out):
             return 0, train(config)
-    except (TrainingDiverged, WriteFailed) as error:
+    except TrainingDiverged as error:
         print(f"{prog}: failed: {error}", file=sys.stderr)
-        return EXIT_FAILED, None
-    except OSError as error:
-        failure = WriteFailed.from_os_error(error)
-        if failure is None:
-            raise
-        print(f"{prog}: failed: {failure}", file=sys.stderr)
         return EXIT_FAILED, None
     except KeyboardInterrupt:
         print(f"{prog}: interrupted; run the same command again to resume {out} from its last "
