@@ -29,7 +29,8 @@ from rnn_seg.runs.folder import read_json, write_atomic  # noqa: E402
 
 from ..grid.spec import RunKey  # noqa: E402
 from .collect import KEY_COLUMNS  # noqa: E402
-from .figures import COMPARED, OFFLINE, label, save  # noqa: E402
+from .figures import COMPARED, label, save  # noqa: E402
+from .paired import ConfigId  # noqa: E402
 
 TASK = "gesture"
 SCORES = ("precision", "recall", "f1")
@@ -38,7 +39,8 @@ FIGURE = "confusion"
 
 
 def compared_runs(runs: pd.DataFrame) -> dict[str, pd.DataFrame]:
-    """The offline runs (``figures.OFFLINE``) of each compared configuration the grid ran.
+    """The runs of each compared configuration (``figures.COMPARED``: revised labels,
+    bidirectional) the grid ran.
 
     Args:
         runs: one row per run (``collect.run_rows``).
@@ -46,10 +48,7 @@ def compared_runs(runs: pd.DataFrame) -> dict[str, pd.DataFrame]:
     Returns:
         ``{"A-fixed": its rows, ...}`` in ``figures.COMPARED`` order, without empty ones.
     """
-    offline = runs[(runs.annotations == OFFLINE["annotations"])
-                   & (runs.direction == OFFLINE["direction"])]
-    config = offline.variant + "-" + offline.weighting
-    return {c: rows for c in COMPARED if not (rows := offline[config == c]).empty}
+    return {c: rows for c in COMPARED if not (rows := ConfigId.parse(c).select(runs)).empty}
 
 
 def summed_confusion(grid_dir: Path, runs: pd.DataFrame, task: str = TASK
@@ -82,10 +81,7 @@ def per_gesture_table(folds: pd.DataFrame, configs: list[str], classes: tuple[st
     """
     rows = []
     for config in configs:
-        variant, weighting = config.rsplit("-", 1)
-        mine = folds[(folds.annotations == OFFLINE["annotations"])
-                     & (folds.direction == OFFLINE["direction"])
-                     & (folds.variant == variant) & (folds.weighting == weighting)]
+        mine = ConfigId.parse(config).select(folds)
         for gesture in classes:
             row = {"configuration": config, "gesture": gesture,
                    "folds": int(mine[f"{TASK}_recall_{gesture}"].notna().sum())}

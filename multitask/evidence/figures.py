@@ -40,6 +40,7 @@ from rnn_seg.runs.folder import read_json  # noqa: E402
 from ..grid.archive import kept_predictions  # noqa: E402
 from ..grid.spec import RunKey  # noqa: E402
 from .collect import grid_task_name  # noqa: E402
+from .paired import ConfigId  # noqa: E402
 from .tables import CONFIG_LABELS  # noqa: E402
 
 OFFLINE = {"annotations": "revised", "direction": "bidirectional"}
@@ -90,13 +91,6 @@ def label(config: str) -> str:
     return text
 
 
-def _offline_folds(folds: pd.DataFrame, config: str) -> pd.DataFrame:
-    variant, weighting = config.rsplit("-", 1)
-    return folds[(folds.annotations == OFFLINE["annotations"])
-                 & (folds.direction == OFFLINE["direction"])
-                 & (folds.variant == variant) & (folds.weighting == weighting)]
-
-
 def per_gesture_accuracy(folds: pd.DataFrame, gestures: Sequence[str], out_dir: Path
                          ) -> list[Path]:
     """Grouped bars, one per compared model: each gesture's accuracy (percent), mean over the
@@ -113,7 +107,7 @@ def per_gesture_accuracy(folds: pd.DataFrame, gestures: Sequence[str], out_dir: 
         The PNG and PDF written; empty when the grid ran none of the compared models, or no
         gestures are given.
     """
-    rows = {c: r for c in COMPARED if not (r := _offline_folds(folds, c)).empty}
+    rows = {c: r for c in COMPARED if not (r := ConfigId.parse(c).select(folds)).empty}
     if not rows or not gestures:
         return []
     fig, ax = plt.subplots(figsize=(8, 3.0))
@@ -288,10 +282,10 @@ def fold_accuracy(folds: pd.DataFrame, out_dir: Path) -> list[Path]:
     if not {"gesture_accuracy", "progress_accuracy"} <= set(folds):
         return []
     both = folds.dropna(subset=["gesture_accuracy", "progress_accuracy"])
-    two_task = [c for c in FOLD_RUNS if not _offline_folds(both, c).empty] or list(
+    two_task = [c for c in FOLD_RUNS if not ConfigId.parse(c).select(both).empty] or list(
         dict.fromkeys(f"{r.variant}-{r.weighting}" for r in both.itertuples()))
-    compared = {c: t for c in COMPARED if not (t := _offline_folds(folds, c)).empty}
-    scatter = _offline_folds(both, two_task[0]) if two_task else both.iloc[:0]
+    compared = {c: t for c in COMPARED if not (t := ConfigId.parse(c).select(folds)).empty}
+    scatter = ConfigId.parse(two_task[0]).select(both) if two_task else both.iloc[:0]
     if scatter.empty:
         return []
     fig, (left, right) = plt.subplots(1, 2, figsize=(9, 3.6), width_ratios=(1.2, 1))

@@ -14,7 +14,6 @@ writes ``tasks.csv`` (one row per task, model and score) and ``tasks.md`` (the t
 """
 from __future__ import annotations
 
-import argparse
 import sys
 from pathlib import Path
 
@@ -23,6 +22,8 @@ import pandas as pd
 from jigsaws_tools.cli.common import command_parser, run_command
 from rnn_seg.runs.folder import write_atomic
 from rnn_seg.runs.outputs import check_output_folder
+
+from .paired import ConfigId
 
 PROG = "python -m multitask.evidence.tasks"
 #: The multi-task models compared with A (``<variant>-<weighting>``).
@@ -44,8 +45,7 @@ def task_rows(task: str, tables: Path) -> list[dict]:
         ValueError: naming the file, when A or a contrast is missing from it.
     """
     summary, claims = (_read(tables / name) for name in ("summary.csv", "claims.csv"))
-    a = summary[(summary.annotations == "revised") & (summary.direction == "bidirectional")
-                & (summary.variant == "A") & (summary.weighting == "fixed")]
+    a = ConfigId.parse(BASELINE).select(summary)
     if a.empty:
         raise ValueError(f"{tables / 'summary.csv'}: no revised bidirectional A-fixed row")
     rows = []
