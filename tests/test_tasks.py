@@ -311,6 +311,29 @@ def test_knot_tying_grid_tables_and_figures(tmp_path, capsys):
     assert "Knot Tying kinematics, 2 trials, leave-one-user-out over 1 fold (B)" in caption
 
 
+def test_a_grid_of_ones_own_task_tabulates_where_its_task_file_is_not(tmp_path, caplog):
+    """grid.json names the task file by its path; on another machine (here: the file moved) the
+    tables are still made, with a warning that the spec check was skipped."""
+    from multitask.grid.cli import main as grid_main
+    from multitask.evidence.cli import main as tables_main
+
+    definition = _write(tmp_path, TOY_TASK, "toy.toml")
+    release = write_release(tmp_path / "Toy_Sort", SynthConfig(users=("B", "C", "D"),
+                                                               trials_per_user=2),
+                            load_task(definition))
+    spec = _write(tmp_path, f'task = "{definition}"\ndata_dir = "{release}"\n'
+                            'test_users = ["B"]\nseeds = [0]\nhidden = 8\nepochs = 1\n'
+                            '[[experiments]]\nvariants = ["A"]\n', "toy_grid.toml")
+    grid = tmp_path / "grid"
+    assert grid_main(["--spec", str(spec), "--out", str(grid)]) == 0
+    definition.rename(tmp_path / "elsewhere.toml")
+    with caplog.at_level(logging.WARNING):
+        assert tables_main([str(grid), "--no-figures"]) == 0
+    assert (grid / "tables" / "summary.csv").is_file()
+    assert any(str(definition) in r.getMessage() and "not checked" in r.getMessage()
+               for r in caplog.records)
+
+
 def test_grid_spec_takes_a_task(tmp_path):
     spec = GridSpec(task="Knot_Tying", data_dir="synthetic", test_users=("B",), seeds=(0,))
     assert spec.release_dir().name == "Knot_Tying"
