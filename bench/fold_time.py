@@ -64,7 +64,7 @@ FRESH_WORKERS = ("import sys; import multitask.grid.executors as e; e.JOBS_PER_W
                  "from multitask.grid.cli import main; sys.exit(main(sys.argv[1:]))")
 
 
-def timed_grid(folds: list[str], workers: int, stack: int, args, loops: str = "graph",
+def timed_grid(folds: list[str], workers: int, stack: int, args: argparse.Namespace, loops: str = "graph",
                fresh: bool = False) -> float:
     """Seconds for ``multitask-grid`` to finish ``folds`` with ``workers`` workers, from scratch;
     ``fresh``: a new worker process for every job."""

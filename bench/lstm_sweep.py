@@ -254,7 +254,7 @@ def _skip_reason(impl: str, native_bf16: bool) -> str | None:
     return None
 
 
-def _sweep_size(hidden: int, impls: list[str], args) -> None:
+def _sweep_size(hidden: int, impls: list[str], args: argparse.Namespace) -> None:
     """Time the floor and every implementation at ``hidden`` units; print them and the ratios."""
     product = _run_worker("product", hidden, None, args)
     floor = product * args.steps * 2 * 3        # 2 directions; 1 product forward, 2 backward
@@ -290,7 +290,7 @@ def _native_bf16() -> bool:
     return native_bf16()
 
 
-def _run_worker(impl: str, hidden: int, plan: str | None, args):
+def _run_worker(impl: str, hidden: int, plan: str | None, args: argparse.Namespace) -> dict:
     command = [sys.executable, __file__, "--worker", impl, str(hidden), "--steps",
                str(args.steps), "--repeats", str(args.repeats)]
     if plan:

@@ -69,7 +69,7 @@ def stage_order(index: ReleaseIndex, version: str) -> tuple[pd.DataFrame, Counte
     task = index.task
     rows, breaks = [], Counter()
     for trial in index.trials:
-        _, labels = trial_labels(trial, task, version)
+        _, labels = trial_labels(trial, task, version, index.recording_format)
         transitions = trial_transitions(labels, task)
         counts = Counter(kind for kind, _, _ in transitions)
         rows.append({"trial": trial.name, **{kind: counts[kind] for kind in KINDS}})

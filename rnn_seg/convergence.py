@@ -20,9 +20,12 @@ tolerance) is kept beside it.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Sequence
+from typing import TYPE_CHECKING, Sequence
 
 import numpy as np
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 MIN_POINTS = 4
 #: The three-way verdicts (``verdict``).
@@ -127,7 +130,7 @@ def convergence(units: np.ndarray, losses: dict[str, np.ndarray], total: float,
                           "tolerance": criterion.tolerance}}
 
 
-def history_convergence(history, task_names: Sequence[str], total: float,
+def history_convergence(history: pd.DataFrame, task_names: Sequence[str], total: float,
                         criterion: ConvergenceCriterion = ConvergenceCriterion()) -> dict:
     """``convergence`` of a run's ``history.csv`` table.
 

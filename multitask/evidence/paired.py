@@ -39,6 +39,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import cached_property, lru_cache
+from typing import Sequence
 
 import numpy as np
 import pandas as pd
@@ -426,7 +427,7 @@ def simulated_intervals(folds: int, config: StatsConfig) -> tuple[np.ndarray, np
     return low, high
 
 
-def holm(p_values) -> np.ndarray:
+def holm(p_values: Sequence[float]) -> np.ndarray:
     """Holm's step-down adjusted p-values (same order as ``p_values``; NaN stays NaN and does not
     count): the i-th smallest of m is ``max_{j <= i} min(1, (m - j + 1) p_(j))``."""
     p = np.asarray(p_values, float)
