@@ -108,7 +108,15 @@ def step_mean(values: tf.Tensor, mask: tf.Tensor | None) -> tf.Tensor:
 
 def task_metrics(task: Task, outputs: Sequence[np.ndarray], labels: Sequence[np.ndarray]
                  ) -> dict[str, float]:
-    """Segmentation metrics of decoded outputs against labels, plus the task's own extras.
+    """Segmentation metrics of decoded outputs against labels, plus the task's own extras
+    (``task_scores``' metrics; arguments as its)."""
+    return task_scores(task, outputs, labels)[0]
+
+
+def task_scores(task: Task, outputs: Sequence[np.ndarray], labels: Sequence[np.ndarray]
+                ) -> tuple[dict[str, float], np.ndarray]:
+    """The metrics of decoded outputs against labels and their confusion matrix, from one
+    decoding.
 
     Args:
         task: decodes the outputs and names the classes.
@@ -116,28 +124,22 @@ def task_metrics(task: Task, outputs: Sequence[np.ndarray], labels: Sequence[np.
         labels: the ``[T_i]`` int64 true labels, in the order of ``outputs``.
 
     Returns:
-        ``segmentation_metrics``' scores; per class ``accuracy_<class>``, ``precision_<class>``,
-        ``recall_<class>`` and ``f1_<class>`` (frame-wise over the pooled steps,
-        ``rnn_seg.metrics.class_scores``; NaN where undefined, e.g. a class absent from the
-        labels); and ``task.extra_metrics``; all in percent except ``edit_distance`` (segments).
+        ``(metrics, confusion)``. ``metrics``: ``segmentation_metrics``' scores; per class
+        ``accuracy_<class>``, ``precision_<class>``, ``recall_<class>`` and ``f1_<class>``
+        (frame-wise over the pooled steps, ``rnn_seg.metrics.class_scores``; NaN where undefined,
+        e.g. a class absent from the labels); and ``task.extra_metrics``; all in percent except
+        ``edit_distance`` (segments). ``confusion``: ``[K, K]`` int64 counts of (true, decoded)
+        class pairs over every step (``rnn_seg.metrics.confusion_matrix``; rows true, columns
+        predicted, in ``task.class_names`` order).
     """
     from .metrics import class_scores, confusion_matrix, segmentation_metrics
 
     preds = [task.decode(o) for o in outputs]
     metrics = segmentation_metrics(preds, labels)
-    precision, recall, f1 = class_scores(confusion_matrix(preds, labels, task.num_classes))
+    confusion = confusion_matrix(preds, labels, task.num_classes)
+    precision, recall, f1 = class_scores(confusion)
     for kind, values in (("accuracy", recall), ("precision", precision), ("recall", recall),
                          ("f1", f1)):          # a class's accuracy is its recall
         metrics.update({f"{kind}_{c}": float(v) for c, v in zip(task.class_names, values)})
     metrics.update(task.extra_metrics(outputs, labels))
-    return metrics
-
-
-def task_confusion(task: Task, outputs: Sequence[np.ndarray], labels: Sequence[np.ndarray]
-                   ) -> np.ndarray:
-    """``[K, K]`` int64 counts of (true, decoded) class pairs over every step of the sequences
-    (``rnn_seg.metrics.confusion_matrix``; rows true, columns predicted, in ``task.class_names``
-    order). Arguments as ``task_metrics``'."""
-    from .metrics import confusion_matrix
-
-    return confusion_matrix([task.decode(o) for o in outputs], labels, task.num_classes)
+    return metrics, confusion

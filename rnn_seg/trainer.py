@@ -52,7 +52,7 @@ from .runs.folder import (CONFIG, HISTORY, RUN_LOGS, clear_run_dir, is_finished,
 from .runs.logs import append_csv_row, resume_log  # noqa: F401 (append_csv_row re-exported)
 from .sweeps import make_sweep, reset_flags, sweep_indices, sweeps_per_epoch
 from .predictions import prediction_csv, prediction_table
-from .tasks import Task, task_confusion, task_metrics
+from .tasks import Task, task_metrics, task_scores
 from .runs.provenance import now, provenance
 from .runs.settings import SettingsMismatchError, check_run_dir, settings_hash
 from .runs.timing import PhaseClock
@@ -538,9 +538,9 @@ def write_evaluation(folder: Path, tasks: Sequence[Task], data: SequenceSet,
     Returns:
         The metrics per task (``task_metrics``).
     """
-    metrics = {t.name: task_metrics(t, outputs[t.name], data.labels[t.name]) for t in tasks}
-    confusion = {t.name: {"classes": list(t.class_names),
-                          "counts": task_confusion(t, outputs[t.name], data.labels[t.name])}
+    scores = {t.name: task_scores(t, outputs[t.name], data.labels[t.name]) for t in tasks}
+    metrics = {name: scored for name, (scored, _) in scores.items()}
+    confusion = {t.name: {"classes": list(t.class_names), "counts": scores[t.name][1]}
                  for t in tasks}
     for i, name in enumerate(data.names):
         true = {t.name: data.labels[t.name][i] for t in tasks}

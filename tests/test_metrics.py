@@ -4,7 +4,7 @@ import pytest
 
 from rnn_seg.metrics import (accuracy, class_scores, confusion_matrix, edit_distance, edit_score,
                              f1_score, overlap_counts, segmentation_metrics, segments)
-from rnn_seg.tasks import SoftmaxClassification, task_confusion, task_metrics
+from rnn_seg.tasks import SoftmaxClassification, task_metrics, task_scores
 
 
 def test_segments():
@@ -102,4 +102,7 @@ def test_task_metrics_name_per_class_scores_and_confusion_by_class():
     assert metrics["precision_a"] == 100.0 and metrics["recall_a"] == pytest.approx(200 / 3)
     assert metrics["f1_b"] == pytest.approx(100 * 2 / 3) and metrics["precision_b"] == 50.0
     assert all(np.isnan(metrics[f"{k}_c"]) for k in ("precision", "recall", "f1", "accuracy"))
-    assert task_confusion(task, outputs, labels).tolist() == [[2, 1, 0], [0, 1, 0], [0, 0, 0]]
+    scored, confusion = task_scores(task, outputs, labels)
+    assert confusion.tolist() == [[2, 1, 0], [0, 1, 0], [0, 0, 0]]
+    assert scored.keys() == metrics.keys() and all(
+        scored[k] == metrics[k] or np.isnan(metrics[k]) for k in metrics)
