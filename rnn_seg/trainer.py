@@ -500,7 +500,7 @@ class Trainer:
                        for k in per_point[points[0]][task]}
                 for task in per_point[points[0]]}
         result = {"points": per_point, "mean": mean, "unit": self.optim.unit,
-                  "convergence": history_convergence(pd.read_csv(self.run_dir / "history.csv"),
+                  "convergence": history_convergence(pd.read_csv(self.run_dir / HISTORY),
                                                      [t.name for t in self.tasks],
                                                      self.optim.total)}
         confusion = summed_confusion([saved[p].get("confusion") for p in points])

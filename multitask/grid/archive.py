@@ -29,14 +29,15 @@ import tempfile
 from pathlib import Path
 
 from rnn_seg.runs.provenance import now
-from rnn_seg.runs.folder import CONFIG, FINISHED, RunFolderError, is_finished, read_json, write_json
+from rnn_seg.runs.folder import (CONFIG, FINISHED, GRADNORM_LOG, HISTORY, RunFolderError,
+                                 is_finished, read_json, write_json)
 
 from .folder import GRID_RECORD, read_record
 from .spec import RunKey
 
 ARCHIVE_RECORD = "archive.json"
 #: The files of a finished run an archive keeps; the first two must be there.
-RUN_FILES = (CONFIG, "metrics.json", FINISHED, "timing.json", "history.csv", "gradnorm.csv")
+RUN_FILES = (CONFIG, "metrics.json", FINISHED, "timing.json", HISTORY, GRADNORM_LOG)
 REQUIRED = RUN_FILES[:2]
 #: In the names of the hidden folders an archive is written in (ignored by git: a process killed
 #: while archiving may leave one).

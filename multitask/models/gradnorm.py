@@ -21,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 import tensorflow as tf
 
+from rnn_seg.runs.folder import GRADNORM_LOG
 from rnn_seg.trainer import Trainer, append_csv_row
 
 from .config import RELATIVE_RATES, GradNormConfig, RelativeRate  # noqa: F401 (re-exported)
@@ -101,5 +102,5 @@ class GradNormTrainer(Trainer):
         for i, task in enumerate(self.tasks):
             row.update({f"w_{task.name}": w[i], f"G_{task.name}": G[i], f"r_{task.name}": r[i]})
         row.update({f"w_end_{t.name}": float(v) for t, v in zip(self.tasks, self.weights.numpy())})
-        append_csv_row(self.run_dir / "gradnorm.csv", row)
+        append_csv_row(self.run_dir / GRADNORM_LOG, row)
         self._stats = []

@@ -33,9 +33,11 @@ CHECKPOINTS = "checkpoints"
 _CHECKPOINT_INDEX = re.compile(r"^ckpt-(\d+)\.index$")
 T = TypeVar("T")
 HISTORY = "history.csv"
-#: The per-unit CSV logs a run appends to (``gradnorm.csv``: a GradNorm run's task weights);
-#: resume drops their rows past the checkpoint it continues from.
-RUN_LOGS = ("gradnorm.csv", HISTORY)
+#: A GradNorm run's task weights per progress line (``multitask.models.gradnorm``).
+GRADNORM_LOG = "gradnorm.csv"
+#: The per-unit CSV logs a run appends to; resume drops their rows past the checkpoint it
+#: continues from.
+RUN_LOGS = (GRADNORM_LOG, HISTORY)
 #: What a run writes besides config.json and its logs; ``clear_run_dir`` removes exactly these,
 #: the logs and config.json (a grid's ``train.log``, the lock file and any file of the user stay).
 RUN_OUTPUTS = (CHECKPOINTS, "eval", "metrics.json", "timing.json", "tensorboard",
@@ -254,7 +256,7 @@ def trained_units(run_dir: Path) -> float:
     if not sweeps:
         return 0.0
     try:
-        with open(Path(run_dir) / "history.csv") as history:
+        with open(Path(run_dir) / HISTORY) as history:
             first = dict(zip(next(history).strip().split(","), next(history).strip().split(",")))
         return sweeps[-1] * float(first["n"]) / int(first["sweep"])
     except (OSError, StopIteration, KeyError, ValueError, ZeroDivisionError):
