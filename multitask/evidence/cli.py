@@ -56,9 +56,13 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from jigsaws_tools.cli.common import command_parser, run_command
 from rnn_seg.runs.outputs import check_output_folder
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 PROG = "multitask-tables"
 
@@ -81,34 +85,46 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
         seeds: only the runs of these seeds (None: all).
         finished_only: leave out the configurations with a run not finished yet.
     """
-    from jigsaws_tools.task_definition import PAPER_TASK
-
-    from .captions import describe_runs
-    from .claims import CONJECTURE_CLAIMS
-    from .claims_table import write_claims
-    from .collect import (CONFIG_COLUMNS, completeness, expected_runs, grid_task_name, of_seeds,
-                          per_fold, recorded_runs, summary)
+    from .collect import per_fold
     from .confusion import write_per_class
-    from .curves import training_curves
-    from .figures import all_figures, example_trial as choose_example
     from .standalone import is_run_collection
 
     if is_run_collection(grid_dir):
         return _run_collection_tables(grid_dir, out, allow_incomplete or finished_only, seeds)
     runs, foreign = _runs(grid_dir, allow_incomplete, seeds, finished_only)
     folds = per_fold(runs)
-    expected = expected_runs(grid_dir, of_seeds(Path(grid_dir), recorded_runs(Path(grid_dir))[0],
-                                                seeds))
-    stats = summary(folds).merge(completeness(runs, expected), on=CONFIG_COLUMNS, how="left")
     if foreign and (figures or curves):      # these read run folders, not the checked table
         print("note: no example-trial, GradNorm-weight or training-curve figures: they read run "
               "folders, and folders of other settings were left out (above)", file=sys.stderr)
-    example = (choose_example(Path(grid_dir), folds, example_trial)
-               if figures and not foreign else None)
-    if figures and example is None and not foreign:
-        print("note: no example-trial figures (figures/segmentation_example, progress_example): "
-              "no seed-0 A-fixed run of the grid kept its predictions (a scores archive keeps "
-              "none)", file=sys.stderr)
+    example = _example(Path(grid_dir), folds, example_trial) if figures and not foreign else None
+    written = _evidence_tables(Path(grid_dir), runs, folds, out, seeds, ours_only)
+    written += write_per_class(Path(grid_dir), runs, folds, out, figures)
+    if figures:
+        from .figures import all_figures
+
+        written += all_figures(Path(grid_dir), folds, out / "figures", example,
+                               gradnorm=not foreign)
+    if curves and not foreign:
+        from .curves import training_curves
+
+        written += training_curves(grid_dir, out / "figures" / "curves")
+    return written
+
+
+def _evidence_tables(grid_dir: Path, runs: pd.DataFrame, folds: pd.DataFrame, out: Path,
+                     seeds: tuple[int, ...] | None, ours_only: bool) -> list[Path]:
+    """``runs.csv``, ``per_fold.csv``, ``summary.csv`` (with each configuration's completeness),
+    then the paper's tables and claims for Suturing, the conjecture's claims for another task."""
+    from jigsaws_tools.task_definition import PAPER_TASK
+
+    from .captions import describe_runs
+    from .claims import CONJECTURE_CLAIMS
+    from .claims_table import write_claims
+    from .collect import (CONFIG_COLUMNS, completeness, expected_runs, grid_task_name, of_seeds,
+                          recorded_runs, summary)
+
+    expected = expected_runs(grid_dir, of_seeds(grid_dir, recorded_runs(grid_dir)[0], seeds))
+    stats = summary(folds).merge(completeness(runs, expected), on=CONFIG_COLUMNS, how="left")
     written = [_csv(runs, out / "runs.csv"), _csv(folds, out / "per_fold.csv"),
                _csv(stats, out / "summary.csv")]
     budget = describe_runs(grid_dir, runs).sentence()
@@ -117,13 +133,21 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
         written += write_claims(runs, out, budget=budget)
     else:
         written += write_claims(runs, out, claims=CONJECTURE_CLAIMS, budget=budget)
-    written += write_per_class(Path(grid_dir), runs, folds, out, figures)
-    if figures:
-        written += all_figures(Path(grid_dir), folds, out / "figures", example,
-                               gradnorm=not foreign)
-    if curves and not foreign:
-        written += training_curves(grid_dir, out / "figures" / "curves")
     return written
+
+
+def _example(grid_dir: Path, folds: pd.DataFrame, example_trial: str | None
+             ) -> tuple[str, str] | None:
+    """The example figures' trial (``figures.example_trial``), chosen before anything is written
+    (an unknown ``example_trial`` is an error); None, with a note, when no run kept predictions."""
+    from .figures import example_trial as choose_example
+
+    example = choose_example(grid_dir, folds, example_trial)
+    if example is None:
+        print("note: no example-trial figures (figures/segmentation_example, progress_example): "
+              "no seed-0 A-fixed run of the grid kept its predictions (a scores archive keeps "
+              "none)", file=sys.stderr)
+    return example
 
 
 def _runs(grid_dir: Path, allow_incomplete: bool, seeds: tuple[int, ...] | None,
