@@ -88,22 +88,25 @@ class ReleaseIndex:
 
 
 def trial_name(user: str, trial: int, task: TaskDefinition = SUTURING) -> str:
-    """A trial's file name without extension: ``("B", 1) -> "Suturing_B001"``.
+    """A release trial's file name without extension: ``("B", 1) -> "Suturing_B001"``
+    (``JIGSAWS_FORMAT``'s ``trial``).
 
     Args:
         user: the user's letter, e.g. ``"B"``.
         trial: the trial's number, 1-based.
         task: whose name prefixes the file name.
     """
-    return f"{task.name}_{user}{trial:03d}"
+    return JIGSAWS_FORMAT.trial_name(task, user, trial)
 
 
 def kinematics_dir(root: Path) -> Path:
-    return Path(root) / "kinematics" / "AllGestures"
+    """The release's folder of kinematics files (``JIGSAWS_FORMAT``'s ``recordings``)."""
+    return Path(root) / JIGSAWS_FORMAT.recordings
 
 
 def transcriptions_dir(root: Path) -> Path:
-    return Path(root) / "transcriptions"
+    """The release's folder of transcriptions (``JIGSAWS_FORMAT``'s ``transcriptions``)."""
+    return Path(root) / JIGSAWS_FORMAT.transcriptions
 
 
 def meta_path(root: Path, task: TaskDefinition = SUTURING) -> Path:
