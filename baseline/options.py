@@ -34,14 +34,25 @@ def add_run_arguments(parser: argparse.ArgumentParser, optim: OptimConfig,
         optim: the schedule whose values the options show as defaults (a variant's).
         eval_points: the default evaluation points shown by ``--eval-at``, in epochs.
     """
-    encoder, train = EncoderConfig(), TrainConfig()
+    _add_data_options(parser)
+    _add_model_options(parser.add_argument_group("model"))
+    _add_optimisation_options(parser.add_argument_group("optimisation"), optim)
+    _add_run_options(parser.add_argument_group("run"), eval_points)
+
+
+def _add_data_options(parser: argparse.ArgumentParser) -> None:
+    """The group "data": folder, task, labels, held-out user, features, recording format."""
     data = add_data_arguments(parser)
     add_test_user_argument(data)
     data.add_argument("--features", choices=list(FEATURE_SETS), default=DataConfig.feature_set,
                       help="kinematic inputs: the paper's 14 PSM position, velocity and gripper "
                            "columns, all 38 PSM columns, or all 76")
     add_format_option(data, "the data folder's recordings")
-    model = parser.add_argument_group("model")
+
+
+def _add_model_options(model: argparse._ArgumentGroup) -> None:
+    """The encoder's options (``EncoderConfig``)."""
+    encoder = EncoderConfig()
     model.add_argument("--hidden", type=positive_int, default=encoder.hidden, metavar="H",
                        help="LSTM units per direction")
     model.add_argument("--layers", type=positive_int, default=encoder.layers, metavar="N",
@@ -62,7 +73,10 @@ def add_run_arguments(parser: argparse.ArgumentParser, optim: OptimConfig,
                        help="how the LSTM's loops over time run: TensorFlow ops step by step, or "
                             "compiled by XLA (faster, same results to float32 rounding; "
                             "docs/PERFORMANCE.md)")
-    opt = parser.add_argument_group("optimisation")
+
+
+def _add_optimisation_options(opt: argparse._ArgumentGroup, optim: OptimConfig) -> None:
+    """The schedule's options (``OptimConfig``, defaults from ``optim``) and the batch size."""
     length = opt.add_mutually_exclusive_group()
     length.add_argument("--epochs", type=positive_int, metavar="N",
                         help=f"train for N epochs (default: {optim.total}, the paper's)")
@@ -82,9 +96,13 @@ def add_run_arguments(parser: argparse.ArgumentParser, optim: OptimConfig,
                      help="SGD momentum in [0, 1); 0 = plain gradient descent")
     opt.add_argument("--clip-norm", type=positive_float, default=optim.clip_norm, metavar="C",
                      help="clip all gradients together to this global norm")
-    opt.add_argument("--batch-size", type=positive_int, default=train.batch_size, metavar="B",
-                     help="sequences per sweep")
-    run = parser.add_argument_group("run")
+    opt.add_argument("--batch-size", type=positive_int, default=TrainConfig.batch_size,
+                     metavar="B", help="sequences per sweep")
+
+
+def _add_run_options(run: argparse._ArgumentGroup, eval_points: tuple[int, ...]) -> None:
+    """What a run does besides training (``TrainConfig``): seed, evaluation, outputs, folder."""
+    train = TrainConfig()
     run.add_argument("--seed", type=non_negative_int, default=train.seed, metavar="N",
                      help="seed of the initial weights, batch order and dropout")
     run.add_argument("--eval-at", type=positive_int_list, default=None, metavar="N,N,...",
@@ -149,25 +167,16 @@ def run_config_from_args(args: argparse.Namespace, optim: OptimConfig,
             keeps ``optim``'s length in epochs; otherwise the last unit is the only point.
     """
     task = task_from_options(args)
-    if args.sweeps is not None:
-        unit, total = "sweeps", args.sweeps
-    else:
-        unit, total = "epochs", optim.total if args.epochs is None else args.epochs
-    default_length = unit == "epochs" and total == optim.total
-    decay_start = args.decay_start if args.decay_start is not None else (
-        optim.decay_start if default_length else (2 * total) // 3)
+    optim, default_length = _schedule_from_args(args, optim)
     if args.eval_at is not None:
         eval_points = args.eval_at
     else:
-        eval_points = eval_points if default_length else (total,)
+        eval_points = eval_points if default_length else (optim.total,)
     encoder = EncoderConfig(hidden=args.hidden, layers=args.layers,
                             bidirectional=args.direction == "bidirectional",
                             keep_prob=args.keep_prob, init_scale=args.init_scale,
                             reset_mode=args.reset_mode, precision=args.precision,
                             loops=args.loops)
-    optim = OptimConfig(learning_rate=args.lr, momentum=args.momentum, clip_norm=args.clip_norm,
-                        unit=unit, total=total, decay_start=decay_start,
-                        decay_every=args.decay_every, decay_factor=args.decay_factor)
     train = TrainConfig(batch_size=args.batch_size, seed=args.seed, eval_points=eval_points,
                         prediction=args.prediction, plots=args.plots,
                         monitor_every=args.monitor_every, monitor_train=args.monitor_train,
@@ -182,3 +191,22 @@ def run_config_from_args(args: argparse.Namespace, optim: OptimConfig,
                       task=task, recording_format=recording_format)
     return RunConfig(data=data, test_user=args.test_user, encoder=encoder, optim=optim,
                      train=train)
+
+
+def _schedule_from_args(args: argparse.Namespace,
+                        optim: OptimConfig) -> tuple[OptimConfig, bool]:
+    """The schedule the options ask for, and whether it keeps ``optim``'s length in epochs
+    (then ``optim``'s decay start and evaluation points still apply; otherwise the decay starts
+    after 2/3 of the length unless ``--decay-start`` says otherwise)."""
+    if args.sweeps is not None:
+        unit, total = "sweeps", args.sweeps
+    else:
+        unit, total = "epochs", optim.total if args.epochs is None else args.epochs
+    default_length = unit == "epochs" and total == optim.total
+    decay_start = args.decay_start if args.decay_start is not None else (
+        optim.decay_start if default_length else (2 * total) // 3)
+    schedule = OptimConfig(learning_rate=args.lr, momentum=args.momentum,
+                           clip_norm=args.clip_norm, unit=unit, total=total,
+                           decay_start=decay_start, decay_every=args.decay_every,
+                           decay_factor=args.decay_factor)
+    return schedule, default_length
