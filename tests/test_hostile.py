@@ -263,16 +263,54 @@ def test_overwrite_replaces_an_earlier_output_of_the_same_command_only(trained, 
     assert len(list(default.iterdir())) == 1
 
 
-def test_an_export_is_replaced_by_the_next_and_does_not_stop_its_run(trained, small_dir,
-                                                                     capsys):
-    """A SavedModel holds a copy of its run's config.json: it is not taken for a run folder."""
-    out = trained / "export"
+def test_an_export_is_replaced_by_the_next_and_is_not_taken_for_a_run(trained, small_dir,
+                                                                     tmp_path, capsys):
+    """A SavedModel holds a copy of its run's config.json: a folder holding one is not taken for
+    a folder of runs, so a training there is not refused for it."""
+    holder = tmp_path / "holder"
+    out = holder / "export"
     assert export_main([str(trained), "--out", str(out)]) == 0
     assert export_main([str(trained), "--out", str(out), "--overwrite"]) == 0
     code, err = _cli(train_main, [*TINY, "--data-dir", str(small_dir), "--test-user", "B",
-                                  "--out", str(trained)], capsys)
+                                  "--out", str(holder)], capsys)
     assert code == 0 and "Traceback" not in err, err
     assert (out / "saved_model.pb").is_file()
+
+
+@pytest.mark.parametrize("command", ["export", "predict", "tables", "train"])
+def test_nothing_but_an_evaluation_writes_inside_a_run(trained, tiny_grid, small_dir, capsys,
+                                                       command):
+    """A folder inside a run (not one of the run's own names) is refused before any work, as
+    the run's own files are: only multitask-evaluate writes into a run, under RUN/evaluate."""
+    recording = next((small_dir / "kinematics" / "AllGestures").glob("*.txt"))
+    out = str(trained / "mine")
+    main, args = {"export": (export_main, [str(trained), "--out", out]),
+                  "predict": (predict_main, [str(trained), str(recording), "--out", out]),
+                  "tables": (tables_main, [str(tiny_grid), "--out", out, "--no-figures"]),
+                  "train": (train_main, [*TINY, "--data-dir", str(small_dir), "--out", out])
+                  }[command]
+    before = _snapshot(trained)
+    code, err = _cli(main, args, capsys)
+    _refused(code, err, out, f"inside the run folder {trained}")
+    assert _snapshot(trained) == before
+
+
+@pytest.mark.parametrize("command", ["predict", "tables", "train"])
+def test_nothing_writes_among_a_grids_runs(trained, tiny_grid, small_dir, tmp_path, capsys,
+                                           command):
+    """A grid's runs/ is multitask-grid's: a folder there would be a stray run of its tables."""
+    grid = tmp_path / "grid"
+    _copy_grid(tiny_grid, grid)
+    recording = next((small_dir / "kinematics" / "AllGestures").glob("*.txt"))
+    out = str(grid / "runs" / "mine")
+    main, args = {"predict": (predict_main, [str(trained), str(recording), "--out", out]),
+                  "tables": (tables_main, [str(grid), "--out", out, "--no-figures"]),
+                  "train": (train_main, [*TINY, "--data-dir", str(small_dir), "--out", out])
+                  }[command]
+    before = _snapshot(grid)
+    code, err = _cli(main, args, capsys)
+    _refused(code, err, out, f"among the runs of the grid folder {grid}")
+    assert _snapshot(grid) == before
 
 
 def test_predict_does_not_write_into_a_run_folder(trained, small_dir, capsys):
@@ -307,6 +345,13 @@ def test_a_grid_writes_only_into_a_new_folder_or_its_own_grid(trained, tmp_path,
                                  "--out", str(out[place])], capsys)
     _refused(code, err, str(holder / "run"))
     assert _snapshot(holder) == before
+
+
+def test_tables_of_a_mistyped_grid_name_the_missing_folder(tmp_path, capsys):
+    out = tmp_path / "tables"
+    code, err = _cli(tables_main, [str(tmp_path / "gird"), "--out", str(out)], capsys)
+    _refused(code, err, f"{tmp_path / 'gird'}: no such folder")
+    assert not out.exists()
 
 
 def test_tables_refuse_a_run_folder_and_write_beside_grids(tiny_grid, trained, tmp_path, capsys):
@@ -534,10 +579,15 @@ def test_tables_of_the_grid_as_trained(tiny_grid, tmp_path, capsys):
 
 def test_tables_refuse_a_run_folder_retrained_by_hand_with_other_settings(
         tiny_grid, small_dir, tmp_path, capsys):
+    """A run retrained with other settings by hand (training refuses a grid's runs/, so it is
+    trained beside the grid and moved in)."""
     grid = _copy_grid(tiny_grid, tmp_path / "grid")
     retrained = _run(grid, "A", "C")
+    by_hand = tmp_path / "by_hand"
     assert train_main([*TINY, "--hidden", "12", "--data-dir", str(small_dir), "--test-user", "C",
-                       "--restart", "--out", str(retrained)]) == 0
+                       "--out", str(by_hand)]) == 0
+    shutil.rmtree(retrained)
+    by_hand.rename(retrained)
     code, err = _cli(tables_main, [str(grid), "--out", str(tmp_path / "tables")], capsys)
     assert code == 2 and "Traceback" not in err
     assert f"other settings than the grid's spec: {retrained}" in err

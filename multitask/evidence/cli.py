@@ -310,6 +310,10 @@ def _table_options(args: argparse.Namespace) -> list[str]:
 
 
 def _run(args: argparse.Namespace) -> None:
+    for grid in (args.grid_dir, *(args.widths or ())):
+        if not grid.is_dir():
+            raise FileNotFoundError(f"{grid}: no such folder (a grid folder, a scores archive "
+                                    "or a folder of runs)")
     seeds = tuple(args.seeds) if args.seeds else None
     if args.archive:
         from ..grid.archive import archive_grid
@@ -317,19 +321,19 @@ def _run(args: argparse.Namespace) -> None:
         finished, recorded = archive_grid(args.grid_dir, args.archive)
         print(f"{args.archive}: {finished} of {recorded} runs archived (finished ones)")
         return
-    if args.out:                 # tables and figures go beside grids, never into a run's files
-        check_output_folder(args.out, PROG, may_hold=True)
-    if args.widths:
-        from .width import write_width
-
-        for path in write_width([args.grid_dir, *args.widths], args.out):
-            print(path)
-        return
     if args.compare:
         print(_compare(args.grid_dir, args.compare, args.minus, args.metric,
                        args.allow_incomplete, seeds, args.finished_only))
         return
-    for path in write_tables(args.grid_dir, args.out or args.grid_dir / "tables",
+    out = args.out or args.grid_dir / "tables"
+    check_output_folder(out, PROG, may_hold=True)   # beside grids, never in a run or grid's runs
+    if args.widths:
+        from .width import write_width
+
+        for path in write_width([args.grid_dir, *args.widths], out):
+            print(path)
+        return
+    for path in write_tables(args.grid_dir, out,
                              figures=not args.no_figures, ours_only=args.ours_only,
                              example_trial=args.example_trial, curves=args.curves,
                              allow_incomplete=args.allow_incomplete, seeds=seeds,

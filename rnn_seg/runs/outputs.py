@@ -1,11 +1,13 @@
 """Where a command may write: never over a run or a grid it was not asked to replace.
 
 A *run folder* holds ``config.json``, ``finished.json`` or ``checkpoints/``; a *grid folder*
-holds ``grid.json`` (the record ``multitask-grid`` writes). ``check_output_folder`` refuses an
-output folder that is one of them, holds one, or lies among a run's own files (its
-``RUN_FOLDERS`` and files), so that ``--overwrite`` can only ever replace an earlier output of
-the same command. Paths are resolved first (``..``, symbolic links), so the check is of the
-place written, not of its spelling.
+holds ``grid.json`` (the record ``multitask-grid`` writes) and its runs under ``runs/``.
+``check_output_folder`` refuses an output folder that is one of them, holds one, lies inside a
+run folder (but for the one place a command owns there, ``multitask-evaluate``'s
+``evaluate/``) or inside a grid's ``runs/``, so that no command mixes its files with a run's or
+a grid's, and ``--overwrite`` can only ever replace an earlier output of the same command. Paths
+are resolved first (``..``, symbolic links), so the check is of the place written, not of its
+spelling.
 """
 from __future__ import annotations
 
@@ -13,10 +15,12 @@ import os
 from pathlib import Path
 from typing import Iterator
 
-from .folder import CHECKPOINTS, CONFIG, FINISHED, RUN_LOGS, RUN_OUTPUTS
+from .folder import CHECKPOINTS, CONFIG, FINISHED
 
 #: The record a grid folder holds (``multitask.grid.folder``).
 GRID_RECORD = "grid.json"
+#: The folder of a grid that holds its runs (``runs/<annotations>/<direction>/...``).
+GRID_RUNS = "runs"
 #: The file that makes a folder a TensorFlow SavedModel (``multitask-export``'s output).
 SAVED_MODEL = "saved_model.pb"
 
@@ -43,8 +47,9 @@ def check_output_folder(out: Path, command: str, *, run_place: str | None = None
     Refused: ``out`` is a grid folder (unless ``may_be_grid``: ``multitask-grid`` resumes one)
     or a run folder (unless ``may_be_run``: training resumes one); ``out`` holds a run or grid
     folder anywhere below it (unless it is that grid, or ``may_hold``: tables written beside the
-    grids they summarise); ``out`` lies inside a run folder among the run's own files, except
-    below its folder ``run_place`` (``multitask-evaluate`` writes into ``RUN/evaluate``).
+    grids they summarise); ``out`` lies inside a run folder, except below its folder
+    ``run_place`` (``multitask-evaluate`` writes into ``RUN/evaluate``), or inside a grid's
+    ``runs/`` (the grid's runs are ``multitask-grid``'s to train).
 
     Args:
         out: the output folder asked for (existing or not).
@@ -61,17 +66,32 @@ def check_output_folder(out: Path, command: str, *, run_place: str | None = None
     if kind and not {"run folder": may_be_run, "grid folder": may_be_grid}[kind]:
         raise OutputFolderError(f"{out} is a {kind}; {command} does not write into it (choose "
                                 "another output folder)")
-    for parent in place.parents:
-        if folder_kind(parent) == "run folder":
-            first = place.relative_to(parent).parts[0]
-            if first in {CONFIG, *RUN_OUTPUTS, *RUN_LOGS} and first != run_place:
-                raise OutputFolderError(f"{out} lies among the files of the run folder {parent} "
-                                        f"({first}); choose another output folder")
+    _check_enclosing(out, place, command, run_place)
     held = (_run_or_grid_below(place)
             if place.is_dir() and not may_hold and kind != "grid folder" else None)
     if held:
         raise OutputFolderError(f"{out} holds a {folder_kind(held)} ({held}); {command} does "
                                 "not write over it (choose another output folder)")
+
+
+def _check_enclosing(out: Path, place: Path, command: str, run_place: str | None) -> None:
+    """Refuse ``place`` (``out`` resolved) inside a run folder, unless below the run's
+    ``run_place``, or inside a grid's ``runs/``; the nearest enclosing run folder decides (a
+    run's ``evaluate/`` is writable for ``multitask-evaluate`` in a grid's run too)."""
+    for parent in place.parents:
+        first = place.relative_to(parent).parts[0]
+        kind = folder_kind(parent)
+        if kind == "run folder":
+            if first != run_place:
+                only = f" (only under its {run_place}/)" if run_place else ""
+                raise OutputFolderError(f"{out} lies inside the run folder {parent}; {command} "
+                                        f"does not write into a run{only} (choose another "
+                                        "output folder)")
+            return
+        if kind == "grid folder" and first == GRID_RUNS:
+            raise OutputFolderError(f"{out} lies among the runs of the grid folder {parent} "
+                                    f"({GRID_RUNS}/), which only multitask-grid trains; {command} "
+                                    "does not write there (choose another output folder)")
 
 
 def _run_or_grid_below(folder: Path) -> Path | None:
