@@ -123,6 +123,30 @@ def test_predict_refuses_to_overwrite_and_reports_bad_input(bi_run, synth_dir, t
         assert words in capsys.readouterr().err
 
 
+def test_predict_overwrite_replaces_the_earlier_prediction_whole(bi_run, synth_dir, tmp_path,
+                                                                  capsys):
+    """The folder never holds outputs its record does not list: --overwrite removes the earlier
+    prediction's files (and only those), an existing file as --out is one line."""
+    first, _ = _held_out(synth_dir, "Suturing_B002")
+    second, _ = _held_out(synth_dir, "Suturing_B003")
+    out = tmp_path / "out"
+    assert predict_main([str(bi_run), str(first), "--out", str(out)]) == 0
+    (out / "notes.txt").write_text("mine")
+    assert predict_main([str(bi_run), str(second), "--out", str(out), "--no-plots"]) == 2
+    assert "use --overwrite" in capsys.readouterr().err
+    assert predict_main([str(bi_run), str(second), "--out", str(out), "--no-plots",
+                         "--overwrite"]) == 0
+    record = json.loads((out / "prediction.json").read_text())
+    assert list(record["recordings"]) == ["Suturing_B003"]
+    assert sorted(p.name for p in out.iterdir()) == ["Suturing_B003.csv", "notes.txt",
+                                                     "prediction.json"]
+    capsys.readouterr()
+    assert predict_main([str(bi_run), str(first), "--out", str(out / "notes.txt")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "notes.txt is a file, not a folder" in err, err
+    assert (out / "notes.txt").read_text() == "mine"
+
+
 def test_a_config_json_that_does_not_fit_is_a_clear_error(bi_run, tmp_path, capsys):
     run = tmp_path / "run"
     shutil.copytree(bi_run, run)

@@ -99,7 +99,7 @@ def _predict(args: argparse.Namespace) -> None:
     run = load_for_command(args)
     recording_format = run.recording_format(args.format)        # checked against the run
     predictions, normalisation = _predict_all(run, files, recording_format, args)
-    (args.out / RECORD_FILE).unlink(missing_ok=True)       # an older record would vouch for us
+    _remove_earlier_prediction(args.out)                    # --overwrite: replaced whole
     mode = "stream" if args.stream else "offline"
     record = {"run_dir": str(args.run_dir.resolve()), "variant": run.variant,
               "checkpoint": run.checkpoint, "finished": run.finished, "mode": mode,
@@ -123,12 +123,42 @@ def _check_outputs(args: argparse.Namespace, files: list[Path]) -> None:
     """Refuse a run or grid folder (``rnn_seg.runs.outputs``) and to replace an earlier
     prediction's files unless ``--overwrite``."""
     check_output_folder(args.out, PROG)
-    outputs = [args.out / f"{f.stem}{ext}" for f in files
-               for ext in (".csv",) + (() if args.no_plots else (".png",))]
-    existing = [p for p in outputs + [args.out / RECORD_FILE] if p.exists()]
+    existing = [p for p in _outputs(args.out, [f.stem for f in files]) + [args.out / RECORD_FILE]
+                if p.exists()]
     if existing and not args.overwrite:
         raise ValueError(f"{existing[0]} exists (from an earlier prediction?); use --overwrite "
-                         "to replace it, or another --out")
+                         "to replace that prediction, or another --out")
+    _earlier_recordings(args.out)                  # an unreadable record stops us before work
+
+
+def _outputs(out: Path, names: list[str]) -> list[Path]:
+    """The files a prediction of the recordings ``names`` may write into ``out``."""
+    return [out / f"{name}{ext}" for name in names for ext in (".csv", ".png")]
+
+
+def _earlier_recordings(out: Path) -> list[str]:
+    """The recordings an earlier prediction's record in ``out`` lists (none without one)."""
+    from rnn_seg.runs.folder import read_json
+
+    record = out / RECORD_FILE
+    if not record.is_file():
+        return []
+    data = read_json(record)
+    recordings = data.get("recordings") if isinstance(data, dict) else None
+    if not isinstance(recordings, dict) or any(Path(name).name != name for name in recordings):
+        raise ValueError(f"{record}: not a prediction record (no 'recordings' of file names); "
+                         "remove it or choose another --out")
+    return list(recordings)
+
+
+def _remove_earlier_prediction(out: Path) -> None:
+    """Remove the record of an earlier prediction in ``out`` and the files it lists, so that
+    the folder never holds outputs its record does not describe (``--overwrite`` replaces the
+    earlier prediction whole; files of the new one are written over anyway)."""
+    earlier = _earlier_recordings(out)
+    (out / RECORD_FILE).unlink(missing_ok=True)            # first: it would vouch for the rest
+    for path in _outputs(out, earlier):
+        path.unlink(missing_ok=True)
 
 
 def _predict_all(run: TrainedRun, files: list[Path], recording_format: RecordingFormat,

@@ -44,9 +44,9 @@ def check_output_folder(out: Path, command: str, *, run_place: str | None = None
                         may_hold: bool = False) -> None:
     """Raise ``OutputFolderError`` (naming the folders) when ``command`` may not write ``out``.
 
-    Refused: ``out`` is a grid folder (unless ``may_be_grid``: ``multitask-grid`` resumes one)
-    or a run folder (unless ``may_be_run``: training resumes one); ``out`` holds a run or grid
-    folder anywhere below it (unless it is that grid, or ``may_hold``: tables written beside the
+    Refused: ``out`` is a file; ``out`` is a grid folder (unless ``may_be_grid``:
+    ``multitask-grid`` resumes one) or a run folder (unless ``may_be_run``: training resumes
+    one); ``out`` holds a run or grid folder anywhere below it (unless it is that grid, or ``may_hold``: tables written beside the
     grids they summarise); ``out`` lies inside a run folder, except below its folder
     ``run_place`` (``multitask-evaluate`` writes into ``RUN/evaluate``), or inside a grid's
     ``runs/`` (the grid's runs are ``multitask-grid``'s to train).
@@ -62,6 +62,9 @@ def check_output_folder(out: Path, command: str, *, run_place: str | None = None
     """
     out = Path(out)
     place = out.resolve()
+    if place.exists() and not place.is_dir():
+        raise OutputFolderError(f"{out} is a file, not a folder; {command} writes a folder "
+                                "(choose another output folder)")
     kind = folder_kind(place)
     if kind and not {"run folder": may_be_run, "grid folder": may_be_grid}[kind]:
         raise OutputFolderError(f"{out} is a {kind}; {command} does not write into it (choose "
