@@ -347,6 +347,22 @@ def test_a_grid_writes_only_into_a_new_folder_or_its_own_grid(trained, tmp_path,
     assert _snapshot(holder) == before
 
 
+def test_tables_never_write_over_a_file_they_did_not_write(tiny_grid, tmp_path, capsys):
+    """--out may hold your files: one of a table's names is refused (nothing written) until
+    --overwrite; the tables' own files, listed in tables.json, are replaced by the next call."""
+    out = tmp_path / "paper"
+    out.mkdir()
+    (out / "runs.csv").write_text("mine")
+    (out / "notes.txt").write_text("mine")
+    before = _snapshot(out)
+    code, err = _cli(tables_main, [str(tiny_grid), "--out", str(out), "--no-figures"], capsys)
+    _refused(code, err, f"{out / 'runs.csv'} exists and is not an output of multitask-tables")
+    assert _snapshot(out) == before
+    assert tables_main([str(tiny_grid), "--out", str(out), "--no-figures", "--overwrite"]) == 0
+    assert tables_main([str(tiny_grid), "--out", str(out), "--no-figures"]) == 0
+    assert (out / "notes.txt").read_text() == "mine" and (out / "runs.csv").read_text() != "mine"
+
+
 def test_tables_of_a_mistyped_grid_name_the_missing_folder(tmp_path, capsys):
     out = tmp_path / "tables"
     code, err = _cli(tables_main, [str(tmp_path / "gird"), "--out", str(out)], capsys)

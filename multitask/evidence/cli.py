@@ -14,6 +14,12 @@ instead the claims of the paper's conjecture (multi-task against model A on that
 
     multitask-tables runs/converged --out results --example-trial Suturing_D003 --curves
 
+``--out`` may hold other files (a README, the grid itself): ``tables.json`` there lists the files
+the last call wrote, which the next replaces (and removes those it no longer writes, e.g. a figure
+the grid cannot draw); a file of an output's name that it does not list, yours, is never written
+over unless ``--overwrite``. The files are written together at the end (``rnn_seg.runs.manifest``):
+a call that fails leaves ``--out`` as it was.
+
 A grid with missing or unfinished runs, NaN metrics, unreadable metrics or stray folders is an
 error naming them (``multitask.evidence.collect``); with ``--allow-incomplete`` they are listed,
 and the configurations concerned are marked incomplete in the tables (``runs``, ``runs_expected``
@@ -59,12 +65,15 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from jigsaws_tools.cli.common import command_parser, run_command
+from rnn_seg.runs.manifest import staged_outputs
 from rnn_seg.runs.outputs import check_output_folder
 
 if TYPE_CHECKING:
     import pandas as pd
 
 PROG = "multitask-tables"
+#: The list of the files the last call wrote into ``--out`` (``rnn_seg.runs.manifest``).
+MANIFEST = "tables.json"
 
 
 def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: bool = False,
@@ -247,6 +256,10 @@ def build_parser() -> argparse.ArgumentParser:
                              "summary tables only)")
     parser.add_argument("--out", type=Path, metavar="DIR",
                         help="where to write (default: GRID_DIR/tables)")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace files of the output's names in --out that its tables.json "
+                             "does not list (default: refuse; files it lists, an earlier "
+                             "output's, are always replaced)")
     parser.add_argument("--no-figures", action="store_true", help="write the tables only")
     parser.add_argument("--example-trial", metavar="TRIAL",
                         help="test trial of the example figures, e.g. Suturing_D003 (default: "
@@ -295,14 +308,15 @@ def main(argv: list[str] | None = None) -> int:
     extra = (["--compare"] if args.compare else []) + _table_options(args)
     if args.archive and extra:
         parser.error(f"--archive writes the archive alone: leave out {', '.join(extra)}")
-    if args.widths and (args.archive or args.compare or set(extra) != {"--out"}):
-        parser.error("--widths needs --out and takes no other option")
+    if args.widths and (args.archive or args.compare or "--out" not in extra
+                        or set(extra) - {"--out", "--overwrite"}):
+        parser.error("--widths needs --out and takes no other option but --overwrite")
     return run_command(PROG, args.verbose, lambda: _run(args))
 
 
 def _table_options(args: argparse.Namespace) -> list[str]:
     """The options given that only the tables use."""
-    given = {"--out": args.out, "--no-figures": args.no_figures,
+    given = {"--out": args.out, "--overwrite": args.overwrite, "--no-figures": args.no_figures,
              "--example-trial": args.example_trial, "--curves": args.curves,
              "--ours-only": args.ours_only, "--allow-incomplete": args.allow_incomplete,
              "--finished-only": args.finished_only, "--seeds": args.seeds}
@@ -327,18 +341,18 @@ def _run(args: argparse.Namespace) -> None:
         return
     out = args.out or args.grid_dir / "tables"
     check_output_folder(out, PROG, may_hold=True)   # beside grids, never in a run or grid's runs
-    if args.widths:
-        from .width import write_width
+    with staged_outputs(out, MANIFEST, PROG, args.overwrite) as staging:
+        if args.widths:
+            from .width import write_width
 
-        for path in write_width([args.grid_dir, *args.widths], out):
-            print(path)
-        return
-    for path in write_tables(args.grid_dir, out,
-                             figures=not args.no_figures, ours_only=args.ours_only,
-                             example_trial=args.example_trial, curves=args.curves,
-                             allow_incomplete=args.allow_incomplete, seeds=seeds,
-                             finished_only=args.finished_only):
-        print(path)
+            written = write_width([args.grid_dir, *args.widths], staging)
+        else:
+            written = write_tables(args.grid_dir, staging, figures=not args.no_figures,
+                                   ours_only=args.ours_only, example_trial=args.example_trial,
+                                   curves=args.curves, allow_incomplete=args.allow_incomplete,
+                                   seeds=seeds, finished_only=args.finished_only)
+    for path in written:
+        print(out / path.relative_to(staging))
 
 
 if __name__ == "__main__":

@@ -55,13 +55,11 @@ GRADNORM_ORDER = ("APr", "APc", "APoc")
 #: Legend name -> (gradnorm.csv column, colour) of the task-weight lines.
 WEIGHT_LINES = {"gesture weight $w_1$": ("w_end_gesture", "tab:blue"),
                 "progress weight $w_2$": ("w_end_progress", "tab:red")}
-#: Every figure ``all_figures`` draws (file names without extension).
-FIGURES = ("per_gesture_accuracy", "segmentation_example", "progress_example", "fold_accuracy",
-           "gradnorm_weights")
 
 
 def save(fig: plt.Figure, out_dir: Path, name: str) -> list[Path]:
-    """Write ``fig`` as ``<name>.png`` (150 dpi) and ``<name>.pdf`` and close it.
+    """Write ``fig`` as ``<name>.png`` (150 dpi) and ``<name>.pdf`` and close it; the PDF without
+    its creation date, so that the same evidence draws the same bytes.
 
     Args:
         fig: the figure.
@@ -74,7 +72,8 @@ def save(fig: plt.Figure, out_dir: Path, name: str) -> list[Path]:
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = [out_dir / f"{name}.{ext}" for ext in ("png", "pdf")]
     for path in paths:
-        fig.savefig(path, dpi=150, bbox_inches="tight")
+        fig.savefig(path, dpi=150, bbox_inches="tight",
+                    metadata={"CreationDate": None} if path.suffix == ".pdf" else None)
     plt.close(fig)
     return paths
 
@@ -397,8 +396,7 @@ def all_figures(grid_dir: Path, folds: pd.DataFrame, out_dir: Path,
         folds: one row per configuration and fold (``collect.per_fold``).
         out_dir: the folder written into.
         example: ``(trial, fold)`` of the example figures (``example_trial``); None = no
-            example figures. A figure not drawn (its runs are missing) is removed from
-            ``out_dir`` if an earlier call left one there.
+            example figures.
         gradnorm: also draw the GradNorm weights (read from every GradNorm run's folder).
 
     Returns:
@@ -411,13 +409,4 @@ def all_figures(grid_dir: Path, folds: pd.DataFrame, out_dir: Path,
         written += progress_example(grid_dir, trial, fold, out_dir)
     written += fold_accuracy(folds, out_dir)
     written += gradnorm_weights(grid_dir, out_dir) if gradnorm else []
-    _remove_stale(out_dir, set(FIGURES) - {path.stem for path in written})
     return written
-
-
-def _remove_stale(out_dir: Path, names: set[str]) -> None:
-    """Remove ``names``' PNG and PDF from ``out_dir``: figures an earlier grid drew there that
-    this one cannot, which would otherwise pass for this grid's."""
-    for name in sorted(names):
-        for ext in ("png", "pdf"):
-            (out_dir / f"{name}.{ext}").unlink(missing_ok=True)

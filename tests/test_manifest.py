@@ -1,0 +1,78 @@
+"""rnn_seg.runs.manifest: a command's files in a folder it shares, all at once, never over a
+file it did not write."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from rnn_seg.runs.folder import RunFolderError
+from rnn_seg.runs.manifest import staged_outputs
+from rnn_seg.runs.outputs import OutputFolderError
+
+MANIFEST = "tables.json"
+
+
+def _write(out: Path, files: dict[str, str], overwrite: bool = False) -> None:
+    with staged_outputs(out, MANIFEST, "cmd", overwrite) as staging:
+        for name, text in files.items():
+            (staging / name).parent.mkdir(parents=True, exist_ok=True)
+            (staging / name).write_text(text)
+
+
+def _snapshot(folder: Path) -> dict[str, str]:
+    return {p.relative_to(folder).as_posix(): p.read_text() for p in sorted(folder.rglob("*"))
+            if p.is_file()}
+
+
+def test_outputs_land_beside_other_files_and_are_listed(tmp_path):
+    (tmp_path / "README.md").write_text("mine")
+    _write(tmp_path, {"a.csv": "1", "figures/f.png": "2"})
+    assert _snapshot(tmp_path) == {"README.md": "mine", "a.csv": "1", "figures/f.png": "2",
+                                   MANIFEST: _snapshot(tmp_path)[MANIFEST]}
+    assert json.loads((tmp_path / MANIFEST).read_text())["files"] == ["a.csv", "figures/f.png"]
+    assert not any(p.name.startswith(".partial-") for p in tmp_path.iterdir())
+
+
+def test_a_file_the_manifest_does_not_list_is_never_written_over(tmp_path):
+    (tmp_path / "a.csv").write_text("mine")
+    with pytest.raises(OutputFolderError, match="a.csv exists and is not an output of cmd"):
+        _write(tmp_path, {"b.csv": "new", "a.csv": "new"})
+    assert _snapshot(tmp_path) == {"a.csv": "mine"}          # not even b.csv was moved in
+    _write(tmp_path, {"b.csv": "new", "a.csv": "new"}, overwrite=True)
+    assert (tmp_path / "a.csv").read_text() == "new"
+
+
+def test_the_next_output_replaces_the_last_and_removes_what_it_no_longer_writes(tmp_path):
+    _write(tmp_path, {"a.csv": "1", "figures/f.png": "2"})
+    (tmp_path / "notes.txt").write_text("mine")
+    _write(tmp_path, {"a.csv": "3"})
+    assert _snapshot(tmp_path) == {"a.csv": "3", "notes.txt": "mine",
+                                   MANIFEST: _snapshot(tmp_path)[MANIFEST]}
+    assert not (tmp_path / "figures").exists()               # emptied by us, so removed
+
+
+def test_a_failing_command_leaves_the_folder_as_it_was(tmp_path):
+    _write(tmp_path / "out", {"a.csv": "1"})
+    before = _snapshot(tmp_path)
+    with pytest.raises(RuntimeError):
+        with staged_outputs(tmp_path / "out", MANIFEST, "cmd") as staging:
+            (staging / "a.csv").write_text("half")
+            raise RuntimeError("interrupted")
+    assert _snapshot(tmp_path) == before
+    with pytest.raises(RuntimeError):
+        with staged_outputs(tmp_path / "new", MANIFEST, "cmd"):
+            raise RuntimeError("interrupted")
+    assert not (tmp_path / "new").exists()                   # created for us, removed again
+
+
+def test_a_manifest_cannot_lead_outside_its_folder(tmp_path):
+    victim = tmp_path / "victim.txt"
+    victim.write_text("precious")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / MANIFEST).write_text(json.dumps({"files": ["../victim.txt"]}))
+    with pytest.raises(RunFolderError, match="not a manifest"):
+        _write(out, {"a.csv": "1"})
+    assert victim.read_text() == "precious" and not (out / "a.csv").exists()
