@@ -153,6 +153,51 @@ def test_deprecated_spellings_still_work_and_say_so_once(synth_dir, tmp_path, ca
     assert "seed0/C" in captured.out and "1 runs" in captured.out
 
 
+def _refused(main, argv: list[str], capsys) -> str:
+    """The one line a command refuses ``argv`` with (exit 2, nothing on standard output)."""
+    with pytest.raises(SystemExit) as exit_:
+        main(argv)
+    captured = capsys.readouterr()
+    assert exit_.value.code == 2
+    assert captured.out == ""
+    assert len(captured.err.splitlines()) == 1, captured.err
+    return captured.err
+
+
+@pytest.mark.parametrize("argv", [
+    ["inspect", "--data-dir", "{given}", "{stray}"],
+    ["stages", "{stray}", "--data-dir", "{given}"],
+    ["synth", "--out", "{given}", "{stray}"],
+])
+def test_an_old_positional_folder_with_the_option_is_refused(argv, synth_dir, tmp_path, capsys):
+    from jigsaws_tools.cli.main import main as tools_main
+
+    given, stray = str(synth_dir), str(tmp_path / "stray")
+    err = _refused(tools_main, [a.format(given=given, stray=stray) for a in argv], capsys)
+    assert err.startswith(f"jigsaws-tools {argv[0]}: error: ")
+    assert given in err and stray in err and "positional DIR" in err
+    assert "deprecated" not in err
+    assert not (tmp_path / "stray").exists()
+
+
+def test_an_old_positional_folder_with_synthetic_is_refused(synth_dir, capsys):
+    from jigsaws_tools.cli.main import main as tools_main
+
+    err = _refused(tools_main, ["inspect", "--synthetic", str(synth_dir)], capsys)
+    assert "--synthetic" in err and str(synth_dir) in err
+
+
+@pytest.mark.parametrize("command", ["inspect", "stages", "amendments", "plot"])
+@pytest.mark.parametrize("option", [["--format", "own/my_robot.toml"],
+                                    ["--format=own/my_robot.toml"]])
+def test_an_option_a_subcommand_does_not_take_is_named(command, option, synth_dir, capsys):
+    from jigsaws_tools.cli.main import main as tools_main
+
+    err = _refused(tools_main, [command, "--data-dir", str(synth_dir), *option], capsys)
+    assert err.startswith(f"jigsaws-tools {command}: error: {command} takes no --format option")
+    assert "deprecated" not in err and "usage" not in err
+
+
 def test_old_and_new_spec_keys_give_the_same_grid(synth_dir, tmp_path):
     from multitask.grid.spec import load_spec
 
@@ -254,3 +299,19 @@ def test_a_missing_release_stops_before_any_output(tmp_path, capsys, module):
     assert "error: JIGSAWS Suturing folder not found" in captured.err
     assert captured.out == ""                            # no configuration header
     assert not out.exists()                              # no folder, no .lock left behind
+
+
+@pytest.mark.parametrize("module", ["multitask.train_cli", "baseline.cli"])
+def test_the_printed_configuration_is_short_lines_naming_the_format(synth_dir, tmp_path, capsys,
+                                                                    module):
+    """The configuration header, printed before the data is read (an unknown test user stops the
+    run right after it): the format's 76 column names summarised, not a 2,000-character line."""
+    main = importlib.import_module(module).main
+    assert main(["--data-dir", str(synth_dir), "--test-user", "Z", "--out",
+                 str(tmp_path / "run")]) == 2
+    lines = capsys.readouterr().out.splitlines()
+    assert max(map(len, lines)) <= 220, max(lines, key=len)     # train's: 201 characters
+    shown = [line for line in lines if line.startswith("data.recording_format: ")]
+    assert len(shown) == 1 and shown[0].startswith(
+        "data.recording_format: name=jigsaws, rate_hz=30.0, delimiter=whitespace, header=False, "
+        "columns=76 (mtml_pos_x ... psm2_gripper)"), lines

@@ -42,6 +42,8 @@ Conventions:
 * **Help** shows every option's default (``HelpFormatter``); an old option spelling (or a
   positional argument that became an option) stays usable through ``deprecated_alias``
   (``deprecated_positional``), which prints one deprecation line.
+* **Unknown options** are refused in one line naming the option and the (sub)command
+  (``CommandParser``), before an old positional argument can take the value that followed them.
 """
 from __future__ import annotations
 
@@ -52,7 +54,7 @@ import re
 import sys
 import tempfile
 import traceback
-from typing import Any, Callable, Sequence
+from typing import Any, Callable, NoReturn, Sequence
 
 from ..errors import JigsawsError, WriteFailed
 
@@ -67,6 +69,9 @@ USER_ERRORS = (JigsawsError, ValueError, OSError)
 _TF_NOISE = re.compile(r"WARNING: All log messages before absl::InitializeLog\(\)"
                        r"|[IWE]\d{4} [\d:. ]+\d+ [\w./-]+:\d+\] "
                        r"|To enable the following instructions: ")
+#: An option string left over by argparse (``--format``, ``-x``, ``--format=x.toml``), not a lone
+#: ``-``, ``--`` or a negative number.
+_OPTION = re.compile(r"--?[A-Za-z][^=]*")
 
 
 def package_version() -> str:
@@ -104,10 +109,33 @@ class HelpFormatter(argparse.RawDescriptionHelpFormatter):
         return f"{text} (default: %(default)s)"
 
 
-def command_parser(prog: str, description: str | None, **kwargs: Any) -> argparse.ArgumentParser:
-    """An ``ArgumentParser`` with the shared ``HelpFormatter``, ``--version`` and ``-v``."""
-    parser = argparse.ArgumentParser(prog=prog, description=description,
-                                     formatter_class=HelpFormatter, **kwargs)
+class CommandParser(argparse.ArgumentParser):
+    """The parser of every command and subcommand (``command_parser``; a subcommand's parser is of
+    its command's class). Once the whole command line is read, an option the (sub)command does not
+    take is refused in one line naming it, and the deprecated positional arguments
+    (``deprecated_positional``) are resolved: argparse would give the value that follows an
+    unknown option to such a positional argument."""
+
+    def parse_known_args(self, args=None, namespace=None):
+        namespace, extras = super().parse_known_args(args, namespace)
+        unknown = next((m.group() for m in map(_OPTION.match, extras) if m), None)
+        if unknown:
+            self.refuse(f"{self.prog.split()[-1]} takes no {unknown} option "
+                        f"(see {self.prog} --help)")
+        for action in self._actions:
+            if isinstance(action, _DeprecatedPositional):
+                action.resolve(self, namespace)
+        return namespace, extras
+
+    def refuse(self, message: str) -> NoReturn:
+        """Exit 2 after one line ``prog: error: message`` (``error`` also prints the usage)."""
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def command_parser(prog: str, description: str | None, **kwargs: Any) -> CommandParser:
+    """A ``CommandParser`` with the shared ``HelpFormatter``, ``--version`` and ``-v``."""
+    parser = CommandParser(prog=prog, description=description, formatter_class=HelpFormatter,
+                           **kwargs)
     parser.add_argument("--version", action=_VersionAction)
     add_verbose_argument(parser)
     return parser
@@ -122,20 +150,60 @@ def add_verbose_argument(parser: argparse.ArgumentParser, default: Any = False) 
 
 
 class _DeprecatedAlias(argparse.Action):
-    """An old spelling of an option (or a positional argument that became an option): stores into
-    the new option's destination and prints one deprecation line."""
+    """An old spelling of an option: stores into the new option's destination and prints one
+    deprecation line."""
 
     def __init__(self, option_strings, dest, target: str, replacement: str, **kwargs):
         super().__init__(option_strings, dest, help=argparse.SUPPRESS, **kwargs)
         self.target, self.replacement = target, replacement
 
     def __call__(self, parser, namespace, values, option_string=None):
-        if values is None:                   # an optional positional that was not given
-            return
-        old = option_string or f"the positional {self.metavar}"
-        print(f"{parser.prog}: warning: {old} is deprecated; use {self.replacement}",
+        print(f"{parser.prog}: warning: {option_string} is deprecated; use {self.replacement}",
               file=sys.stderr)
         setattr(namespace, self.target, values)
+
+
+class _DeprecatedPositional(argparse.Action):
+    """A positional argument that became the option ``target``: holds its value until
+    ``CommandParser`` has read the whole command line, then ``resolve`` moves it to the option."""
+
+    def __init__(self, option_strings, dest, target: argparse.Action, **kwargs):
+        super().__init__(option_strings, dest, help=argparse.SUPPRESS, nargs="?", default=None,
+                         **kwargs)
+        self.target = target
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        setattr(namespace, self.dest, values)
+
+    def resolve(self, parser: CommandParser, namespace: argparse.Namespace) -> None:
+        """Refuse the value if the option (or one exclusive with it) was given too; otherwise
+        store it as the option and print one deprecation line."""
+        value = getattr(namespace, self.dest)
+        if value is None:
+            return
+        option = f"{self.target.option_strings[-1]} {self.metavar}"
+        given = [_as_given(a, namespace) for a in _exclusive_with(parser, self.target)
+                 if getattr(namespace, a.dest, a.default) != a.default]
+        if given:
+            parser.refuse(f"{given[0]} and the positional {self.metavar} {value} both given; "
+                          f"give only one (the positional {self.metavar} is now {option})")
+        print(f"{parser.prog}: warning: the positional {self.metavar} is deprecated; use "
+              f"{option}", file=sys.stderr)
+        setattr(namespace, self.target.dest, value)
+
+
+def _exclusive_with(parser: argparse.ArgumentParser, action: argparse.Action
+                    ) -> list[argparse.Action]:
+    """``action`` and the actions of its mutually exclusive groups."""
+    groups = [g._group_actions for g in parser._mutually_exclusive_groups
+              if action in g._group_actions]
+    return [action] + [a for group in groups for a in group if a is not action]
+
+
+def _as_given(action: argparse.Action, namespace: argparse.Namespace) -> str:
+    """``--data-dir /x`` or, for a flag, ``--synthetic``: an option as the command line gave it."""
+    option = action.option_strings[-1]
+    return option if action.nargs == 0 else f"{option} {getattr(namespace, action.dest)}"
 
 
 def deprecated_alias(parser: argparse.ArgumentParser, old: str, new: argparse.Action) -> None:
@@ -153,13 +221,15 @@ def deprecated_alias(parser: argparse.ArgumentParser, old: str, new: argparse.Ac
                         default=argparse.SUPPRESS)
 
 
-def deprecated_positional(parser: argparse.ArgumentParser, new: argparse.Action) -> None:
+def deprecated_positional(parser: CommandParser, new: argparse.Action) -> None:
     """Accept an optional positional argument (hidden from help) as a deprecated spelling of the
-    option ``new``, for commands whose positional argument became an option."""
-    metavar = new.metavar or new.dest.upper()
-    parser.add_argument(f"deprecated_{new.dest}", action=_DeprecatedAlias, target=new.dest,
-                        replacement=f"{new.option_strings[-1]} {metavar}", nargs="?",
-                        type=new.type, metavar=metavar, default=None)
+    option ``new``, for commands whose positional argument became an option; given with ``new``
+    (or an option exclusive with it), it is refused."""
+    if not isinstance(parser, CommandParser):
+        raise TypeError("deprecated_positional needs a CommandParser (command_parser), which "
+                        "resolves it after parsing")
+    parser.add_argument(f"deprecated_{new.dest}", action=_DeprecatedPositional, target=new,
+                        type=new.type, metavar=new.metavar or new.dest.upper())
 
 
 def configure_output(verbose: bool) -> None:
