@@ -20,7 +20,7 @@ A run directory holds::
                                  falling (``rnn_seg.convergence``)
     finished.json                written last (settings hash, start and end time, provenance); a
                                  run without it is incomplete and resumes
-    .lock                        held by the process training the run (rnn_seg.runs.lock)
+    .lock                        while a process trains the run: its lock (rnn_seg.runs.lock)
 
 A run folder always matches its weights: launching a run into a folder that records other settings
 stops before any work (``rnn_seg.runs.settings``) unless asked to restart.

@@ -33,6 +33,7 @@ from multitask.grid.spec import expand, load_spec, with_budget
 from multitask.evidence.cli import main as tables_main
 from multitask.train_cli import main as multitask_main
 from rnn_seg.runs.checkpoints import CheckpointStore, checkpoint_prefix, restore_weights
+from rnn_seg.runs import lock
 from rnn_seg.runs.lock import hold_folder
 from rnn_seg.lstm import EncoderConfig
 from rnn_seg.model import SegmentationModel
@@ -355,6 +356,58 @@ def test_second_writer_fails_at_once_and_a_dead_holder_is_taken_over(foreign_loc
     holder.wait()
     with hold_folder(folder):                      # the dead holder's lock is free
         pass
+
+
+def _damaged(release: Path, tmp_path: Path, file: str, line: int, text: str) -> Path:
+    """A copy of ``release`` whose ``file`` has ``text`` as its 1-based ``line``."""
+    copy = shutil.copytree(release, tmp_path / "release" / release.name)
+    lines = (copy / file).read_text().splitlines(keepends=True)
+    lines[line - 1] = text + "\n"
+    (copy / file).write_text("".join(lines))
+    return copy
+
+
+@pytest.mark.parametrize("damage,options,named", [
+    (None, ["--test-user", "Z"], "unknown test user 'Z'"),
+    (None, ["--task", "Knot_Tying"], "no Knot_Tying trial found"),
+    (("kinematics/AllGestures/Suturing_C002.txt", 5, "abc"), [], "Suturing_C002.txt:5"),
+    (("transcriptions/Suturing_C002.txt", 1, "100 50 G3"), [], "Suturing_C002.txt:1")])
+def test_a_launch_refused_by_its_data_leaves_no_trace(small_dir, tmp_path, capsys, damage,
+                                                      options, named):
+    """No folder where there was none (its new parent included), a folder of the user's as it
+    was: no lock file left behind, nothing of the user's removed."""
+    data = _damaged(small_dir, tmp_path, *damage) if damage else small_dir
+    new, mine = tmp_path / "new" / "run", tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("the user's")
+    for out in (new, mine):
+        code, _, err = _cli(multitask_main, [*TINY, "--data-dir", str(data), *options,
+                                             "--out", str(out)], capsys)
+        _assert_clean_error(code, err, named)
+    assert not (tmp_path / "new").exists()
+    assert [p.name for p in mine.iterdir()] == ["notes.txt"]
+    assert (mine / "notes.txt").read_text() == "the user's"
+
+
+def test_a_lock_file_its_holder_removed_meanwhile_is_not_held(tmp_path, monkeypatch):
+    """A holder removes its lock file when it ends: a process that opened the file just before
+    must not hold the removed file while a third process locks a new one at the same path."""
+    folder = tmp_path / "x"
+    folder.mkdir()
+    (folder / ".lock").write_text("")                   # a lock file found in place
+    flock, calls = lock.fcntl.flock, []
+
+    def released_meanwhile(fd: int, operation: int) -> None:
+        if not calls:
+            (folder / ".lock").unlink()                 # its holder ends between open and flock
+        calls.append(fd)
+        flock(fd, operation)
+
+    monkeypatch.setattr(lock.fcntl, "flock", released_meanwhile)
+    with hold_folder(folder):
+        assert len(calls) == 2                          # locked the removed file, then again
+        assert (folder / ".lock").read_text().split()[0] == str(os.getpid())
+    assert list(folder.iterdir()) == []                 # the file this process created removed
 
 
 def _wait_for(condition, what: str, timeout: float = 300) -> None:

@@ -6,6 +6,12 @@ file holds the holder's pid, host and start time for the message of a second wri
 take a lock it already holds (nested ``hold_folder`` calls count). On network file systems flock
 works where the server supports it (NFSv4 and most cluster file systems); where it does not, a
 warning says so and the folder is used unlocked, as on systems without ``fcntl`` (Windows).
+
+The lock leaves no trace: a holder removes the lock file it created (still holding it) and then
+each folder it created for it that is empty (``rmdir``, which removes nothing else), so a command
+that fails before its first write leaves no folder, and a folder that existed as it was. A lock
+file found in place stays. A process that opened the lock file before its removal finds, once it
+holds the lock, that the path no longer names that file, and takes the lock again.
 """
 from __future__ import annotations
 
@@ -13,6 +19,7 @@ import logging
 import os
 import socket
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterator
 
@@ -27,8 +34,21 @@ except ImportError:              # pragma: no cover - Windows
 LOCK_FILE = ".lock"
 log = logging.getLogger(__name__)
 
-#: Folders locked by this process: resolved path -> [file descriptor, nesting depth].
-_held: dict[Path, list[int]] = {}
+
+@dataclass
+class _Hold:
+    """A folder locked by this process: the lock file's descriptor, whether taking the lock
+    created that file, the folders created for it (top first) and the number of ``hold_folder``
+    blocks holding it."""
+
+    fd: int
+    created_lock: bool
+    made: list[Path]
+    depth: int = 1
+
+
+#: Folders locked by this process, by resolved path.
+_held: dict[Path, _Hold] = {}
 
 
 class FolderLockedError(RunFolderError):
@@ -38,24 +58,53 @@ class FolderLockedError(RunFolderError):
 @contextmanager
 def hold_folder(folder: Path | str, what: str = "run folder") -> Iterator[None]:
     """Hold ``folder``'s lock for the block (creating the folder); raise ``FolderLockedError``
-    naming the folder and the holder at once if another process holds it."""
+    naming the folder and the holder at once if another process holds it. At its end, the lock
+    file and the folders the block created are removed, the folders only if empty."""
     folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
     key = folder.resolve()
     if key in _held:
-        _held[key][1] += 1
+        _held[key].depth += 1
     else:
-        _held[key] = [_acquire(folder, what), 1]
+        _held[key] = _take(folder, what)
     try:
         yield
     finally:
-        _held[key][1] -= 1
-        if not _held[key][1]:
-            os.close(_held.pop(key)[0])      # closing the file releases the lock
+        _held[key].depth -= 1
+        if not _held[key].depth:
+            _release(folder, _held.pop(key))
 
 
-def _acquire(folder: Path, what: str) -> int:
+def _take(folder: Path, what: str) -> _Hold:
+    """Create ``folder`` if need be and lock it, again while the lock file taken proves removed."""
+    made = []
+    while True:
+        made += _make_folders(folder)
+        taken = _acquire(folder, what)
+        if taken is not None:
+            return _Hold(*taken, made)
+
+
+def _make_folders(folder: Path) -> list[Path]:
+    """Create ``folder`` and its missing parents; returns those this call created, top first."""
+    made = []
+    for path in [*reversed(folder.parents), folder]:
+        if path.is_dir():
+            continue
+        try:
+            path.mkdir()
+        except FileExistsError:
+            if not path.is_dir():
+                raise
+            continue                        # created meanwhile by another process
+        made.append(path)
+    return made
+
+
+def _acquire(folder: Path, what: str) -> tuple[int, bool] | None:
+    """Open and lock ``folder``'s lock file: its descriptor and whether this call created the
+    file; None if the file's last holder removed it before this process held the lock."""
     path = folder / LOCK_FILE
+    created = not os.path.lexists(path)
     try:        # never through a symbolic link: a file elsewhere would be truncated
         fd = os.open(path, os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0), 0o666)
     except OSError as error:
@@ -63,7 +112,7 @@ def _acquire(folder: Path, what: str) -> int:
         raise RunFolderError(f"{path}: the lock file of the {what} is {problem}; remove it "
                              "(nothing else holds it)") from None
     if fcntl is None:
-        return fd
+        return fd, created
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
@@ -76,7 +125,33 @@ def _acquire(folder: Path, what: str) -> int:
                                 "or stop it first") from None
     except OSError as error:              # e.g. ENOLCK: a file system without flock
         log.warning("cannot lock %s (%s); continuing without a lock", folder, error)
-        return fd
+        return fd, created
+    if not _names(path, fd):
+        os.close(fd)
+        return None
     os.ftruncate(fd, 0)
     os.write(fd, f"{os.getpid()} {socket.gethostname()} {now()}\n".encode())
-    return fd
+    return fd, created
+
+
+def _names(path: Path, fd: int) -> bool:
+    """Whether ``path`` still names the file open as ``fd``."""
+    try:
+        return os.path.samestat(os.stat(path, follow_symlinks=False), os.fstat(fd))
+    except FileNotFoundError:
+        return False
+
+
+def _release(folder: Path, hold: _Hold) -> None:
+    """Unlock ``folder``, first removing the lock file ``hold`` created, then the folders made
+    for it, deepest first, until one is not empty."""
+    path = folder / LOCK_FILE
+    try:
+        if hold.created_lock and _names(path, hold.fd):
+            path.unlink()
+            for made in reversed(hold.made):
+                made.rmdir()
+    except OSError:
+        pass                                # a folder holding anything stays
+    finally:
+        os.close(hold.fd)
