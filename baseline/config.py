@@ -4,11 +4,17 @@ from __future__ import annotations
 from dataclasses import dataclass, field, fields, is_dataclass
 
 from jigsaws_tools.dataset import DataConfig
+from jigsaws_tools.recording_format import RecordingFormat
 from jigsaws_tools.task_definition import TaskDefinition
 from rnn_seg.config import EncoderConfig, OptimConfig, TrainConfig, check_eval_points
 
 #: Encoder directions by name (``EncoderConfig.bidirectional``): offline or online recognition.
 DIRECTIONS = ("bidirectional", "forward")
+#: A longer sequence is printed by its length and its first and last item (``RunConfig.describe``).
+SHOWN_ITEMS = 4
+#: What a recording format's printed line leaves out (config.json records it): where a data
+#: folder's files are and its one-line summary, not how a recording is read.
+_FORMAT_LAYOUT = ("recordings", "transcriptions", "trial", "extension", "summary")
 
 
 @dataclass(frozen=True)
@@ -27,8 +33,10 @@ class RunConfig:
         check_eval_points(self.train.eval_points, self.optim)
 
     def describe(self) -> str:
-        """Printable summary of every field, a line per configuration: ``name: field=value, ...``
-        (a nested configuration on a line of its own, a task by its name)."""
+        """Printable summary, a line per configuration: ``name: field=value, ...`` (a nested
+        configuration on a line of its own, a task by its name, a recording format without its
+        file layout, a sequence of more than ``SHOWN_ITEMS`` items as ``76 (first ... last)``);
+        config.json records every value in full."""
         lines = [f"test user: {self.test_user}"]
         for name in ("data", "encoder", "optim", "train"):
             lines += _describe(name, getattr(self, name))
@@ -40,10 +48,20 @@ def _describe(name: str, config) -> list[str]:
     plain, nested = [], []
     for f in fields(config):
         value = getattr(config, f.name)
+        if isinstance(config, RecordingFormat) and f.name in _FORMAT_LAYOUT:
+            continue
         if isinstance(value, TaskDefinition):
             plain.append(f"{f.name}={value.name}")
         elif is_dataclass(value):
             nested += _describe(f"{name}.{f.name}", value)
         else:
-            plain.append(f"{f.name}={value}")
+            plain.append(f"{f.name}={_shown(value)}")
     return [f"{name}: {', '.join(plain)}", *nested]
+
+
+def _shown(value: object) -> str:
+    """``value`` as printed: a tuple or list of more than ``SHOWN_ITEMS`` items by its length and
+    its first and last item, e.g. ``76 (mtml_pos_x ... psm2_gripper)``."""
+    if isinstance(value, (tuple, list)) and len(value) > SHOWN_ITEMS:
+        return f"{len(value)} ({value[0]} ... {value[-1]})"
+    return str(value)

@@ -1,12 +1,13 @@
 """Configurations survive config.json: ``from_jsonable`` inverts ``to_jsonable``, strictly."""
 import json
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, replace
 
 import pytest
 
 from baseline.config import RunConfig
 from jigsaws_tools.dataset import DataConfig
 from jigsaws_tools.preprocessing import PreprocessConfig
+from jigsaws_tools.recording_format import JIGSAWS_FORMAT
 from rnn_seg.lstm import EncoderConfig
 from rnn_seg.optim import OptimConfig
 from rnn_seg.runs.folder import ConfigError, from_jsonable, to_jsonable
@@ -82,3 +83,18 @@ def test_describe_prints_every_field_by_name_without_class_reprs():
         owner = config.data if name.startswith("data.") else config
         for f in fields(getattr(owner, name.split(".")[-1])):
             assert f"{f.name}=" in lines[name], (name, f.name)
+
+
+def test_describe_summarises_long_sequences_that_config_json_records_in_full():
+    """A format of the release's 76 columns by another name (a default format is not recorded)."""
+    recording_format = replace(JIGSAWS_FORMAT, name="my_release")
+    config = RunConfig(DataConfig("somewhere/Suturing", recording_format=recording_format),
+                       train=TrainConfig(eval_points=tuple(range(10, 130, 10))))
+    lines = dict(line.split(": ", 1) for line in config.describe().splitlines())
+    assert lines["data.recording_format"] == (
+        "name=my_release, rate_hz=30.0, delimiter=whitespace, header=False, "
+        "columns=76 (mtml_pos_x ... psm2_gripper), time_column=, features=()")
+    assert "eval_points=12 (10 ... 120)," in lines["train"]
+    saved = _saved(config)
+    assert saved["data"]["recording_format"]["columns"] == list(JIGSAWS_FORMAT.columns)
+    assert saved["train"]["eval_points"] == list(range(10, 130, 10))
