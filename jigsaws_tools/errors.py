@@ -41,11 +41,13 @@ class FormatError(JigsawsError, ValueError):
 
 class DefinitionError(JigsawsError, ValueError):
     """A task definition breaks the format; names the file (when there is one), the key and the
-    value."""
+    value. A problem of the file as a whole (no key, no value: missing, not TOML) names the file
+    only."""
 
     def __init__(self, path: Path | str, key: str | None, value: object, problem: str):
         where = ": ".join(str(part) for part in (path or "task definition", key) if part)
-        super().__init__(f"{where}: {problem} (value: {value!r})")
+        whole_file = key is None and value is None
+        super().__init__(f"{where}: {problem}" + ("" if whole_file else f" (value: {value!r})"))
         self.path = str(path)
         self.key = key
         self.value = value

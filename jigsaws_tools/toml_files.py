@@ -48,8 +48,37 @@ def find_definition(value: str | Path, kind: str, what: str, read: Callable[[Pat
                        f"or pass a {what} file (*.toml)")
 
 
+def read_toml(path: Path | str, what: str) -> dict:
+    """The tables of the TOML file ``path`` (UTF-8, a byte-order mark allowed).
+
+    A missing file, a folder, an unreadable or non-UTF-8 file, or invalid TOML is a one-line
+    ``DefinitionError`` naming the file and what it should be (``x.toml: no such spec file``),
+    not the operating system's ``[Errno 2] ...``.
+
+    Args:
+        path: the file.
+        what: what the file is (e.g. ``"task definition"``, ``"spec"``).
+    """
+    path = Path(path)
+    try:
+        return tomllib.loads(path.read_text(encoding="utf-8-sig"))
+    except FileNotFoundError:
+        problem = f"no such {what} file"
+    except IsADirectoryError:
+        problem = f"a folder, not a {what} file"
+    except PermissionError:
+        problem = f"cannot read this {what} file (permission denied)"
+    except OSError as error:
+        problem = f"cannot read this {what} file ({error.strerror or error})"
+    except UnicodeDecodeError as error:
+        problem = f"not a {what} file: not UTF-8 text (byte {error.start})"
+    except tomllib.TOMLDecodeError as error:
+        problem = f"not valid TOML: {error}"
+    raise DefinitionError(path, None, None, problem)
+
+
 def read_definition(path: Path | str, what: str, parse: Callable[[dict], T]) -> T:
-    """``parse`` of the TOML file ``path``: a missing, unreadable or invalid file, or a
+    """``parse`` of the TOML file ``path``: a file ``read_toml`` refuses, or a
     ``DefinitionError`` of ``parse`` (which names the key and value only), is a
     ``DefinitionError`` naming the file too.
 
@@ -58,15 +87,7 @@ def read_definition(path: Path | str, what: str, parse: Callable[[dict], T]) -> 
         what: what the file is, for the message of a missing one (e.g. ``"task definition"``).
         parse: the file's tables -> its object, raising ``DefinitionError`` on a bad value.
     """
-    path = Path(path)
-    try:
-        raw = tomllib.loads(path.read_text(encoding="utf-8-sig"))
-    except FileNotFoundError:
-        raise DefinitionError(path, None, str(path), f"{what} file not found") from None
-    except (OSError, UnicodeDecodeError) as error:
-        raise DefinitionError(path, None, str(path), f"cannot read: {error}") from None
-    except tomllib.TOMLDecodeError as error:
-        raise DefinitionError(path, None, "", f"not valid TOML: {error}") from None
+    raw = read_toml(path, what)
     try:
         return parse(raw)
     except DefinitionError as error:

@@ -64,6 +64,46 @@ def test_spec_errors_name_the_file_and_key(tmp_path):
         load_spec(bad)
 
 
+def _no_spec_file(kind: str, tmp_path: Path, monkeypatch) -> Path:
+    """A --spec path that is no spec file: missing, a folder, unreadable (reading refused as for
+    a file without read permission, also as root, whom chmod does not stop), not UTF-8, not
+    TOML."""
+    path = tmp_path / "spec.toml"
+    if kind == "folder":
+        path.mkdir()
+    elif kind == "not UTF-8":
+        path.write_bytes(b"hidden = 8\n\xff\n")
+    elif kind == "not valid TOML":
+        path.write_text("hidden = = 8\n")
+    elif kind == "permission denied":
+        path.write_text('preset = "quick"\n')
+        read_text = Path.read_text
+
+        def refuse(self, *args, **kwargs):
+            if self == path:
+                raise PermissionError(13, "Permission denied", str(path))
+            return read_text(self, *args, **kwargs)
+
+        monkeypatch.setattr(Path, "read_text", refuse)
+    return path
+
+
+@pytest.mark.parametrize("kind,words", [
+    ("missing", "no such spec file"), ("folder", "a folder, not a spec file"),
+    ("permission denied", "permission denied"), ("not UTF-8", "not UTF-8"),
+    ("not valid TOML", "not valid TOML")])
+def test_a_spec_path_that_is_no_spec_file_is_one_line_naming_it(kind, words, tmp_path,
+                                                                 monkeypatch, capsys):
+    spec = _no_spec_file(kind, tmp_path, monkeypatch)
+    out = tmp_path / "grid"
+    assert grid_main(["--spec", str(spec), "--out", str(out), "--dry-run"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"multitask-grid: error: {spec}: ")
+    assert len(err.splitlines()) == 1, err
+    assert words in err and "Errno" not in err
+    assert not out.exists()
+
+
 def test_expand_skips_gradnorm_for_single_task_and_checks_folds():
     spec = GridSpec(test_users=("B",), seeds=(0, 1),
                     experiments=(Experiment(("A", "APc", "Pc"), ("fixed", "gradnorm")),))

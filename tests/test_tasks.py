@@ -141,7 +141,7 @@ def test_bad_definitions_name_file_key_and_value(tmp_path, change, key, problem)
 def test_definition_file_errors(tmp_path):
     with pytest.raises(DefinitionError, match="not valid TOML.*line"):
         read_task_file(_write(tmp_path, "name = \n"))
-    with pytest.raises(DefinitionError, match="not found"):
+    with pytest.raises(DefinitionError, match="no such task definition file"):
         read_task_file(tmp_path / "nowhere.toml")
     with pytest.raises(DefinitionError, match="at least two stages"):
         read_task_file(_write(tmp_path, TOY_TASK.replace(

@@ -53,7 +53,6 @@ from __future__ import annotations
 
 import json
 import logging
-import tomllib
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 
@@ -63,6 +62,7 @@ from jigsaws_tools.dataset import DataConfig, default_cache_dir, default_data_di
 from jigsaws_tools.release import discover
 from jigsaws_tools.synth import SynthConfig, ensure_release
 from jigsaws_tools.task_definition import PAPER_TASK, TaskDefinition, load_task
+from jigsaws_tools.toml_files import read_toml
 from rnn_seg.config import LOOPS, PRECISIONS, EncoderConfig, TrainConfig
 from rnn_seg.validation import require_choice, require_number
 
@@ -396,13 +396,9 @@ class GridSpec:
 
 
 def load_spec(path: Path | str) -> GridSpec:
-    """Parse a TOML spec; unknown keys are errors naming the file and the key."""
-    path = Path(path)
-    try:
-        raw = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as error:
-        raise ValueError(f"{path}: not valid TOML: {error}") from None
-    return spec_from_dict(raw, source=str(path))
+    """Parse a TOML spec; a file that cannot be read as TOML (missing, a folder, unreadable, not
+    UTF-8, invalid) and unknown keys are one-line errors naming the file (and the key)."""
+    return spec_from_dict(read_toml(path, "spec"), source=str(path))
 
 
 def spec_from_dict(raw: dict, source: str = "spec") -> GridSpec:
