@@ -45,6 +45,10 @@ from .toml_files import builtin_path, find_definition, known_keys, read_definiti
 
 #: The release's format, the default wherever a format can be omitted.
 DEFAULT_FORMAT = "jigsaws"
+#: Added to an error about a folder or a recording read in the release's layout that holds
+#: something else (README, "Your own recordings", shows a format file).
+ANOTHER_LAYOUT_HINT = ("recordings of another layout need --format FILE.toml (README, "
+                       "'Your own recordings')")
 #: ``delimiter`` value -> the separator ``str.split`` / ``numpy.loadtxt`` take (None: whitespace).
 DELIMITERS: dict[str, str | None] = {"whitespace": None, ",": ",", ";": ";", "\t": "\t"}
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]*$")

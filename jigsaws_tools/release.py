@@ -24,7 +24,7 @@ import numpy as np
 
 from .errors import FormatError, JigsawsError, ReleaseNotFoundError
 from .gestures import UNLABELLED
-from .recording_format import JIGSAWS_FORMAT, RecordingFormat
+from .recording_format import ANOTHER_LAYOUT_HINT, JIGSAWS_FORMAT, RecordingFormat
 from .task_definition import SUTURING, TaskDefinition
 
 NUM_KINEMATIC_COLUMNS = 76
@@ -116,14 +116,30 @@ def meta_path(root: Path, task: TaskDefinition = SUTURING) -> Path:
 def require_layout(root: Path, task: TaskDefinition = SUTURING,
                    recording_format: RecordingFormat = JIGSAWS_FORMAT) -> None:
     """Raise ``ReleaseNotFoundError`` unless ``root`` is a folder holding a release's kinematics
-    and transcriptions folders (those ``recording_format`` names; nothing in them is read)."""
+    and transcriptions folders (those ``recording_format`` names; nothing in them is read). In
+    the release's layout, a folder that holds something else is a one-line ``JigsawsError``
+    (``_refuse_another_layout``)."""
     if not root.is_dir():
         what = "JIGSAWS" if recording_format.is_default else f"{recording_format.name} data"
         raise ReleaseNotFoundError(root, f"{what} {task.name} folder")
+    if recording_format.is_default:
+        _refuse_another_layout(root, task)
     for folder, what in ((root / recording_format.recordings, "kinematics folder"),
                          (root / recording_format.transcriptions, "transcriptions folder")):
         if not folder.is_dir():
             raise ReleaseNotFoundError(folder, what)
+
+
+def _refuse_another_layout(root: Path, task: TaskDefinition) -> None:
+    """Raise a one-line ``JigsawsError`` if the folder ``root`` holds something but no release
+    recordings folder: naming the task's folder if it is inside (``jigsaws/`` for
+    ``jigsaws/Suturing``), else with the ``--format`` hint."""
+    if (root / JIGSAWS_FORMAT.recordings).is_dir() or not any(root.iterdir()):
+        return
+    inside = root / task.name
+    advice = f"give its {task.name} folder, {inside}" if inside.is_dir() else ANOTHER_LAYOUT_HINT
+    raise JigsawsError(f"{root}: not a JIGSAWS {task.name} release, no "
+                       f"{JIGSAWS_FORMAT.recordings} folder; {advice}")
 
 
 def discover(root: Path | str, task: TaskDefinition = SUTURING,
@@ -166,6 +182,10 @@ def discover(root: Path | str, task: TaskDefinition = SUTURING,
         if others:
             raise JigsawsError(f"{root}: no {task.name} trial found; it holds {', '.join(others)} "
                                f"trials (choose the task with --task or --task-file)")
+        if fmt.is_default and not kin and not kin_unusable and any(kin_dir.iterdir()):
+            raise JigsawsError(f"{kin_dir}: no file named like "
+                               f"{fmt.trial_name(task, 'B', 1)}{fmt.extension}; "
+                               f"{ANOTHER_LAYOUT_HINT}")
         raise ReleaseNotFoundError(root, f"a {task.name} trial with both kinematics and a "
                                          f"transcription")
     return ReleaseIndex(root, tuple(trials), missing_kin, missing_tr, task,
@@ -270,12 +290,12 @@ def read_recording(path: Path | str, recording_format: RecordingFormat = JIGSAWS
             data = np.loadtxt(path, dtype=np.float64, ndmin=2, delimiter=fmt.separator,
                               skiprows=header_line, encoding="utf-8-sig")
     except ValueError:
-        _diagnose_rows(path, names, fmt.separator, header_line)
+        _diagnose_rows(path, names, fmt, header_line)
         raise
     if len(data) == 0:
         raise FormatError(path, None, "", "kinematics file has only blank lines")
     if data.shape[1] != len(names):
-        _diagnose_rows(path, names, fmt.separator, header_line)
+        _diagnose_rows(path, names, fmt, header_line)
     if not np.isfinite(data).all():
         row, column = np.argwhere(~np.isfinite(data))[0]
         raise FormatError(path, _data_line_number(path, row + (header_line > 0)), "nan/inf",
@@ -339,17 +359,19 @@ def _data_line_number(path: Path, row: int) -> int:
     return row + 1
 
 
-def _diagnose_rows(path: Path, names: list[str], separator: str | None, header_line: int
+def _diagnose_rows(path: Path, names: list[str], fmt: RecordingFormat, header_line: int
                    ) -> None:
-    """Find the first malformed row after the header and raise a FormatError naming it."""
+    """Find the first malformed row after the header and raise a FormatError naming it (a row of
+    another width in the release's layout with the ``--format`` hint)."""
+    hint = f"; {ANOTHER_LAYOUT_HINT}" if fmt.is_default else ""
     with open(path, encoding="utf-8-sig", errors="replace") as f:
         for number, line in enumerate(f, start=1):
             if number <= header_line or not line.strip():
                 continue
-            fields = line.split(separator) if separator else line.split()
+            fields = line.split(fmt.separator) if fmt.separator else line.split()
             if len(fields) != len(names):
                 raise FormatError(path, number, len(fields),
-                                  f"expected {len(names)} kinematic columns")
+                                  f"expected {len(names)} kinematic columns{hint}")
             for column, field in enumerate(fields, start=1):
                 try:
                     float(field)

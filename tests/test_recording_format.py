@@ -3,11 +3,13 @@
 predicted; bad format files and bad recordings give one-line errors (exit 2)."""
 from __future__ import annotations
 
+import shutil
+
 import numpy as np
 import pandas as pd
 import pytest
 
-from jigsaws_tools.errors import DefinitionError, FormatError
+from jigsaws_tools.errors import DefinitionError, FormatError, JigsawsError
 from jigsaws_tools.features import FEATURE_NAMES, feature_names
 from jigsaws_tools.gestures import GESTURES
 from jigsaws_tools.preprocessing import PreprocessConfig, decimation
@@ -82,6 +84,16 @@ def robot_run(robot_dir):
     assert train_main(["--data-dir", str(robot_dir / "data"), "--format",
                        str(robot_dir / "my_robot.toml"), "--variant", "APc", "--hidden", "16",
                        "--epochs", "6", "--test-user", "B", "--no-plots", "--threads", "1",
+                       "--out", str(out)]) == 0
+    return out
+
+
+@pytest.fixture(scope="module")
+def release_run(synth_dir, tmp_path_factory):
+    """A tiny run trained on the synthetic release, so in the release's format."""
+    out = tmp_path_factory.mktemp("release_run") / "run"
+    assert train_main(["--data-dir", str(synth_dir), "--variant", "APc", "--hidden", "16",
+                       "--epochs", "1", "--test-user", "B", "--no-plots", "--threads", "1",
                        "--out", str(out)]) == 0
     return out
 
@@ -203,3 +215,41 @@ def test_a_release_file_of_another_width_is_refused(tmp_path):
     path.write_text("1 2 3\n4 5 6\n")
     with pytest.raises(FormatError, match=r"narrow.txt:1: expected 76 kinematic columns"):
         read_recording(path, JIGSAWS_FORMAT, ["psm1_pos_x"])
+
+
+def test_a_folder_of_another_layout_without_format_points_to_it(robot_dir, tmp_path, capsys):
+    data, out = robot_dir / "data", tmp_path / "run"
+    assert train_main(["--data-dir", str(data), "--hidden", "16", "--epochs", "1", "--out",
+                       str(out)]) == 2
+    err = _error_line(capsys)
+    assert str(data) in err and "--format" in err and "Your own recordings" in err, err
+    assert not out.exists()
+    release = tmp_path / "release"                # the release's folders, the robot's files
+    shutil.copytree(data / "recordings", release / JIGSAWS_FORMAT.recordings)
+    shutil.copytree(data / "labels", release / JIGSAWS_FORMAT.transcriptions)
+    with pytest.raises(JigsawsError) as error:
+        discover(release)
+    message = str(error.value)
+    assert "\n" not in message and "--format" in message, message
+    assert str(release / JIGSAWS_FORMAT.recordings) in message
+
+
+def test_a_recording_of_another_layout_without_format_points_to_it(release_run, robot_dir,
+                                                                  tmp_path, capsys):
+    recording, out = robot_dir / "data" / "recordings" / "Suturing-B-1.csv", tmp_path / "out"
+    assert predict_main([str(release_run), str(recording), "--out", str(out), "--no-plots"]) == 2
+    err = _error_line(capsys)
+    assert f"{recording}:1:" in err and f"{len(JIGSAWS_FORMAT.columns)} kinematic columns" in err
+    assert "--format" in err and "Your own recordings" in err, err
+    assert not (out / recording.name).exists()
+
+
+def test_a_row_of_another_width_in_a_given_format_gets_no_format_hint(robot_dir, tmp_path):
+    lines = (robot_dir / "data" / "recordings" / "Suturing-B-1.csv").read_text().splitlines()
+    lines[5] += ",1.0"
+    wide = tmp_path / "wide.csv"
+    wide.write_text("\n".join(lines) + "\n")
+    with pytest.raises(FormatError, match=r"wide\.csv:6: expected") as error:
+        read_recording(wide, read_format_file(robot_dir / "my_robot.toml"),
+                       feature_names("psm_pos_vel_grip"))
+    assert "--format" not in str(error.value)
