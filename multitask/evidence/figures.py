@@ -130,7 +130,8 @@ def per_gesture_accuracy(folds: pd.DataFrame, gestures: Sequence[str], out_dir: 
     ax.set_xticks(x, [g if n == total else f"{g}\n{n} of {total}\nfolds"
                       for g, n in zip(gestures, occurs)], fontsize=8)
     ax.set_ylabel("accuracy [%]")
-    ax.set_ylim(0, 100)
+    ax.set_ylim(0, 103)                          # room for the caps of bars reaching 100
+    ax.set_yticks(range(0, 101, 20))
     ax.legend(fontsize=8, ncol=len(rows), loc="lower center", bbox_to_anchor=(0.5, 1.0),
               frameon=False)
     return save(fig, out_dir, "per_gesture_accuracy")
@@ -358,9 +359,10 @@ def gradnorm_weights(grid_dir: Path, out_dir: Path) -> list[Path]:
     axes[0][0].set_ylabel("task weight")
     handles = [plt.Line2D([], [], color=colour, label=name)
                for name, (_, colour) in WEIGHT_LINES.items()]
-    axes[0][-1].legend(handles=handles, fontsize=7, title="one line per fold", title_fontsize=7,
-                       loc="center right")
     fig.tight_layout()
+    fig.legend(handles=handles, fontsize=8, ncol=len(handles), loc="lower center",
+               bbox_to_anchor=(0.5, 1.0), frameon=False, title="one line per fold",
+               title_fontsize=8)                # above the panels, clear of every line
     return save(fig, out_dir, "gradnorm_weights")
 
 
