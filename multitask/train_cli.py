@@ -35,17 +35,19 @@ def build_parser(variant_name: str = DEFAULT_VARIANT) -> argparse.ArgumentParser
     parser.add_argument("--weighting", choices=WEIGHTINGS, default=WEIGHTINGS[0],
                         help="task loss weights: fixed w1 = w2 = 1, or GradNorm (two-task "
                              "variants only)")
-    parser.add_argument("--alpha", type=non_negative_float, default=GradNormConfig.alpha,
-                        help="GradNorm's asymmetry alpha")
-    parser.add_argument("--weight-lr", type=positive_float, default=GradNormConfig.learning_rate,
-                        metavar="LR", help="learning rate of the GradNorm task weights")
+    parser.add_argument("--alpha", type=non_negative_float,
+                        help=f"GradNorm's asymmetry alpha (default: {GradNormConfig.alpha})")
+    parser.add_argument("--weight-lr", type=positive_float, metavar="LR",
+                        help="learning rate of the GradNorm task weights (default: "
+                             f"{GradNormConfig.learning_rate})")
     parser.add_argument("--relative-rate", choices=RELATIVE_RATES,
-                        default=GradNormConfig.relative_rate,
                         help="GradNorm's r_i divides the loss ratios by their mean (chen) or by "
-                             "the mean loss (paper's literal text)")
-    parser.add_argument("--ordinal-loss", choices=ORDINAL_LOSSES, default=HeadConfig.ordinal_loss,
+                             "the mean loss (paper's literal text) (default: "
+                             f"{GradNormConfig.relative_rate})")
+    parser.add_argument("--ordinal-loss", choices=ORDINAL_LOSSES,
                         help="the ordered progress head's cross-entropy over its outputs (one "
-                             "per stage): summed (the paper's MBCE) or averaged")
+                             "per stage): summed (the paper's MBCE) or averaged (default: "
+                             f"{HeadConfig.ordinal_loss})")
     add_run_arguments(parser, variant.optim(), variant.eval_points())
     return parser
 
@@ -55,9 +57,26 @@ def main(argv: list[str] | None = None) -> int:
     add_variant_argument(pre)
     known, _ = pre.parse_known_args(argv)
     variant = get_variant(known.variant)
-    args = build_parser(variant.name).parse_args(argv)
+    parser = build_parser(variant.name)
+    args = parser.parse_args(argv)
+    unused = _unused_options(args, variant)
+    if unused:
+        parser.refuse(unused)
     set_command([PROG, *(sys.argv[1:] if argv is None else argv)])
     return run_command(PROG, args.verbose, lambda: _train(args, variant))
+
+
+def _unused_options(args: argparse.Namespace, variant: Variant) -> str | None:
+    """Why an option given does not apply to the run asked for (it would be silently ignored):
+    GradNorm's without ``--weighting gradnorm``, ``--ordinal-loss`` without an ordered head."""
+    gradnorm = [o for o, v in (("--alpha", args.alpha), ("--weight-lr", args.weight_lr),
+                               ("--relative-rate", args.relative_rate)) if v is not None]
+    if gradnorm and args.weighting != "gradnorm":
+        return f"{gradnorm[0]} is a GradNorm setting; add --weighting gradnorm, or leave it out"
+    if args.ordinal_loss is not None and variant.progress != "oc":
+        return (f"--ordinal-loss applies to an ordered progress head (APoc, Poc), not to "
+                f"variant {variant.name}")
+    return None
 
 
 def _train(args: argparse.Namespace, variant: Variant) -> int:
@@ -70,9 +89,9 @@ def _train(args: argparse.Namespace, variant: Variant) -> int:
 
     def configure() -> tuple[RunConfig, GradNormConfig, HeadConfig]:
         config = run_config_from_args(args, variant.optim(), variant.eval_points())
-        gradnorm = GradNormConfig(alpha=args.alpha, learning_rate=args.weight_lr,
-                                  relative_rate=args.relative_rate)
-        heads = HeadConfig(ordinal_loss=args.ordinal_loss)
+        gradnorm = GradNormConfig(**_given(alpha=args.alpha, learning_rate=args.weight_lr,
+                                           relative_rate=args.relative_rate))
+        heads = HeadConfig(**_given(ordinal_loss=args.ordinal_loss))
         check_weighting(variant, args.weighting)
         configure_threads(args.threads, args.hidden, args.precision,
                           bidirectional=args.direction == "bidirectional")
@@ -94,6 +113,11 @@ def _train(args: argparse.Namespace, variant: Variant) -> int:
                         for task, m in result["mean"].items())
     print(f"done: {summary} (mean over evaluation points); outputs in {args.out}")
     return 0
+
+
+def _given(**values) -> dict:
+    """The values an option set (the rest keep their configuration's default)."""
+    return {name: value for name, value in values.items() if value is not None}
 
 
 if __name__ == "__main__":

@@ -108,6 +108,23 @@ def test_out_of_range_values_are_argparse_errors_naming_the_range(module, args, 
     assert message in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("args,message", [
+    (["--variant", "A", "--alpha", "1"], "--alpha is a GradNorm setting; add --weighting gradnorm"),
+    (["--variant", "APc", "--weight-lr", "0.1"], "--weight-lr is a GradNorm setting"),
+    (["--variant", "APc", "--ordinal-loss", "mean"],
+     "--ordinal-loss applies to an ordered progress head (APoc, Poc), not to variant APc"),
+])
+def test_options_the_run_would_ignore_are_refused(args, message, tmp_path, capsys):
+    from multitask.train_cli import main
+
+    with pytest.raises(SystemExit) as exit_:
+        main([*args, "--synthetic", "--out", str(tmp_path / "run")])
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert exit_.value.code == 2 and len(lines) == 1, lines
+    assert lines[0].startswith(f"multitask-train: error: {message}")
+    assert not (tmp_path / "run").exists()
+
+
 @pytest.mark.parametrize("parse,good,bad", [
     (arg_types.positive_int, {"1": 1, "120": 120}, ["0", "-3", "1.5", "x", ""]),
     (arg_types.non_negative_int, {"0": 0, "7": 7}, ["-1", "2.0"]),
