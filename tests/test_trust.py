@@ -410,6 +410,26 @@ def test_a_lock_file_its_holder_removed_meanwhile_is_not_held(tmp_path, monkeypa
     assert list(folder.iterdir()) == []                 # the file this process created removed
 
 
+def test_a_folder_its_holder_removed_meanwhile_is_made_again(tmp_path, monkeypatch):
+    """Another holder's release may remove an empty folder it made between our mkdir and our
+    open: the lock is taken in the folder made again, and both are gone at the end."""
+    folder = tmp_path / "new" / "x"
+    make, calls = lock._make_folders, []
+
+    def removed_meanwhile(path: Path) -> list[Path]:
+        made = make(path)
+        if not calls:
+            folder.rmdir()                              # the other holder ends now
+            folder.parent.rmdir()
+        calls.append(made)
+        return made
+
+    monkeypatch.setattr(lock, "_make_folders", removed_meanwhile)
+    with hold_folder(folder):
+        assert len(calls) == 2 and (folder / ".lock").is_file()
+    assert list(tmp_path.iterdir()) == []
+
+
 def _wait_for(condition, what: str, timeout: float = 300) -> None:
     deadline = time.time() + timeout
     while not condition():

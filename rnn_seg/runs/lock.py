@@ -75,13 +75,18 @@ def hold_folder(folder: Path | str, what: str = "run folder") -> Iterator[None]:
 
 
 def _take(folder: Path, what: str) -> _Hold:
-    """Create ``folder`` if need be and lock it, again while the lock file taken proves removed."""
-    made = []
+    """Create ``folder`` if need be and lock it; again while another process's release removes
+    the lock file or a folder on its way (between our ``mkdir`` and ``open``, or ``open`` and
+    ``flock``)."""
+    made: dict[Path, None] = {}                        # in creation order, each once
     while True:
-        made += _make_folders(folder)
-        taken = _acquire(folder, what)
+        try:
+            made.update(dict.fromkeys(_make_folders(folder)))
+            taken = _acquire(folder, what)
+        except FileNotFoundError:                      # a folder made was removed meanwhile
+            continue
         if taken is not None:
-            return _Hold(*taken, made)
+            return _Hold(*taken, list(made))
 
 
 def _make_folders(folder: Path) -> list[Path]:
@@ -104,13 +109,9 @@ def _acquire(folder: Path, what: str) -> tuple[int, bool] | None:
     """Open and lock ``folder``'s lock file: its descriptor and whether this call created the
     file; None if the file's last holder removed it before this process held the lock."""
     path = folder / LOCK_FILE
-    created = not os.path.lexists(path)
-    try:        # never through a symbolic link: a file elsewhere would be truncated
-        fd = os.open(path, os.O_RDWR | os.O_CREAT | getattr(os, "O_NOFOLLOW", 0), 0o666)
-    except OSError as error:
-        problem = "a symbolic link" if path.is_symlink() else f"unusable ({error.strerror})"
-        raise RunFolderError(f"{path}: the lock file of the {what} is {problem}; remove it "
-                             "(nothing else holds it)") from None
+    fd, created = _open_lock_file(path, what)
+    if fd is None:
+        return None
     if fcntl is None:
         return fd, created
     try:
@@ -132,6 +133,26 @@ def _acquire(folder: Path, what: str) -> tuple[int, bool] | None:
     os.ftruncate(fd, 0)
     os.write(fd, f"{os.getpid()} {socket.gethostname()} {now()}\n".encode())
     return fd, created
+
+
+def _open_lock_file(path: Path, what: str) -> tuple[int | None, bool]:
+    """Open ``path``, creating it if there is none: its descriptor (None if it vanished between
+    two attempts) and whether this call created it. Never through a symbolic link: a file
+    elsewhere would be truncated. ``FileNotFoundError`` when its folder is gone."""
+    nofollow = getattr(os, "O_NOFOLLOW", 0)
+    try:
+        try:
+            return os.open(path, os.O_RDWR | os.O_CREAT | os.O_EXCL | nofollow, 0o666), True
+        except FileExistsError:
+            return os.open(path, os.O_RDWR | nofollow), False
+    except FileNotFoundError:
+        if not path.parent.is_dir():
+            raise
+        return None, False                              # removed by its holder: try again
+    except OSError as error:
+        problem = "a symbolic link" if path.is_symlink() else f"unusable ({error.strerror})"
+        raise RunFolderError(f"{path}: the lock file of the {what} is {problem}; remove it "
+                             "(nothing else holds it)") from None
 
 
 def _names(path: Path, fd: int) -> bool:
