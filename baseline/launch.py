@@ -32,8 +32,8 @@ def run_training(prog: str, out: Path, configure: Callable[[], Config],
         configure: builds (and so validates) the configuration; reads no data.
         train: trains a run of that configuration in ``out`` and returns its metrics.
 
-    ``out`` must be a run folder or a new one: not a grid folder, a folder holding runs or a
-    place among a run's own files (``rnn_seg.runs.outputs``).
+    ``out`` must be a run folder or a new one: not a grid folder, a folder holding runs, or a
+    place inside a run folder or a grid's ``runs/`` (``rnn_seg.runs.outputs``).
 
     Raises:
         The errors of ``configure``, ``train`` and the lock (``FolderLockedError``) other than

@@ -277,6 +277,18 @@ def test_an_export_is_replaced_by_the_next_and_is_not_taken_for_a_run(trained, s
     assert (out / "saved_model.pb").is_file()
 
 
+def test_a_project_folder_with_a_config_json_of_its_own_is_no_run(tmp_path):
+    """Folders above an output count as runs or grids by their records, not by the names of
+    their files: a project's own config.json and checkpoints/ do not block its subfolders."""
+    from rnn_seg.runs.outputs import check_output_folder
+
+    (tmp_path / "config.json").write_text(json.dumps({"lr": 0.1}))
+    (tmp_path / "checkpoints").mkdir()
+    (tmp_path / "grid.json").write_text("{}")
+    for command in ("multitask-train", "multitask-predict"):
+        check_output_folder(tmp_path / "experiments" / "run1", command, may_be_run=True)
+
+
 @pytest.mark.parametrize("command", ["export", "predict", "tables", "train"])
 def test_nothing_but_an_evaluation_writes_inside_a_run(trained, tiny_grid, small_dir, capsys,
                                                        command):
@@ -360,7 +372,9 @@ def test_tables_never_write_over_a_file_they_did_not_write(tiny_grid, tmp_path, 
     assert _snapshot(out) == before
     assert tables_main([str(tiny_grid), "--out", str(out), "--no-figures", "--overwrite"]) == 0
     assert tables_main([str(tiny_grid), "--out", str(out), "--no-figures"]) == 0
-    assert (out / "notes.txt").read_text() == "mine" and (out / "runs.csv").read_text() != "mine"
+    assert tables_main([str(tiny_grid), "--out", str(tmp_path / "fresh"), "--no-figures"]) == 0
+    assert (out / "notes.txt").read_text() == "mine"
+    assert (out / "runs.csv").read_bytes() == (tmp_path / "fresh" / "runs.csv").read_bytes()
 
 
 def test_tables_of_a_mistyped_grid_name_the_missing_folder(tmp_path, capsys):

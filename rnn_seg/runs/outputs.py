@@ -11,6 +11,7 @@ spelling.
 """
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 from typing import Iterator
@@ -83,7 +84,7 @@ def _check_enclosing(out: Path, place: Path, command: str, run_place: str | None
     run's ``evaluate/`` is writable for ``multitask-evaluate`` in a grid's run too)."""
     for parent in place.parents:
         first = place.relative_to(parent).parts[0]
-        kind = folder_kind(parent)
+        kind = _recorded_kind(parent)
         if kind == "run folder":
             if first != run_place:
                 only = f" (only under its {run_place}/)" if run_place else ""
@@ -95,6 +96,26 @@ def _check_enclosing(out: Path, place: Path, command: str, run_place: str | None
             raise OutputFolderError(f"{out} lies among the runs of the grid folder {parent} "
                                     f"({GRID_RUNS}/), which only multitask-grid trains; {command} "
                                     "does not write there (choose another output folder)")
+
+
+def _recorded_kind(folder: Path) -> str | None:
+    """``folder_kind`` of a folder above an output, known by its records, not their names: a
+    grid's ``grid.json`` lists its ``runs``, a run's ``config.json`` or ``finished.json`` holds
+    its ``settings_hash`` (so a project folder holding a config.json of its own is no run)."""
+    if _holds_key(folder / GRID_RECORD, "runs"):
+        return "grid folder"
+    if any(_holds_key(folder / name, "settings_hash") for name in (CONFIG, FINISHED)):
+        return "run folder"
+    return None
+
+
+def _holds_key(path: Path, key: str) -> bool:
+    """Whether ``path`` is a JSON object with ``key`` (unreadable or absent: no)."""
+    try:
+        record = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError):
+        return False
+    return isinstance(record, dict) and key in record
 
 
 def _run_or_grid_below(folder: Path) -> Path | None:
