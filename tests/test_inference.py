@@ -130,16 +130,18 @@ def test_predict_overwrite_replaces_the_earlier_prediction_whole(bi_run, synth_d
     first, _ = _held_out(synth_dir, "Suturing_B002")
     second, _ = _held_out(synth_dir, "Suturing_B003")
     out = tmp_path / "out"
-    assert predict_main([str(bi_run), str(first), "--out", str(out)]) == 0
+    assert predict_main([str(bi_run), str(first), "--out", str(out), "--no-plots"]) == 0
     (out / "notes.txt").write_text("mine")
+    (out / "Suturing_B002.png").write_text("mine too: the prediction drew no plot")
     assert predict_main([str(bi_run), str(second), "--out", str(out), "--no-plots"]) == 2
     assert "use --overwrite" in capsys.readouterr().err
     assert predict_main([str(bi_run), str(second), "--out", str(out), "--no-plots",
                          "--overwrite"]) == 0
     record = json.loads((out / "prediction.json").read_text())
     assert list(record["recordings"]) == ["Suturing_B003"]
-    assert sorted(p.name for p in out.iterdir()) == ["Suturing_B003.csv", "notes.txt",
-                                                     "prediction.json"]
+    assert sorted(p.name for p in out.iterdir()) == ["Suturing_B002.png", "Suturing_B003.csv",
+                                                     "notes.txt", "prediction.json"]
+    assert record["files"] == ["Suturing_B003.csv"]
     capsys.readouterr()
     assert predict_main([str(bi_run), str(first), "--out", str(out / "notes.txt")]) == 2
     err = capsys.readouterr().err.strip()

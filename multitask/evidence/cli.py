@@ -16,8 +16,9 @@ instead the claims of the paper's conjecture (multi-task against model A on that
 
 ``--out`` may hold other files (a README, the grid itself): ``tables.json`` there lists the files
 the last call wrote, which the next replaces (and removes those it no longer writes, e.g. a figure
-the grid cannot draw); a file of an output's name that it does not list, yours, is never written
-over unless ``--overwrite``. The files are written together at the end (``rnn_seg.runs.manifest``):
+the grid cannot draw, or every figure after a call with ``--no-figures``); a file of an output's
+name that it does not list, yours, is never written over unless ``--overwrite``. ``--widths``
+keeps its own list, ``width.json``. The files are written together at the end (``rnn_seg.runs.manifest``):
 a call that fails leaves ``--out`` as it was.
 
 A grid with missing or unfinished runs, NaN metrics, unreadable metrics or stray folders is an
@@ -74,6 +75,8 @@ if TYPE_CHECKING:
 PROG = "multitask-tables"
 #: The list of the files the last call wrote into ``--out`` (``rnn_seg.runs.manifest``).
 MANIFEST = "tables.json"
+#: The same for the width study (``--widths``), which may share a folder with tables.
+WIDTH_MANIFEST = "width.json"
 
 
 def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: bool = False,
@@ -341,7 +344,8 @@ def _run(args: argparse.Namespace) -> None:
         return
     out = args.out or args.grid_dir / "tables"
     check_output_folder(out, PROG, may_hold=True)   # beside grids, never in a run or grid's runs
-    with staged_outputs(out, MANIFEST, PROG, args.overwrite) as staging:
+    manifest = WIDTH_MANIFEST if args.widths else MANIFEST
+    with staged_outputs(out, manifest, PROG, args.overwrite) as staging:
         if args.widths:
             from .width import write_width
 

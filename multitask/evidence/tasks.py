@@ -21,6 +21,7 @@ import pandas as pd
 
 from jigsaws_tools.cli.common import command_parser, run_command
 from rnn_seg.runs.folder import write_atomic
+from rnn_seg.runs.manifest import staged_outputs
 from rnn_seg.runs.outputs import check_output_folder
 
 from .paired import ConfigId
@@ -103,7 +104,11 @@ def main(argv: list[str] | None = None) -> int:
                         help="a task's name and the folder of its tables, e.g. "
                              "Knot_Tying=results/tasks/Knot_Tying")
     parser.add_argument("--out", type=Path, required=True, metavar="DIR",
-                        help="where tasks.csv and tasks.md are written")
+                        help="where tasks.csv and tasks.md are written (listed in tasks.json; "
+                             "other files there stay)")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace a tasks.csv or tasks.md that tasks.json does not list "
+                             "(default: refuse)")
     args = parser.parse_args(argv)
     folders = {}
     for pair in args.tasks:
@@ -111,15 +116,15 @@ def main(argv: list[str] | None = None) -> int:
         if not sep or not task or not tables:
             parser.error(f"expected TASK=TABLES, got {pair!r}")
         folders[task] = Path(tables)
-    return run_command(PROG, args.verbose, lambda: _write(folders, args.out))
+    return run_command(PROG, args.verbose, lambda: _write(folders, args.out, args.overwrite))
 
 
-def _write(folders: dict[str, Path], out: Path) -> None:
+def _write(folders: dict[str, Path], out: Path, overwrite: bool) -> None:
     check_output_folder(out, PROG, may_hold=True)
     table = task_table(folders)
-    out.mkdir(parents=True, exist_ok=True)
-    write_atomic(out / "tasks.csv", table.to_csv(index=False, float_format="%.4f"))
-    write_atomic(out / "tasks.md", markdown(table))
+    with staged_outputs(out, "tasks.json", PROG, overwrite) as staging:
+        write_atomic(staging / "tasks.csv", table.to_csv(index=False, float_format="%.4f"))
+        write_atomic(staging / "tasks.md", markdown(table))
     print(out / "tasks.csv")
     print(out / "tasks.md")
 

@@ -4,9 +4,12 @@ INPUT is a JIGSAWS-layout kinematics file (76 columns, one line per 30 Hz frame;
 needed) or a folder of them; with --format, a recording in that format (e.g. a CSV at 100 Hz with
 its own column names) or a folder of them. For each recording NAME the output folder gets NAME.csv
 (one row per frame of the recording: the predicted gesture name, its class probabilities, the
-progress stage and scores when the model has a progress head) and NAME.png (ribbons at 5 Hz), then
-prediction.json, written last, records the run, the checkpoint and the inputs. See
-docs/REPRODUCTION.md for how prediction treats every frame.
+progress stage and scores when the model has a progress head) and NAME.png (ribbons at 5 Hz);
+prediction.json records the run, the checkpoint, the inputs and the files written. They are written
+together once every recording is predicted (``rnn_seg.runs.manifest``): ``--overwrite`` replaces an
+earlier prediction in the folder whole, removing the files its record lists that this one does
+not write, and files the record does not list stay. See docs/REPRODUCTION.md for how prediction
+treats every frame.
 """
 from __future__ import annotations
 
@@ -20,6 +23,7 @@ import numpy as np
 from jigsaws_tools.cli.common import import_tensorflow, run_command
 from jigsaws_tools.cli.format_options import add_format_option
 from jigsaws_tools.recording_format import JIGSAWS_FORMAT, RecordingFormat
+from rnn_seg.runs.manifest import listed, staged_outputs
 from rnn_seg.runs.outputs import check_output_folder
 
 from .options import load_for_command, trained_run_parser
@@ -84,7 +88,6 @@ def kinematics_files(inputs: list[Path], recording_format: RecordingFormat = JIG
 
 def _predict(args: argparse.Namespace) -> None:
     from jigsaws_tools.recording_format import load_format
-    from rnn_seg.runs.folder import write_json
 
     import_tensorflow()                 # quietly, before trained_run imports it
     from .trained_run import read_run_config
@@ -99,66 +102,36 @@ def _predict(args: argparse.Namespace) -> None:
     run = load_for_command(args)
     recording_format = run.recording_format(args.format)        # checked against the run
     predictions, normalisation = _predict_all(run, files, recording_format, args)
-    _remove_earlier_prediction(args.out)                    # --overwrite: replaced whole
     mode = "stream" if args.stream else "offline"
     record = {"run_dir": str(args.run_dir.resolve()), "variant": run.variant,
               "checkpoint": run.checkpoint, "finished": run.finished, "mode": mode,
-              "normalisation": normalisation, "recordings": {}}
+              "normalisation": normalisation,
+              "recordings": {f.stem: {"input": str(f.resolve()), "frames": p.n_frames,
+                                      "samples": len(p.sample_frames)}
+                             for f, p in predictions.items()}}
     first = run.tasks[0]
-    for f, prediction in predictions.items():
-        prediction.write(args.out, f.stem, f"{f.stem} - {run.variant} ({args.run_dir.name}, "
-                                           f"sweep {run.checkpoint}, {mode})",
-                         plot=not args.no_plots)
-        record["recordings"][f.stem] = {"input": str(f.resolve()), "frames": prediction.n_frames,
-                                        "samples": len(prediction.sample_frames)}
-        labels = prediction.labels(first.name)
-        print(f"{f.stem}: {prediction.n_frames} frames, most frequent {first.name} "
-              f"{first.class_names[np.bincount(labels).argmax()]}", flush=True)
-    write_json(args.out / RECORD_FILE, record)              # last: the folder is complete
+    with staged_outputs(args.out, RECORD_FILE, PROG, args.overwrite, record) as staging:
+        for f, prediction in predictions.items():
+            prediction.write(staging, f.stem, f"{f.stem} - {run.variant} ({args.run_dir.name}, "
+                                              f"sweep {run.checkpoint}, {mode})",
+                             plot=not args.no_plots)
+            labels = prediction.labels(first.name)
+            print(f"{f.stem}: {prediction.n_frames} frames, most frequent {first.name} "
+                  f"{first.class_names[np.bincount(labels).argmax()]}", flush=True)
     print(f"done: {len(files)} recording(s) predicted ({mode}) with {args.run_dir}, checkpoint "
           f"after sweep {run.checkpoint}; outputs in {args.out}")
 
 
 def _check_outputs(args: argparse.Namespace, files: list[Path]) -> None:
-    """Refuse a run or grid folder (``rnn_seg.runs.outputs``) and to replace an earlier
-    prediction's files unless ``--overwrite``."""
+    """Refuse a run or grid folder (``rnn_seg.runs.outputs``), and an earlier prediction or a
+    file of an output's name unless ``--overwrite``; before any work."""
     check_output_folder(args.out, PROG)
-    existing = [p for p in _outputs(args.out, [f.stem for f in files]) + [args.out / RECORD_FILE]
-                if p.exists()]
+    names = [RECORD_FILE] + [f"{f.stem}{ext}" for f in files for ext in (".csv", ".png")]
+    existing = [args.out / name for name in names if (args.out / name).exists()]
     if existing and not args.overwrite:
         raise ValueError(f"{existing[0]} exists (from an earlier prediction?); use --overwrite "
                          "to replace that prediction, or another --out")
-    _earlier_recordings(args.out)                  # an unreadable record stops us before work
-
-
-def _outputs(out: Path, names: list[str]) -> list[Path]:
-    """The files a prediction of the recordings ``names`` may write into ``out``."""
-    return [out / f"{name}{ext}" for name in names for ext in (".csv", ".png")]
-
-
-def _earlier_recordings(out: Path) -> list[str]:
-    """The recordings an earlier prediction's record in ``out`` lists (none without one)."""
-    from rnn_seg.runs.folder import read_json
-
-    record = out / RECORD_FILE
-    if not record.is_file():
-        return []
-    data = read_json(record)
-    recordings = data.get("recordings") if isinstance(data, dict) else None
-    if not isinstance(recordings, dict) or any(Path(name).name != name for name in recordings):
-        raise ValueError(f"{record}: not a prediction record (no 'recordings' of file names); "
-                         "remove it or choose another --out")
-    return list(recordings)
-
-
-def _remove_earlier_prediction(out: Path) -> None:
-    """Remove the record of an earlier prediction in ``out`` and the files it lists, so that
-    the folder never holds outputs its record does not describe (``--overwrite`` replaces the
-    earlier prediction whole; files of the new one are written over anyway)."""
-    earlier = _earlier_recordings(out)
-    (out / RECORD_FILE).unlink(missing_ok=True)            # first: it would vouch for the rest
-    for path in _outputs(out, earlier):
-        path.unlink(missing_ok=True)
+    listed(args.out, RECORD_FILE)                  # an unreadable record stops us before work
 
 
 def _predict_all(run: TrainedRun, files: list[Path], recording_format: RecordingFormat,
