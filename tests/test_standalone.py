@@ -37,7 +37,8 @@ def test_a_folder_of_runs_is_tabulated_from_their_configs(runs, tmp_path, capsys
     assert table.loc["APc_B", "variant"] == "APc" and table.gesture_accuracy.between(0, 100).all()
     summary = pd.read_csv(out / "summary.csv").set_index("variant")
     assert summary.loc["A", "folds"] == 2 and summary.loc["APc", "folds"] == 1
-    assert {p.name for p in out.iterdir()} == {"runs.csv", "per_fold.csv", "summary.csv"}
+    assert {p.name for p in out.iterdir()} == {"runs.csv", "per_fold.csv", "summary.csv",
+                                               "tables.json"}
 
 
 def test_one_run_folder_is_a_table_of_one_run(runs, tmp_path):
