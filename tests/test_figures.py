@@ -122,8 +122,10 @@ def test_example_figures_take_the_chosen_trial_and_show_seconds(grid, captured):
 
 
 def test_fold_letters_label_the_points_apart_and_a_stands_beside_apoc(grid, captured):
-    figures.fold_accuracy(per_fold(run_rows(grid)[0]), grid / "figures")
-    per_model, scatter = captured["fold_accuracy"].axes
+    folds = per_fold(run_rows(grid)[0])
+    figures.fold_accuracy(folds, grid / "figures")
+    figures.gesture_vs_progress(folds, grid / "figures")
+    (per_model,), (scatter,) = captured["fold_accuracy"].axes, captured["gesture_vs_progress"].axes
     assert [t.get_text() for t in per_model.get_xticklabels()] == sorted(FOLDS)
     assert [t.get_text() for t in per_model.get_legend().get_texts()][0] == "A"
     labels = scatter.texts
@@ -169,7 +171,7 @@ def test_tables_command_draws_curves_and_the_chosen_trial(tmp_path, capsys):
                         "--example-trial", "Suturing_C002"]) == 0
     assert len(list((out / "figures" / "curves").glob("*.pdf"))) == 7
     for name in ("per_gesture_accuracy", "segmentation_example", "progress_example",
-                 "fold_accuracy", "gradnorm_weights"):
+                 "fold_accuracy", "gesture_vs_progress", "gradnorm_weights"):
         assert (out / "figures" / f"{name}.png").stat().st_size > 0
 
 

@@ -7,8 +7,9 @@
 * ``segmentation_example``: ground truth, A and APoc ribbons of one test trial (Fig. 5);
 * ``progress_example``: true progress (a grey band) and APr's regression output, APc's and APoc's
   predicted stages over time, stages named from the task file (Fig. 6);
-* ``fold_accuracy``: per fold, the gesture accuracy of A beside APoc, and gesture vs progress
-  accuracy of APoc (Fig. 7; without APoc runs, the first two-task configuration);
+* ``fold_accuracy``: per fold, the gesture accuracy of A beside APoc;
+* ``gesture_vs_progress``: gesture against progress accuracy of APoc, a point per fold (Fig. 7;
+  without APoc runs, the first two-task configuration);
 * ``gradnorm_weights``: task weights over training for the GradNorm runs, in the paper's order of
   the variants, on a common epoch axis.
 
@@ -48,7 +49,7 @@ COMPARED = ("A-fixed", "APoc-fixed", "APoc-gradnorm")
 #: Runs shown by the example figures: segmentation, then progress (regression output first).
 SEGMENTATION_RUNS = ("A-fixed", "APoc-fixed")
 PROGRESS_RUNS = ("APr-fixed", "APc-fixed", "APoc-fixed")
-#: The multi-task model of the gesture-vs-progress panel, first the grid ran (paper's Fig. 7).
+#: The multi-task model of the gesture-vs-progress figure, first the grid ran (paper's Fig. 7).
 FOLD_RUNS = ("APoc-gradnorm", "APoc-fixed")
 #: GradNorm panels in the paper's order of the variants.
 GRADNORM_ORDER = ("APr", "APc", "APoc")
@@ -275,38 +276,47 @@ def progress_example(grid_dir: Path, trial: str, fold: str, out_dir: Path) -> li
 
 
 def fold_accuracy(folds: pd.DataFrame, out_dir: Path) -> list[Path]:
-    """Two panels per fold (test user): left, the gesture accuracy of each compared model, A
-    beside APoc; right, gesture vs progress accuracy of one multi-task model (the paper's Fig. 7:
-    APoc with GradNorm, else APoc with fixed weights, else the first two-task configuration), one
-    point per fold labelled with its test user."""
+    """Per fold (test user), the gesture accuracy of each compared model, A beside APoc: where
+    the folds differ, and whether the models move together across them."""
+    compared = {c: t for c in COMPARED if not (t := ConfigId.parse(c).select(folds)).empty}
+    if not compared or "gesture_accuracy" not in folds:
+        return []
+    fig, ax = plt.subplots(figsize=(5.2, 3.4))
+    letters = sorted(set().union(*(t.fold for t in compared.values())))
+    width = 0.8 / len(compared)
+    for k, (config, table) in enumerate(compared.items()):
+        at = [letters.index(f) + (k - (len(compared) - 1) / 2) * width for f in table.fold]
+        ax.plot(at, table.gesture_accuracy, "o", ms=5, label=label(config))
+    ax.set_xticks(range(len(letters)), letters)
+    ax.set_xlabel("fold (test user)")
+    ax.set_ylabel("gesture accuracy [%]")
+    ax.legend(fontsize=7, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=len(compared),
+              frameon=False, handletextpad=0.1, columnspacing=0.8)
+    fig.tight_layout()
+    return save(fig, out_dir, "fold_accuracy")
+
+
+def gesture_vs_progress(folds: pd.DataFrame, out_dir: Path) -> list[Path]:
+    """The paper's Fig. 7: gesture against progress accuracy of one multi-task model, a point
+    per fold labelled with its test user (APoc with GradNorm, else APoc with fixed weights, else
+    the first two-task configuration)."""
     if not {"gesture_accuracy", "progress_accuracy"} <= set(folds):
         return []
     both = folds.dropna(subset=["gesture_accuracy", "progress_accuracy"])
     two_task = [c for c in FOLD_RUNS if not ConfigId.parse(c).select(both).empty] or list(
         dict.fromkeys(f"{r.variant}-{r.weighting}" for r in both.itertuples()))
-    compared = {c: t for c in COMPARED if not (t := ConfigId.parse(c).select(folds)).empty}
-    scatter = ConfigId.parse(two_task[0]).select(both) if two_task else both.iloc[:0]
-    if scatter.empty:
+    if not two_task:
         return []
-    fig, (left, right) = plt.subplots(1, 2, figsize=(9, 3.6), width_ratios=(1.2, 1))
-    letters = sorted(set().union(*(t.fold for t in compared.values())) or scatter.fold)
-    width = 0.8 / max(len(compared), 1)
-    for k, (config, table) in enumerate(compared.items()):
-        at = [letters.index(f) + (k - (len(compared) - 1) / 2) * width for f in table.fold]
-        left.plot(at, table.gesture_accuracy, "o", ms=5, label=label(config))
-    left.set_xticks(range(len(letters)), letters)
-    left.set_xlabel("fold (test user)")
-    left.set_ylabel("gesture accuracy [%]")
-    left.legend(fontsize=7, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=len(compared),
-                frameon=False, handletextpad=0.1, columnspacing=0.8)
-    right.scatter(scatter.gesture_accuracy, scatter.progress_accuracy, s=18, color="tab:green")
-    _label_points(right, scatter.gesture_accuracy.to_numpy(),
-                  scatter.progress_accuracy.to_numpy(), list(scatter.fold))
-    right.set_xlabel("gesture accuracy [%]")
-    right.set_ylabel("progress accuracy [%]")
-    right.set_title(label(two_task[0]), fontsize=9)
+    points = ConfigId.parse(two_task[0]).select(both)
+    fig, ax = plt.subplots(figsize=(4.0, 3.4))
+    ax.scatter(points.gesture_accuracy, points.progress_accuracy, s=18, color="tab:green")
+    _label_points(ax, points.gesture_accuracy.to_numpy(), points.progress_accuracy.to_numpy(),
+                  list(points.fold))
+    ax.set_xlabel("gesture accuracy [%]")
+    ax.set_ylabel("progress accuracy [%]")
+    ax.set_title(label(two_task[0]), fontsize=9)
     fig.tight_layout()
-    return save(fig, out_dir, "fold_accuracy")
+    return save(fig, out_dir, "gesture_vs_progress")
 
 
 def _padded(values: np.ndarray) -> tuple[float, float]:
@@ -410,5 +420,6 @@ def all_figures(grid_dir: Path, folds: pd.DataFrame, out_dir: Path,
         written += segmentation_example(grid_dir, trial, fold, out_dir)
         written += progress_example(grid_dir, trial, fold, out_dir)
     written += fold_accuracy(folds, out_dir)
+    written += gesture_vs_progress(folds, out_dir)
     written += gradnorm_weights(grid_dir, out_dir) if gradnorm else []
     return written
