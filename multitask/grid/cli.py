@@ -95,11 +95,7 @@ def _check_grid_folder(out: Path) -> None:
 
 
 def _run(args: argparse.Namespace) -> int:
-    import_tensorflow()          # quietly: checking run folders builds the runs' tasks
     from rnn_seg.runs.lock import hold_folder
-
-    from .executors import run_grid
-    from .record import prepare_grid
 
     spec = load_spec(args.spec) if args.spec else GridSpec()
     spec = with_overrides(spec, preset=args.preset, data_dir=args.data_dir, loops=args.loops)
@@ -129,6 +125,10 @@ def _run(args: argparse.Namespace) -> int:
         print(f"{len(keys)} runs, {len(keys) - len(pending)} already finished, "
               f"{len(pending)} to run")
         return 0
+    import_tensorflow()          # quietly: checking run folders builds the runs' tasks
+    from .executors import run_grid
+    from .record import prepare_grid
+
     def log(message: str) -> None:
         print(message, flush=True)
 
