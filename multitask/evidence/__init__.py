@@ -4,10 +4,12 @@
 * ``checks``: each run folder checked against the grid's spec as the grid checks it;
 * ``tables``, ``latex``, ``captions``: the paper's Tables I-III and the ablation, as CSV and
   paste-ready LaTeX with captions read from the runs; ``paper_results``: the published numbers;
-* ``figures``, ``curves``: the paper's figures and training curves;
+* ``figures``, ``curves``: the paper's figures and training curves; ``confusion``: per-gesture
+  precision, recall, F1 and confusion matrices;
 * ``paired``: paired statistics over folds and seeds; ``claims``: the paper's claims as data,
   tested with them; ``claims_table``: ``claims.csv`` and ``claims.tex``;
 * ``width``: the width study, model A against APoc across grids of several LSTM widths;
+* ``standalone``: tables of runs trained one by one; ``tasks``: the JIGSAWS tasks side by side;
 * ``cli``: ``multitask-tables``.
 
 May import every other wing of ``multitask`` (``models``, ``grid``, ``inference``); none of them
