@@ -289,20 +289,23 @@ def test_a_project_folder_with_a_config_json_of_its_own_is_no_run(tmp_path):
         check_output_folder(tmp_path / "experiments" / "run1", command, may_be_run=True)
 
 
+def _writing_to(command: str, out: str, trained: Path, grid: Path, small_dir: Path) -> tuple:
+    """``(main, argv)`` of ``command`` writing its output to ``out``."""
+    recording = next((small_dir / "kinematics" / "AllGestures").glob("*.txt"))
+    return {"export": (export_main, [str(trained), "--out", out]),
+            "predict": (predict_main, [str(trained), str(recording), "--out", out]),
+            "tables": (tables_main, [str(grid), "--out", out, "--no-figures"]),
+            "train": (train_main, [*TINY, "--data-dir", str(small_dir), "--out", out])}[command]
+
+
 @pytest.mark.parametrize("command", ["export", "predict", "tables", "train"])
 def test_nothing_but_an_evaluation_writes_inside_a_run(trained, tiny_grid, small_dir, capsys,
                                                        command):
     """A folder inside a run (not one of the run's own names) is refused before any work, as
     the run's own files are: only multitask-evaluate writes into a run, under RUN/evaluate."""
-    recording = next((small_dir / "kinematics" / "AllGestures").glob("*.txt"))
     out = str(trained / "mine")
-    main, args = {"export": (export_main, [str(trained), "--out", out]),
-                  "predict": (predict_main, [str(trained), str(recording), "--out", out]),
-                  "tables": (tables_main, [str(tiny_grid), "--out", out, "--no-figures"]),
-                  "train": (train_main, [*TINY, "--data-dir", str(small_dir), "--out", out])
-                  }[command]
     before = _snapshot(trained)
-    code, err = _cli(main, args, capsys)
+    code, err = _cli(*_writing_to(command, out, trained, tiny_grid, small_dir), capsys)
     _refused(code, err, out, f"inside the run folder {trained}")
     assert _snapshot(trained) == before
 
@@ -311,16 +314,10 @@ def test_nothing_but_an_evaluation_writes_inside_a_run(trained, tiny_grid, small
 def test_nothing_writes_among_a_grids_runs(trained, tiny_grid, small_dir, tmp_path, capsys,
                                            command):
     """A grid's runs/ is multitask-grid's: a folder there would be a stray run of its tables."""
-    grid = tmp_path / "grid"
-    _copy_grid(tiny_grid, grid)
-    recording = next((small_dir / "kinematics" / "AllGestures").glob("*.txt"))
+    grid = _copy_grid(tiny_grid, tmp_path / "grid")
     out = str(grid / "runs" / "mine")
-    main, args = {"predict": (predict_main, [str(trained), str(recording), "--out", out]),
-                  "tables": (tables_main, [str(grid), "--out", out, "--no-figures"]),
-                  "train": (train_main, [*TINY, "--data-dir", str(small_dir), "--out", out])
-                  }[command]
     before = _snapshot(grid)
-    code, err = _cli(main, args, capsys)
+    code, err = _cli(*_writing_to(command, out, trained, grid, small_dir), capsys)
     _refused(code, err, out, f"among the runs of the grid folder {grid}")
     assert _snapshot(grid) == before
 
