@@ -3,6 +3,8 @@ seconds, per-gesture error bars with absent and never-recognised gestures told a
 trial chosen, training curves from history.csv."""
 from __future__ import annotations
 
+import json
+
 import matplotlib
 
 matplotlib.use("Agg")
@@ -173,6 +175,11 @@ def test_tables_command_draws_curves_and_the_chosen_trial(tmp_path, capsys):
     for name in ("per_gesture_accuracy", "segmentation_example", "progress_example",
                  "fold_accuracy", "gesture_vs_progress", "gradnorm_weights"):
         assert (out / "figures" / f"{name}.png").stat().st_size > 0
+    figures_before = {p: p.read_bytes() for p in (out / "figures").rglob("*.png")}
+    assert tables_main([str(grid), "--out", str(out), "--no-figures"]) == 0   # tables only
+    assert {p: p.read_bytes() for p in (out / "figures").rglob("*.png")} == figures_before
+    listed = json.loads((out / "tables.json").read_text())["files"]
+    assert "figures/curves/" + next((out / "figures" / "curves").glob("*.png")).name in listed
 
 
 def test_seeds_name_each_configuration_they_leave_out(tmp_path, capsys):

@@ -63,6 +63,16 @@ def test_the_next_output_replaces_the_last_and_removes_what_it_no_longer_writes(
     assert not (tmp_path / "figures").exists()               # emptied by us, so removed
 
 
+def test_a_call_leaves_the_folders_it_does_not_write_as_they_are(tmp_path):
+    _write(tmp_path, {"a.csv": "1", "figures/f.png": "2", "figures/curves/c.png": "3"})
+    with staged_outputs(tmp_path, MANIFEST, "cmd", kept=("figures/",)) as staging:
+        (staging / "a.csv").write_text("4")
+    assert (tmp_path / "figures" / "f.png").read_text() == "2"
+    assert _listed(tmp_path) == ["a.csv", "figures/curves/c.png", "figures/f.png"]
+    _write(tmp_path, {"a.csv": "5"})                                # no longer kept: removed
+    assert _listed(tmp_path) == ["a.csv"] and not (tmp_path / "figures").exists()
+
+
 def test_a_failing_command_leaves_the_folder_as_it_was(tmp_path):
     _write(tmp_path / "out", {"a.csv": "1"})
     before = _snapshot(tmp_path)

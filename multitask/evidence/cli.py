@@ -16,8 +16,9 @@ instead the claims of the paper's conjecture (multi-task against model A on that
 
 ``--out`` may hold other files (a README, the grid itself): ``tables.json`` there lists the files
 the last call wrote, which the next replaces (and removes those it no longer writes, e.g. a figure
-the grid cannot draw, or every figure after a call with ``--no-figures``); a file of an output's
-name that it does not list, yours, is never written over unless ``--overwrite``. ``--widths``
+the grid cannot draw; the figures, or the training curves, of a call with ``--no-figures``, or
+without ``--curves``, stay as they were); a file of an output's name that it does not list,
+yours, is never written over unless ``--overwrite``. ``--widths``
 keeps its own list, ``width.json``. The files are written together at the end (``rnn_seg.runs.manifest``):
 a call that fails leaves ``--out`` as it was.
 
@@ -326,6 +327,13 @@ def _table_options(args: argparse.Namespace) -> list[str]:
     return [option for option, value in given.items() if value]
 
 
+def _left_alone(args: argparse.Namespace) -> tuple[str, ...]:
+    """The folders of --out whose files a call told not to draw them leaves as they are."""
+    if args.no_figures:
+        return ("figures/",)
+    return () if args.curves else ("figures/curves/",)
+
+
 def _run(args: argparse.Namespace) -> None:
     for grid in (args.grid_dir, *(args.widths or ())):
         if not grid.is_dir():
@@ -345,7 +353,7 @@ def _run(args: argparse.Namespace) -> None:
     out = args.out or args.grid_dir / "tables"
     check_output_folder(out, PROG, may_hold=True)   # beside grids, never in a run or grid's runs
     manifest = WIDTH_MANIFEST if args.widths else MANIFEST
-    with staged_outputs(out, manifest, PROG, args.overwrite) as staging:
+    with staged_outputs(out, manifest, PROG, args.overwrite, kept=_left_alone(args)) as staging:
         if args.widths:
             from .width import write_width
 

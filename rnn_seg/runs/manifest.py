@@ -6,7 +6,9 @@ place together, and the folder's *manifest* (a JSON file named by the command, e
 ``tables.json``) lists them. So
 
 - the folder holds the last call's output: the files the last manifest listed and this output
-  lacks (a figure the grid can no longer draw) are removed, and nothing else is;
+  lacks (a figure the grid can no longer draw) are removed, and nothing else is, but for those
+  under the folders the call leaves alone (``kept``: the figures of a call told to write the
+  tables only), which stay listed;
 - a file of an output's name that the manifest does not list (the user's own ``table1.csv``, a
   file of another command) is never written over: the whole output is refused before anything
   is moved, unless ``overwrite`` says to replace such files;
@@ -38,7 +40,8 @@ PARTIAL = ".partial-"
 
 @contextmanager
 def staged_outputs(out: Path, manifest: str, command: str, overwrite: bool = False,
-                   record: dict[str, Any] | None = None) -> Iterator[Path]:
+                   record: dict[str, Any] | None = None,
+                   kept: tuple[str, ...] = ()) -> Iterator[Path]:
     """Write a command's files into the staging folder yielded; publish them in ``out``.
 
     Args:
@@ -48,6 +51,8 @@ def staged_outputs(out: Path, manifest: str, command: str, overwrite: bool = Fal
         overwrite: replace files of the output's names that the manifest does not list.
         record: more to say in the manifest (e.g. the run a prediction used), beside its
             ``written_by`` and ``files``.
+        kept: folders of ``out`` (relative, e.g. ``"figures/"``) whose listed files this call
+            does not write and leaves as they are.
 
     Raises:
         OutputFolderError: a file to be written exists in ``out`` and the manifest does not
@@ -59,7 +64,7 @@ def staged_outputs(out: Path, manifest: str, command: str, overwrite: bool = Fal
         staging = Path(tempfile.mkdtemp(prefix=f"{PARTIAL}{Path(manifest).stem}-", dir=out))
         try:
             yield staging
-            _publish(staging, out, manifest, command, overwrite, record or {})
+            _publish(staging, out, manifest, command, overwrite, record or {}, kept)
         finally:
             shutil.rmtree(staging, ignore_errors=True)
 
@@ -79,8 +84,9 @@ def listed(out: Path, manifest: str) -> list[str]:
 
 
 def _publish(staging: Path, out: Path, manifest: str, command: str, overwrite: bool,
-             record: dict[str, Any]) -> None:
-    """Move every file of ``staging`` to the same place in ``out``, then list them alone."""
+             record: dict[str, Any], kept: tuple[str, ...]) -> None:
+    """Move every file of ``staging`` to the same place in ``out``, then list them (and the
+    listed files under ``kept``) alone."""
     new = sorted(p.relative_to(staging).as_posix() for p in staging.rglob("*") if p.is_file())
     old = listed(out, manifest)
     for name in new:
@@ -90,7 +96,8 @@ def _publish(staging: Path, out: Path, manifest: str, command: str, overwrite: b
                 raise OutputFolderError(f"{out / name} exists and is not an output of {command} "
                                         f"({out / manifest} does not list it); move it, choose "
                                         "another output folder, or replace it (--overwrite)")
-    stale = [name for name in old if name not in new]
+    left = [name for name in old if name not in new and name.startswith(kept)]
+    stale = [name for name in old if name not in new and name not in left]
     for name in stale:
         _check_place(out, name, manifest, command)
     _write_manifest(out, manifest, command, sorted({*old, *new}), record)
@@ -99,7 +106,7 @@ def _publish(staging: Path, out: Path, manifest: str, command: str, overwrite: b
         os.replace(staging / name, out / name)
     for name in stale:
         _remove(out, name)
-    _write_manifest(out, manifest, command, new, record)
+    _write_manifest(out, manifest, command, sorted({*new, *left}), record)
 
 
 def _check_place(out: Path, name: str, manifest: str, command: str) -> None:
