@@ -1,12 +1,15 @@
 """The width study (``multitask-tables GRID --widths GRID ...``) on fake grids of several widths."""
 from __future__ import annotations
 
+import json
+
 import pandas as pd
 import pytest
 
 from tests.fake_grid import FOLDS, write_fake_grid
 from multitask.evidence.cli import main as tables_main
 from multitask.evidence.collect import run_rows
+from multitask.evidence.paper_results import TABLE_1
 from multitask.grid.spec import Experiment
 
 MODELS = (Experiment(variants=("A",)), Experiment(variants=("APoc",), weightings=("gradnorm",)))
@@ -36,7 +39,10 @@ def test_one_row_per_width_and_metric_from_each_grids_runs(tmp_path, capsys):
     assert row.ci_low <= row["diff"] <= row.ci_high
     assert (row.folds, row.seeds) == (len(FOLDS), "0 1")
     assert (row.A_epochs, row.APoc_epochs) == (12, 18)
-    assert table[table.hidden == 1024].paper_A.notna().all()
+    assert (row.A_runs, row.APoc_runs) == (2 * len(FOLDS), 2 * len(FOLDS))
+    assert 0 <= row.A_converged + row.A_still_falling <= row.A_runs
+    paper_edit = TABLE_1["A-fixed"]["gesture_edit"][0], TABLE_1["APoc-gradnorm"]["gesture_edit"][0]
+    assert (row.paper_A, row.paper_APoc) == pytest.approx(paper_edit)
     assert table[table.hidden == 32].paper_A.isna().all()
 
 
@@ -57,7 +63,48 @@ def test_two_grids_of_one_width_are_a_one_line_error(tmp_path, capsys):
     assert not (tmp_path / "w").exists()
 
 
-@pytest.mark.parametrize("options", [[], ["--seeds", "0"], ["--no-figures"]])
+def test_seeds_restrict_every_grid(tmp_path):
+    small, paper = _grid(tmp_path, 32, seeds=(0, 1)), _grid(tmp_path, 1024, seeds=(0, 1))
+    assert tables_main([str(small), "--widths", str(paper), "--seeds", "1",
+                        "--out", str(tmp_path / "w")]) == 0
+    table = pd.read_csv(tmp_path / "w" / "width.csv", dtype={"seeds": str})
+    assert set(table.seeds) == {"1"} and set(table.A_runs) == {len(FOLDS)}
+
+
+def test_a_grid_without_a_finished_seed_names_what_it_lacks(tmp_path, capsys):
+    grid = _grid(tmp_path, 64)
+    for fold in FOLDS[3:]:
+        (grid / f"runs/revised/bidirectional/APoc-gradnorm/seed0/{fold}/finished.json").unlink()
+    assert tables_main([str(_grid(tmp_path, 16)), "--widths", str(grid),
+                        "--out", str(tmp_path / "w")]) == 2
+    err = capsys.readouterr().err
+    assert "seed 0: APoc-gradnorm 3 of 8 runs finished" in err
+    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "w").exists()
+
+
+def test_a_run_without_usable_metrics_is_one_line_naming_it(tmp_path, capsys):
+    grid = _grid(tmp_path, 64)
+    metrics = grid / "runs/revised/bidirectional/A-fixed/seed0/D/metrics.json"
+    metrics.write_text("{")
+    assert tables_main([str(_grid(tmp_path, 16)), "--widths", str(grid),
+                        "--out", str(tmp_path / "w")]) == 2
+    err = capsys.readouterr().err
+    assert str(metrics) in err and len(err.strip().splitlines()) == 1
+
+
+def test_grids_on_other_folds_are_refused(tmp_path, capsys):
+    grid = _grid(tmp_path, 64)
+    record = grid / "grid.json"
+    runs = json.loads(record.read_text())["runs"]
+    record.write_text(json.dumps({"runs": [run for run in runs if not run.endswith("/I")]}))
+    for config in ("A-fixed", "APoc-gradnorm"):
+        (grid / f"runs/revised/bidirectional/{config}/seed0/I").rename(tmp_path / config)
+    assert tables_main([str(_grid(tmp_path, 16)), "--widths", str(grid),
+                        "--out", str(tmp_path / "w")]) == 2
+    assert "the grids differ in their folds" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("options", [[], ["--allow-incomplete"], ["--no-figures"]])
 def test_widths_takes_out_alone(tmp_path, capsys, options):
     grid = _grid(tmp_path, 32)
     out = ["--out", str(tmp_path / "w")] if options else []

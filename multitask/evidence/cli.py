@@ -43,9 +43,11 @@ continues after a copy, on any machine.
 
 ``--widths GRID ...`` writes the width study instead (``width``): model A against APoc
 (GradNorm) in GRID_DIR and each further grid, one LSTM width each, as ``width.csv`` and
-``width.png/.pdf`` in ``--out``.
+``width.png/.pdf`` in ``--out``; with ``--seeds``, only those seeds' runs of every grid (e.g.
+``--seeds 0``: one seed at every width).
 
-    multitask-tables results/grid --widths results/width/h256 results/paper/grid --out results/width
+    multitask-tables results/grid --widths results/width/h256 results/width/h512 results/paper/grid \\
+        --out results/width
 
 A folder of runs trained one by one (``multitask-train``, ``baseline-train``; no grid.json) gets
 ``runs.csv`` (with each run's folder), ``per_fold.csv`` and ``summary.csv``, and ``--compare``;
@@ -313,8 +315,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.archive and extra:
         parser.error(f"--archive writes the archive alone: leave out {', '.join(extra)}")
     if args.widths and (args.archive or args.compare or "--out" not in extra
-                        or set(extra) - {"--out", "--overwrite"}):
-        parser.error("--widths needs --out and takes no other option but --overwrite")
+                        or set(extra) - {"--out", "--overwrite", "--seeds"}):
+        parser.error("--widths needs --out and takes no other option but --overwrite and --seeds")
     return run_command(PROG, args.verbose, lambda: _run(args))
 
 
@@ -353,11 +355,12 @@ def _run(args: argparse.Namespace) -> None:
     out = args.out or args.grid_dir / "tables"
     check_output_folder(out, PROG, may_hold=True)   # beside grids, never in a run or grid's runs
     manifest = WIDTH_MANIFEST if args.widths else MANIFEST
-    with staged_outputs(out, manifest, PROG, args.overwrite, kept=_left_alone(args)) as staging:
+    kept = () if args.widths else _left_alone(args)
+    with staged_outputs(out, manifest, PROG, args.overwrite, kept=kept) as staging:
         if args.widths:
             from .width import write_width
 
-            written = write_width([args.grid_dir, *args.widths], staging)
+            written = write_width([args.grid_dir, *args.widths], staging, seeds)
         else:
             written = write_tables(args.grid_dir, staging, figures=not args.no_figures,
                                    ours_only=args.ours_only, example_trial=args.example_trial,

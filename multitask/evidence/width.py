@@ -1,25 +1,36 @@
 """The width study: model A and APoc (GradNorm) across LSTM widths, one grid per width.
 
-Each grid holds runs of one width (their ``config.json`` says which). Per grid, the evidence
-is every seed whose A and APoc runs (revised labels, bidirectional) have all finished on every
-fold the grid records for them; a seed still training is left out, and the table says which
-seeds each width has. Per width and metric (``width.csv``, one row each):
+Each grid holds runs of one width (their ``config.json`` says which), on the same data and folds
+as the others. Per grid, the evidence is every seed (of ``seeds``, if given) whose A and APoc runs
+(revised labels, bidirectional) have all finished on every fold the grid records for them; a seed
+still training is left out, and the table and the figure say which seeds each width has. Widths
+may differ in their seeds (the 128-unit grid has three, the wider ones fewer): a width with more
+seeds has less seed noise in its fold means, so its std and interval are the narrower for it.
 
+``width.csv``, one row per width and metric:
+
+* ``hidden``: LSTM units per direction; ``metric``: ``gesture_accuracy``, ``gesture_edit`` or
+  ``gesture_f1@10`` (``collect.run_rows``' columns, in percent);
+* ``seeds``: the seeds used, space-separated; ``folds``: the folds paired;
 * ``A_mean``, ``A_std``, ``APoc_mean``, ``APoc_std``: mean and sample standard deviation over
-  folds of each fold's mean over its seeds, in percent;
-* ``diff``, ``ci_low``, ``ci_high``, ``p_value``: APoc minus A paired over folds
+  folds of each fold's mean over its seeds;
+* ``diff``, ``ci_low``, ``ci_high``, ``p_value``: APoc minus A paired over folds, each side
+  averaged over its seeds within a fold, with the exact sign-flip test and its 95 % interval
   (``paired.paired``, the procedure of ``claims.csv``);
 * ``A_epochs``, ``APoc_epochs``: the schedule each model trained (the presets differ: APoc
   trains 180 epochs at the ``converged`` preset, 120 at ``paper``);
-* ``paper_A``, ``paper_APoc``: the published values (Table I) at the paper's width, 1024.
+* ``A_runs``, ``A_converged``, ``A_still_falling`` (and APoc's): the model's runs at that width
+  and how many of them the three-way convergence verdict calls converged and still falling (the
+  rest are undecided; ``rnn_seg.convergence``);
+* ``paper_A``, ``paper_APoc``: the published values (Table I) at the paper's width, 1024, for a
+  Suturing grid; empty otherwise.
 
 ``width.png`` / ``.pdf`` draws score against width (log2 axis) for both models, the paper's
-values marked at 1024.
+values marked at 1024, each width's seed count under its tick.
 """
 from __future__ import annotations
 
-import json
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import matplotlib
@@ -28,79 +39,121 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from jigsaws_tools.task_definition import PAPER_TASK  # noqa: E402
 from rnn_seg.runs.folder import is_finished  # noqa: E402
 
-from ..grid.spec import RunKey  # noqa: E402
-from .collect import key_from_path, recorded_runs, run_rows  # noqa: E402
+from .captions import describe_runs  # noqa: E402
+from .checks import other_settings  # noqa: E402
+from .collect import grid_task_name, key_from_path, recorded_runs, run_metrics  # noqa: E402
 from .figures import save  # noqa: E402
 from .paired import ConfigId, Contrast, paired  # noqa: E402
 from .paper_results import TABLE_1  # noqa: E402
 
 MODELS = {"A": ConfigId("A", "fixed"), "APoc": ConfigId("APoc", "gradnorm")}
+#: The figure's name of each model.
+LABELS = {"A": "A", "APoc": r"APoc (GradNorm, $\alpha = 1.5$)"}
 METRICS = {"gesture_accuracy": "Accuracy", "gesture_edit": "Edit", "gesture_f1@10": "F1@10"}
 PAPER_WIDTH = 1024
 
 
 @dataclass(frozen=True)
 class WidthEvidence:
-    """One grid's part of the study: its width, the seeds used and their runs."""
+    """One grid's part of the study: its width, data, seeds and the runs of A and APoc."""
 
     hidden: int
+    data: str                     # e.g. "JIGSAWS Suturing kinematics" (``captions.describe_runs``)
+    task: str                     # the task the runs were trained on
     seeds: tuple[int, ...]
-    runs: pd.DataFrame            # one row per run of A and APoc (``collect.run_rows``)
+    runs: pd.DataFrame            # one row per run of A and APoc (``collect.run_rows``' columns)
     epochs: dict[str, int]        # model name (``MODELS``) -> its schedule's length in epochs
 
 
-def _model_runs(grid: Path) -> dict[int, dict[ConfigId, list[Path]]]:
-    """Seed -> model (``MODELS``) -> the run folders the grid records for it."""
+def _model_runs(grid: Path, seeds: tuple[int, ...] | None) -> dict[int, dict[str, list[Path]]]:
+    """Seed -> model name (``MODELS``) -> the run folders (relative to ``grid``) the grid records
+    for it; only ``seeds``' when given."""
     recorded, _ = recorded_runs(grid)
-    by_seed: dict[int, dict[ConfigId, list[Path]]] = {}
+    names = {model: name for name, model in MODELS.items()}
+    by_seed: dict[int, dict[str, list[Path]]] = {}
     for run in recorded:
         key = key_from_path(grid / run, grid)
-        model = ConfigId(key.variant, key.weighting, key.annotations, key.direction)
-        if model in MODELS.values():
-            by_seed.setdefault(key.seed, {}).setdefault(model, []).append(grid / run)
+        name = names.get(ConfigId(key.variant, key.weighting, key.annotations, key.direction))
+        if name and (seeds is None or key.seed in seeds):
+            by_seed.setdefault(key.seed, {}).setdefault(name, []).append(run)
     return by_seed
 
 
-def width_evidence(grid: Path) -> WidthEvidence:
-    """The A and APoc runs of every seed of ``grid`` whose runs of both models have finished.
+def _complete_seeds(grid: Path, by_seed: dict[int, dict[str, list[Path]]]) -> tuple[int, ...]:
+    """The seeds whose runs of both models have all finished; a one-line ``ValueError`` saying
+    what each seed lacks when there is none."""
+    gaps = {}
+    for seed, models in sorted(by_seed.items()):
+        lacking = []
+        for name, model in MODELS.items():
+            runs = models.get(name, [])
+            done = sum(is_finished(grid / run) for run in runs)
+            if not runs:
+                lacking.append(f"no run of {model.label}")
+            elif done < len(runs):
+                lacking.append(f"{model.label} {done} of {len(runs)} runs finished")
+        gaps[seed] = ", ".join(lacking)
+    seeds = tuple(seed for seed, gap in gaps.items() if not gap)
+    if not seeds:
+        lacking = "; ".join(f"seed {seed}: {gap}" for seed, gap in gaps.items()) or "no run of them"
+        raise ValueError(f"{grid}: no seed with every run of A-fixed and APoc-gradnorm finished "
+                         f"({lacking})")
+    return seeds
+
+
+def width_evidence(grid: Path, seeds: tuple[int, ...] | None = None) -> WidthEvidence:
+    """The A and APoc runs of every seed (of ``seeds``, if given) of ``grid`` whose runs of both
+    models have finished.
 
     Raises:
-        ValueError: no such seed, or a finished run without usable metrics.
+        ValueError: one line: no such seed, a run of them without usable metrics or with other
+            settings than the grid's spec, or runs of several widths or schedules in one model.
     """
-    by_seed = _model_runs(grid)
-    seeds = tuple(seed for seed, models in sorted(by_seed.items())
-                  if len(models) == len(MODELS)
-                  and all(is_finished(run) for runs in models.values() for run in runs))
-    if not seeds:
-        raise ValueError(f"{grid}: no seed with every run of A-fixed and APoc-gradnorm finished")
-    every, problems = run_rows(grid, allow_incomplete=True, seeds=seeds)
-    runs = pd.concat([model.select(every) for model in MODELS.values()], ignore_index=True)
-    expected = sum(len(folders) for seed in seeds for folders in by_seed[seed].values())
-    if len(runs) != expected:
-        raise ValueError(f"{grid}: {expected - len(runs)} finished run(s) of A or APoc without "
-                         "usable metrics:\n  " + "\n  ".join(problems))
-    budgets = {name: _budget(grid, model.select(runs)) for name, model in MODELS.items()}
-    widths = {hidden for hidden, _ in budgets.values()}
+    by_seed = _model_runs(grid, seeds)
+    chosen = _complete_seeds(grid, by_seed)
+    folders = [run for seed in chosen for runs in by_seed[seed].values() for run in runs]
+    problems = [f"other settings than its spec: {grid / run}: {details}" for run, details in
+                other_settings(grid, {run: key_from_path(grid / run, grid)
+                                      for run in folders}).items()]
+    rows = []
+    for run in folders:
+        metrics = run_metrics(grid / run, problems)
+        if metrics is not None:
+            rows.append({**asdict(key_from_path(grid / run, grid)), **metrics})
+    if problems:
+        raise ValueError(f"{grid}: {len(problems)} problem(s) with the runs of A and APoc, "
+                         f"the first: {problems[0]}")
+    runs = pd.DataFrame(rows)
+    described = {name: describe_runs(grid, model.select(runs)) for name, model in MODELS.items()}
+    epochs = {}
+    for name, description in described.items():
+        if len(description.hidden) != 1 or len(description.lengths) != 1 \
+                or description.unit != "epochs":
+            raise ValueError(f"{grid}: the runs of {MODELS[name].label} are not of one width and "
+                             f"one schedule in epochs (widths {list(description.hidden)}, "
+                             f"lengths {sorted(description.lengths)} {description.unit})")
+        epochs[name] = next(iter(description.lengths))
+    widths = {description.hidden[0] for description in described.values()}
     if len(widths) > 1:
         raise ValueError(f"{grid}: A and APoc were trained at different widths {sorted(widths)}")
-    return WidthEvidence(widths.pop(), seeds, runs,
-                         {name: epochs for name, (_, epochs) in budgets.items()})
+    return WidthEvidence(widths.pop(), described["A"].data, grid_task_name(grid), chosen, runs,
+                         epochs)
 
 
-def _budget(grid: Path, runs: pd.DataFrame) -> tuple[int, int]:
-    """The LSTM width and the schedule length (epochs) of ``runs``, one configuration's, read
-    from their ``config.json``; a ``ValueError`` when they differ between its runs."""
-    budgets = set()
-    for row in runs.to_dict("records"):
-        key = RunKey(**{name: row[name] for name in RunKey.__dataclass_fields__})
-        run = json.loads((grid / key.path() / "config.json").read_text())["run"]
-        budgets.add((int(run["encoder"]["hidden"]), int(run["optim"]["total"])))
-    if len(budgets) > 1:
-        raise ValueError(f"{grid}: the runs of one configuration differ in (width, epochs): "
-                         f"{sorted(budgets)}")
-    return budgets.pop()
+def _check_comparable(grids: list[Path], evidence: list[WidthEvidence]) -> None:
+    """One grid per width, every grid on the same data and folds; a one-line ``ValueError``."""
+    widths = [part.hidden for part in evidence]
+    if len(set(widths)) < len(widths):
+        raise ValueError(f"one grid per width, got widths {sorted(widths)}")
+    for name, facts in (("data", lambda part: part.data),
+                        ("folds", lambda part: " ".join(sorted(set(part.runs.fold))))):
+        seen = {str(grid): facts(part) for grid, part in zip(grids, evidence)}
+        if len(set(seen.values())) > 1:
+            raise ValueError(f"the grids differ in their {name}: "
+                             + "; ".join(f"{grid}: {value}" for grid, value in seen.items()))
 
 
 def width_table(evidence: list[WidthEvidence]) -> pd.DataFrame:
@@ -117,36 +170,43 @@ def width_table(evidence: list[WidthEvidence]) -> pd.DataFrame:
             row |= {"folds": result.pairs, "diff": result.mean, "ci_low": result.ci_low,
                     "ci_high": result.ci_high, "p_value": result.p_value}
             row |= {f"{name}_epochs": part.epochs[name] for name in MODELS}
-            row |= {f"paper_{name}": _paper(name, metric, part.hidden) for name in MODELS}
+            for name, model in MODELS.items():
+                verdicts = model.select(part.runs).convergence
+                row |= {f"{name}_runs": len(verdicts),
+                        f"{name}_converged": int((verdicts == "converged").sum()),
+                        f"{name}_still_falling": int((verdicts == "still falling").sum())}
+            row |= {f"paper_{name}": _paper(name, metric, part) for name in MODELS}
             rows.append(row)
     return pd.DataFrame(rows)
 
 
-def _paper(model: str, metric: str, hidden: int) -> float | None:
-    """The published Table I value of ``model`` on ``metric``, at the paper's width only."""
-    if hidden != PAPER_WIDTH:
+def _paper(model: str, metric: str, part: WidthEvidence) -> float | None:
+    """The published Table I value of ``model`` on ``metric``, for a Suturing grid at the paper's
+    width only."""
+    if part.hidden != PAPER_WIDTH or part.task != PAPER_TASK:
         return None
     return TABLE_1[MODELS[model].label][metric][0]
 
 
 def width_figure(table: pd.DataFrame, out_dir: Path) -> list[Path]:
-    """``width.png`` / ``.pdf``: one panel per metric, score against width (log2 axis), mean and
-    standard deviation over folds for A and APoc (side by side), the paper's values at 1024 as
-    open diamonds; one legend above the panels."""
-    fig, axes = plt.subplots(1, len(METRICS), figsize=(3.2 * len(METRICS), 2.8), sharex=True)
+    """``width.png`` / ``.pdf``: one panel per metric, score against width (log2 axis, each
+    width's seed count under its tick), mean and standard deviation over folds for A and APoc
+    (side by side), the paper's values at 1024 as open diamonds; one legend above the panels."""
+    fig, axes = plt.subplots(1, len(METRICS), figsize=(3.2 * len(METRICS), 2.9), sharex=True)
+    ticks = table.drop_duplicates("hidden").sort_values("hidden")
     for ax, (metric, title) in zip(axes, METRICS.items()):
         rows = table[table.metric == metric]
         for offset, (name, colour) in zip((-0.04, 0.04), zip(MODELS, ("tab:grey", "tab:blue"))):
-            widths = rows.hidden * 2 ** offset          # side by side on the log axis
-            ax.errorbar(widths, rows[f"{name}_mean"], yerr=rows[f"{name}_std"], color=colour,
-                        marker="o", ms=4, capsize=2, lw=1.2, label=_legend(name))
+            shifted = rows.hidden * 2 ** offset          # side by side on the log axis
+            ax.errorbar(shifted, rows[f"{name}_mean"], yerr=rows[f"{name}_std"], color=colour,
+                        marker="o", ms=4, capsize=2, lw=1.2, label=LABELS[name])
             paper = rows[f"paper_{name}"].dropna()
             if not paper.empty:
-                ax.plot(rows.hidden[paper.index] * 2 ** offset, paper, ls="none", marker="D",
-                        mfc="none", mec=colour, ms=7, label=f"{_legend(name)}: paper")
+                ax.plot(shifted[paper.index], paper, ls="none", marker="D", mfc="none",
+                        mec=colour, ms=7, label=f"{LABELS[name]}: paper")
         ax.set_xscale("log", base=2)
-        widths = sorted(table.hidden.unique())
-        ax.set_xticks(widths, [str(h) for h in widths])
+        ax.set_xticks(ticks.hidden, [f"{hidden}\n{_seed_count(seeds)}" for hidden, seeds
+                                     in zip(ticks.hidden, ticks.seeds.astype(str))])
         ax.minorticks_off()
         ax.set_xlabel("LSTM units per direction")
         ax.set_ylabel(f"{title} [%]")
@@ -158,16 +218,19 @@ def width_figure(table: pd.DataFrame, out_dir: Path) -> list[Path]:
     return save(fig, out_dir, "width")
 
 
-def _legend(name: str) -> str:
-    return "A" if name == "A" else r"APoc (GradNorm, $\alpha = 1.5$)"
+def _seed_count(seeds: str) -> str:
+    """``3 seeds`` for the ``seeds`` column's ``0 1 2``."""
+    count = len(seeds.split())
+    return f"{count} seed{'s' * (count != 1)}"
 
 
-def write_width(grids: list[Path], out: Path) -> list[Path]:
-    """``width.csv`` and the figure from one grid per width; returns the paths written."""
-    evidence = [width_evidence(Path(grid)) for grid in grids]
-    widths = [part.hidden for part in evidence]
-    if len(set(widths)) < len(widths):
-        raise ValueError(f"one grid per width, got widths {sorted(widths)}")
+def write_width(grids: list[Path], out: Path, seeds: tuple[int, ...] | None = None
+                ) -> list[Path]:
+    """``width.csv`` and the figure from one grid per width (only ``seeds``' runs, if given);
+    returns the paths written."""
+    grids = [Path(grid) for grid in grids]
+    evidence = [width_evidence(grid, seeds) for grid in grids]
+    _check_comparable(grids, evidence)
     table = width_table(evidence)
     out.mkdir(parents=True, exist_ok=True)
     csv = out / "width.csv"
