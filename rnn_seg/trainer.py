@@ -10,7 +10,8 @@ A run directory holds::
                                  (and with ``monitor_train`` training) scores every
                                  ``monitor_every`` units; every column any output setting can
                                  fill, empty where not computed (``rnn_seg.runs.logs``)
-    timing.json                  seconds per phase of the last session (``rnn_seg.runs.timing``)
+    timing.json                  seconds per phase, every session of the run up to its newest
+                                 checkpoint (``rnn_seg.runs.timing``)
     tensorboard/                 the same scalars for TensorBoard, with ``tensorboard``
     eval/<unit><N>/metrics.json  test metrics and confusion matrices at evaluation point N
     eval/<unit><N>/predictions/<sequence>.csv, plots/<sequence>.png (figures: last point only,
@@ -55,7 +56,7 @@ from .predictions import prediction_csv, prediction_table
 from .tasks import Task, task_metrics, task_scores
 from .runs.provenance import now, provenance
 from .runs.settings import SettingsMismatchError, check_run_dir, settings_hash
-from .runs.timing import PhaseClock
+from .runs.timing import TIMING, PhaseClock
 
 #: What TensorBoard's scalar plugin reads (written without the tensorboard package).
 _SCALAR_METADATA = summary_pb2.SummaryMetadata(
@@ -339,7 +340,22 @@ class Trainer:
                 self.log(f"warning: {warning}")
         self._losses, self._started = [], time.time()
         self._last_line = (done, self._started)
+        if done:
+            self._continue_clocks()
         return done
+
+    def _continue_clocks(self) -> None:
+        """Count the earlier sessions of a resumed run: its phases' seconds from ``timing.json``
+        (written with each checkpoint) and ``history.csv``'s elapsed time (its rows end at the
+        checkpoint). A run begun before timing.json was kept with its checkpoints has none:
+        its earlier sessions' phases are then not counted."""
+        timing = self.run_dir / TIMING
+        for name, seconds in (read_json(timing) if timing.is_file() else {}).items():
+            self.clock.add(name, float(seconds))
+        history = self.run_dir / HISTORY
+        if history.is_file():
+            elapsed = pd.read_csv(history, usecols=["elapsed_seconds"]).elapsed_seconds.dropna()
+            self._started -= float(elapsed.iloc[-1]) if len(elapsed) else 0.0
 
     def after_sweep(self, sweep: int, lr: float, out: np.ndarray) -> None:
         """Book-keeping after a sweep: loss check, progress line, evaluation point, checkpoint.
@@ -366,6 +382,7 @@ class Trainer:
                 or done % (self.sweeps_per_unit * self.config.checkpoint_every) == 0):
             with self.clock.phase("checkpoint"):
                 self._store.save(done)
+            write_json(self.run_dir / TIMING, self.clock.report())
 
     def log_columns(self) -> dict[str, list[str]]:
         """The columns of the run's CSV logs (``rnn_seg.runs.logs``) it knows: ``history.csv``'s,
@@ -507,7 +524,7 @@ class Trainer:
         if confusion is not None:
             result["confusion"] = confusion
         write_json(self.run_dir / "metrics.json", result)
-        write_json(self.run_dir / "timing.json", self.clock.report())
+        write_json(self.run_dir / TIMING, self.clock.report())
         self._store.finalize()
         mark_finished(self.run_dir, {
             "sweeps": self.total_sweeps, "settings_hash": self.settings_hash,

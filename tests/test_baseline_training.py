@@ -67,25 +67,31 @@ class _Interrupt(Exception):
     pass
 
 
+def _interrupted_at_epoch_3(config, run, monkeypatch):
+    """Train ``config`` into ``run`` and stop it after epoch 3's progress row, before its
+    checkpoint, as a killed process would."""
+    original = Trainer._log_progress
+
+    def crash_at_epoch_3(self, done, *args):
+        original(self, done, *args)
+        if done == 3 * self.sweeps_per_epoch:
+            raise _Interrupt
+
+    with monkeypatch.context() as patch:
+        patch.setattr(Trainer, "_log_progress", crash_at_epoch_3)
+        with pytest.raises(_Interrupt):
+            train_baseline(config, run, log=lambda m: None)
+
+
 def test_resume_after_interruption_matches_uninterrupted(synth_dir, tmp_path, monkeypatch):
     config = _config(synth_dir, epochs=4, eval_points=(4,), plots="none")
     straight = tmp_path / "straight"
     train_baseline(config, straight, log=lambda m: None)
 
     resumed = tmp_path / "resumed"
-    original = Trainer._log_progress
-
-    def crash_at_epoch_3(self, done, *args):
-        original(self, done, *args)
-        if done == 3 * self.sweeps_per_epoch:     # after the progress row, before the checkpoint
-            raise _Interrupt
-
-    monkeypatch.setattr(Trainer, "_log_progress", crash_at_epoch_3)
-    with pytest.raises(_Interrupt):
-        train_baseline(config, resumed, log=lambda m: None)
+    _interrupted_at_epoch_3(config, resumed, monkeypatch)
     assert not is_finished(resumed) and not (resumed / "metrics.json").exists()
     assert list(pd.read_csv(resumed / "history.csv")["n"]) == [1, 2, 3]
-    monkeypatch.setattr(Trainer, "_log_progress", original)
     messages = []
     train_baseline(config, resumed, log=messages.append)
     assert any("resuming from sweep" in m for m in messages)
@@ -98,6 +104,23 @@ def test_resume_after_interruption_matches_uninterrupted(synth_dir, tmp_path, mo
     train_baseline(config, resumed, log=messages.append)
     assert messages == [f"{resumed}: already finished"]
 
+
+
+def test_a_resumed_runs_time_counts_its_earlier_sessions(synth_dir, tmp_path, monkeypatch):
+    config = _config(synth_dir, epochs=4, eval_points=(4,), plots="none")
+    run = tmp_path / "run"
+    _interrupted_at_epoch_3(config, run, monkeypatch)
+    earlier = json.loads((run / "timing.json").read_text())    # kept with the checkpoints
+    assert earlier["train"] > 0 and not is_finished(run)
+    # as if the first session had been long: its hour must be in the finished run's files
+    (run / "timing.json").write_text(json.dumps({**earlier, "train": 3600.0}))
+    history = pd.read_csv(run / "history.csv")
+    history["elapsed_seconds"] += 3600
+    history.to_csv(run / "history.csv", index=False)
+    train_baseline(config, run, log=lambda m: None)
+    assert json.loads((run / "timing.json").read_text())["train"] > 3600
+    elapsed = pd.read_csv(run / "history.csv").elapsed_seconds
+    assert elapsed.is_monotonic_increasing and elapsed.iloc[-1] > 3600
 
 def test_cli_paper_size_two_sweeps(synth_dir, tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("JIGSAWS_DIR", str(synth_dir))

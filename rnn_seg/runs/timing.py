@@ -4,6 +4,11 @@ Phases of a run: ``data`` (loading and preprocessing), ``trace`` (building the T
 once), ``train`` (the training sweeps), ``monitor`` (progress lines), ``evaluate`` (evaluation
 points: predictions, CSVs, plots) and ``checkpoint``. Process start and imports happen before a
 run exists; ``bench/fold_time.py`` measures them from outside.
+
+A run trained over several sessions (interrupted, then resumed) counts every session: the trainer
+rewrites ``timing.json`` after each checkpoint, and a resumed run starts its clock from it, so the
+file of a finished run holds the seconds that produced its weights (those of work redone after an
+interruption counted once, as redone).
 """
 from __future__ import annotations
 
@@ -13,6 +18,7 @@ from contextlib import contextmanager
 from typing import Iterator
 
 PHASES = ("data", "trace", "train", "monitor", "evaluate", "checkpoint")
+TIMING = "timing.json"
 
 
 class PhaseClock:
