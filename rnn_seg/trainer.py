@@ -5,13 +5,14 @@ A run directory holds::
     config.json                  every configuration of the run, its settings hash and provenance;
                                  written when the run starts, never rewritten
     checkpoints/ckpt-<N>.*       TF checkpoints after N sweeps (model, optimiser state, dropout RNG,
-                                 sweep count, settings hash); see rnn_seg.runs.checkpoints
+                                 sweep count, settings hash) and the clock at N (seconds per
+                                 phase and since the start); see rnn_seg.runs.checkpoints
     history.csv                  one line per logged epoch / unit: training losses, time; test
                                  (and with ``monitor_train`` training) scores every
                                  ``monitor_every`` units; every column any output setting can
                                  fill, empty where not computed (``rnn_seg.runs.logs``)
-    timing.json                  seconds per phase, every session of the run up to its newest
-                                 checkpoint (``rnn_seg.runs.timing``)
+    timing.json                  seconds per phase, over every session of a resumed run
+                                 (``rnn_seg.runs.timing``)
     tensorboard/                 the same scalars for TensorBoard, with ``tensorboard``
     eval/<unit><N>/metrics.json  test metrics and confusion matrices at evaluation point N
     eval/<unit><N>/predictions/<sequence>.csv, plots/<sequence>.png (figures: last point only,
@@ -341,21 +342,20 @@ class Trainer:
         self._losses, self._started = [], time.time()
         self._last_line = (done, self._started)
         if done:
-            self._continue_clocks()
+            self._continue_clock(done)
         return done
 
-    def _continue_clocks(self) -> None:
-        """Count the earlier sessions of a resumed run: its phases' seconds from ``timing.json``
-        (written with each checkpoint) and ``history.csv``'s elapsed time (its rows end at the
-        checkpoint). A run begun before timing.json was kept with its checkpoints has none:
-        its earlier sessions' phases are then not counted."""
-        timing = self.run_dir / TIMING
-        for name, seconds in (read_json(timing) if timing.is_file() else {}).items():
+    def _continue_clock(self, done: int) -> None:
+        """Count the sessions before checkpoint ``done`` of a resumed run: the seconds per phase
+        and since the start saved with that checkpoint."""
+        saved = self._store.clock(done)
+        if saved is None:
+            self.log(f"warning: checkpoint ckpt-{done} predates the clock kept with checkpoints: "
+                     "timing.json and history.csv's elapsed_seconds count from this session")
+            return
+        for name, seconds in saved["phases"].items():
             self.clock.add(name, float(seconds))
-        history = self.run_dir / HISTORY
-        if history.is_file():
-            elapsed = pd.read_csv(history, usecols=["elapsed_seconds"]).elapsed_seconds.dropna()
-            self._started -= float(elapsed.iloc[-1]) if len(elapsed) else 0.0
+        self._started -= float(saved["elapsed_seconds"])
 
     def after_sweep(self, sweep: int, lr: float, out: np.ndarray) -> None:
         """Book-keeping after a sweep: loss check, progress line, evaluation point, checkpoint.
@@ -381,8 +381,8 @@ class Trainer:
         if (done in self.eval_sweeps or done == self.total_sweeps
                 or done % (self.sweeps_per_unit * self.config.checkpoint_every) == 0):
             with self.clock.phase("checkpoint"):
-                self._store.save(done)
-            write_json(self.run_dir / TIMING, self.clock.report())
+                self._store.save(done, {"phases": self.clock.report(),
+                                        "elapsed_seconds": time.time() - self._started})
 
     def log_columns(self) -> dict[str, list[str]]:
         """The columns of the run's CSV logs (``rnn_seg.runs.logs``) it knows: ``history.csv``'s,

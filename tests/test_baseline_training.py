@@ -105,31 +105,36 @@ def test_resume_after_interruption_matches_uninterrupted(synth_dir, tmp_path, mo
     assert messages == [f"{resumed}: already finished"]
 
 
-
-def test_a_resumed_runs_time_counts_its_earlier_sessions(synth_dir, tmp_path, monkeypatch):
+def test_a_resumed_runs_time_counts_its_earlier_sessions_once(synth_dir, tmp_path, monkeypatch):
     config = _config(synth_dir, epochs=4, eval_points=(4,), plots="none")
     run = tmp_path / "run"
     _interrupted_at_epoch_3(config, run, monkeypatch)
-    earlier = json.loads((run / "timing.json").read_text())    # kept with the checkpoints
-    assert earlier["train"] > 0 and not is_finished(run)
-    # as if the first session had been long: its hour must be in the finished run's files
-    (run / "timing.json").write_text(json.dumps({**earlier, "train": 3600.0}))
-    history = pd.read_csv(run / "history.csv")
-    history["elapsed_seconds"] += 3600
-    history.to_csv(run / "history.csv", index=False)
-    train_baseline(config, run, log=lambda m: None)
-    assert json.loads((run / "timing.json").read_text())["train"] > 3600
+    clocks = sorted((run / "checkpoints").glob("ckpt-*.clock.json"),
+                    key=lambda path: int(path.name.split(".")[0].removeprefix("ckpt-")))
+    assert clocks and not is_finished(run)
+    # as if the session up to the checkpoint the run resumes from had taken an hour
+    saved = json.loads(clocks[-1].read_text())
+    clocks[-1].write_text(json.dumps({"phases": {**saved["phases"], "train": 3600.0},
+                                      "elapsed_seconds": 3600.0}))
+    messages = []
+    train_baseline(config, run, log=messages.append)
+    assert 3600 < json.loads((run / "timing.json").read_text())["train"] < 2 * 3600
     elapsed = pd.read_csv(run / "history.csv").elapsed_seconds
-    assert elapsed.is_monotonic_increasing and elapsed.iloc[-1] > 3600
+    assert elapsed.is_monotonic_increasing and 3600 < elapsed.iloc[-1] < 2 * 3600
+    assert not any("predates the clock" in m for m in messages)
+    kept = (run / "checkpoints").glob
+    assert len(list(kept("ckpt-*.clock.json"))) == len(list(kept("ckpt-*.index")))  # pruned alike
 
-def test_cli_paper_size_two_sweeps(synth_dir, tmp_path, monkeypatch, capsys):
-    monkeypatch.setenv("JIGSAWS_DIR", str(synth_dir))
-    code = baseline_main(["--sweeps", "2", "--out", str(tmp_path / "paper"), "--no-plots",
-                          "--test-user", "C"])
-    assert code == 0
-    out = capsys.readouterr().out
-    assert "hidden=1024" in out and "done: gesture accuracy" in out
-    assert json.loads((tmp_path / "paper/config.json").read_text())["run"]["optim"]["unit"] == "sweeps"
+
+def test_a_checkpoint_without_its_clock_resumes_and_says_so(synth_dir, tmp_path, monkeypatch):
+    config = _config(synth_dir, epochs=4, eval_points=(4,), plots="none")
+    run = tmp_path / "run"
+    _interrupted_at_epoch_3(config, run, monkeypatch)
+    for clock in (run / "checkpoints").glob("ckpt-*.clock.json"):
+        clock.unlink()                                   # as a run begun by an older version
+    messages = []
+    train_baseline(config, run, log=messages.append)
+    assert is_finished(run) and any("predates the clock" in m for m in messages)
 
 
 def test_cli_reports_bad_input(tmp_path, capsys):

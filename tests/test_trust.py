@@ -872,7 +872,7 @@ def test_a_refused_checkpoint_names_its_file_and_leaves_no_part(tmp_path, reason
     (tmp_path / "checkpoints").mkdir()
     store = CheckpointStore(tmp_path, _RefusingCheckpoint(reason), "final", (), print)
     with pytest.raises(refusal) as raised:
-        store.save(7)
+        store.save(7, {"phases": {}, "elapsed_seconds": 0.0})
     assert f"checkpoint {checkpoint_prefix(tmp_path, 7)}" in str(raised.value)
     assert isinstance(raised.value, WriteFailed) == (refusal is WriteFailed)
     assert not list((tmp_path / "checkpoints").iterdir())

@@ -10,8 +10,13 @@ and skips. What a finished run keeps is ``TrainConfig.keep_checkpoints``:
   (``restore_weights(..., point=N)``);
 * ``all``: every checkpoint saved.
 
-Temporary leftovers of an interrupted save (``ckpt-N_temp/``, a data file without its index) are
-removed when a run starts.
+Beside each checkpoint, ``ckpt-<N>.clock.json`` holds the run's clock at that point (seconds per
+phase and since the start, over every session; ``rnn_seg.runs.timing``), written before the
+checkpoint and deleted with it, so that a run resumed from checkpoint N counts the time that
+produced it, whichever checkpoint it resumes from.
+
+Temporary leftovers of an interrupted save (``ckpt-N_temp/``, a data file or a clock without its
+index) are removed when a run starts.
 """
 from __future__ import annotations
 
@@ -28,11 +33,17 @@ from jigsaws_tools.errors import NO_SPACE
 from ..config import KEEP_CHECKPOINTS, UNITS, KeepCheckpoints  # noqa: F401 (re-exported)
 from .folder import CHECKPOINTS as FOLDER
 from .folder import (RunFolderError, WriteFailed,  # noqa: F401 (re-exported)
-                     checkpoint_sweeps, point_dir, read_json)
+                     checkpoint_sweeps, point_dir, read_json, write_json)
+
+CLOCK_SUFFIX = ".clock.json"
 
 
 def checkpoint_prefix(run_dir: Path, sweep: int) -> Path:
     return Path(run_dir) / FOLDER / f"ckpt-{sweep}"
+
+
+def _clock_path(prefix: Path) -> Path:
+    return prefix.with_name(prefix.name + CLOCK_SUFFIX)
 
 
 class CheckpointStore:
@@ -54,9 +65,11 @@ class CheckpointStore:
     def sweeps(self) -> list[int]:
         return checkpoint_sweeps(self.run_dir)
 
-    def save(self, sweep: int) -> None:
-        """Write the checkpoint after ``sweep`` sweeps, then drop those no longer needed."""
+    def save(self, sweep: int, clock: dict) -> None:
+        """Write the checkpoint after ``sweep`` sweeps and its ``clock`` (strict JSON), then drop
+        those no longer needed."""
         prefix = checkpoint_prefix(self.run_dir, sweep)
+        write_json(_clock_path(prefix), clock)
         try:
             self.checkpoint.write(str(prefix))
         except tf.errors.OpError as error:      # TensorFlow's own error, not an OSError
@@ -103,6 +116,12 @@ class CheckpointStore:
                                  + "\nRestart the run (e.g. --restart) to train it afresh.")
         return 0
 
+    def clock(self, sweep: int) -> dict | None:
+        """The clock saved with the checkpoint after ``sweep`` sweeps; None when it has none (a
+        checkpoint saved before clocks were kept)."""
+        path = _clock_path(checkpoint_prefix(self.run_dir, sweep))
+        return read_json(path) if path.is_file() else None
+
     def remove_leftovers(self) -> list[Path]:
         """Delete temporary files of interrupted saves; returns what was removed."""
         folder = self.run_dir / FOLDER
@@ -111,7 +130,9 @@ class CheckpointStore:
         indexed = {f"ckpt-{s}" for s in self.sweeps()}
         leftovers = sorted(p for p in folder.glob("ckpt-*")
                            if p.name.endswith("_temp")
-                           or (".data-" in p.name and p.name.split(".data-")[0] not in indexed))
+                           or (".data-" in p.name and p.name.split(".data-")[0] not in indexed)
+                           or (p.name.endswith(CLOCK_SUFFIX)
+                               and p.name.removesuffix(CLOCK_SUFFIX) not in indexed))
         for path in leftovers:
             if path.is_dir():
                 shutil.rmtree(path)
@@ -135,6 +156,7 @@ def _delete(prefix: Path) -> None:
     Path(f"{prefix}.index").unlink(missing_ok=True)
     for data in prefix.parent.glob(f"{prefix.name}.data-*"):
         data.unlink(missing_ok=True)
+    _clock_path(prefix).unlink(missing_ok=True)
 
 
 def restore_weights(model: tf.Module, run_dir: Path | str, *, sweep: int | None = None,

@@ -5,10 +5,11 @@ once), ``train`` (the training sweeps), ``monitor`` (progress lines), ``evaluate
 points: predictions, CSVs, plots) and ``checkpoint``. Process start and imports happen before a
 run exists; ``bench/fold_time.py`` measures them from outside.
 
-A run trained over several sessions (interrupted, then resumed) counts every session: the trainer
-rewrites ``timing.json`` after each checkpoint, and a resumed run starts its clock from it, so the
-file of a finished run holds the seconds that produced its weights (those of work redone after an
-interruption counted once, as redone).
+A run trained over several sessions (interrupted, then resumed) counts every session: each
+checkpoint keeps the clock at that point (``rnn_seg.runs.checkpoints``) and a run resumed from it
+continues that clock, so a finished run's ``timing.json`` holds the seconds that produced its
+weights; work lost after the last checkpoint of an interrupted session is not counted, its redoing
+is.
 """
 from __future__ import annotations
 
