@@ -40,7 +40,7 @@ def test_one_row_per_width_and_metric_from_each_grids_runs(tmp_path, capsys):
     assert (row.folds, row.seeds) == (len(FOLDS), "0 1")
     assert (row.A_epochs, row.APoc_epochs) == (12, 18)
     assert (row.A_runs, row.APoc_runs) == (2 * len(FOLDS), 2 * len(FOLDS))
-    assert 0 <= row.A_converged + row.A_still_falling <= row.A_runs
+    assert 0 <= row.A_converged + row.A_undecided + row.A_still_falling <= row.A_runs
     paper_edit = TABLE_1["A-fixed"]["gesture_edit"][0], TABLE_1["APoc-gradnorm"]["gesture_edit"][0]
     assert (row.paper_A, row.paper_APoc) == pytest.approx(paper_edit)
     assert table[table.hidden == 32].paper_A.isna().all()
@@ -102,6 +102,25 @@ def test_grids_on_other_folds_are_refused(tmp_path, capsys):
     assert tables_main([str(_grid(tmp_path, 16)), "--widths", str(grid),
                         "--out", str(tmp_path / "w")]) == 2
     assert "the grids differ in their folds" in capsys.readouterr().err
+
+
+def test_grids_on_other_data_settings_are_refused(tmp_path, capsys):
+    grid = _grid(tmp_path, 64)
+    for path in grid.glob("runs/**/config.json"):
+        config = json.loads(path.read_text())
+        config["run"]["data"]["feature_set"] = "another"
+        path.write_text(json.dumps(config))
+    assert tables_main([str(_grid(tmp_path, 16)), "--widths", str(grid),
+                        "--out", str(tmp_path / "w")]) == 2
+    err = capsys.readouterr().err
+    assert "the grids differ in their data settings (feature_set)" in err
+
+
+def test_seeds_no_grid_has_are_named(tmp_path, capsys):
+    grid = _grid(tmp_path, 64)
+    assert tables_main([str(_grid(tmp_path, 16)), "--widths", str(grid), "--seeds", "5",
+                        "--out", str(tmp_path / "w")]) == 2
+    assert "no run of A-fixed or APoc-gradnorm of seed(s) 5" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("options", [[], ["--allow-incomplete"], ["--no-figures"]])

@@ -94,7 +94,17 @@ def _test_trials(root: Path, keys: list[RunKey]) -> set[str]:
 def _data_name(data: dict) -> str:
     """``JIGSAWS <Task> kinematics``, or the synthetic release's name, from a run's recorded data
     configuration (``config.json``'s ``run.data``; runs from before tasks were data: Suturing)."""
-    task = data.get("task", {}).get("name", PAPER_TASK).replace("_", " ")
-    if Path(data.get("data_dir", "")).parent.name.startswith(_SYNTHETIC_PREFIX):
-        return f"the synthetic {task} release"
-    return f"JIGSAWS {task} kinematics"
+    task = task_name(data).replace("_", " ")
+    return f"the synthetic {task} release" if is_synthetic(data) else f"JIGSAWS {task} kinematics"
+
+
+def task_name(data: dict) -> str:
+    """The task of a run's recorded data configuration (``config.json``'s ``run.data``); runs
+    from before tasks were data: Suturing."""
+    return data.get("task", {}).get("name", PAPER_TASK)
+
+
+def is_synthetic(data: dict) -> bool:
+    """Whether a run's recorded data configuration is a synthetic release's
+    (``jigsaws_tools.synth.ensure_release``)."""
+    return Path(data.get("data_dir", "")).parent.name.startswith(_SYNTHETIC_PREFIX)

@@ -1,9 +1,10 @@
 """The width study: model A and APoc (GradNorm) across LSTM widths, one grid per width.
 
-Each grid holds runs of one width (their ``config.json`` says which), on the same data and folds
-as the others. Per grid, the evidence is every seed (of ``seeds``, if given) whose A and APoc runs
-(revised labels, bidirectional) have all finished on every fold the grid records for them; a seed
-still training is left out, and the table and the figure say which seeds each width has. Widths
+Each grid holds runs of one width (their ``config.json`` says which), on the same data (every
+recorded data setting but the folder it was read from) and folds as the others. Per grid, the
+evidence is every seed (of ``seeds``, if given) whose A and APoc runs (revised labels,
+bidirectional) have all finished on every fold the grid records for them; a seed still training
+is left out, the table says which seeds each width has and the figure how many. Widths
 may differ in their seeds (the 128-unit grid has three, the wider ones fewer): a width with more
 seeds has less seed noise in its fold means, so its std and interval are the narrower for it.
 
@@ -11,7 +12,7 @@ seeds has less seed noise in its fold means, so its std and interval are the nar
 
 * ``hidden``: LSTM units per direction; ``metric``: ``gesture_accuracy``, ``gesture_edit`` or
   ``gesture_f1@10`` (``collect.run_rows``' columns, in percent);
-* ``seeds``: the seeds used, space-separated; ``folds``: the folds paired;
+* ``seeds``: the seeds used, space-separated; ``folds``: how many folds are paired;
 * ``A_mean``, ``A_std``, ``APoc_mean``, ``APoc_std``: mean and sample standard deviation over
   folds of each fold's mean over its seeds;
 * ``diff``, ``ci_low``, ``ci_high``, ``p_value``: APoc minus A paired over folds, each side
@@ -19,11 +20,11 @@ seeds has less seed noise in its fold means, so its std and interval are the nar
   (``paired.paired``, the procedure of ``claims.csv``);
 * ``A_epochs``, ``APoc_epochs``: the schedule each model trained (the presets differ: APoc
   trains 180 epochs at the ``converged`` preset, 120 at ``paper``);
-* ``A_runs``, ``A_converged``, ``A_still_falling`` (and APoc's): the model's runs at that width
-  and how many of them the three-way convergence verdict calls converged and still falling (the
-  rest are undecided; ``rnn_seg.convergence``);
-* ``paper_A``, ``paper_APoc``: the published values (Table I) at the paper's width, 1024, for a
-  Suturing grid; empty otherwise.
+* ``A_runs``, ``A_converged``, ``A_undecided``, ``A_still_falling`` (and APoc's): the model's
+  runs at that width and how many of them the three-way convergence verdict calls each
+  (``rnn_seg.convergence``; a run whose verdict is unknown is in none of the three);
+* ``paper_A``, ``paper_APoc``: the published values (Table I) at the paper's width, 1024, for
+  the real Suturing release; empty otherwise.
 
 ``width.png`` / ``.pdf`` draws score against width (log2 axis) for both models, the paper's
 values marked at 1024, each width's seed count under its tick.
@@ -40,11 +41,11 @@ import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from jigsaws_tools.task_definition import PAPER_TASK  # noqa: E402
-from rnn_seg.runs.folder import is_finished  # noqa: E402
+from rnn_seg.runs.folder import CONFIG, is_finished, read_json  # noqa: E402
 
-from .captions import describe_runs  # noqa: E402
-from .checks import other_settings  # noqa: E402
-from .collect import grid_task_name, key_from_path, recorded_runs, run_metrics  # noqa: E402
+from .captions import describe_runs, is_synthetic, task_name  # noqa: E402
+from .checks import OTHER_SETTINGS, other_settings  # noqa: E402
+from .collect import key_from_path, recorded_runs, run_metrics  # noqa: E402
 from .figures import save  # noqa: E402
 from .paired import ConfigId, Contrast, paired  # noqa: E402
 from .paper_results import TABLE_1  # noqa: E402
@@ -61,8 +62,8 @@ class WidthEvidence:
     """One grid's part of the study: its width, data, seeds and the runs of A and APoc."""
 
     hidden: int
-    data: str                     # e.g. "JIGSAWS Suturing kinematics" (``captions.describe_runs``)
-    task: str                     # the task the runs were trained on
+    data: dict                    # A's first run's ``config.json`` ``run.data``, without data_dir
+    paper: bool                   # trained on the real release of the paper's task
     seeds: tuple[int, ...]
     runs: pd.DataFrame            # one row per run of A and APoc (``collect.run_rows``' columns)
     epochs: dict[str, int]        # model name (``MODELS``) -> its schedule's length in epochs
@@ -98,7 +99,7 @@ def _complete_seeds(grid: Path, by_seed: dict[int, dict[str, list[Path]]]) -> tu
         gaps[seed] = ", ".join(lacking)
     seeds = tuple(seed for seed, gap in gaps.items() if not gap)
     if not seeds:
-        lacking = "; ".join(f"seed {seed}: {gap}" for seed, gap in gaps.items()) or "no run of them"
+        lacking = "; ".join(f"seed {seed}: {gap}" for seed, gap in gaps.items()) or "no run"
         raise ValueError(f"{grid}: no seed with every run of A-fixed and APoc-gradnorm finished "
                          f"({lacking})")
     return seeds
@@ -109,15 +110,20 @@ def width_evidence(grid: Path, seeds: tuple[int, ...] | None = None) -> WidthEvi
     models have finished.
 
     Raises:
-        ValueError: one line: no such seed, a run of them without usable metrics or with other
-            settings than the grid's spec, or runs of several widths or schedules in one model.
+        ValueError: one line: no such seed (naming what each lacks), a run of them without usable
+            metrics or with other settings than the grid's spec, a model's runs of several widths
+            or schedules or of a schedule not in epochs, A and APoc at different widths.
     """
     by_seed = _model_runs(grid, seeds)
+    if seeds and not by_seed:
+        raise ValueError(f"{grid}: no run of A-fixed or APoc-gradnorm of seed(s) "
+                         f"{', '.join(map(str, seeds))}")
     chosen = _complete_seeds(grid, by_seed)
     folders = [run for seed in chosen for runs in by_seed[seed].values() for run in runs]
-    problems = [f"other settings than its spec: {grid / run}: {details}" for run, details in
-                other_settings(grid, {run: key_from_path(grid / run, grid)
-                                      for run in folders}).items()]
+    problems = [f"{OTHER_SETTINGS} {grid / run}: "
+                + "; ".join(line.strip() for line in details.splitlines()[1:])
+                for run, details in other_settings(grid, {run: key_from_path(grid / run, grid)
+                                                          for run in folders}).items()]
     rows = []
     for run in folders:
         metrics = run_metrics(grid / run, problems)
@@ -139,7 +145,9 @@ def width_evidence(grid: Path, seeds: tuple[int, ...] | None = None) -> WidthEvi
     widths = {description.hidden[0] for description in described.values()}
     if len(widths) > 1:
         raise ValueError(f"{grid}: A and APoc were trained at different widths {sorted(widths)}")
-    return WidthEvidence(widths.pop(), described["A"].data, grid_task_name(grid), chosen, runs,
+    data = read_json(grid / folders[0] / CONFIG)["run"]["data"]
+    return WidthEvidence(widths.pop(), {k: v for k, v in data.items() if k != "data_dir"},
+                         task_name(data) == PAPER_TASK and not is_synthetic(data), chosen, runs,
                          epochs)
 
 
@@ -148,12 +156,18 @@ def _check_comparable(grids: list[Path], evidence: list[WidthEvidence]) -> None:
     widths = [part.hidden for part in evidence]
     if len(set(widths)) < len(widths):
         raise ValueError(f"one grid per width, got widths {sorted(widths)}")
-    for name, facts in (("data", lambda part: part.data),
-                        ("folds", lambda part: " ".join(sorted(set(part.runs.fold))))):
-        seen = {str(grid): facts(part) for grid, part in zip(grids, evidence)}
-        if len(set(seen.values())) > 1:
-            raise ValueError(f"the grids differ in their {name}: "
-                             + "; ".join(f"{grid}: {value}" for grid, value in seen.items()))
+    first = evidence[0].data
+    for grid, part in zip(grids[1:], evidence[1:]):
+        differing = sorted(k for k in first.keys() | part.data.keys()
+                           if first.get(k) != part.data.get(k))
+        if differing:
+            raise ValueError(f"the grids differ in their data settings ({', '.join(differing)}): "
+                             f"{grids[0]} and {grid}")
+    folds = {str(grid): " ".join(sorted(set(part.runs.fold)))
+             for grid, part in zip(grids, evidence)}
+    if len(set(folds.values())) > 1:
+        raise ValueError("the grids differ in their folds: "
+                         + "; ".join(f"{grid}: {value}" for grid, value in folds.items()))
 
 
 def width_table(evidence: list[WidthEvidence]) -> pd.DataFrame:
@@ -172,18 +186,18 @@ def width_table(evidence: list[WidthEvidence]) -> pd.DataFrame:
             row |= {f"{name}_epochs": part.epochs[name] for name in MODELS}
             for name, model in MODELS.items():
                 verdicts = model.select(part.runs).convergence
-                row |= {f"{name}_runs": len(verdicts),
-                        f"{name}_converged": int((verdicts == "converged").sum()),
-                        f"{name}_still_falling": int((verdicts == "still falling").sum())}
+                row |= {f"{name}_runs": len(verdicts)}
+                row |= {f"{name}_{verdict.replace(' ', '_')}": int((verdicts == verdict).sum())
+                        for verdict in ("converged", "undecided", "still falling")}
             row |= {f"paper_{name}": _paper(name, metric, part) for name in MODELS}
             rows.append(row)
     return pd.DataFrame(rows)
 
 
 def _paper(model: str, metric: str, part: WidthEvidence) -> float | None:
-    """The published Table I value of ``model`` on ``metric``, for a Suturing grid at the paper's
-    width only."""
-    if part.hidden != PAPER_WIDTH or part.task != PAPER_TASK:
+    """The published Table I value of ``model`` on ``metric``, for a grid of the real Suturing
+    release at the paper's width only."""
+    if part.hidden != PAPER_WIDTH or not part.paper:
         return None
     return TABLE_1[MODELS[model].label][metric][0]
 
