@@ -428,6 +428,18 @@ def test_eta_weighs_the_runs_left_by_their_schedules():
     assert lines == [f"[grid] 1/3 done, ETA 0:00:40 | {keys[0].path()} finished"]
 
 
+def test_eta_is_unknown_while_only_runs_with_nothing_left_to_train_finished():
+    """A run trained to the end but killed before it was marked finished has no epochs left: its
+    finishing says nothing of the time per epoch."""
+    from multitask.grid.executors import Progress
+
+    keys = [RunKey("revised", "bidirectional", "A", "fixed", 0, fold) for fold in ("B", "C")]
+    lines = []
+    progress = Progress(2, 0, lines.append, {keys[0]: 0.0, keys[1]: 80.0}, clock=lambda: 1.0)
+    progress.finished(keys[0])
+    assert lines == [f"[grid] 1/2 done, ETA unknown | {keys[0].path()} finished"]
+
+
 def test_eta_counts_only_the_epochs_a_resumed_run_has_left(tmp_path):
     """A run interrupted after 30 of its 80 epochs weighs 50 in the ETA; a fresh one 80."""
     from multitask.grid.executors import _epochs_left
@@ -502,6 +514,38 @@ def test_an_archived_run_of_other_settings_is_never_taken_for_the_specs(tmp_path
     assert grid_main(["--spec", str(tiny_spec), "--out", str(copy)]) == 2
     error = capsys.readouterr().err
     assert "other settings" in error and "A-fixed/seed0/C" in error and "hidden" in error
+
+
+def test_a_grid_keeps_its_archive_up_to_date(tmp_path, tiny_spec, tiny_grid, capsys,
+                                             monkeypatch):
+    """--archive writes the archive before training (refusing a place it may not go, before any
+    work) and after each finished job; a later failure to write it is a warning."""
+    grid, archive = tmp_path / "grid", tmp_path / "archive"
+    shutil.copytree(tiny_grid, grid)
+    marker = grid / RunKey("revised", "bidirectional", "APc", "fixed", 0, "B").path() / "finished.json"
+    marker.unlink()                                        # one run to finish again
+    command = ["--spec", str(tiny_spec), "--out", str(grid), "--workers", "1"]
+    assert grid_main([*command, "--archive", str(grid / "archive")]) == 2
+    assert "neither inside the other" in capsys.readouterr().err and not marker.exists()
+    assert grid_main([*command, "--archive", str(archive)]) == 0
+    out = capsys.readouterr().out
+    assert f"archive {archive}: 3 of 4 runs" in out and f"archive {archive}: 4 of 4 runs" in out
+    assert len(list(archive.glob("runs/**/finished.json"))) == 4
+
+    import multitask.grid.archive as archive_module
+    original, calls = archive_module.archive_grid, []
+
+    def full_disk_after_the_first(grid_dir, dest):
+        calls.append(dest)
+        if len(calls) > 1:
+            raise OSError(f"{dest}: No space left on device")
+        return original(grid_dir, dest)
+
+    marker.unlink()
+    monkeypatch.setattr(archive_module, "archive_grid", full_disk_after_the_first)
+    assert grid_main([*command, "--archive", str(tmp_path / "second")]) == 0
+    out = capsys.readouterr().out
+    assert "warning: the archive in" in out and "No space left" in out and marker.exists()
 
 
 def test_archive_leaves_out_unfinished_runs_and_replaces_only_an_archive(tmp_path, tiny_grid,

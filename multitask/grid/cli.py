@@ -8,13 +8,23 @@ Re-running the same command skips finished runs and resumes interrupted ones; ta
 ``multitask-tables DIR``. The grid folder records its spec (grid.json); another spec over it stops
 with the differences unless ``--restart``. One grid process per folder (a lock); Ctrl-C stops
 every run at once, resumably.
+
+``--archive DIR`` keeps the grid's scores archive (``multitask.grid.archive``; what
+``multitask-tables GRID --archive DIR`` writes) up to date: written once before training, which
+checks that DIR may hold it, and again after every job whose runs finished. A grid on scratch
+space that may not outlive the job thus loses no finished run's scores; an archive that cannot be
+written later is a warning, and training goes on.
+
+    multitask-grid --spec results/paper/spec.toml --out runs/paper --archive results/paper/grid
 """
 from __future__ import annotations
 
 import argparse
 import importlib.util
 import sys
+from functools import partial
 from pathlib import Path
+from typing import Callable
 
 from baseline.options import add_threads_argument
 from jigsaws_tools.cli.arg_types import positive_int, thread_count
@@ -22,7 +32,7 @@ from jigsaws_tools.cli.common import (command_parser, deprecated_alias, import_t
                                       run_command)
 from jigsaws_tools.cli.options import DEFAULT_DATA_DIR_TEXT
 from rnn_seg.config import LOOPS, require_native_precision
-from rnn_seg.runs.folder import is_finished
+from rnn_seg.runs.folder import RunFolderError, is_finished
 from rnn_seg.runs.outputs import OutputFolderError, check_output_folder, folders_below
 from rnn_seg.runs.provenance import set_command
 
@@ -61,6 +71,10 @@ def build_parser() -> argparse.ArgumentParser:
                         help="train up to N runs of one configuration (folds, seeds) together in "
                              "one vectorised step per job; pays for small models "
                              "(docs/PERFORMANCE.md)")
+    parser.add_argument("--archive", type=Path, metavar="DIR",
+                        help="keep the grid's scores archive in DIR up to date: before training "
+                             "and after every finished job (default: none; multitask-tables "
+                             "GRID --archive DIR writes it once)")
     parser.add_argument("--dry-run", action="store_true",
                         help="list the runs still to run, in the order they run, and stop")
     parser.add_argument("--restart", action="store_true",
@@ -135,8 +149,12 @@ def _run(args: argparse.Namespace) -> int:
     try:
         with hold_folder(args.out, "grid folder"):
             prepare_grid(args.out, spec, keys, args.restart, log)
+            after_job = None
+            if args.archive:
+                _archive(args.out, args.archive, log)          # an error here stops the grid
+                after_job = partial(_archive, args.out, args.archive, log, warn=True)
             failed = run_grid(spec, keys, args.out, args.workers, args.scheduler, args.threads,
-                              args.stack, log=log)
+                              args.stack, log=log, after_job=after_job)
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted: queued runs cancelled, running ones stopped; run the same "
               "command again to resume", file=sys.stderr)
@@ -148,6 +166,21 @@ def _run(args: argparse.Namespace) -> int:
         return 1
     print(f"grid complete: {len(keys)} runs in {args.out}; tables: multitask-tables {args.out}")
     return 0
+
+
+def _archive(out: Path, dest: Path, log: Callable[[str], None], warn: bool = False) -> None:
+    """Write the scores archive of the grid ``out`` to ``dest`` and say so; with ``warn``, a
+    failure is a warning line instead of an error."""
+    from .archive import archive_grid
+
+    try:
+        finished, recorded = archive_grid(out, dest)
+    except (OSError, RunFolderError) as error:
+        if not warn:
+            raise
+        log(f"[grid] warning: the archive in {dest} was not updated: {error}")
+        return
+    log(f"[grid] archive {dest}: {finished} of {recorded} runs")
 
 
 if __name__ == "__main__":

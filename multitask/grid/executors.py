@@ -40,18 +40,22 @@ Log = Callable[[str], None]
 class Progress:
     """Counts runs and prints one line per finished run. The ETA is the wall time per unit of
     work finished in this invocation (parallelism included) times the work left; a run's work
-    is its ``weights`` entry (its schedule's epochs), one per run to train."""
+    is its ``weights`` entry (its schedule's epochs), one per run to train. ``after_job`` is
+    called after every job that trained a run to the end (e.g. to archive the grid)."""
 
     def __init__(self, total: int, already: int, log: Log, weights: dict[RunKey, float],
-                 clock: Callable[[], float] = time.monotonic):
+                 clock: Callable[[], float] = time.monotonic,
+                 after_job: Callable[[], None] | None = None):
         self.total, self.done, self.log, self.clock = total, already, log, clock
-        self.weights, self.started = weights, clock()
+        self.weights, self.started, self.after_job = weights, clock(), after_job
         self.work_left, self.work_done = float(sum(weights.values())), 0.0
         self.failed: list[tuple[RunKey, str]] = []
 
     def finished_group(self, keys: list[RunKey], error: BaseException | None = None) -> None:
         for key in keys:
             self.finished(key, error)
+        if self.after_job and not error:
+            self.after_job()
 
     def finished(self, key: RunKey, error: BaseException | None = None) -> None:
         self.done += 1
@@ -59,8 +63,9 @@ class Progress:
         self.work_done, self.work_left = self.work_done + work, max(0.0, self.work_left - work)
         if error:
             self.failed.append((key, f"{type(error).__name__}: {error}"))
-        eta = timedelta(seconds=round((self.clock() - self.started) / self.work_done
-                                      * self.work_left))
+        eta = (timedelta(seconds=round((self.clock() - self.started) / self.work_done
+                                       * self.work_left))
+               if self.work_done else "unknown")      # only runs with nothing left to train yet
         status = f"FAILED: {self.failed[-1][1]}" if error else "finished"
         self.log(f"[grid] {self.done}/{self.total} done, ETA {eta} | {key.path()} {status}")
 
@@ -72,7 +77,8 @@ JOBS_PER_WORKER = 16
 
 def run_grid(spec: GridSpec, keys: list[RunKey], out: Path, workers: int = 1,
              scheduler: str | None = None, cores_per_job: int = 0, stack: int = 1,
-             log: Log = print) -> list[tuple[RunKey, str]]:
+             log: Log = print, after_job: Callable[[], None] | None = None
+             ) -> list[tuple[RunKey, str]]:
     """Run every unfinished run of ``keys`` under ``out``. Check the folders first
     (``record.prepare_grid``): a finished run counts as done here.
 
@@ -86,6 +92,7 @@ def run_grid(spec: GridSpec, keys: list[RunKey], out: Path, workers: int = 1,
             locally, 1 on Dask (start workers with one thread each).
         stack: runs of one configuration per job, trained in one vectorised step.
         log: where the progress lines go.
+        after_job: called in this process after each job whose runs finished.
 
     Returns:
         The failures, ``(key, "ExceptionType: message")`` each.
@@ -100,7 +107,8 @@ def run_grid(spec: GridSpec, keys: list[RunKey], out: Path, workers: int = 1,
     payload = spec_payload(spec)
     groups = job_groups(pending, stack, grid=keys)
     progress = Progress(len(keys), len(keys) - len(pending), log,
-                        {key: _epochs_left(spec, key, out) for key in pending})
+                        {key: _epochs_left(spec, key, out) for key in pending},
+                        after_job=after_job)
     if scheduler:
         _run_dask(payload, groups, out, scheduler, cores_per_job or 1, progress)
     else:
