@@ -57,7 +57,7 @@ from .predictions import prediction_csv, prediction_table
 from .tasks import Task, task_metrics, task_scores
 from .runs.provenance import now, provenance
 from .runs.settings import SettingsMismatchError, check_run_dir, settings_hash
-from .runs.timing import TIMING, PhaseClock
+from .runs.timing import PhaseClock
 
 #: What TensorBoard's scalar plugin reads (written without the tensorboard package).
 _SCALAR_METADATA = summary_pb2.SummaryMetadata(
@@ -524,7 +524,7 @@ class Trainer:
         if confusion is not None:
             result["confusion"] = confusion
         write_json(self.run_dir / "metrics.json", result)
-        write_json(self.run_dir / TIMING, self.clock.report())
+        write_json(self.run_dir / "timing.json", self.clock.report())
         self._store.finalize()
         mark_finished(self.run_dir, {
             "sweeps": self.total_sweeps, "settings_hash": self.settings_hash,

@@ -103,7 +103,7 @@ def run_rows(grid_dir: Path | str, allow_incomplete: bool = False,
     for run in recorded:
         if run in mismatched or _config_of(key_from_path(root / run, root)) in unfinished:
             continue
-        row = _run_row(root, run, problems)
+        row = run_row(root, run, problems)
         if row is not None:
             rows.append(row)
     if problems and not allow_incomplete:
@@ -180,7 +180,7 @@ def completeness(runs: pd.DataFrame, expected: pd.DataFrame) -> pd.DataFrame:
     return table
 
 
-def _run_row(root: Path, run: Path, problems: list[str]) -> dict | None:
+def run_row(root: Path, run: Path, problems: list[str]) -> dict | None:
     """Key columns and mean metrics of the finished run ``root / run``; None (and a problem)
     when it is missing, unfinished, unreadable or has a NaN metric."""
     metrics = run_metrics(root / run, problems)

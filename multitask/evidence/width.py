@@ -31,7 +31,7 @@ values marked at 1024, each width's seed count under its tick.
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from pathlib import Path
 
 import matplotlib
@@ -45,7 +45,7 @@ from rnn_seg.runs.folder import CONFIG, is_finished, read_json  # noqa: E402
 
 from .captions import describe_runs, is_synthetic, task_name  # noqa: E402
 from .checks import OTHER_SETTINGS, other_settings  # noqa: E402
-from .collect import key_from_path, recorded_runs, run_metrics  # noqa: E402
+from .collect import key_from_path, recorded_runs, run_row  # noqa: E402
 from .figures import save  # noqa: E402
 from .paired import ConfigId, Contrast, paired  # noqa: E402
 from .paper_results import TABLE_1  # noqa: E402
@@ -124,11 +124,7 @@ def width_evidence(grid: Path, seeds: tuple[int, ...] | None = None) -> WidthEvi
                 + "; ".join(line.strip() for line in details.splitlines()[1:])
                 for run, details in other_settings(grid, {run: key_from_path(grid / run, grid)
                                                           for run in folders}).items()]
-    rows = []
-    for run in folders:
-        metrics = run_metrics(grid / run, problems)
-        if metrics is not None:
-            rows.append({**asdict(key_from_path(grid / run, grid)), **metrics})
+    rows = [row for run in folders if (row := run_row(grid, run, problems)) is not None]
     if problems:
         raise ValueError(f"{grid}: {len(problems)} problem(s) with the runs of A and APoc, "
                          f"the first: {problems[0]}")

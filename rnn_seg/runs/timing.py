@@ -19,7 +19,6 @@ from contextlib import contextmanager
 from typing import Iterator
 
 PHASES = ("data", "trace", "train", "monitor", "evaluate", "checkpoint")
-TIMING = "timing.json"
 
 
 class PhaseClock:
