@@ -548,6 +548,17 @@ def test_a_grid_keeps_its_archive_up_to_date(tmp_path, tiny_spec, tiny_grid, cap
     assert "warning: the archive in" in out and "No space left" in out and marker.exists()
 
 
+def test_a_dry_run_checks_the_archive_folder_and_writes_nothing(tmp_path, tiny_spec, tiny_grid,
+                                                                capsys):
+    grid, archive = tmp_path / "grid", tmp_path / "archive"
+    shutil.copytree(tiny_grid, grid)
+    command = ["--spec", str(tiny_spec), "--out", str(grid), "--dry-run"]
+    assert grid_main([*command, "--archive", str(grid / "archive")]) == 2
+    assert "neither inside the other" in capsys.readouterr().err
+    assert grid_main([*command, "--archive", str(archive)]) == 0
+    assert "not written in a dry run" in capsys.readouterr().out and not archive.exists()
+
+
 def test_archive_leaves_out_unfinished_runs_and_replaces_only_an_archive(tmp_path, tiny_grid,
                                                                          capsys):
     grid = tmp_path / "grid"

@@ -67,7 +67,7 @@ def archive_grid(grid_dir: Path | str, dest: Path | str) -> tuple[int, int]:
     record = read_record(source)
     if record is None:
         raise RunFolderError(f"{source}: no {GRID_RECORD}: not a grid folder to archive")
-    dest = _checked_destination(Path(dest), source)
+    dest = check_destination(source, dest)
     finished = [run for run in record["runs"] if is_finished(source / run)]
     dropped = sorted(set(_archived_runs(dest)) - set(finished))
     if dropped:
@@ -102,8 +102,14 @@ def archived_test_trials(grid_dir: Path | str) -> dict[str, list[str]]:
     return trials if isinstance(trials, dict) else {}
 
 
-def _checked_destination(dest: Path, source: Path) -> Path:
-    """``dest``, resolved, once it is known that it may be written."""
+def check_destination(grid_dir: Path | str, dest: Path | str) -> Path:
+    """``dest`` resolved, once it is known that the archive of the grid ``grid_dir`` may be
+    written there (see the module docstring); writes nothing.
+
+    Raises:
+        RunFolderError: naming ``dest`` and why not.
+    """
+    source, dest = Path(grid_dir).resolve(), Path(dest)
     if dest.is_symlink():
         raise RunFolderError(f"{dest}: a symbolic link; archive into a folder")
     resolved = dest.resolve()

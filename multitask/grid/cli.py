@@ -132,6 +132,10 @@ def _run(args: argparse.Namespace) -> int:
           f"schedule {budget.describe_schedule()}, seeds {sorted({k.seed for k in keys})}, "
           f"data {spec.data_dir}", flush=True)
     if args.dry_run:
+        if args.archive:                                  # refused now, as it would be then
+            from .archive import check_destination
+            check_destination(args.out, args.archive)
+            print(f"archive: {args.archive} would be kept up to date (not written in a dry run)")
         pending = [key for key in keys if not is_finished(args.out / key.path())]
         for group in job_groups(pending, args.stack):           # in the order they run
             for key in group:
