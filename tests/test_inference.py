@@ -149,6 +149,20 @@ def test_predict_overwrite_replaces_the_earlier_prediction_whole(bi_run, synth_d
     assert (out / "notes.txt").read_text() == "mine"
 
 
+def test_predict_never_writes_over_an_input_recording(bi_run, synth_dir, tmp_path, capsys):
+    """An input named like an output (NAME.csv) in --out is refused even with --overwrite."""
+    kinematics, _ = _held_out(synth_dir)
+    folder = tmp_path / "mine"
+    folder.mkdir()
+    recording = folder / "session.csv"
+    shutil.copy(kinematics, recording)
+    for extra in ([], ["--overwrite"]):
+        assert predict_main([str(bi_run), str(recording), "--out", str(folder), *extra]) == 2
+        assert "is an input recording" in capsys.readouterr().err
+    assert recording.read_bytes() == kinematics.read_bytes()
+    assert sorted(p.name for p in folder.iterdir()) == ["session.csv"]
+
+
 def test_a_config_json_that_does_not_fit_is_a_clear_error(bi_run, tmp_path, capsys):
     run = tmp_path / "run"
     shutil.copytree(bi_run, run)

@@ -8,8 +8,8 @@ progress stage and scores when the model has a progress head) and NAME.png (ribb
 prediction.json records the run, the checkpoint, the inputs and the files written. They are written
 together once every recording is predicted (``rnn_seg.runs.manifest``): ``--overwrite`` replaces an
 earlier prediction in the folder whole, removing the files its record lists that this one does
-not write, and files the record does not list stay. See docs/REPRODUCTION.md for how prediction
-treats every frame.
+not write, and any other file of an output's name; other files stay, and an input recording is
+never written over. See docs/REPRODUCTION.md for how prediction treats every frame.
 """
 from __future__ import annotations
 
@@ -123,10 +123,16 @@ def _predict(args: argparse.Namespace) -> None:
 
 
 def _check_outputs(args: argparse.Namespace, files: list[Path]) -> None:
-    """Refuse a run or grid folder (``rnn_seg.runs.outputs``), and an earlier prediction or a
-    file of an output's name unless ``--overwrite``; before any work."""
+    """Refuse a run or grid folder (``rnn_seg.runs.outputs``), an output that would replace an
+    input recording (even with ``--overwrite``), and an earlier prediction or a file of an
+    output's name unless ``--overwrite``; before any work."""
     check_output_folder(args.out, PROG)
     names = [RECORD_FILE] + [f"{f.stem}{ext}" for f in files for ext in (".csv", ".png")]
+    inputs = {f.resolve() for f in files}
+    for name in names:
+        if (args.out / name).resolve() in inputs:
+            raise ValueError(f"{args.out / name} is an input recording, and {PROG} would write "
+                             "its prediction over it; choose another --out")
     existing = [args.out / name for name in names if (args.out / name).exists()]
     if existing and not args.overwrite:
         raise ValueError(f"{existing[0]} exists (from an earlier prediction?); use --overwrite "
