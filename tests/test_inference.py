@@ -189,6 +189,47 @@ def test_evaluate_reproduces_the_runs_last_evaluation_exactly(bi_run, tmp_path):
         assert (out / "predictions" / csv.name).read_text() == csv.read_text()
 
 
+def test_evaluate_refuses_other_data_in_the_runs_folder_and_marks_other_data_named(
+        bi_run, synth_dir, tmp_path, capsys, caplog):
+    """Data in the run's recorded folder that is not what it trained on (moved, changed, or a
+    relative folder read from elsewhere) never passes for its held-out scores."""
+    run = tmp_path / "run"
+    shutil.copytree(bi_run, run)
+    config = json.loads((run / "config.json").read_text())
+    config["data_fingerprint"] = "0" * 24                  # as if the release had changed since
+    (run / "config.json").write_text(json.dumps(config))
+    assert evaluate_main([str(run), "--out", str(tmp_path / "e1"), "--no-plots"]) == 2
+    err = capsys.readouterr().err
+    assert "is not the data" in err and len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "e1").exists()
+    assert evaluate_main([str(run), "--out", str(tmp_path / "e2"), "--no-plots",
+                          "--data-dir", str(synth_dir)]) == 0
+    assert "not the run's held-out scores" in caplog.text
+    marked = json.loads((tmp_path / "e2" / "metrics.json").read_text())
+    assert marked["trained_on_this_data"] is False
+    assert evaluate_main([str(bi_run), "--out", str(tmp_path / "e3"), "--no-plots"]) == 0
+    assert json.loads((tmp_path / "e3" / "metrics.json").read_text())["trained_on_this_data"]
+
+
+def test_evaluate_and_export_refuse_a_non_empty_folder_before_any_work(bi_run, tmp_path, capsys,
+                                                                       monkeypatch):
+    import multitask.inference.evaluation as evaluation
+    import multitask.inference.export as export
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("work started before the output folder was checked")
+
+    monkeypatch.setattr(evaluation, "load_dataset", no_work)
+    monkeypatch.setattr(export, "ExportedRun", no_work)
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    for main in (evaluate_main, export_main):
+        assert main([str(bi_run), "--out", str(out)]) == 2
+        assert "exists and is not empty" in capsys.readouterr().err
+    assert [p.name for p in out.iterdir()] == ["notes.txt"]
+
+
 def test_every_predictions_csv_has_predicts_columns_and_names(bi_run, synth_dir, tmp_path):
     """One format: multitask-predict's columns (per 30 Hz frame) are all in an evaluation point's
     CSV (per 5 Hz sample, true labels beside), with class names, never indices; the confusion
@@ -253,6 +294,24 @@ def test_stream_normalisation_is_read_back_without_the_data(fw_run, tmp_path):
     assert saved == load_run(fw_run).stream_normalisation()
 
 
+def test_stream_statistics_of_other_data_are_used_but_not_saved(fw_run, synth_dir, tmp_path,
+                                                                caplog):
+    run_dir = tmp_path / "run"
+    shutil.copytree(fw_run, run_dir)
+    (run_dir / STREAM_NORMALISATION_FILE).unlink(missing_ok=True)
+    other = tmp_path / "other"
+    shutil.copytree(synth_dir, other)
+    changed = kinematics_dir(other) / "Suturing_C001.txt"           # a training trial
+    changed.write_text(changed.read_text().replace("1", "2", 40))
+    run = load_run(run_dir)
+    stats = run.stream_normalisation(data_dir=other)
+    assert "not saved" in caplog.text and not (run_dir / STREAM_NORMALISATION_FILE).exists()
+    saved = run.stream_normalisation(data_dir=synth_dir)
+    assert (run_dir / STREAM_NORMALISATION_FILE).is_file() and saved != stats
+    record = json.loads((run_dir / STREAM_NORMALISATION_FILE).read_text())
+    assert record["data_fingerprint"] == run.data_fingerprint
+
+
 # -- Python API ------------------------------------------------------------------------------------
 def test_load_run_from_the_package(bi_run, synth_dir):
     run = multitask.load_run(bi_run)
@@ -301,6 +360,11 @@ def test_exported_model_alone_reproduces_multitask_predict(bi_run, synth_dir, tm
     assert description["tasks"][0]["classes"] == list(GESTURES)
     assert description["preprocessing"]["feature_columns_1based"][:3] == [39, 40, 41]
     assert export_main([str(bi_run), "--out", str(tmp_path / "saved")]) == 2
+    model = tf.saved_model.load(str(tmp_path / "saved"))
+    broken = read_kinematics(kinematics)
+    broken[40, 3] = np.nan
+    with pytest.raises(tf.errors.InvalidArgumentError, match="non-finite"):
+        model.signatures["serving_default"](kinematics=tf.constant(broken))
 
 
 def test_graph_scores_and_decoding_agree_with_numpy():

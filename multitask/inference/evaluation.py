@@ -70,6 +70,9 @@ def evaluate_run(run: TrainedRun, out: Path, data_dir: Path | str | None = None,
         run.require_online("streaming evaluation")
     data_config = replace(run.config.data, data_dir=str(data_dir)) if data_dir else run.config.data
     dataset = load_dataset(data_config)
+    same_data = run.trained_on(data_config.data_dir)
+    if not same_data:
+        _refuse_or_warn(run, data_config.data_dir, given=data_dir is not None)
     test_user = test_user or run.config.test_user
     _, trials = dataset.louo_split(test_user)
     if test_user != run.config.test_user:
@@ -84,12 +87,28 @@ def evaluate_run(run: TrainedRun, out: Path, data_dir: Path | str | None = None,
     point, unit = checkpoint_point(run, dataset)
     header = {"point": point, "unit": unit, "checkpoint": run.checkpoint,
               "run_dir": str(run.run_dir), "data_dir": data_config.data_dir,
-              "test_user": test_user, "preprocessing": "stream" if stream else "offline"}
+              "test_user": test_user, "preprocessing": "stream" if stream else "offline",
+              "trained_on_this_data": same_data}
     with staged_folder(out, overwrite) as folder:
         metrics = write_evaluation(folder, run.tasks, data, outputs, header,
                                    f"sweep {run.checkpoint}" + (" (stream)" if stream else ""),
                                    run.sample_hz, plots)
     return metrics
+
+
+def _refuse_or_warn(run: TrainedRun, data_dir: str, given: bool) -> None:
+    """The release in ``data_dir`` is not the data ``run`` trained on: an error when it is the
+    folder the run records (moved or changed data would pass for the run's held-out scores), a
+    warning when the caller named it (scoring other data on purpose)."""
+    if given:
+        log.warning("%s is not the data %s trained on (its data fingerprint differs): these are "
+                    "not the run's held-out scores", data_dir, run.run_dir)
+        return
+    relative = "" if Path(data_dir).is_absolute() else ", read from the current folder"
+    raise ValueError(f"{data_dir} (the run's data folder{relative}) is not the data "
+                     f"{run.run_dir} trained on: its data fingerprint differs from config.json's; "
+                     "pass the release it trained on with --data-dir, or name other data with "
+                     "--data-dir to score it anyway")
 
 
 def causal_outputs(run: TrainedRun, trials: list[Trial], data_dir: str,

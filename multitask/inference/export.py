@@ -13,6 +13,9 @@
 * ``features(features)``: preprocessed samples ``[T, F]`` float32 -> ``<task>`` ``[T]`` and
   ``<task>_scores`` ``[T, K]`` per sample, for inputs preprocessed outside.
 
+A non-finite input value (NaN, inf) is an error (``InvalidArgumentError``), as in
+``multitask-predict``, rather than scores of NaN for every frame.
+
 ``assets.extra/model.json`` documents the signatures, the class names of every task, the
 preprocessing parameters (filter sections, columns, rate) and the run's configuration.
 """
@@ -94,6 +97,7 @@ class ExportedRun(tf.Module):
 
     def _features(self, features: tf.Tensor) -> dict[str, tf.Tensor]:
         """Samples ``[T, F]`` -> per task ``<task>`` ``[T]`` and ``<task>_scores`` ``[T, K]``."""
+        features = tf.debugging.assert_all_finite(features, "features hold a non-finite value")
         resets = tf.one_hot([0], tf.shape(features)[0], on_value=True, off_value=False)
         outputs = self.model(features[None], resets, None)
         result = {}
@@ -104,6 +108,8 @@ class ExportedRun(tf.Module):
 
     def _serve(self, kinematics: tf.Tensor) -> dict[str, tf.Tensor]:
         """One recording ``[n_frames, 76]`` -> per-frame predictions (module docstring)."""
+        kinematics = tf.debugging.assert_all_finite(kinematics,
+                                                    "kinematics hold a non-finite value")
         x = tf.gather(kinematics, self._columns, axis=1)
         if self._prep.lowpass:
             x = _sosfiltfilt(self._sos, x)

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
+from baseline.builder import data_fingerprint
 from baseline.config import RunConfig
 from jigsaws_tools.dataset import check_format_fits
 from jigsaws_tools.features import feature_columns
@@ -100,6 +101,7 @@ class TrainedRun:
     tasks: tuple[Task, ...]
     model: SegmentationModel
     checkpoint: int                 # sweep count after which the weights were saved
+    data_fingerprint: str | None = None     # of the data it trained on, as config.json records
 
     @property
     def finished(self) -> bool:
@@ -195,6 +197,14 @@ class TrainedRun:
         return RecordingPrediction(self.tasks, outputs, frames, len(features), self.sample_hz,
                                    fmt.rate_hz)
 
+    def trained_on(self, data_dir: Path | str | None = None) -> bool:
+        """Whether the release in ``data_dir`` (default: the run's data folder) holds the data
+        the run trained on: read with the run's data settings, it has the data fingerprint
+        config.json records (``baseline.builder.data_fingerprint``; False when none is
+        recorded). Reads every file of the release."""
+        data = replace(self.config.data, data_dir=str(data_dir or self.config.data.data_dir))
+        return self.data_fingerprint is not None and data_fingerprint(data) == self.data_fingerprint
+
     def require_online(self, what: str) -> None:
         if not self.online:
             raise ValueError(f"{what} needs a forward (online) model; {self.run_dir} is "
@@ -205,7 +215,8 @@ class TrainedRun:
 
         Read from ``<run>/stream_normalisation.json`` when present; otherwise computed from the
         run's training trials (``training_normalisation``, in ``data_dir`` or the run's data
-        folder) and saved there for later use without the data.
+        folder) and, when that release is the data the run trained on (``trained_on``), saved
+        there for later use without the data; from other data they serve this call only.
         """
         path = self.run_dir / STREAM_NORMALISATION_FILE
         if path.is_file():
@@ -213,10 +224,17 @@ class TrainedRun:
             return from_jsonable(Normalisation, saved.get("normalisation")
                                  if isinstance(saved, dict) else saved, f"{path}: normalisation")
         stats, trials = training_normalisation(self.config, data_dir)
+        folder = data_dir or self.config.data.data_dir
+        if not self.trained_on(folder):
+            log.warning("%s is not the data %s trained on (its data fingerprint differs): the "
+                        "stream's statistics come from its trials, and are not saved in the run",
+                        folder, self.run_dir)
+            return stats
         data = self.config.data
         rows = decimation(data.preprocessing, data.recording_format.rate_hz)
         try:
             write_json(path, {"normalisation": stats, "trials": trials,
+                              "data_fingerprint": self.data_fingerprint,
                               "steps": f"causal low-pass on each whole trial, one row in {rows} "
                                        "from the first, unlabelled rows included"})
         except OSError as error:
@@ -253,7 +271,8 @@ def load_run(path: Path | str, checkpoint: int | None = None) -> TrainedRun:
     model = SegmentationModel(len(feature_columns(config.data.feature_set)),
                               replace(config.encoder, loops="graph"), tasks, config.train.seed)
     sweep = restore_weights(model, run_dir, sweep=checkpoint)
-    run = TrainedRun(run_dir, config, variant, tuple(tasks), model, sweep)
+    run = TrainedRun(run_dir, config, variant, tuple(tasks), model, sweep,
+                     saved.get("data_fingerprint"))
     if not run.finished:
         log.warning("%s: the run is unfinished; using its checkpoint after sweep %d", run_dir,
                     sweep)

@@ -197,9 +197,8 @@ def staged_folder(target: Path, overwrite: bool = False) -> Iterator[Path]:
     then replaced only once the new folder is complete.
     """
     target = Path(target)
-    if target.exists() and any(target.iterdir()) and not overwrite:
-        raise FileExistsError(f"{target} exists and is not empty; choose another output folder, "
-                              "or overwrite it (--overwrite)")
+    if not overwrite:
+        require_empty(target)
     target.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp"))
     try:
@@ -209,6 +208,13 @@ def staged_folder(target: Path, overwrite: bool = False) -> Iterator[Path]:
         os.replace(staging, target)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
+
+
+def require_empty(target: Path) -> None:
+    """Refuse (``FileExistsError``) a ``target`` folder that exists and holds anything."""
+    if target.is_dir() and any(target.iterdir()):
+        raise FileExistsError(f"{target} exists and is not empty; choose another output folder, "
+                              "or overwrite it (--overwrite)")
 
 
 def write_json(path: Path, obj: Any) -> None:

@@ -16,7 +16,7 @@ import os
 from pathlib import Path
 from typing import Iterator
 
-from .folder import CHECKPOINTS, CONFIG, FINISHED
+from .folder import CHECKPOINTS, CONFIG, FINISHED, require_empty
 
 #: The record a grid folder holds (``multitask.grid.folder``).
 GRID_RECORD = "grid.json"
@@ -142,12 +142,14 @@ def folders_below(folder: Path) -> Iterator[tuple[Path, str]]:
 def check_new_output(out: Path, command: str, entries: frozenset[str], overwrite: bool,
                      run_place: str | None = None) -> None:
     """Check a folder ``command`` writes whole (``folder.staged_folder``) before any work:
-    ``check_output_folder``, and with ``overwrite`` an existing ``out`` must be an earlier output
-    of ``command``: a folder holding only ``entries`` at its top (``OutputFolderError`` naming
-    the first other entry)."""
+    ``check_output_folder``; without ``overwrite`` an existing ``out`` must be empty
+    (``FileExistsError``), with it an earlier output of ``command``: a folder holding only
+    ``entries`` at its top (``OutputFolderError`` naming the first other entry)."""
     check_output_folder(out, command, run_place=run_place)
     out = Path(out)
-    if overwrite and (out.is_symlink() or out.is_dir()):
+    if not overwrite:
+        require_empty(out)
+    elif out.is_symlink() or out.is_dir():
         _check_replaceable(out, command, entries)
 
 
