@@ -15,10 +15,9 @@ from __future__ import annotations
 
 import logging
 import re
-import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Sequence
+from typing import NoReturn, Sequence
 
 import numpy as np
 
@@ -271,56 +270,79 @@ def read_recording(path: Path | str, recording_format: RecordingFormat = JIGSAWS
             from ``recording_format.column_of(feature)``); None = every column of the file.
 
     Raises:
-        FormatError: naming the file, the line, the column and the value: a missing column, a
-            row of another width, a non-numeric or non-finite value, times (``time_column``) that
-            do not increase or whose rate is not the format's.
+        FormatError: naming the file, the line, the column and the value: a byte that is not
+            UTF-8, a missing column, a row of another width, a non-numeric or non-finite value,
+            times (``time_column``) that do not increase or whose rate is not the format's.
     """
     path, fmt = Path(path), recording_format
     _check_readable(path, "kinematics file")
-    names, header_line = _column_names(path, fmt)
+    lines = _text_lines(path)
+    names, header_line = _column_names(path, fmt, lines)
     wanted = list(names) if features is None else [fmt.column_of(f) for f in features]
     for column, feature in zip(wanted, features or wanted):
         if column not in names:
             _missing_column(path, fmt, header_line, names, column, feature)
     if fmt.time_column and fmt.time_column not in names:
         _missing_column(path, fmt, header_line, names, fmt.time_column, "time_column")
-    try:
-        with warnings.catch_warnings():
-            warnings.filterwarnings("ignore", "loadtxt: input contained no data")
-            data = np.loadtxt(path, dtype=np.float64, ndmin=2, delimiter=fmt.separator,
-                              skiprows=header_line, encoding="utf-8-sig")
-    except ValueError:
-        _diagnose_rows(path, names, fmt, header_line)
-        raise
-    if len(data) == 0:
-        raise FormatError(path, None, "", "kinematics file has only blank lines")
-    if data.shape[1] != len(names):
-        _diagnose_rows(path, names, fmt, header_line)
+    rows = [(number, line) for number, line in enumerate(lines, start=1)
+            if number > header_line and line.strip()]
+    if not rows:
+        raise FormatError(path, None, "", "kinematics file has only blank lines"
+                          + (" after its header" if header_line else ""))
+    data = _parse_rows(path, fmt, names, rows)
+    numbers = [number for number, _ in rows]
     if not np.isfinite(data).all():
         row, column = np.argwhere(~np.isfinite(data))[0]
-        raise FormatError(path, _data_line_number(path, row + (header_line > 0)), "nan/inf",
+        raise FormatError(path, numbers[row], "nan/inf",
                           f"non-finite kinematic value in column {column + 1} ({names[column]})")
     if fmt.time_column:
-        _check_times(path, fmt, data[:, names.index(fmt.time_column)], header_line > 0)
+        _check_times(path, fmt, data[:, names.index(fmt.time_column)], numbers)
     return data[:, [names.index(c) for c in wanted]]
 
 
-def _column_names(path: Path, fmt: RecordingFormat) -> tuple[list[str], int]:
+def _text_lines(path: Path) -> list[str]:
+    """The lines of the text file ``path`` (UTF-8, a byte-order mark allowed, any line ends); a
+    byte that is not UTF-8 is a ``FormatError`` naming its line."""
+    lines = []
+    for number, line in enumerate(path.read_bytes().removeprefix(_BOM).splitlines(), start=1):
+        try:
+            lines.append(line.decode("utf-8"))
+        except UnicodeDecodeError as error:
+            raise FormatError(path, number, line[error.start:error.end],
+                              f"not UTF-8 text (byte {error.start + 1} of the line); save the "
+                              f"file as UTF-8") from None
+    return lines
+
+
+def _column_names(path: Path, fmt: RecordingFormat, lines: list[str]) -> tuple[list[str], int]:
     """The file's column names and the 1-based line of its header (0: none; ``fmt.columns``)."""
     if not fmt.header:
         return list(fmt.columns), 0
-    with open(path, encoding="utf-8-sig", errors="replace") as f:
-        for number, line in enumerate(f, start=1):
-            if line.strip():
-                names = [n.strip().strip('"\'') for n in
-                         (line.split(fmt.separator) if fmt.separator else line.split())]
-                repeated = next((n for n in names if names.count(n) > 1), None)
-                if repeated is not None:
-                    raise FormatError(path, number, repeated, "column name repeated in the header")
-                if fmt.time_column and fmt.time_column not in names:
-                    _missing_column(path, fmt, number, names, fmt.time_column, "time_column")
-                return names, number
+    for number, line in enumerate(lines, start=1):
+        if line.strip():
+            names = [n.strip().strip('"\'') for n in
+                     (line.split(fmt.separator) if fmt.separator else line.split())]
+            repeated = next((n for n in names if names.count(n) > 1), None)
+            if repeated is not None:
+                raise FormatError(path, number, repeated, "column name repeated in the header")
+            if fmt.time_column and fmt.time_column not in names:
+                _missing_column(path, fmt, number, names, fmt.time_column, "time_column")
+            return names, number
     raise FormatError(path, None, "", "kinematics file has only blank lines")
+
+
+def _parse_rows(path: Path, fmt: RecordingFormat, names: list[str],
+                rows: list[tuple[int, str]]) -> np.ndarray:
+    """``rows`` (file line, text) as ``[len(rows), len(names)]`` float64; a malformed row is a
+    ``FormatError`` naming its line (``_diagnose_rows``)."""
+    try:
+        data = np.loadtxt([line for _, line in rows], dtype=np.float64, ndmin=2,
+                          delimiter=fmt.separator)
+    except ValueError as error:
+        _diagnose_rows(path, names, fmt, rows, str(error))
+    if data.shape[1] != len(names):
+        _diagnose_rows(path, names, fmt, rows, f"rows of {data.shape[1]} columns")
+    return data
 
 
 def _missing_column(path: Path, fmt: RecordingFormat, header_line: int, names: list[str],
@@ -331,12 +353,13 @@ def _missing_column(path: Path, fmt: RecordingFormat, header_line: int, names: l
                       f"no column {column!r} for {feature} in the {where} ({shown})")
 
 
-def _check_times(path: Path, fmt: RecordingFormat, times: np.ndarray, header: bool) -> None:
+def _check_times(path: Path, fmt: RecordingFormat, times: np.ndarray, numbers: list[int]
+                 ) -> None:
     """Times [s] must increase, their median step giving ``fmt.rate_hz`` within 1 %."""
     steps = np.diff(times)
     if len(steps) and steps.min() <= 0:
         row = int(np.argmin(steps > 0)) + 1
-        raise FormatError(path, _data_line_number(path, row + header), times[row],
+        raise FormatError(path, numbers[row], times[row],
                           f"time column {fmt.time_column!r} does not increase "
                           f"(previous row: {times[row - 1]:g} s)")
     if len(steps):
@@ -347,37 +370,33 @@ def _check_times(path: Path, fmt: RecordingFormat, times: np.ndarray, header: bo
                               f"declares rate_hz = {fmt.rate_hz:g}")
 
 
-def _data_line_number(path: Path, row: int) -> int:
-    """1-based file line of the ``row``-th non-blank line."""
-    seen = -1
-    with open(path, encoding="utf-8-sig", errors="replace") as f:
-        for number, line in enumerate(f, start=1):
-            if line.strip():
-                seen += 1
-                if seen == row:
-                    return number
-    return row + 1
-
-
-def _diagnose_rows(path: Path, names: list[str], fmt: RecordingFormat, header_line: int
-                   ) -> None:
-    """Find the first malformed row after the header and raise a FormatError naming it (a row of
-    another width in the release's layout with the ``--format`` hint)."""
+def _diagnose_rows(path: Path, names: list[str], fmt: RecordingFormat,
+                   rows: list[tuple[int, str]], numpy_error: str) -> NoReturn:
+    """Raise a ``FormatError`` naming the first malformed row (a row of another width in the
+    release's layout with the ``--format`` hint), or, if no row looks malformed, naming the file
+    and ``numpy_error``, what ``numpy.loadtxt`` refused."""
     hint = f"; {ANOTHER_LAYOUT_HINT}" if fmt.is_default else ""
-    with open(path, encoding="utf-8-sig", errors="replace") as f:
-        for number, line in enumerate(f, start=1):
-            if number <= header_line or not line.strip():
-                continue
-            fields = line.split(fmt.separator) if fmt.separator else line.split()
-            if len(fields) != len(names):
-                raise FormatError(path, number, len(fields),
-                                  f"expected {len(names)} kinematic columns{hint}")
-            for column, field in enumerate(fields, start=1):
-                try:
-                    float(field)
-                except ValueError:
-                    raise FormatError(path, number, field, f"non-numeric kinematic value in "
-                                      f"column {column} ({names[column - 1]})") from None
+    for number, line in rows:
+        fields = line.split(fmt.separator) if fmt.separator else line.split()
+        if len(fields) != len(names):
+            raise FormatError(path, number, len(fields),
+                              f"expected {len(names)} kinematic columns{hint}")
+        for column, field in enumerate(fields, start=1):
+            if not _is_number(field):
+                raise FormatError(path, number, field, f"non-numeric kinematic value in "
+                                  f"column {column} ({names[column - 1]})")
+    raise FormatError(path, None, numpy_error.split("\n")[0],
+                      f"cannot be read as {len(names)} numeric columns")
+
+
+def _is_number(field: str) -> bool:
+    """``field`` is a number as ``numpy.loadtxt`` reads one: as ``float`` does, but without
+    ``float``'s underscores between digits and non-ASCII digits."""
+    try:
+        float(field)
+    except ValueError:
+        return False
+    return "_" not in field and field.strip().isascii()
 
 
 def read_transcription(path: Path | str, n_frames: int | None = None,

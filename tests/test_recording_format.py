@@ -253,3 +253,50 @@ def test_a_row_of_another_width_in_a_given_format_gets_no_format_hint(robot_dir,
         read_recording(wide, read_format_file(robot_dir / "my_robot.toml"),
                        feature_names("psm_pos_vel_grip"))
     assert "--format" not in str(error.value)
+
+
+def _edited(robot_dir, tmp_path, line: int, old: bytes, new: bytes) -> str:
+    """A copy of the robot's trial B1 whose 1-based ``line`` has ``old`` replaced by ``new``."""
+    lines = (robot_dir / "data" / "recordings" / "Suturing-B-1.csv").read_bytes().split(b"\n")
+    assert old in lines[line - 1]
+    lines[line - 1] = lines[line - 1].replace(old, new, 1)
+    path = tmp_path / "edited.csv"
+    path.write_bytes(b"\n".join(lines))
+    return str(path)
+
+
+def test_a_byte_that_is_not_utf8_is_one_line_naming_file_and_line(robot_run, robot_dir, tmp_path,
+                                                                  capsys):
+    """A header saved in Latin-1 (``°`` is byte 0xb0 there), not the codec's bare message."""
+    bad = _edited(robot_dir, tmp_path, 1, b"battery", "battery_°C".encode("latin-1"))
+    assert predict_main([str(robot_run), bad, "--out", str(tmp_path / "out"), "--no-plots"]) == 2
+    err = _error_line(capsys)
+    assert f"{bad}:1: not UTF-8" in err and r"b'\xb0'" in err, err
+
+
+@pytest.mark.parametrize("line, old, new", [
+    (7, b",", ",\xe9".encode("latin-1")),          # a Latin-1 byte in a row
+    (9, b"0.", b"0_0."),                           # float() reads 0_0.07 as 0.07, numpy not
+    (11, b"0.", "\u0660.".encode()),               # nor an Arabic-Indic digit
+])
+def test_a_value_numpy_cannot_read_is_named_with_its_line(robot_dir, tmp_path, line, old, new):
+    bad = _edited(robot_dir, tmp_path, line, old, new)
+    with pytest.raises(FormatError, match=rf"edited\.csv:{line}: ") as error:
+        read_recording(bad, read_format_file(robot_dir / "my_robot.toml"),
+                       feature_names("psm_pos_vel_grip"))
+    assert "\n" not in str(error.value)
+
+
+def test_rows_numpy_refuses_for_a_reason_not_found_are_named_by_file(robot_dir, monkeypatch):
+    """Whatever ``numpy.loadtxt`` refuses that no row check explains is still one line naming
+    the file, never numpy's bare message."""
+    def refuse(*args, **kwargs):
+        raise ValueError("something numpy refuses\nover two lines")
+
+    recording = robot_dir / "data" / "recordings" / "Suturing-B-1.csv"
+    monkeypatch.setattr(np, "loadtxt", refuse)
+    with pytest.raises(FormatError) as error:
+        read_recording(recording, read_format_file(robot_dir / "my_robot.toml"))
+    message = str(error.value)
+    assert message.startswith(f"{recording}: ") and "something numpy refuses" in message
+    assert "\n" not in message
