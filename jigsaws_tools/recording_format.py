@@ -29,7 +29,8 @@ Every key, checked by ``read_format_file``::
                                             # {trial} a number ({trial:03d}: exactly 3 digits)
     extension = ".txt"                      # of the recordings
 
-A recording's rows are its samples at ``rate_hz``; transcriptions count the same rows.
+A recording's rows, every non-blank line after the header (no comment lines: a line starting with
+``#`` is refused), are its samples at ``rate_hz``; transcriptions count the same rows.
 """
 from __future__ import annotations
 

@@ -261,7 +261,9 @@ def read_kinematics(path: Path | str) -> np.ndarray:
 def read_recording(path: Path | str, recording_format: RecordingFormat = JIGSAWS_FORMAT,
                    features: Sequence[str] | None = None) -> np.ndarray:
     """Read a recording in ``recording_format``: ``[n_rows, F]`` float64, one row per sample at
-    the format's ``rate_hz``.
+    the format's ``rate_hz``: every non-blank line after the header. There are no comment lines
+    (the release has none; a transcription's row numbers would be ambiguous with them): a line
+    starting with ``#`` is refused, and every error's line is the file's own line number.
 
     Args:
         path: the recording file.
@@ -337,7 +339,7 @@ def _parse_rows(path: Path, fmt: RecordingFormat, names: list[str],
     ``FormatError`` naming its line (``_diagnose_rows``)."""
     try:
         data = np.loadtxt([line for _, line in rows], dtype=np.float64, ndmin=2,
-                          delimiter=fmt.separator)
+                          delimiter=fmt.separator, comments=None)
     except ValueError as error:
         _diagnose_rows(path, names, fmt, rows, str(error))
     if data.shape[1] != len(names):
@@ -377,6 +379,9 @@ def _diagnose_rows(path: Path, names: list[str], fmt: RecordingFormat,
     and ``numpy_error``, what ``numpy.loadtxt`` refused."""
     hint = f"; {ANOTHER_LAYOUT_HINT}" if fmt.is_default else ""
     for number, line in rows:
+        if line.lstrip().startswith("#"):
+            raise FormatError(path, number, line.strip(), "a comment line: a recording has "
+                              "none, every non-blank line after its header is one sample")
         fields = line.split(fmt.separator) if fmt.separator else line.split()
         if len(fields) != len(names):
             raise FormatError(path, number, len(fields),

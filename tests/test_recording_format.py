@@ -300,3 +300,25 @@ def test_rows_numpy_refuses_for_a_reason_not_found_are_named_by_file(robot_dir, 
     message = str(error.value)
     assert message.startswith(f"{recording}: ") and "something numpy refuses" in message
     assert "\n" not in message
+
+
+@pytest.mark.parametrize("comment", [b"# robot paused", b"#"])
+def test_a_comment_line_is_refused_on_its_own_line(robot_dir, tmp_path, comment):
+    """numpy would skip it but count it out of the rows, so every later error's line and every
+    transcription row would be off by one: a recording has no comment lines."""
+    bad = _edited(robot_dir, tmp_path, 3, b"0.01", comment + b"\n0.01")   # before line 3
+    with pytest.raises(FormatError, match=rf"edited\.csv:3: a comment line"):
+        read_recording(bad, read_format_file(robot_dir / "my_robot.toml"))
+
+
+def test_a_bad_value_after_blank_lines_is_named_on_its_own_line(robot_dir, tmp_path):
+    """Blank lines are skipped, and still counted in the line an error names."""
+    recording = robot_dir / "data" / "recordings" / "Suturing-B-1.csv"
+    lines = recording.read_text().split("\n")
+    fields = lines[10].split(",")
+    lines[10] = ",".join([fields[0], "nan", *fields[2:]])        # line 11
+    lines[4:4] = ["", "   "]                                    # it becomes line 13
+    bad = tmp_path / "gaps.csv"
+    bad.write_text("\n".join(lines))
+    with pytest.raises(FormatError, match=r"gaps\.csv:13: non-finite"):
+        read_recording(bad, read_format_file(robot_dir / "my_robot.toml"))
