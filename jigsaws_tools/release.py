@@ -30,6 +30,18 @@ NUM_KINEMATIC_COLUMNS = 76
 KINEMATICS_HZ = 30.0
 _BOM = b"\xef\xbb\xbf"
 _ANY_TRIAL_FILE = re.compile(r"^(.+)_[A-Z]\d{3}\.txt$", re.IGNORECASE)
+#: How far a time column's step may be from the format's sample period ``1 / rate_hz``, as a
+#: fraction of the period. Robot logs stamp each sample when it is taken, late by a small part of
+#: a period (a control loop woken late); a missing sample makes a step of two periods and an
+#: extra one a step of at most half a period, so a step within half a period of ``1 / rate_hz``
+#: is one sample and any other step a gap or an extra sample. (Times stamped on arrival, which can
+#: come in bursts, may need resampling first.)
+STEP_TOLERANCE = 0.5
+#: How far a recording's times may drift from those its rows give (``row / rate_hz`` after the
+#: first row's time), as a fraction of the time elapsed, on top of ``STEP_TOLERANCE`` of a period:
+#: a clock or control loop up to 1 % off its nominal rate passes (the rate check this replaces
+#: allowed 1 %), so every prediction row's time is within 1 % of the recorded one.
+DRIFT_TOLERANCE = 0.01
 
 log = logging.getLogger(__name__)
 
@@ -357,19 +369,60 @@ def _missing_column(path: Path, fmt: RecordingFormat, header_line: int, names: l
 
 def _check_times(path: Path, fmt: RecordingFormat, times: np.ndarray, numbers: list[int]
                  ) -> None:
-    """Times [s] must increase, their median step giving ``fmt.rate_hz`` within 1 %."""
+    """The time column [s] must follow ``fmt.rate_hz`` at every row; the first row that does not
+    is a ``FormatError`` naming its line (``numbers``: each row's file line) and its time.
+
+    Times increase; each step is within ``STEP_TOLERANCE`` of a sample period of ``1 / rate_hz``,
+    so no sample is missing and none is extra (a 10 s dropout, or one row in 20 lost, is
+    refused at the first row after it); and each time is within ``DRIFT_TOLERANCE`` of the time
+    elapsed (plus ``STEP_TOLERANCE`` of a period) of the time its row gives, ``row / rate_hz``
+    after the first row's, which is the time a prediction row carries. Steps alone would let a
+    clock drift: every step 1.4 periods long passes them, and the 1000th row would be 400
+    periods late. The drift is bounded at every row, not only the last, as a clock slow, then
+    fast, can end on time.
+    """
+    _check_steps(path, fmt, times, numbers)
+    _check_drift(path, fmt, times, numbers)
+
+
+def _check_steps(path: Path, fmt: RecordingFormat, times: np.ndarray, numbers: list[int]
+                 ) -> None:
+    """Times increase, each step within ``STEP_TOLERANCE`` of a sample period
+    (``_check_times``)."""
+    period = 1 / fmt.rate_hz
     steps = np.diff(times)
-    if len(steps) and steps.min() <= 0:
-        row = int(np.argmin(steps > 0)) + 1
-        raise FormatError(path, numbers[row], times[row],
-                          f"time column {fmt.time_column!r} does not increase "
-                          f"(previous row: {times[row - 1]:g} s)")
-    if len(steps):
-        rate = 1 / float(np.median(steps))
-        if abs(rate - fmt.rate_hz) > 0.01 * fmt.rate_hz:
-            raise FormatError(path, None, f"{rate:.4g} Hz", f"time column {fmt.time_column!r}: "
-                              f"samples {1 / rate:.4g} s apart, but the {fmt.name} format "
-                              f"declares rate_hz = {fmt.rate_hz:g}")
+    bad = (steps <= 0) | (np.abs(steps - period) > STEP_TOLERANCE * period)
+    if not bad.any():
+        return
+    row = int(np.argmax(bad)) + 1
+    step, before = steps[row - 1], f"{times[row - 1]:g} s on the line before"
+    column = f"time column {fmt.time_column!r}"
+    if step <= 0:
+        raise FormatError(path, numbers[row], float(times[row]),
+                          f"{column} does not increase ({before})")
+    raise FormatError(path, numbers[row], float(times[row]),
+                      f"{column} steps {step:.6g} s ({1 / step:.4g} Hz) from {before} to "
+                      f"{times[row]:g} s; rate_hz = {fmt.rate_hz:g} of the {fmt.name} format "
+                      f"gives {period:.6g} s (+/- {STEP_TOLERANCE * period:.3g} s): a missing or "
+                      f"extra sample, or another rate")
+
+
+def _check_drift(path: Path, fmt: RecordingFormat, times: np.ndarray, numbers: list[int]
+                 ) -> None:
+    """Each time is within ``DRIFT_TOLERANCE`` of the time elapsed (plus ``STEP_TOLERANCE`` of a
+    period) of the time its row gives (``_check_times``)."""
+    period = 1 / fmt.rate_hz
+    expected = np.arange(len(times)) * period
+    drifted = (np.abs(times - times[0] - expected)
+               > STEP_TOLERANCE * period + DRIFT_TOLERANCE * expected)
+    if drifted.any():
+        row = int(np.argmax(drifted))
+        raise FormatError(path, numbers[row], float(times[row]),
+                          f"time column {fmt.time_column!r} drifts from rate_hz = "
+                          f"{fmt.rate_hz:g} of the {fmt.name} format: {times[row] - times[0]:.6g} "
+                          f"s after the first row's {times[0]:g} s, where {row} rows give "
+                          f"{expected[row]:.6g} s (allowed: {DRIFT_TOLERANCE:.0%} of it and half "
+                          f"a sample)")
 
 
 def _diagnose_rows(path: Path, names: list[str], fmt: RecordingFormat,

@@ -322,3 +322,46 @@ def test_a_bad_value_after_blank_lines_is_named_on_its_own_line(robot_dir, tmp_p
     bad.write_text("\n".join(lines))
     with pytest.raises(FormatError, match=r"gaps\.csv:13: non-finite"):
         read_recording(bad, read_format_file(robot_dir / "my_robot.toml"))
+
+
+def _times(edit):
+    """A ``_bad_copy`` edit giving the time column ``edit(times)`` (float seconds)."""
+    return lambda t: t.assign(time_s=[f"{v:.8f}" for v in edit(t.time_s.astype(float).values)])
+
+
+def _read_robot(path, robot_dir) -> np.ndarray:
+    return read_recording(path, read_format_file(robot_dir / "my_robot.toml"),
+                          feature_names("psm_pos_vel_grip"))
+
+
+@pytest.mark.parametrize("edit, row, expected", [
+    # one row in 20 lost: the step from row 18 to what was row 20 is two periods
+    (lambda t: t.drop(index=t.index[19::20]), 19, ["0.18 s", "to 0.2 s", "0.01 s"]),
+    # a 10 s dropout before row 100
+    (_times(lambda s: s + 10 * (np.arange(len(s)) >= 100)), 100, ["0.99 s", "to 11 s"]),
+    # an extra sample 3 ms after row 49
+    (_times(lambda s: np.where(np.arange(len(s)) == 50, s + 0.003 - 0.01, s)), 50,
+     ["0.49 s", "to 0.493 s", "0.01 s"]),
+    # a clock 30 % slow: each step passes, the times drift at once
+    (_times(lambda s: 1.3 * s), 2, ["drifts", "0.026 s", "2 rows give 0.02 s"]),
+    # a clock 4 % slow: 3 % over 1 % after 17 rows is more than half a sample
+    (_times(lambda s: 1.04 * s), 17, ["drifts", "17 rows give 0.17 s"]),
+])
+def test_times_off_the_rate_are_refused_at_their_line(robot_dir, tmp_path, edit, row, expected):
+    bad = _bad_copy(robot_dir, tmp_path, edit)
+    with pytest.raises(FormatError) as error:
+        _read_robot(bad, robot_dir)
+    message = str(error.value)
+    assert message.startswith(f"{bad}:{row + 2}: time column 'time_s' ")   # line 1: the header
+    assert "\n" not in message and all(e in message for e in expected), message
+
+
+@pytest.mark.parametrize("edit", [
+    _times(lambda s: s + np.random.default_rng(0).uniform(-0.2, 0.2, len(s)) / RATE),  # jitter
+    _times(lambda s: 1.005 * s),                  # a clock 0.5 % slow
+    _times(lambda s: s + 1234.5),                 # times since another origin
+])
+def test_times_a_real_robot_log_has_pass(robot_dir, tmp_path, edit):
+    recording = robot_dir / "data" / "recordings" / "Suturing-B-1.csv"
+    np.testing.assert_array_equal(_read_robot(_bad_copy(robot_dir, tmp_path, edit), robot_dir),
+                                  _read_robot(recording, robot_dir))
