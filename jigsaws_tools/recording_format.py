@@ -20,7 +20,8 @@ Every key, checked by ``read_format_file``::
 
     [features]                      # optional: model feature (jigsaws_tools.features
     psm1_pos_x = "PSM1_x"           # .FEATURE_NAMES) -> the column holding it; a feature not
-                                    # listed is read from the column of its own name
+                                    # listed is read from the column of its own name; no two
+                                    # features share a column, none reads the time column
 
     [files]                         # optional: a training / evaluation data folder's layout
     recordings = "kinematics/AllGestures"   # folder of the recordings, inside the data folder
@@ -178,6 +179,7 @@ def _check_format(fmt: RecordingFormat) -> None:
         if feature not in FEATURE_NAMES:
             raise DefinitionError("", f"features.{feature}", column, "not a model feature (one "
                                   "of jigsaws_tools.features.FEATURE_NAMES, e.g. psm1_pos_x)")
+    _check_feature_columns(fmt)
     for key, value in (("files.recordings", fmt.recordings),
                        ("files.transcriptions", fmt.transcriptions)):
         if not value or Path(value).is_absolute() or ".." in Path(value).parts:
@@ -189,6 +191,25 @@ def _check_format(fmt: RecordingFormat) -> None:
                               "(or {trial:0Nd}) once each, and no other {...}")
     if not re.fullmatch(r"\.[A-Za-z0-9]+", fmt.extension):
         raise DefinitionError("", "files.extension", fmt.extension, "expected e.g. '.csv'")
+
+
+def _check_feature_columns(fmt: RecordingFormat) -> None:
+    """Each model feature reads a column of its own (the one ``[features]`` maps it to, else the
+    column of its own name), never the time column; else a ``DefinitionError`` naming both keys
+    and the column (two features reading one column would feed the model one signal twice)."""
+    listed = dict(fmt.features)
+    keys = {f: f"features.{f}" if f in listed else f"{f} (not in [features]: its own name)"
+            for f in FEATURE_NAMES}
+    reader: dict[str, str] = {}
+    for feature in sorted(FEATURE_NAMES, key=lambda f: f in listed):   # an error names a listed key
+        column = fmt.column_of(feature)
+        if fmt.time_column and column == fmt.time_column:
+            raise DefinitionError("", keys[feature], column, "the format's time_column, checked "
+                                  "against rate_hz and never a model input")
+        if column in reader:
+            raise DefinitionError("", keys[feature], column, f"also the column of "
+                                  f"{keys[reader[column]]}: each feature needs a column of its own")
+        reader[column] = feature
 
 
 #: The JIGSAWS release's format, read from its shipped file.

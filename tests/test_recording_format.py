@@ -192,6 +192,13 @@ def test_a_bad_recording_is_one_line_naming_file_column_and_value(robot_run, rob
     (("rate_hz = 100", "rate = 100"), ["rate", "unknown key"]),
     (("header = true", 'header = false\ncolumns = ["t"]'),
      ["time_column", "'time_s'", "not one of columns"]),
+    # two features read one column, or a feature the time column
+    (('psm2_pos_x = "arm2_pos_x"', 'psm2_pos_x = "arm1_pos_x"'),
+     ["features.psm2_pos_x", "features.psm1_pos_x", "'arm1_pos_x'"]),
+    (('psm1_pos_x = "arm1_pos_x"', 'psm1_pos_x = "psm1_rot_11"'),   # psm1_rot_11's own column
+     ["features.psm1_pos_x", "psm1_rot_11 (not in [features]", "'psm1_rot_11'"]),
+    (('psm1_pos_x = "arm1_pos_x"', 'psm1_pos_x = "time_s"'),
+     ["features.psm1_pos_x", "time_column", "'time_s'"]),
 ])
 def test_a_bad_format_file_is_one_line_naming_file_key_and_value(robot_run, robot_dir, tmp_path,
                                                                  capsys, change, expected):
