@@ -28,8 +28,10 @@ Every key, checked by ``read_format_file``::
     transcriptions = "transcriptions"       # folder of their "start end gesture" lines (.txt);
                                             # start and end are 1-based rows of the recording
     trial = "{task}_{user}{trial:03d}"      # a trial's file name without its extension:
-                                            # {task} the task's name, {user} one letter A-Z,
-                                            # {trial} a number ({trial:03d}: exactly 3 digits)
+                                            # {task} the task's name, {user} one upper-case
+                                            # letter A-Z (a lower-case one is refused: c and C
+                                            # would be two users), {trial} a number
+                                            # ({trial:03d}: exactly 3 digits)
     extension = ".txt"                      # of the recordings
 
 A recording's rows, every non-blank line after the header (no comment lines: a line starting with
@@ -90,17 +92,19 @@ class RecordingFormat:
         return dict(self.features).get(feature, feature)
 
     def trial_pattern(self, task: TaskDefinition) -> re.Pattern:
-        """A trial's file name without extension, with groups ``user`` and ``trial``."""
+        """A trial's file name without extension, with groups ``user`` and ``trial``; case
+        matters, but ``user`` takes a letter of either case so that a lower-case one can be
+        refused by name (``release.discover``)."""
         parts, end = [], 0
         for match in _PLACEHOLDER.finditer(self.trial):
             parts.append(re.escape(self.trial[end:match.start()]))
             key, digits = match.group(1).split(":")[0], match.group(2)
-            parts.append(re.escape(task.name) if key == "task" else "(?P<user>[A-Z])"
+            parts.append(re.escape(task.name) if key == "task" else "(?P<user>[A-Za-z])"
                          if key == "user" else rf"(?P<trial>\d{{{digits}}})" if digits
                          else r"(?P<trial>\d+)")
             end = match.end()
         parts.append(re.escape(self.trial[end:]))
-        return re.compile("".join(parts), re.IGNORECASE)
+        return re.compile("".join(parts))
 
     def trial_prefix(self, task: TaskDefinition) -> str:
         """The literal start of every trial's file name (``"Suturing_"``), case-sensitive."""

@@ -163,7 +163,9 @@ def discover(root: Path | str, task: TaskDefinition = SUTURING,
     A trial that cannot be used (only one of kinematics / transcription, an empty file, a folder or
     a broken link where a file should be) is reported in one warning line (logger
     ``jigsaws_tools.release``) and left out of ``trials``. Files named with an upper-case extension
-    (``.TXT``) are read, with one warning per folder.
+    (``.TXT``) are read, with one warning per folder. A file named with a lower-case user letter
+    (``Suturing_c001.txt``) is a ``FormatError``: read as user ``c`` it would be another user than
+    ``C``, in the training set when ``C`` is tested.
     """
     root = Path(root)
     fmt = recording_format
@@ -216,9 +218,10 @@ def _trial_files(folder: Path, task: TaskDefinition, recording_format: Recording
     upper = []
     for path in sorted(folder.iterdir()):
         name, suffix = path.name[:-len(extension)], path.name[-len(extension):]
-        if (suffix.lower() != extension.lower() or not pattern.fullmatch(name)
-                or not path.name.startswith(prefix)):
+        match = pattern.fullmatch(name)
+        if suffix.lower() != extension.lower() or not match or not path.name.startswith(prefix):
             continue
+        _refuse_lower_case_user(path, match)
         if suffix != extension:
             if (folder / f"{name}{extension}").exists():
                 continue
@@ -232,6 +235,19 @@ def _trial_files(folder: Path, task: TaskDefinition, recording_format: Recording
         log.warning("%s: %d file(s) named with an upper-case extension read as trials (%s)",
                     folder, len(upper), ", ".join(upper[:3]) + (", ..." if len(upper) > 3 else ""))
     return usable, unusable
+
+
+def _refuse_lower_case_user(path: Path, match: re.Match) -> None:
+    """A ``FormatError`` for the trial file ``path`` if its user letter (``match``, of
+    ``RecordingFormat.trial_pattern``) is lower case, naming the file to rename it to."""
+    user = match["user"]
+    if user.isupper():
+        return
+    start, end = match.span("user")
+    renamed = path.name[:start] + user.upper() + path.name[end:]
+    raise FormatError(path, None, user, f"user letter in lower case: a user is one upper-case "
+                                        f"letter ({user} and {user.upper()} would be two users); "
+                                        f"rename the file {renamed}")
 
 
 def _unusable(path: Path) -> str | None:

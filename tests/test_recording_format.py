@@ -16,6 +16,7 @@ from jigsaws_tools.preprocessing import PreprocessConfig, decimation
 from jigsaws_tools.recording_format import JIGSAWS_FORMAT, read_format_file
 from jigsaws_tools.release import (discover, frame_labels, read_kinematics, read_recording,
                                    read_transcription)
+from jigsaws_tools.task_definition import SUTURING
 from multitask.inference.predict_cli import main as predict_main
 from multitask.inference.trained_run import load_run
 from multitask.train_cli import main as train_main
@@ -372,3 +373,25 @@ def test_times_a_real_robot_log_has_pass(robot_dir, tmp_path, edit):
     recording = robot_dir / "data" / "recordings" / "Suturing-B-1.csv"
     np.testing.assert_array_equal(_read_robot(_bad_copy(robot_dir, tmp_path, edit), robot_dir),
                                   _read_robot(recording, robot_dir))
+
+
+@pytest.mark.parametrize("layout", ["my_robot", "jigsaws"])
+def test_a_lower_case_user_letter_is_refused_naming_the_file(robot_dir, synth_dir, tmp_path,
+                                                              capsys, layout):
+    """Read as user ``c``, ``Suturing-c-1`` would be another user than ``C``: with test user C,
+    a C trial in the training set."""
+    fmt = JIGSAWS_FORMAT if layout == "jigsaws" else read_format_file(robot_dir / "my_robot.toml")
+    data = tmp_path / "data"
+    shutil.copytree(synth_dir if fmt.is_default else robot_dir / "data", data)
+    name = fmt.trial_name(SUTURING, "C", 1) + fmt.extension
+    renamed = name.replace("C", "c")
+    (data / fmt.recordings / name).rename(data / fmt.recordings / renamed)
+    with pytest.raises(FormatError) as error:
+        discover(data, recording_format=fmt)
+    message = str(error.value)
+    assert str(data / fmt.recordings / renamed) in message and "lower case" in message, message
+    assert f"rename the file {name}" in message
+    options = [] if fmt.is_default else ["--format", str(robot_dir / "my_robot.toml")]
+    assert train_main(["--data-dir", str(data), *options, "--test-user", "C", "--epochs", "1",
+                       "--out", str(tmp_path / "run")]) == 2
+    assert renamed in _error_line(capsys)
