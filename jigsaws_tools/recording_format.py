@@ -51,10 +51,6 @@ from .toml_files import builtin_path, find_definition, known_keys, read_definiti
 
 #: The release's format, the default wherever a format can be omitted.
 DEFAULT_FORMAT = "jigsaws"
-#: Added to an error about a folder or a recording read in the release's layout that holds
-#: something else (README, "Your own recordings", shows a format file).
-ANOTHER_LAYOUT_HINT = ("recordings of another layout need --format FILE.toml (README, "
-                       "'Your own recordings')")
 #: ``delimiter`` value -> the separator ``str.split`` / ``numpy.loadtxt`` take (None: whitespace).
 DELIMITERS: dict[str, str | None] = {"whitespace": None, ",": ",", ";": ";", "\t": "\t"}
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]*$")
@@ -118,6 +114,23 @@ class RecordingFormat:
     def is_default(self) -> bool:
         """This is the JIGSAWS release's format (``JIGSAWS_FORMAT``)."""
         return self == JIGSAWS_FORMAT
+
+
+def another_layout_hint(format_option: bool = True) -> str:
+    """The advice that ends an error about a folder or a recording read in the release's layout
+    that holds something else (README, "Your own recordings", shows a format file).
+
+    Args:
+        format_option: the command takes ``--format``, so the advice is to give it; False: the
+            advice says the command reads the release's layout only. The data layer's errors
+            carry the first; ``jigsaws_tools.cli.common.run_command`` rewords it for a command
+            without ``--format``.
+    """
+    if format_option:
+        return ("recordings of another layout need --format FILE.toml (README, 'Your own "
+                "recordings')")
+    return ("this command reads the JIGSAWS release's layout only (recordings of another layout: "
+            "README, 'Your own recordings')")
 
 
 def load_format(recording_format: str | Path | RecordingFormat | None) -> RecordingFormat:

@@ -23,7 +23,7 @@ import numpy as np
 
 from .errors import FormatError, JigsawsError, ReleaseNotFoundError
 from .gestures import UNLABELLED
-from .recording_format import ANOTHER_LAYOUT_HINT, JIGSAWS_FORMAT, RecordingFormat
+from .recording_format import JIGSAWS_FORMAT, RecordingFormat, another_layout_hint
 from .task_definition import SUTURING, TaskDefinition
 
 NUM_KINEMATIC_COLUMNS = 76
@@ -148,7 +148,7 @@ def _refuse_another_layout(root: Path, task: TaskDefinition) -> None:
     if (root / JIGSAWS_FORMAT.recordings).is_dir() or not any(root.iterdir()):
         return
     inside = root / task.name
-    advice = f"give its {task.name} folder, {inside}" if inside.is_dir() else ANOTHER_LAYOUT_HINT
+    advice = f"give its {task.name} folder, {inside}" if inside.is_dir() else another_layout_hint()
     raise JigsawsError(f"{root}: not a JIGSAWS {task.name} release, no "
                        f"{JIGSAWS_FORMAT.recordings} folder; {advice}")
 
@@ -198,7 +198,7 @@ def discover(root: Path | str, task: TaskDefinition = SUTURING,
         if fmt.is_default and not kin and not kin_unusable and any(kin_dir.iterdir()):
             raise JigsawsError(f"{kin_dir}: no file named like "
                                f"{fmt.trial_name(task, 'B', 1)}{fmt.extension}; "
-                               f"{ANOTHER_LAYOUT_HINT}")
+                               f"{another_layout_hint()}")
         raise ReleaseNotFoundError(root, f"a {task.name} trial with both kinematics and a "
                                          f"transcription")
     return ReleaseIndex(root, tuple(trials), missing_kin, missing_tr, task,
@@ -446,7 +446,7 @@ def _diagnose_rows(path: Path, names: list[str], fmt: RecordingFormat,
     """Raise a ``FormatError`` naming the first malformed row (a row of another width in the
     release's layout with the ``--format`` hint), or, if no row looks malformed, naming the file
     and ``numpy_error``, what ``numpy.loadtxt`` refused."""
-    hint = f"; {ANOTHER_LAYOUT_HINT}" if fmt.is_default else ""
+    hint = f"; {another_layout_hint()}" if fmt.is_default else ""
     for number, line in rows:
         if line.lstrip().startswith("#"):
             raise FormatError(path, number, line.strip(), "a comment line: a recording has "

@@ -17,6 +17,7 @@ from jigsaws_tools.recording_format import JIGSAWS_FORMAT, read_format_file
 from jigsaws_tools.release import (discover, frame_labels, read_kinematics, read_recording,
                                    read_transcription)
 from jigsaws_tools.task_definition import SUTURING
+from jigsaws_tools.cli.main import main as tools_main
 from multitask.inference.predict_cli import main as predict_main
 from multitask.inference.trained_run import load_run
 from multitask.train_cli import main as train_main
@@ -395,3 +396,28 @@ def test_a_lower_case_user_letter_is_refused_naming_the_file(robot_dir, synth_di
     assert train_main(["--data-dir", str(data), *options, "--test-user", "C", "--epochs", "1",
                        "--out", str(tmp_path / "run")]) == 2
     assert renamed in _error_line(capsys)
+
+
+def test_jigsaws_tools_reads_a_folder_of_another_layout_with_format(robot_dir, tmp_path, capsys):
+    data, fmt = str(robot_dir / "data"), str(robot_dir / "my_robot.toml")
+    assert tools_main(["inspect", "--data-dir", data, "--format", fmt]) == 0
+    out = capsys.readouterr().out
+    assert f"{5 * len(USERS)} complete trials" in out and f"frames at {RATE} Hz" in out, out
+    assert tools_main(["stages", "--data-dir", data, "--format", fmt]) == 0
+    assert f"of {5 * len(USERS)} trials follow the stage order" in capsys.readouterr().out
+    png = tmp_path / "labels.png"
+    assert tools_main(["plot", "--data-dir", data, "--format", fmt, "--out", str(png)]) == 0
+    assert png.is_file()
+
+
+@pytest.mark.parametrize("command, takes_format", [
+    (["inspect"], True), (["stages"], True), (["plot", "--out", "unwritten.png"], True),
+    (["amendments"], False),
+])
+def test_a_folder_of_another_layout_is_pointed_to_format_by_commands_that_take_it(
+        robot_dir, capsys, command, takes_format):
+    assert tools_main([*command, "--data-dir", str(robot_dir / "data")]) == 2
+    err = _error_line(capsys)
+    assert str(robot_dir / "data") in err and "Your own recordings" in err, err
+    assert ("--format" in err) == takes_format, err
+    assert takes_format or "reads the JIGSAWS release's layout only" in err

@@ -280,7 +280,8 @@ def _replay(captured, keep: Callable[[str], bool]) -> None:
     sys.stderr.flush()
 
 
-def run_command(prog: str, verbose: bool, body: Callable[[], int | None]) -> int:
+def run_command(prog: str, verbose: bool, body: Callable[[], int | None],
+                format_option: bool = True) -> int:
     """Run a command's work with the shared output setup (``configure_output``).
 
     Args:
@@ -288,6 +289,10 @@ def run_command(prog: str, verbose: bool, body: Callable[[], int | None]) -> int
         verbose: log at INFO level, show TensorFlow's start-up lines and print a user error's
             traceback too.
         body: the command's work; returns its exit code or None.
+        format_option: the command takes ``--format`` (``format_options``). A command that
+            does not passes False: an error's advice for recordings of another layout
+            (``recording_format.another_layout_hint``) then says that it reads the release's
+            layout only instead of suggesting ``--format``.
 
     Returns:
         The exit code: ``body``'s, 0 if it returns None, 1 after a write the disk refused
@@ -303,9 +308,19 @@ def run_command(prog: str, verbose: bool, body: Callable[[], int | None]) -> int
         if isinstance(error, OSError):
             error = WriteFailed.from_os_error(error) or error
         failed = isinstance(error, WriteFailed)
-        print(f"{prog}: {'failed' if failed else 'error'}: {error}", file=sys.stderr)
+        print(f"{prog}: {'failed' if failed else 'error'}: {_worded(error, format_option)}",
+              file=sys.stderr)
         return 1 if failed else 2
     except KeyboardInterrupt:
         print(f"{prog}: interrupted", file=sys.stderr)
         return 130
     return 0 if code is None else code
+
+
+def _worded(error: BaseException, format_option: bool) -> str:
+    """``error``'s message with its advice for recordings of another layout worded for a
+    command with or without ``--format`` (``run_command``)."""
+    from ..recording_format import another_layout_hint
+
+    return str(error).replace(another_layout_hint(),
+                              another_layout_hint(format_option=format_option))

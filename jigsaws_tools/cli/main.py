@@ -2,10 +2,12 @@
 list amendments, plot labels.
 
 Every subcommand reads one task's release: ``--task`` (Suturing, the default; Knot_Tying;
-Needle_Passing) or ``--task-file`` (your own definition).
+Needle_Passing) or ``--task-file`` (your own definition); inspect, stages and plot read a folder
+of recordings in another layout with ``--format FILE.toml`` (amendments are the release's).
 
     jigsaws-tools synth --out /tmp/synth/Suturing
     jigsaws-tools inspect --data-dir /path/to/Knot_Tying --task Knot_Tying
+    jigsaws-tools inspect --data-dir my_data --format my_robot.toml
     jigsaws-tools stages --data-dir /path/to/Needle_Passing --task Needle_Passing
     jigsaws-tools amendments --data-dir /path/to/Suturing
     jigsaws-tools plot --synthetic --out labels.png
@@ -18,6 +20,7 @@ from pathlib import Path
 
 from .common import (HelpFormatter, add_verbose_argument, command_parser, deprecated_alias,
                      deprecated_positional, run_command)
+from .format_options import add_format_option, format_from_options
 from .options import add_data_arguments, add_synthetic_seed_argument, data_dir_from_args
 from .task_options import add_task_options, task_from_options
 
@@ -40,13 +43,13 @@ def _inspect(args: argparse.Namespace) -> None:
     from ..release import discover
     from ..summary import release_summary
 
-    task = task_from_options(args)
-    index = discover(data_dir_from_args(args, task), task)
+    task, fmt = task_from_options(args), format_from_options(args)
+    index = discover(data_dir_from_args(args, task), task, fmt)
     table = release_summary(index, args.annotations)
     print(task.describe() + "\n")
     with pd.option_context("display.max_rows", None, "display.width", 200):
         print(table.to_string())
-    print(f"\n{len(table)} complete trials, {table['frames'].sum()} frames at 30 Hz, "
+    print(f"\n{len(table)} complete trials, {table['frames'].sum()} frames at {fmt.rate_hz:g} Hz, "
           f"{table['labelled'].sum()} labelled ({args.annotations} annotations)")
     print("gestures:", _histogram(table[list(task.gestures)].sum()))
     print("progress:", _histogram(table[list(task.stage_names)].sum()))
@@ -62,7 +65,8 @@ def _stages(args: argparse.Namespace) -> None:
     from ..stage_order import IN_ORDER, KINDS, stage_order
 
     task = task_from_options(args)
-    table, breaks = stage_order(discover(data_dir_from_args(args, task), task), args.annotations)
+    index = discover(data_dir_from_args(args, task), task, format_from_options(args))
+    table, breaks = stage_order(index, args.annotations)
     print("stages: " + " -> ".join(f"{i} {name}" for i, name in enumerate(task.stage_names))
           + f" ({args.annotations} annotations)\n")
     with pd.option_context("display.max_rows", None, "display.width", 200):
@@ -101,12 +105,14 @@ def _amendments(args: argparse.Namespace) -> None:
 
 
 def _plot(args: argparse.Namespace) -> None:
-    from ..dataset import DataConfig, load_dataset
+    from ..dataset import DataConfig, check_format_fits, load_dataset
     from ..plots import plot_dataset
+    from ..preprocessing import PreprocessConfig
 
-    task = task_from_options(args)
+    task, fmt = task_from_options(args), format_from_options(args)
+    check_format_fits(fmt, DataConfig.feature_set, PreprocessConfig(), args.format or "")
     config = DataConfig(str(data_dir_from_args(args, task)), annotations=args.annotations,
-                        task=task)
+                        task=task, recording_format=fmt)
     dataset = load_dataset(config)
     out = plot_dataset(dataset.trials, args.out, config.preprocessing.sample_hz, task.gestures,
                        task.stage_names)
@@ -126,18 +132,18 @@ def build_parser() -> argparse.ArgumentParser:
     deprecated_alias(p, "--seed", seed)
 
     p = _subcommand(sub, "inspect", _inspect, "per-trial frames and gesture / progress histograms")
-    _release_arguments(p)
+    _release_arguments(p, recording_format=True)
 
     p = _subcommand(sub, "stages", _stages,
                     "how each trial's labels follow the task's progress stages")
-    _release_arguments(p)
+    _release_arguments(p, recording_format=True)
 
     p = _subcommand(sub, "amendments", _amendments, "what an annotation version changes")
-    annotations = _release_arguments(p)
+    annotations = _release_arguments(p, recording_format=False)     # the release's frames
     deprecated_alias(p, "--version", annotations)
 
     p = _subcommand(sub, "plot", _plot, "PNG of gesture and progress ribbons for every trial")
-    _release_arguments(p)
+    _release_arguments(p, recording_format=True)
     p.add_argument("--out", type=Path, default=Path("labels.png"), metavar="PNG",
                    help="image to write")
     return parser
@@ -151,10 +157,13 @@ def _subcommand(sub, name: str, run, summary: str) -> argparse.ArgumentParser:
     return parser
 
 
-def _release_arguments(parser: argparse.ArgumentParser) -> argparse.Action:
-    """The release options, with the old positional folder as a deprecated alias; returns the
-    ``--annotations`` action."""
+def _release_arguments(parser: argparse.ArgumentParser, recording_format: bool
+                       ) -> argparse.Action:
+    """The release options (with ``--format`` if ``recording_format``), with the old positional
+    folder as a deprecated alias; returns the ``--annotations`` action."""
     data = add_data_arguments(parser)
+    if recording_format:
+        add_format_option(data, "the data folder's recordings")
     actions = {a.dest: a for a in data._group_actions}
     deprecated_positional(parser, actions["data_dir"])
     return actions["annotations"]
@@ -162,7 +171,7 @@ def _release_arguments(parser: argparse.ArgumentParser) -> argparse.Action:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    return run_command(PROG, args.verbose, lambda: args.run(args))
+    return run_command(PROG, args.verbose, lambda: args.run(args), format_option="format" in args)
 
 
 if __name__ == "__main__":
