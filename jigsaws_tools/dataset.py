@@ -27,7 +27,8 @@ from .errors import DefinitionError, JigsawsError
 from .features import DEFAULT_FEATURE_SET, feature_names
 from .preprocessing import PreprocessConfig, decimation, preprocess
 from .progress import progress_labels
-from .recording_format import JIGSAWS_FORMAT, RecordingFormat, load_format
+from .recording_format import (JIGSAWS_FORMAT, RecordingFormat, check_feature_columns,
+                               load_format)
 from .release import (ReleaseIndex, TrialFiles, discover, frame_labels, meta_path, read_meta,
                       read_recording, read_transcription)
 from .task_definition import PAPER_TASK, SUTURING, TaskDefinition, load_task
@@ -80,8 +81,9 @@ def check_format_fits(recording_format: RecordingFormat, feature_set: str,
                       preprocessing: PreprocessConfig, where: str = "") -> None:
     """Raise ``DefinitionError`` (naming ``where``, default the format's name, its key and value)
     unless recordings in ``recording_format`` can give ``feature_set``'s features at the model's
-    rate: its rate is a whole multiple of the model's (``decimation``) and, without a header, its
-    columns hold every feature."""
+    rate: its rate is a whole multiple of the model's (``decimation``), without a header its
+    columns hold every feature, and each feature reads a column of its own
+    (``check_feature_columns``)."""
     fmt = recording_format
     where = where or f"recording format {fmt.name}"
     try:
@@ -94,6 +96,7 @@ def check_format_fits(recording_format: RecordingFormat, feature_set: str,
                                   fmt.column_of(feature),
                                   f"no column holds feature {feature} of feature set "
                                   f"{feature_set} (map it in [features])")
+    check_feature_columns(fmt, feature_names(feature_set), where)
 
 
 @dataclass(frozen=True)

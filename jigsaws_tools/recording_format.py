@@ -43,6 +43,7 @@ import math
 import re
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Iterable
 
 from .errors import DefinitionError
 from .features import FEATURE_NAMES
@@ -196,7 +197,7 @@ def _check_format(fmt: RecordingFormat) -> None:
         if feature not in FEATURE_NAMES:
             raise DefinitionError("", f"features.{feature}", column, "not a model feature (one "
                                   "of jigsaws_tools.features.FEATURE_NAMES, e.g. psm1_pos_x)")
-    _check_feature_columns(fmt)
+    check_feature_columns(fmt, [feature for feature, _ in fmt.features])
     for key, value in (("files.recordings", fmt.recordings),
                        ("files.transcriptions", fmt.transcriptions)):
         if not value or Path(value).is_absolute() or ".." in Path(value).parts:
@@ -210,23 +211,27 @@ def _check_format(fmt: RecordingFormat) -> None:
         raise DefinitionError("", "files.extension", fmt.extension, "expected e.g. '.csv'")
 
 
-def _check_feature_columns(fmt: RecordingFormat) -> None:
-    """Each model feature reads a column of its own (the one ``[features]`` maps it to, else the
-    column of its own name), never the time column; else a ``DefinitionError`` naming both keys
-    and the column (two features reading one column would feed the model one signal twice)."""
+def check_feature_columns(fmt: RecordingFormat, features: Iterable[str], where: str = ""
+                          ) -> None:
+    """Each of ``features`` reads a column of its own (the one ``[features]`` maps it to, else the
+    column of its own name), never the time column; else a ``DefinitionError`` naming ``where``,
+    both keys and the column (two features reading one column would feed the model one signal
+    twice). The format's own check applies it to the features it lists; a run's data check
+    (``dataset.check_format_fits``) to the features it reads, as a listed feature may take the
+    column of an unlisted one that only some feature sets read."""
     listed = dict(fmt.features)
-    keys = {f: f"features.{f}" if f in listed else f"{f} (not in [features]: its own name)"
-            for f in FEATURE_NAMES}
     reader: dict[str, str] = {}
-    for feature in sorted(FEATURE_NAMES, key=lambda f: f in listed):   # an error names a listed key
+    for feature in sorted(features, key=lambda f: f in listed):   # an error names a listed key
         column = fmt.column_of(feature)
+        key = f"features.{feature}" if feature in listed else (f"{feature} (not in [features]: "
+                                                                f"its own name)")
         if fmt.time_column and column == fmt.time_column:
-            raise DefinitionError("", keys[feature], column, "the format's time_column, checked "
-                                  "against rate_hz and never a model input")
+            raise DefinitionError(where, key, column, "the format's time_column, checked against "
+                                  "rate_hz and never a model input")
         if column in reader:
-            raise DefinitionError("", keys[feature], column, f"also the column of "
-                                  f"{keys[reader[column]]}: each feature needs a column of its own")
-        reader[column] = feature
+            raise DefinitionError(where, key, column, f"also the column of {reader[column]}: "
+                                  f"each feature needs a column of its own")
+        reader[column] = key
 
 
 #: The JIGSAWS release's format, read from its shipped file.

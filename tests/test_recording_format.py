@@ -12,6 +12,7 @@ import pytest
 from jigsaws_tools.errors import DefinitionError, FormatError, JigsawsError
 from jigsaws_tools.features import FEATURE_NAMES, feature_names
 from jigsaws_tools.gestures import GESTURES
+from jigsaws_tools.dataset import check_format_fits
 from jigsaws_tools.preprocessing import PreprocessConfig, decimation
 from jigsaws_tools.recording_format import JIGSAWS_FORMAT, read_format_file
 from jigsaws_tools.release import (discover, frame_labels, read_kinematics, read_recording,
@@ -197,8 +198,6 @@ def test_a_bad_recording_is_one_line_naming_file_column_and_value(robot_run, rob
     # two features read one column, or a feature the time column
     (('psm2_pos_x = "arm2_pos_x"', 'psm2_pos_x = "arm1_pos_x"'),
      ["features.psm2_pos_x", "features.psm1_pos_x", "'arm1_pos_x'"]),
-    (('psm1_pos_x = "arm1_pos_x"', 'psm1_pos_x = "psm1_rot_11"'),   # psm1_rot_11's own column
-     ["features.psm1_pos_x", "psm1_rot_11 (not in [features]", "'psm1_rot_11'"]),
     (('psm1_pos_x = "arm1_pos_x"', 'psm1_pos_x = "time_s"'),
      ["features.psm1_pos_x", "time_column", "'time_s'"]),
 ])
@@ -421,3 +420,22 @@ def test_a_folder_of_another_layout_is_pointed_to_format_by_commands_that_take_i
     assert str(robot_dir / "data") in err and "Your own recordings" in err, err
     assert ("--format" in err) == takes_format, err
     assert takes_format or "reads the JIGSAWS release's layout only" in err
+
+
+def test_a_feature_may_take_an_unread_features_own_column_but_not_a_read_ones(robot_dir, tmp_path,
+                                                                               capsys):
+    """Unlisted, psm2_pos_x reads the column of its own name: mapping psm1_pos_x there feeds the
+    model one signal twice, while mapping psm1_rot_11 there harms no run that does not read it."""
+    unlisted = FORMAT.replace('psm2_pos_x = "arm2_pos_x"\n', "")
+    unread = tmp_path / "unread.toml"
+    unread.write_text(unlisted.replace("[features]\n", '[features]\npsm1_rot_11 = "psm2_pos_x"\n'))
+    check_format_fits(read_format_file(unread), "psm_pos_vel_grip", PreprocessConfig())
+    with pytest.raises(DefinitionError, match=r"psm2_pos_x \(not in \[features\]"):
+        check_format_fits(read_format_file(unread), "all", PreprocessConfig())
+    bad = tmp_path / "bad.toml"
+    bad.write_text(unlisted.replace('psm1_pos_x = "arm1_pos_x"', 'psm1_pos_x = "psm2_pos_x"'))
+    assert train_main(["--data-dir", str(robot_dir / "data"), "--format", str(bad), "--epochs",
+                       "1", "--out", str(tmp_path / "run")]) == 2
+    err = _error_line(capsys)
+    assert str(bad) in err and "features.psm1_pos_x" in err, err
+    assert "also the column of psm2_pos_x (not in [features]" in err and "'psm2_pos_x'" in err
