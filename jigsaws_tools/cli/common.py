@@ -318,9 +318,10 @@ def run_command(prog: str, verbose: bool, body: Callable[[], int | None],
 
 
 def _worded(error: BaseException, format_option: bool) -> str:
-    """``error``'s message with its advice for recordings of another layout worded for a
-    command with or without ``--format`` (``run_command``)."""
+    """``error``'s message, its advice for recordings of another layout (worded for a command
+    with ``--format``) reworded for a command without (``run_command``)."""
+    if format_option:
+        return str(error)
     from ..recording_format import another_layout_hint
 
-    return str(error).replace(another_layout_hint(),
-                              another_layout_hint(format_option=format_option))
+    return str(error).replace(another_layout_hint(), another_layout_hint(format_option=False))
