@@ -19,6 +19,7 @@ from jigsaws_tools.release import (discover, frame_labels, read_kinematics, read
                                    read_transcription)
 from jigsaws_tools.task_definition import SUTURING
 from jigsaws_tools.cli.main import main as tools_main
+from multitask.inference.evaluate_cli import main as evaluate_main
 from multitask.inference.predict_cli import main as predict_main
 from multitask.inference.trained_run import load_run
 from multitask.train_cli import main as train_main
@@ -250,6 +251,22 @@ def test_a_recording_of_another_layout_without_format_points_to_it(release_run, 
     assert f"{recording}:1:" in err and f"{len(JIGSAWS_FORMAT.columns)} kinematic columns" in err
     assert "--format" in err and "Your own recordings" in err, err
     assert not (out / recording.name).exists()
+
+
+def test_evaluate_scores_labelled_recordings_of_another_layout(release_run, robot_dir, tmp_path,
+                                                              capsys, caplog):
+    """A run trained on the release scores the robot's labelled recordings given --format: other
+    data than its training data, so a warning and trained_on_this_data false."""
+    data, out = robot_dir / "data", tmp_path / "evaluation"
+    assert evaluate_main([str(release_run), "--data-dir", str(data), "--out", str(out)]) == 2
+    assert "--format" in _error_line(capsys) and not out.exists()
+    assert evaluate_main([str(release_run), "--data-dir", str(data), "--format",
+                          str(robot_dir / "my_robot.toml"), "--out", str(out), "--no-plots"]) == 0
+    metrics = pd.read_json(out / "metrics.json", typ="series")
+    assert metrics["trained_on_this_data"] is False and "held-out scores" in caplog.text
+    trials = discover(data, recording_format=read_format_file(robot_dir / "my_robot.toml")).trials
+    assert sorted(p.stem for p in (out / "predictions").glob("*.csv")) == sorted(
+        t.name for t in trials if t.user == "B")
 
 
 def test_a_row_of_another_width_in_a_given_format_gets_no_format_hint(robot_dir, tmp_path):

@@ -90,7 +90,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.scheduler and importlib.util.find_spec("distributed") is None:
         parser.error("--scheduler needs Dask: pip install 'mtrnn-jigsaws[dask]'")
     set_command([PROG, *(sys.argv[1:] if argv is None else argv)])
-    return run_command(PROG, args.verbose, lambda: _run(args))
+    return run_command(PROG, args.verbose, lambda: _run(args), format_option=False)
 
 
 def _check_grid_folder(out: Path) -> None:

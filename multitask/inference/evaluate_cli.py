@@ -3,7 +3,8 @@
 Writes what a training evaluation point writes (predictions/NAME.csv, plots/NAME.png,
 metrics.json) for the held-out user's trials (or --test-user's). On a run's final checkpoint it
 reproduces the run's last evaluation point exactly (to float32 rounding if it trained with
---loops xla: a loaded run runs the op loops). --stream scores a forward model as it would run
+--loops xla: a loaded run runs the op loops). --data-dir with --format scores labelled
+recordings of another layout (your own robot's, at its rate). --stream scores a forward model as it would run
 online (causal preprocessing of every frame; docs/REPRODUCTION.md, "Streaming").
 """
 from __future__ import annotations
@@ -13,6 +14,7 @@ import sys
 from pathlib import Path
 
 from jigsaws_tools.cli.common import run_command
+from jigsaws_tools.cli.format_options import add_format_option
 
 from .options import load_for_command, trained_run_parser
 
@@ -34,6 +36,8 @@ def build_parser() -> argparse.ArgumentParser:
                              "the offline one (default: offline, as training evaluated)")
     parser.add_argument("--no-plots", action="store_true",
                         help="skip the per-trial plots (default: draw them)")
+    add_format_option(parser, "the --data-dir release's recordings (default: the format the run "
+                              "trained on)")
     return parser
 
 
@@ -46,7 +50,7 @@ def _evaluate(args: argparse.Namespace) -> None:
     user = args.test_user or run.config.test_user
     out = args.out or default_evaluation_dir(run, user, args.stream)
     metrics = evaluate_run(run, out, args.data_dir, user, args.stream, not args.no_plots,
-                           args.overwrite)
+                           args.overwrite, args.format)
     print(f"{args.run_dir}, checkpoint after sweep {run.checkpoint}, user {user}"
           f"{', stream' if args.stream else ''}: {metrics_summary(run.tasks, metrics)}")
     print(f"done: outputs in {out}")

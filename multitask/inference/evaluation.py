@@ -19,6 +19,7 @@ from pathlib import Path
 from baseline.builder import to_sequences
 from jigsaws_tools.dataset import Dataset, Trial, load_dataset
 from jigsaws_tools.preprocessing import Normalisation
+from jigsaws_tools.recording_format import RecordingFormat
 from jigsaws_tools.release import discover
 from rnn_seg.runs.folder import staged_folder
 from rnn_seg.runs.outputs import check_new_output
@@ -48,7 +49,9 @@ def default_evaluation_dir(run: TrainedRun, test_user: str, stream: bool) -> Pat
 
 def evaluate_run(run: TrainedRun, out: Path, data_dir: Path | str | None = None,
                  test_user: str | None = None, stream: bool = False, plots: bool = True,
-                 overwrite: bool = False) -> dict[str, dict[str, float]]:
+                 overwrite: bool = False,
+                 recording_format: str | Path | RecordingFormat | None = None
+                 ) -> dict[str, dict[str, float]]:
     """Evaluate ``run``'s weights on one user's labelled trials and write the results to ``out``.
 
     Args:
@@ -60,17 +63,25 @@ def evaluate_run(run: TrainedRun, out: Path, data_dir: Path | str | None = None,
         plots: draw the per-trial plots.
         overwrite: replace an existing ``out``, an earlier evaluation (never a run, a grid or a
             run's own files: ``rnn_seg.runs.outputs``).
+        recording_format: the layout and rate of ``data_dir``'s recordings (a built-in name, a
+            format file or a format; checked to give the run's features at its sample rate;
+            default: the run's).
 
     Returns:
         The metrics per task.
     """
     check_new_output(out, "multitask-evaluate", EVALUATION_ENTRIES, overwrite,
                      run_place="evaluate")
+    fmt = run.recording_format(recording_format)
     if stream:
         run.require_online("streaming evaluation")
-    data_config = replace(run.config.data, data_dir=str(data_dir)) if data_dir else run.config.data
+        if fmt != run.config.data.recording_format:
+            raise ValueError(f"streaming evaluation reads the format the run trained on "
+                             f"({run.config.data.recording_format.name}), not {fmt.name}")
+    data_config = replace(run.config.data, recording_format=fmt,
+                          data_dir=str(data_dir or run.config.data.data_dir))
     dataset = load_dataset(data_config)
-    same_data = run.trained_on(data_config.data_dir)
+    same_data = run.trained_on(data_config.data_dir, fmt)
     if not same_data:
         _refuse_or_warn(run, data_config.data_dir, given=data_dir is not None)
     test_user = test_user or run.config.test_user

@@ -163,7 +163,8 @@ def _predict_all(run: TrainedRun, files: list[Path], recording_format: Recording
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    return run_command(PROG, args.verbose, lambda: _predict(args))
+    return run_command(PROG, args.verbose, lambda: _predict(args),
+                       format_option=not args.stream)     # --stream reads the release's layout
 
 
 if __name__ == "__main__":

@@ -197,12 +197,15 @@ class TrainedRun:
         return RecordingPrediction(self.tasks, outputs, frames, len(features), self.sample_hz,
                                    fmt.rate_hz)
 
-    def trained_on(self, data_dir: Path | str | None = None) -> bool:
-        """Whether the release in ``data_dir`` (default: the run's data folder) holds the data
-        the run trained on: read with the run's data settings, it has the data fingerprint
-        config.json records (``baseline.builder.data_fingerprint``; False when none is
-        recorded). Reads every file of the release."""
-        data = replace(self.config.data, data_dir=str(data_dir or self.config.data.data_dir))
+    def trained_on(self, data_dir: Path | str | None = None,
+                   recording_format: RecordingFormat | None = None) -> bool:
+        """Whether the release in ``data_dir`` (default: the run's data folder), read in
+        ``recording_format`` (default: the run's) with the run's other data settings, holds the
+        data the run trained on: it has the data fingerprint config.json records
+        (``baseline.builder.data_fingerprint``; False when none is recorded). Reads every file
+        of the release."""
+        data = replace(self.config.data, data_dir=str(data_dir or self.config.data.data_dir),
+                       recording_format=recording_format or self.config.data.recording_format)
         return self.data_fingerprint is not None and data_fingerprint(data) == self.data_fingerprint
 
     def require_online(self, what: str) -> None:
