@@ -17,8 +17,8 @@ import numpy as np
 
 from .errors import FormatError, JigsawsError
 from .gestures import GESTURE_INDEX, UNLABELLED
-from .release import (ReleaseIndex, frame_labels, read_kinematics, read_transcription,
-                      transcriptions_dir)
+from .release import (KINEMATICS_HZ, ReleaseIndex, frame_labels, read_kinematics,
+                      read_transcription, transcriptions_dir)
 from .task_definition import PAPER_TASK, SUTURING, TaskDefinition
 
 ANNOTATION_VERSIONS = ("original", "revised")
@@ -87,15 +87,19 @@ def _parse_amendment(path: str, number: int, row: dict[str, str]) -> Amendment:
 
 
 def apply_amendments(trial: str, labels: np.ndarray, version: str,
-                     task: TaskDefinition = SUTURING) -> tuple[np.ndarray, list[AmendmentEffect]]:
+                     task: TaskDefinition = SUTURING, rate_hz: float = KINEMATICS_HZ
+                     ) -> tuple[np.ndarray, list[AmendmentEffect]]:
     """Relabel one trial's frames under ``version``.
 
     Args:
         trial: trial name, e.g. ``"Suturing_B004"``.
-        labels: ``[n_frames]`` int class indices of ``task``'s vocabulary at 30 Hz
-            (``UNLABELLED`` = -1).
+        labels: ``[n_rows]`` int class indices of ``task``'s vocabulary, a row per frame of the
+            trial's recording (``UNLABELLED`` = -1).
         version: an annotation version (``ANNOTATION_VERSIONS``).
         task: the trial's task; only Suturing has amendments.
+        rate_hz: the recording's rate. The amendments are frame ranges of the release's 30 Hz
+            recordings: a trial of the release's name recorded at another rate is refused
+            (``JigsawsError``) rather than relabelled at the wrong rows.
 
     Returns:
         The amended copy of ``labels`` and the effect of each amendment of this trial.
@@ -105,6 +109,11 @@ def apply_amendments(trial: str, labels: np.ndarray, version: str,
     for a in amendments(version, task):
         if a.trial != trial:
             continue
+        if rate_hz != KINEMATICS_HZ:
+            raise JigsawsError(f"trial {trial}: annotation version {version!r} relabels frames "
+                               f"{a.start}-{a.end} of the release's {KINEMATICS_HZ:g} Hz "
+                               f"recording of this name, and this one is at {rate_hz:g} Hz; "
+                               "use annotations 'original', or rename the trial")
         if a.end > len(labels):
             effects.append(AmendmentEffect(a, f"skipped: range ends beyond the {len(labels)} "
                                               f"frames of the trial", 0, {}))

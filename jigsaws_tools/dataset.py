@@ -180,7 +180,7 @@ def load_trial(files: TrialFiles, skill: str, config: DataConfig) -> Trial:
     kinematics = read_recording(files.kinematics, config.recording_format, config.features)
     segments = read_transcription(files.transcription, len(kinematics), task)
     gestures, _ = apply_amendments(files.name, frame_labels(segments, len(kinematics), task),
-                                   config.annotations, task)
+                                   config.annotations, task, config.recording_format.rate_hz)
     labels = np.stack([gestures, progress_labels(gestures, task)], axis=1)
     try:
         inputs, labels, frames = preprocess(kinematics, labels, config.preprocessing,

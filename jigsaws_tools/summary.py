@@ -37,5 +37,5 @@ def trial_labels(trial: TrialFiles, task: TaskDefinition, version: str,
     in annotation ``version``."""
     n_frames = len(read_recording(trial.kinematics, recording_format))
     labels = frame_labels(read_transcription(trial.transcription, n_frames, task), n_frames, task)
-    labels, _ = apply_amendments(trial.name, labels, version, task)
+    labels, _ = apply_amendments(trial.name, labels, version, task, recording_format.rate_hz)
     return n_frames, labels

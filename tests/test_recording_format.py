@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from jigsaws_tools.annotations import amendments, apply_amendments
 from jigsaws_tools.errors import DefinitionError, FormatError, JigsawsError
 from jigsaws_tools.features import FEATURE_NAMES, feature_names
 from jigsaws_tools.gestures import GESTURES
@@ -456,3 +457,16 @@ def test_a_feature_may_take_an_unread_features_own_column_but_not_a_read_ones(ro
     err = _error_line(capsys)
     assert str(bad) in err and "features.psm1_pos_x" in err, err
     assert "also the column of psm2_pos_x (not in [features]" in err and "'psm2_pos_x'" in err
+
+
+def test_the_papers_amendments_never_relabel_a_recording_at_another_rate():
+    """The amendments are frame ranges of the release's 30 Hz trials: a trial of such a name at
+    another rate is refused under them, not relabelled at the wrong rows."""
+    amendment = amendments("revised", SUTURING)[0]
+    labels = np.zeros(amendment.end + 10, dtype=int)
+    amended, _ = apply_amendments(amendment.trial, labels, "revised", SUTURING, 30.0)
+    assert np.any(amended != labels)
+    with pytest.raises(JigsawsError, match=rf"{amendment.trial}.* at 100 Hz"):
+        apply_amendments(amendment.trial, labels, "revised", SUTURING, float(RATE))
+    kept, _ = apply_amendments(amendment.trial, labels, "original", SUTURING, float(RATE))
+    assert np.array_equal(kept, labels)
