@@ -14,9 +14,10 @@ Every key, checked by ``read_format_file``::
     header = true                   # the first non-blank line names the columns
     columns = ["t", "x", ...]       # header = false only (and then required): every column in order
     time_column = "t"               # optional: a column of times in seconds, checked against
-                                    # rate_hz at every row: each step within half a sample period
-                                    # of 1 / rate_hz, no drift beyond 1 % (release.STEP_TOLERANCE,
-                                    # DRIFT_TOLERANCE); never a model input
+                                    # rate_hz at every row: increasing, no step over 2.5 sample
+                                    # periods, no time farther than 2.5 periods and 1 % from its
+                                    # row's (release.GAP_PERIODS, DRIFT_TOLERANCE); never a model
+                                    # input
 
     [features]                      # optional: model feature (jigsaws_tools.features
     psm1_pos_x = "PSM1_x"           # .FEATURE_NAMES) -> the column holding it; a feature not

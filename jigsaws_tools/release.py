@@ -30,18 +30,20 @@ NUM_KINEMATIC_COLUMNS = 76
 KINEMATICS_HZ = 30.0
 _BOM = b"\xef\xbb\xbf"
 _ANY_TRIAL_FILE = re.compile(r"^(.+)_[A-Z]\d{3}\.txt$", re.IGNORECASE)
-#: How far a time column's step may be from the format's sample period ``1 / rate_hz``, as a
-#: fraction of the period. Robot logs stamp each sample when it is taken, late by a small part of
-#: a period (a control loop woken late); a missing sample makes a step of two periods and an
-#: extra one a step of at most half a period, so a step within half a period of ``1 / rate_hz``
-#: is one sample and any other step a gap or an extra sample. (Times stamped on arrival, which can
-#: come in bursts, may need resampling first.)
-STEP_TOLERANCE = 0.5
-#: How far a recording's times may drift from those its rows give (``row / rate_hz`` after the
-#: first row's time), as a fraction of the time elapsed, on top of ``STEP_TOLERANCE`` of a period:
-#: a clock or control loop up to 1 % off its nominal rate passes (the rate check this replaces
-#: allowed 1 %), so every prediction row's time is within 1 % of the recorded one.
+#: The longest step of a time column, and the farthest a time may lie from the time its row gives
+#: (``row / rate_hz`` after the first row's; see ``DRIFT_TOLERANCE``), in sample periods
+#: ``1 / rate_hz``. Robot logs stamp samples with jitter and the odd late wake-up or dropped
+#: sample (a step of up to two periods, then a short one); such a sample moves a prediction row's
+#: time by at most a period and its input by one row, which no score notices. Two or more samples
+#: missing in a row (a step of three periods or more), or times wandering off their rows, mean a
+#: gap or another rate, and are refused.
+GAP_PERIODS = 2.5
+#: How far a recording's times may drift from those its rows give, as a fraction of the time
+#: elapsed, on top of ``GAP_PERIODS``: a clock or control loop up to 1 % off its nominal rate
+#: passes, so every prediction row's time is within 1 % (and 2.5 periods) of the recorded one.
 DRIFT_TOLERANCE = 0.01
+#: How to get past a time column the checks refuse (the end of their messages).
+_TIME_ADVICE = "resample the recording to a uniform grid, or drop time_column from the format"
 
 log = logging.getLogger(__name__)
 
@@ -385,60 +387,42 @@ def _missing_column(path: Path, fmt: RecordingFormat, header_line: int, names: l
 
 def _check_times(path: Path, fmt: RecordingFormat, times: np.ndarray, numbers: list[int]
                  ) -> None:
-    """The time column [s] must follow ``fmt.rate_hz`` at every row; the first row that does not
-    is a ``FormatError`` naming its line (``numbers``: each row's file line) and its time.
+    """The time column [s] must follow ``fmt.rate_hz``; the first row that does not is a
+    ``FormatError`` naming its line (``numbers``: each row's file line) and its time.
 
-    Times increase; each step is within ``STEP_TOLERANCE`` of a sample period of ``1 / rate_hz``,
-    so no sample is missing and none is extra (a 10 s dropout, or one row in 20 lost, is
-    refused at the first row after it); and each time is within ``DRIFT_TOLERANCE`` of the time
-    elapsed (plus ``STEP_TOLERANCE`` of a period) of the time its row gives, ``row / rate_hz``
-    after the first row's, which is the time a prediction row carries. Steps alone would let a
-    clock drift: every step 1.4 periods long passes them, and the 1000th row would be 400
-    periods late. The drift is bounded at every row, not only the last, as a clock slow, then
-    fast, can end on time.
+    Times increase, by at most ``GAP_PERIODS`` sample periods a step (a 10 s dropout is refused
+    at the first row after it), and each lies within ``GAP_PERIODS`` periods plus
+    ``DRIFT_TOLERANCE`` of the time elapsed of the time its row gives, ``row / rate_hz`` after
+    the first row's, which is the time a prediction row carries. Steps alone would let a clock
+    drift (every step 1.4 periods long passes them), so the distance is bounded at every row, not
+    only the last, as a clock slow, then fast, can end on time. Jitter, a late stamp or a single
+    dropped sample pass.
     """
-    _check_steps(path, fmt, times, numbers)
-    _check_drift(path, fmt, times, numbers)
-
-
-def _check_steps(path: Path, fmt: RecordingFormat, times: np.ndarray, numbers: list[int]
-                 ) -> None:
-    """Times increase, each step within ``STEP_TOLERANCE`` of a sample period
-    (``_check_times``)."""
     period = 1 / fmt.rate_hz
     steps = np.diff(times)
-    bad = (steps <= 0) | (np.abs(steps - period) > STEP_TOLERANCE * period)
-    if not bad.any():
-        return
-    row = int(np.argmax(bad)) + 1
-    step, before = steps[row - 1], f"{times[row - 1]:g} s on the line before"
     column = f"time column {fmt.time_column!r}"
-    if step <= 0:
+    bad = (steps <= 0) | (steps > GAP_PERIODS * period)
+    if bad.any():
+        row = int(np.argmax(bad)) + 1
+        step, before = steps[row - 1], f"{times[row - 1]:g} s on the line before"
+        if step <= 0:
+            raise FormatError(path, numbers[row], float(times[row]),
+                              f"{column} does not increase ({before}); {_TIME_ADVICE}")
         raise FormatError(path, numbers[row], float(times[row]),
-                          f"{column} does not increase ({before})")
-    raise FormatError(path, numbers[row], float(times[row]),
-                      f"{column} steps {step:.6g} s ({1 / step:.4g} Hz) from {before} to "
-                      f"{times[row]:g} s; rate_hz = {fmt.rate_hz:g} of the {fmt.name} format "
-                      f"gives {period:.6g} s (+/- {STEP_TOLERANCE * period:.3g} s): a missing or "
-                      f"extra sample, or another rate")
-
-
-def _check_drift(path: Path, fmt: RecordingFormat, times: np.ndarray, numbers: list[int]
-                 ) -> None:
-    """Each time is within ``DRIFT_TOLERANCE`` of the time elapsed (plus ``STEP_TOLERANCE`` of a
-    period) of the time its row gives (``_check_times``)."""
-    period = 1 / fmt.rate_hz
+                          f"{column} jumps {step:.6g} s from {before}, {step / period:.1f} "
+                          f"periods of rate_hz = {fmt.rate_hz:g} ({fmt.name} format; at most "
+                          f"{GAP_PERIODS:g}): a gap or another rate; {_TIME_ADVICE}")
     expected = np.arange(len(times)) * period
     drifted = (np.abs(times - times[0] - expected)
-               > STEP_TOLERANCE * period + DRIFT_TOLERANCE * expected)
+               > GAP_PERIODS * period + DRIFT_TOLERANCE * expected)
     if drifted.any():
         row = int(np.argmax(drifted))
         raise FormatError(path, numbers[row], float(times[row]),
-                          f"time column {fmt.time_column!r} drifts from rate_hz = "
-                          f"{fmt.rate_hz:g} of the {fmt.name} format: {times[row] - times[0]:.6g} "
-                          f"s after the first row's {times[0]:g} s, where {row} rows give "
-                          f"{expected[row]:.6g} s (allowed: {DRIFT_TOLERANCE:.0%} of it and half "
-                          f"a sample)")
+                          f"{column} drifts from rate_hz = {fmt.rate_hz:g} of the {fmt.name} "
+                          f"format: {times[row] - times[0]:.6g} s after the first row's "
+                          f"{times[0]:g} s, where {row} rows give {expected[row]:.6g} s "
+                          f"(allowed: {DRIFT_TOLERANCE:.0%} of it and {GAP_PERIODS:g} periods); "
+                          f"{_TIME_ADVICE}")
 
 
 def _diagnose_rows(path: Path, names: list[str], fmt: RecordingFormat,
@@ -450,7 +434,8 @@ def _diagnose_rows(path: Path, names: list[str], fmt: RecordingFormat,
     for number, line in rows:
         if line.lstrip().startswith("#"):
             raise FormatError(path, number, line.strip(), "a comment line: a recording has "
-                              "none, every non-blank line after its header is one sample")
+                              "none, every non-blank line after its header is one sample "
+                              "(delete such lines, e.g. grep -v '^#')")
         fields = line.split(fmt.separator) if fmt.separator else line.split()
         if len(fields) != len(names):
             raise FormatError(path, number, len(fields),
