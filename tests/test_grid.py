@@ -557,6 +557,10 @@ def test_a_dry_run_checks_the_archive_folder_and_writes_nothing(tmp_path, tiny_s
     assert "neither inside the other" in capsys.readouterr().err
     assert grid_main([*command, "--archive", str(archive)]) == 0
     assert "not written in a dry run" in capsys.readouterr().out and not archive.exists()
+    assert tables_main([str(grid), "--archive", str(archive)]) == 0       # 4 finished runs
+    fresh = ["--spec", str(tiny_spec), "--out", str(tmp_path / "fresh"), "--dry-run"]
+    assert grid_main([*fresh, "--archive", str(archive)]) == 2           # would lose them
+    assert "replacing it would lose them" in capsys.readouterr().err
 
 
 def test_archive_leaves_out_unfinished_runs_and_replaces_only_an_archive(tmp_path, tiny_grid,

@@ -211,6 +211,21 @@ def test_evaluate_refuses_other_data_in_the_runs_folder_and_marks_other_data_nam
     assert json.loads((tmp_path / "e3" / "metrics.json").read_text())["trained_on_this_data"]
 
 
+def test_a_run_without_a_recorded_fingerprint_is_evaluated_unchecked(bi_run, tmp_path, caplog):
+    """Runs of early versions recorded no data fingerprint: scored as before, with a warning."""
+    run = tmp_path / "run"
+    shutil.copytree(bi_run, run)
+    config = json.loads((run / "config.json").read_text())
+    del config["data_fingerprint"]
+    (run / "config.json").write_text(json.dumps(config))
+    assert evaluate_main([str(run), "--out", str(tmp_path / "e"), "--no-plots"]) == 0
+    assert "records no data fingerprint" in caplog.text
+    metrics = json.loads((tmp_path / "e" / "metrics.json").read_text())
+    assert metrics["trained_on_this_data"] is None
+    assert metrics["metrics"] == json.loads((_last_point(bi_run) / "metrics.json").read_text())[
+        "metrics"]
+
+
 def test_evaluate_and_export_refuse_a_non_empty_folder_before_any_work(bi_run, tmp_path, capsys,
                                                                        monkeypatch):
     import multitask.inference.evaluation as evaluation
@@ -224,10 +239,16 @@ def test_evaluate_and_export_refuse_a_non_empty_folder_before_any_work(bi_run, t
     out = tmp_path / "mine"
     out.mkdir()
     (out / "notes.txt").write_text("mine")
+    link, empty = tmp_path / "link", tmp_path / "empty"
+    empty.mkdir()
+    link.symlink_to(empty)
     for main in (evaluate_main, export_main):
         assert main([str(bi_run), "--out", str(out)]) == 2
         assert "exists and is not empty" in capsys.readouterr().err
-    assert [p.name for p in out.iterdir()] == ["notes.txt"]
+        for extra in ([], ["--overwrite"]):
+            assert main([str(bi_run), "--out", str(link), *extra]) == 2
+            assert "is a symbolic link" in capsys.readouterr().err
+    assert [p.name for p in out.iterdir()] == ["notes.txt"] and link.is_symlink()
 
 
 def test_every_predictions_csv_has_predicts_columns_and_names(bi_run, synth_dir, tmp_path):

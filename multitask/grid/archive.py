@@ -68,14 +68,7 @@ def archive_grid(grid_dir: Path | str, dest: Path | str) -> tuple[int, int]:
     if record is None:
         raise RunFolderError(f"{source}: no {GRID_RECORD}: not a grid folder to archive")
     dest = check_destination(source, dest)
-    finished = [run for run in record["runs"] if is_finished(source / run)]
-    dropped = sorted(set(_archived_runs(dest)) - set(finished))
-    if dropped:
-        raise RunFolderError(
-            f"{dest}: its archive holds {len(dropped)} finished run(s) that {source} does not "
-            f"record as finished (first: {dropped[0]}); replacing it would lose them, so nothing "
-            "is written. Archive into a new folder, or first give the grid a spec that records "
-            "them (multitask-grid --spec ... --restart; their runs must be in the grid folder).")
+    finished = _finished_runs(source, record)
     dest.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=f".{dest.name}{PARTIAL}", dir=dest.parent))
     try:
@@ -104,7 +97,8 @@ def archived_test_trials(grid_dir: Path | str) -> dict[str, list[str]]:
 
 def check_destination(grid_dir: Path | str, dest: Path | str) -> Path:
     """``dest`` resolved, once it is known that the archive of the grid ``grid_dir`` may be
-    written there (see the module docstring); writes nothing.
+    written there (see the module docstring; a grid without its record yet has no finished
+    runs); writes nothing.
 
     Raises:
         RunFolderError: naming ``dest`` and why not.
@@ -122,7 +116,21 @@ def check_destination(grid_dir: Path | str, dest: Path | str) -> Path:
     if foreign is not None:
         raise RunFolderError(f"{dest}: holds {foreign}, which no scores archive holds; nothing "
                              "written. Archive into a new folder.")
+    dropped = sorted(set(_archived_runs(resolved)) - set(_finished_runs(source)))
+    if dropped:
+        raise RunFolderError(
+            f"{dest}: its archive holds {len(dropped)} finished run(s) that {source} does not "
+            f"record as finished (first: {dropped[0]}); replacing it would lose them, so nothing "
+            "is written. Archive into a new folder, or first give the grid a spec that records "
+            "them (multitask-grid --spec ... --restart; their runs must be in the grid folder).")
     return resolved
+
+
+def _finished_runs(grid: Path, record: dict | None = None) -> list[str]:
+    """The runs the grid record of ``grid`` (read unless given; none without one) lists that
+    are finished in ``grid``, as ``runs/<annotations>/<direction>/<config>/seed<k>/<fold>``."""
+    record = read_record(grid) if record is None else record
+    return [run for run in (record or {}).get("runs", []) if is_finished(grid / run)]
 
 
 def _archived_runs(folder: Path) -> list[str]:

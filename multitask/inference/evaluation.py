@@ -27,7 +27,7 @@ from rnn_seg.sweeps import sweeps_per_epoch
 from rnn_seg.trainer import predict, write_evaluation
 
 from .predictions import hold
-from .trained_run import TrainedRun
+from .trained_run import FINGERPRINT_DIFFERS, TrainedRun
 
 log = logging.getLogger(__name__)
 
@@ -82,7 +82,10 @@ def evaluate_run(run: TrainedRun, out: Path, data_dir: Path | str | None = None,
                           data_dir=str(data_dir or run.config.data.data_dir))
     dataset = load_dataset(data_config)
     same_data = run.trained_on(data_config.data_dir, fmt)
-    if not same_data:
+    if same_data is None:
+        log.warning("%s records no data fingerprint (an early version's run): whether %s holds "
+                    "the data it trained on is not checked", run.run_dir, data_config.data_dir)
+    elif not same_data:
         _refuse_or_warn(run, data_config.data_dir, given=data_dir is not None)
     test_user = test_user or run.config.test_user
     _, trials = dataset.louo_split(test_user)
@@ -112,14 +115,14 @@ def _refuse_or_warn(run: TrainedRun, data_dir: str, given: bool) -> None:
     folder the run records (moved or changed data would pass for the run's held-out scores), a
     warning when the caller named it (scoring other data on purpose)."""
     if given:
-        log.warning("%s is not the data %s trained on (its data fingerprint differs): these are "
-                    "not the run's held-out scores", data_dir, run.run_dir)
+        log.warning("%s is not the data %s trained on (%s): these are not the run's held-out "
+                    "scores", data_dir, run.run_dir, FINGERPRINT_DIFFERS)
         return
     relative = "" if Path(data_dir).is_absolute() else ", read from the current folder"
     raise ValueError(f"{data_dir} (the run's data folder{relative}) is not the data "
-                     f"{run.run_dir} trained on: its data fingerprint differs from config.json's; "
-                     "pass the release it trained on with --data-dir, or name other data with "
-                     "--data-dir to score it anyway")
+                     f"{run.run_dir} trained on ({FINGERPRINT_DIFFERS}); pass the release it "
+                     "trained on with --data-dir, or name other data with --data-dir to score it "
+                     "anyway")
 
 
 def causal_outputs(run: TrainedRun, trials: list[Trial], data_dir: str,

@@ -37,6 +37,9 @@ from ..models.variants import get_variant
 CONFIG_FILE = "config.json"
 #: Fixed normalisation statistics of a forward run's streaming inputs, saved once per run.
 STREAM_NORMALISATION_FILE = "stream_normalisation.json"
+#: What a data fingerprint other than the run's means (``TrainedRun.trained_on``).
+FINGERPRINT_DIFFERS = ("its data fingerprint differs from config.json's: other files, or another "
+                       "version's way of deriving labels from them")
 
 log = logging.getLogger(__name__)
 
@@ -198,15 +201,17 @@ class TrainedRun:
                                    fmt.rate_hz)
 
     def trained_on(self, data_dir: Path | str | None = None,
-                   recording_format: RecordingFormat | None = None) -> bool:
+                   recording_format: RecordingFormat | None = None) -> bool | None:
         """Whether the release in ``data_dir`` (default: the run's data folder), read in
         ``recording_format`` (default: the run's) with the run's other data settings, holds the
         data the run trained on: it has the data fingerprint config.json records
-        (``baseline.builder.data_fingerprint``; False when none is recorded). Reads every file
-        of the release."""
+        (``baseline.builder.data_fingerprint``). None when config.json records none (a run of an
+        early version): it cannot be told. Reads every file of the release."""
+        if self.data_fingerprint is None:
+            return None
         data = replace(self.config.data, data_dir=str(data_dir or self.config.data.data_dir),
                        recording_format=recording_format or self.config.data.recording_format)
-        return self.data_fingerprint is not None and data_fingerprint(data) == self.data_fingerprint
+        return data_fingerprint(data) == self.data_fingerprint
 
     def require_online(self, what: str) -> None:
         if not self.online:
@@ -218,8 +223,8 @@ class TrainedRun:
 
         Read from ``<run>/stream_normalisation.json`` when present; otherwise computed from the
         run's training trials (``training_normalisation``, in ``data_dir`` or the run's data
-        folder) and, when that release is the data the run trained on (``trained_on``), saved
-        there for later use without the data; from other data they serve this call only.
+        folder) and saved there for later use without the data, unless that release is known
+        not to be the data the run trained on (``trained_on``): those serve this call only.
         """
         path = self.run_dir / STREAM_NORMALISATION_FILE
         if path.is_file():
@@ -228,10 +233,10 @@ class TrainedRun:
                                  if isinstance(saved, dict) else saved, f"{path}: normalisation")
         stats, trials = training_normalisation(self.config, data_dir)
         folder = data_dir or self.config.data.data_dir
-        if not self.trained_on(folder):
-            log.warning("%s is not the data %s trained on (its data fingerprint differs): the "
-                        "stream's statistics come from its trials, and are not saved in the run",
-                        folder, self.run_dir)
+        if self.trained_on(folder) is False:
+            log.warning("%s is not the data %s trained on (%s): the stream's statistics come "
+                        "from its trials, and are not saved in the run", folder, self.run_dir,
+                        FINGERPRINT_DIFFERS)
             return stats
         data = self.config.data
         rows = decimation(data.preprocessing, data.recording_format.rate_hz)

@@ -147,16 +147,18 @@ def check_new_output(out: Path, command: str, entries: frozenset[str], overwrite
     ``entries`` at its top (``OutputFolderError`` naming the first other entry)."""
     check_output_folder(out, command, run_place=run_place)
     out = Path(out)
+    if out.is_symlink():
+        raise OutputFolderError(f"{out} is a symbolic link; {command} writes its output folder "
+                                "whole, in place of the link (choose another output folder)")
     if not overwrite:
         require_empty(out)
-    elif out.is_symlink() or out.is_dir():
+    elif out.is_dir():
         _check_replaceable(out, command, entries)
 
 
 def _check_replaceable(target: Path, command: str, entries: frozenset[str]) -> None:
     foreign = sorted(p.name for p in Path(target).iterdir() if p.name not in entries)
-    if foreign or Path(target).is_symlink():
-        what = f"holds {foreign[0]!r}" if foreign else "is a symbolic link"
-        raise OutputFolderError(f"{target} {what}, which is not an output of {command}: "
-                                "--overwrite replaces only an earlier output of the same command "
-                                "(choose another output folder)")
+    if foreign:
+        raise OutputFolderError(f"{target} holds {foreign[0]!r}, which is not an output of "
+                                f"{command}: --overwrite replaces only an earlier output of the "
+                                "same command (choose another output folder)")
