@@ -409,9 +409,10 @@ def _check_times(path: Path, fmt: RecordingFormat, times: np.ndarray, numbers: l
             raise FormatError(path, numbers[row], float(times[row]),
                               f"{column} does not increase ({before}); {_TIME_ADVICE}")
         raise FormatError(path, numbers[row], float(times[row]),
-                          f"{column} jumps {step:.6g} s from {before}, {step / period:.1f} "
-                          f"periods of rate_hz = {fmt.rate_hz:g} ({fmt.name} format; at most "
-                          f"{GAP_PERIODS:g}): a gap or another rate; {_TIME_ADVICE}")
+                          f"{column} jumps {step:.6g} s ({1 / step:.4g} Hz) from {before}, "
+                          f"{step / period:.1f} periods of rate_hz = {fmt.rate_hz:g} ({fmt.name} "
+                          f"format; at most {GAP_PERIODS:g}): a gap or another rate; "
+                          f"{_TIME_ADVICE}")
     expected = np.arange(len(times)) * period
     drifted = (np.abs(times - times[0] - expected)
                > GAP_PERIODS * period + DRIFT_TOLERANCE * expected)
