@@ -118,21 +118,18 @@ class RecordingFormat:
         return self == JIGSAWS_FORMAT
 
 
-def another_layout_hint(format_option: bool = True) -> str:
+def another_layout_hint() -> str:
     """The advice that ends an error about a folder or a recording read in the release's layout
-    that holds something else (README, "Your own recordings", shows a format file).
+    that holds something else (README, "Your own recordings", shows a format file): to give
+    ``--format``. A command that takes no ``--format`` replaces it with its own advice
+    (``jigsaws_tools.cli.common.run_command``'s ``layout_advice``, e.g. ``RELEASE_LAYOUT_ONLY``)."""
+    return ("recordings of another layout need --format FILE.toml (README, 'Your own "
+            "recordings')")
 
-    Args:
-        format_option: the command takes ``--format``, so the advice is to give it; False: the
-            advice says the command reads the release's layout only. The data layer's errors
-            carry the first; ``jigsaws_tools.cli.common.run_command`` rewords it for a command
-            without ``--format``.
-    """
-    if format_option:
-        return ("recordings of another layout need --format FILE.toml (README, 'Your own "
-                "recordings')")
-    return ("this command reads the JIGSAWS release's layout only (recordings of another layout: "
-            "README, 'Your own recordings')")
+
+#: The advice of a command that reads the release's layout only (``another_layout_hint``).
+RELEASE_LAYOUT_ONLY = ("this command reads the JIGSAWS release's layout only (recordings of "
+                       "another layout: README, 'Your own recordings')")
 
 
 def load_format(recording_format: str | Path | RecordingFormat | None) -> RecordingFormat:

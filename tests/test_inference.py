@@ -307,6 +307,23 @@ def test_stream_evaluation_scores_the_offline_samples(fw_run, tmp_path):
     assert metrics["metrics"]["gesture"]["accuracy"] > offline["gesture"]["accuracy"] - 25
 
 
+def test_a_recording_of_another_layout_gets_the_advice_of_the_mode_that_reads_it(
+        fw_run, synth_dir, tmp_path, capsys):
+    """Offline prediction takes --format and suggests it; --stream reads the release's layout
+    only and says so, pointing to offline prediction."""
+    kinematics, _ = _held_out(synth_dir)
+    narrow = tmp_path / "narrow.txt"
+    narrow.write_text("".join(" ".join(line.split()[:70]) + "\n"
+                              for line in kinematics.read_text().splitlines()))
+    expected = {(): "need --format FILE.toml", ("--stream",): "--stream reads the JIGSAWS"}
+    for options, words in expected.items():
+        assert predict_main([str(fw_run), str(narrow), *options, "--out",
+                             str(tmp_path / "out"), "--no-plots"]) == 2
+        err = capsys.readouterr().err
+        assert f"{narrow}:1" in err and words in err and "Traceback" not in err, err
+        assert not options or "predict offline with --format" in err, err
+
+
 def test_stream_normalisation_is_read_back_without_the_data(fw_run, tmp_path):
     run_dir = tmp_path / "run"
     shutil.copytree(fw_run, run_dir)

@@ -281,7 +281,7 @@ def _replay(captured, keep: Callable[[str], bool]) -> None:
 
 
 def run_command(prog: str, verbose: bool, body: Callable[[], int | None],
-                format_option: bool = True) -> int:
+                layout_advice: str | None = None) -> int:
     """Run a command's work with the shared output setup (``configure_output``).
 
     Args:
@@ -289,10 +289,10 @@ def run_command(prog: str, verbose: bool, body: Callable[[], int | None],
         verbose: log at INFO level, show TensorFlow's start-up lines and print a user error's
             traceback too.
         body: the command's work; returns its exit code or None.
-        format_option: the command takes ``--format`` (``format_options``). A command that
-            does not passes False: an error's advice for recordings of another layout
-            (``recording_format.another_layout_hint``) then says that it reads the release's
-            layout only instead of suggesting ``--format``.
+        layout_advice: None for a command that takes ``--format`` (``format_options``): an
+            error's advice for recordings of another layout
+            (``recording_format.another_layout_hint``) suggests it. A command that does not
+            gives the advice that replaces it (e.g. ``recording_format.RELEASE_LAYOUT_ONLY``).
 
     Returns:
         The exit code: ``body``'s, 0 if it returns None, 1 after a write the disk refused
@@ -308,7 +308,7 @@ def run_command(prog: str, verbose: bool, body: Callable[[], int | None],
         if isinstance(error, OSError):
             error = WriteFailed.from_os_error(error) or error
         failed = isinstance(error, WriteFailed)
-        print(f"{prog}: {'failed' if failed else 'error'}: {_worded(error, format_option)}",
+        print(f"{prog}: {'failed' if failed else 'error'}: {_worded(error, layout_advice)}",
               file=sys.stderr)
         return 1 if failed else 2
     except KeyboardInterrupt:
@@ -317,11 +317,11 @@ def run_command(prog: str, verbose: bool, body: Callable[[], int | None],
     return 0 if code is None else code
 
 
-def _worded(error: BaseException, format_option: bool) -> str:
-    """``error``'s message, its advice for recordings of another layout (worded for a command
-    with ``--format``) reworded for a command without (``run_command``)."""
-    if format_option:
+def _worded(error: BaseException, layout_advice: str | None) -> str:
+    """``error``'s message, its advice for recordings of another layout (to give ``--format``)
+    replaced by ``layout_advice`` unless that is None (``run_command``)."""
+    if layout_advice is None:
         return str(error)
     from ..recording_format import another_layout_hint
 
-    return str(error).replace(another_layout_hint(), another_layout_hint(format_option=False))
+    return str(error).replace(another_layout_hint(), layout_advice)

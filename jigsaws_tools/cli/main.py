@@ -18,6 +18,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from ..recording_format import RELEASE_LAYOUT_ONLY
 from .common import (HelpFormatter, add_verbose_argument, command_parser, deprecated_alias,
                      deprecated_positional, run_command)
 from .format_options import add_format_option, format_from_options
@@ -171,7 +172,8 @@ def _release_arguments(parser: argparse.ArgumentParser, recording_format: bool
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    return run_command(PROG, args.verbose, lambda: args.run(args), format_option="format" in args)
+    return run_command(PROG, args.verbose, lambda: args.run(args),
+                       layout_advice=None if "format" in args else RELEASE_LAYOUT_ONLY)
 
 
 if __name__ == "__main__":

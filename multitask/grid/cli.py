@@ -31,6 +31,7 @@ from jigsaws_tools.cli.arg_types import positive_int, thread_count
 from jigsaws_tools.cli.common import (command_parser, deprecated_alias, import_tensorflow,
                                       run_command)
 from jigsaws_tools.cli.options import DEFAULT_DATA_DIR_TEXT
+from jigsaws_tools.recording_format import RELEASE_LAYOUT_ONLY
 from rnn_seg.config import LOOPS, require_native_precision
 from rnn_seg.runs.folder import RunFolderError, is_finished
 from rnn_seg.runs.outputs import OutputFolderError, check_output_folder, folders_below
@@ -90,7 +91,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.scheduler and importlib.util.find_spec("distributed") is None:
         parser.error("--scheduler needs Dask: pip install 'mtrnn-jigsaws[dask]'")
     set_command([PROG, *(sys.argv[1:] if argv is None else argv)])
-    return run_command(PROG, args.verbose, lambda: _run(args), format_option=False)
+    return run_command(PROG, args.verbose, lambda: _run(args),
+                       layout_advice=RELEASE_LAYOUT_ONLY)
 
 
 def _check_grid_folder(out: Path) -> None:

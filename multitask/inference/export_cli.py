@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 
 from jigsaws_tools.cli.common import run_command
+from jigsaws_tools.recording_format import RELEASE_LAYOUT_ONLY
 
 from .options import load_for_command, trained_run_parser
 
@@ -37,7 +38,8 @@ def _export(args: argparse.Namespace) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    return run_command(PROG, args.verbose, lambda: _export(args), format_option=False)
+    return run_command(PROG, args.verbose, lambda: _export(args),
+                       layout_advice=RELEASE_LAYOUT_ONLY)
 
 
 if __name__ == "__main__":

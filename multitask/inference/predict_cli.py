@@ -36,6 +36,11 @@ if TYPE_CHECKING:
 
 PROG = "multitask-predict"
 RECORD_FILE = "prediction.json"
+#: What ``--stream``, which reads the release's layout only, advises for recordings of another
+#: layout (in place of ``--format``'s advice: ``run_command``).
+STREAM_LAYOUT_ONLY = ("--stream reads the JIGSAWS release's layout only (recordings of another "
+                      "layout: predict offline with --format FILE.toml; README, 'Your own "
+                      "recordings')")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -164,7 +169,7 @@ def _predict_all(run: TrainedRun, files: list[Path], recording_format: Recording
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     return run_command(PROG, args.verbose, lambda: _predict(args),
-                       format_option=not args.stream)     # --stream reads the release's layout
+                       layout_advice=STREAM_LAYOUT_ONLY if args.stream else None)
 
 
 if __name__ == "__main__":
