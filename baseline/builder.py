@@ -89,7 +89,7 @@ def build_trainer(config: RunConfig, tasks: Sequence[Task], run_dir: Path,
     model = SegmentationModel(dataset.num_features, config.encoder, tasks, config.train.seed)
     built = trainer(model, tasks, config.optim, config.train,
                     to_sequences(train, tasks, config.data), to_sequences(test, tasks, config.data),
-                    run_dir, run_configs(config, tasks, extra_configs),
+                    run_dir, run_configs(config, tasks, extra_configs, dataset.fingerprint),
                     config.data.preprocessing.sample_hz, log=log)
     built.clock.add("data", loading)
     return built

@@ -123,10 +123,12 @@ class Trial:
 
 @dataclass(frozen=True)
 class Dataset:
-    """All trials of one configuration, sorted by name."""
+    """All trials of one configuration, sorted by name, and their data fingerprint
+    (``cache_key``: the options and the bytes of every file they were read from)."""
 
     config: DataConfig
     trials: tuple[Trial, ...]
+    fingerprint: str
 
     @property
     def users(self) -> tuple[str, ...]:
@@ -212,7 +214,7 @@ def load_dataset(config: DataConfig, cache_dir: Path | str | None = None,
     meta = read_meta(meta_file) if meta_file.is_file() else {}
     trials = tuple(load_trial(f, meta[f.name].skill if f.name in meta else "?", config)
                    for f in index.trials)
-    dataset = Dataset(config, trials)
+    dataset = Dataset(config, trials, key)
     if use_cache:
         _write_cache(cache_dir, key, dataset)
     return dataset
@@ -310,7 +312,7 @@ def _read_cache(cache_dir: Path, key: str, config: DataConfig) -> Dataset | None
         detail = " ".join(str(error).split()) or type(error).__name__
         log.warning("%s: damaged dataset cache entry (%s); rebuilding it", reading, detail)
         return None
-    return Dataset(config, trials)
+    return Dataset(config, trials, key)
 
 
 def _split_trials(arrays: dict[str, np.ndarray], meta: list[dict]) -> tuple[Trial, ...]:

@@ -43,7 +43,10 @@ def test_dataset_cache_is_reused_and_keyed_by_options(synth_dir, tmp_path):
     for a, b in zip(first.trials, second.trials):
         np.testing.assert_array_equal(a.inputs, b.inputs)
         np.testing.assert_array_equal(a.progress, b.progress)
-    load_dataset(DataConfig(str(synth_dir), feature_set="psm_all"), cache_dir=tmp_path)
+    assert second.fingerprint == first.fingerprint == load_dataset(config,
+                                                                  use_cache=False).fingerprint
+    other = load_dataset(DataConfig(str(synth_dir), feature_set="psm_all"), cache_dir=tmp_path)
+    assert other.fingerprint != first.fingerprint
     load_dataset(DataConfig(str(synth_dir), annotations="original"), cache_dir=tmp_path)
     assert len(list(tmp_path.glob("*.npz"))) == 3
     assert not list(tmp_path.glob("*.tmp"))

@@ -81,7 +81,7 @@ def evaluate_run(run: TrainedRun, out: Path, data_dir: Path | str | None = None,
     data_config = replace(run.config.data, recording_format=fmt,
                           data_dir=str(data_dir or run.config.data.data_dir))
     dataset = load_dataset(data_config)
-    same_data = run.trained_on(data_config.data_dir, fmt)
+    same_data = run.trained_on(dataset.fingerprint)
     if same_data is None:
         log.warning("%s records no data fingerprint (an early version's run): whether %s holds "
                     "the data it trained on is not checked", run.run_dir, data_config.data_dir)

@@ -200,18 +200,14 @@ class TrainedRun:
         return RecordingPrediction(self.tasks, outputs, frames, len(features), self.sample_hz,
                                    fmt.rate_hz)
 
-    def trained_on(self, data_dir: Path | str | None = None,
-                   recording_format: RecordingFormat | None = None) -> bool | None:
-        """Whether the release in ``data_dir`` (default: the run's data folder), read in
-        ``recording_format`` (default: the run's) with the run's other data settings, holds the
-        data the run trained on: it has the data fingerprint config.json records
-        (``baseline.builder.data_fingerprint``). None when config.json records none (a run of an
-        early version): it cannot be told. Reads every file of the release."""
+    def trained_on(self, fingerprint: str) -> bool | None:
+        """Whether the data of fingerprint ``fingerprint`` (``Dataset.fingerprint``,
+        ``baseline.builder.data_fingerprint``) is the data the run trained on, whose fingerprint
+        config.json records. None when config.json records none (a run of an early version): it
+        cannot be told."""
         if self.data_fingerprint is None:
             return None
-        data = replace(self.config.data, data_dir=str(data_dir or self.config.data.data_dir),
-                       recording_format=recording_format or self.config.data.recording_format)
-        return data_fingerprint(data) == self.data_fingerprint
+        return fingerprint == self.data_fingerprint
 
     def require_online(self, what: str) -> None:
         if not self.online:
@@ -233,7 +229,8 @@ class TrainedRun:
                                  if isinstance(saved, dict) else saved, f"{path}: normalisation")
         stats, trials = training_normalisation(self.config, data_dir)
         folder = data_dir or self.config.data.data_dir
-        if self.trained_on(folder) is False:
+        fingerprint = data_fingerprint(replace(self.config.data, data_dir=str(folder)))
+        if self.trained_on(fingerprint) is False:
             log.warning("%s is not the data %s trained on (%s): the stream's statistics come "
                         "from its trials, and are not saved in the run", folder, self.run_dir,
                         FINGERPRINT_DIFFERS)
