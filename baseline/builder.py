@@ -76,7 +76,8 @@ def build_trainer(config: RunConfig, tasks: Sequence[Task], run_dir: Path,
         config: the run's configuration (data, fold, encoder, schedule, training).
         tasks: one head per task, in this order.
         run_dir: the run folder.
-        dataset: ``config.data``'s dataset, already loaded; None = load it.
+        dataset: ``config.data``'s dataset, already loaded (config.json records its
+            ``fingerprint``); None = load it.
         trainer: the class (or a factory with ``Trainer``'s parameters) to build, e.g.
             ``GradNormTrainer`` with its configuration bound.
         extra_configs: further entries of config.json (``run_configs``); None = none.

@@ -307,21 +307,27 @@ def test_stream_evaluation_scores_the_offline_samples(fw_run, tmp_path):
     assert metrics["metrics"]["gesture"]["accuracy"] > offline["gesture"]["accuracy"] - 25
 
 
-def test_a_recording_of_another_layout_gets_the_advice_of_the_mode_that_reads_it(
+def test_recordings_of_another_layout_get_the_advice_of_the_mode_that_reads_them(
         fw_run, synth_dir, tmp_path, capsys):
-    """Offline prediction takes --format and suggests it; --stream reads the release's layout
-    only and says so, pointing to offline prediction."""
+    """Offline prediction and evaluation take --format and suggest it; --stream reads one layout
+    only and says so, pointing to the offline mode with --format."""
     kinematics, _ = _held_out(synth_dir)
     narrow = tmp_path / "narrow.txt"
     narrow.write_text("".join(" ".join(line.split()[:70]) + "\n"
                               for line in kinematics.read_text().splitlines()))
-    expected = {(): "need --format FILE.toml", ("--stream",): "--stream reads the JIGSAWS"}
-    for options, words in expected.items():
-        assert predict_main([str(fw_run), str(narrow), *options, "--out",
-                             str(tmp_path / "out"), "--no-plots"]) == 2
-        err = capsys.readouterr().err
-        assert f"{narrow}:1" in err and words in err and "Traceback" not in err, err
-        assert not options or "predict offline with --format" in err, err
+    robot = tmp_path / "robot"
+    robot.mkdir()
+    (robot / "log.csv").write_text("time,x\n0,1\n")
+    commands = {(predict_main, "predict"): [str(narrow)],
+                (evaluate_main, "evaluate"): ["--data-dir", str(robot)]}
+    for (main, command), argv in commands.items():
+        for stream in ([], ["--stream"]):
+            assert main([str(fw_run), *argv, *stream, "--out", str(tmp_path / "out"),
+                         "--no-plots"]) == 2
+            err = capsys.readouterr().err
+            assert argv[-1] in err and "Traceback" not in err, err
+            assert ("need --format FILE.toml" in err) == (not stream), err
+            assert not stream or f"{command} offline, without --stream, with --format" in err, err
 
 
 def test_stream_normalisation_is_read_back_without_the_data(fw_run, tmp_path):

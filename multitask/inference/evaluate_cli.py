@@ -16,7 +16,7 @@ from pathlib import Path
 from jigsaws_tools.cli.common import run_command
 from jigsaws_tools.cli.format_options import add_format_option
 
-from .options import load_for_command, trained_run_parser
+from .options import load_for_command, stream_layout_advice, trained_run_parser
 
 PROG = "multitask-evaluate"
 
@@ -58,7 +58,9 @@ def _evaluate(args: argparse.Namespace) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    return run_command(PROG, args.verbose, lambda: _evaluate(args))
+    advice = stream_layout_advice("the layout the run trained on", "evaluate")
+    return run_command(PROG, args.verbose, lambda: _evaluate(args),
+                       layout_advice=advice if args.stream else None)
 
 
 if __name__ == "__main__":

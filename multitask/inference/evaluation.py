@@ -95,7 +95,7 @@ def evaluate_run(run: TrainedRun, out: Path, data_dir: Path | str | None = None,
     data = to_sequences(trials, run.tasks, data_config)
     if stream:
         outputs = causal_outputs(run, trials, data_config.data_dir,
-                                 run.stream_normalisation(data_dir))
+                                 run.stream_normalisation(data_dir, dataset.fingerprint))
     else:
         outputs = predict(run.model, data.inputs, run.config.train.prediction)
     point, unit = checkpoint_point(run, dataset)

@@ -31,6 +31,14 @@ def trained_run_parser(prog: str, description: str | None) -> argparse.ArgumentP
     return parser
 
 
+def stream_layout_advice(layout: str, command: str) -> str:
+    """What ``--stream``, which reads ``layout`` only, advises for recordings of another layout,
+    in place of ``--format``'s advice (``run_command``'s ``layout_advice``): to run ``command``
+    offline with ``--format``."""
+    return (f"--stream reads {layout} only (recordings of another layout: {command} offline, "
+            "without --stream, with --format FILE.toml; README, 'Your own recordings')")
+
+
 def load_for_command(args: argparse.Namespace) -> TrainedRun:
     """The ``TrainedRun`` of ``RUN_DIR`` at ``--checkpoint``: TensorFlow imported quietly
     (``import_tensorflow``), then its threads set, then the weights loaded."""

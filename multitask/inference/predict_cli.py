@@ -26,7 +26,7 @@ from jigsaws_tools.recording_format import JIGSAWS_FORMAT, RecordingFormat
 from rnn_seg.runs.manifest import listed, staged_outputs
 from rnn_seg.runs.outputs import check_output_folder
 
-from .options import load_for_command, trained_run_parser
+from .options import load_for_command, stream_layout_advice, trained_run_parser
 
 if TYPE_CHECKING:
     from jigsaws_tools.preprocessing import Normalisation
@@ -36,11 +36,6 @@ if TYPE_CHECKING:
 
 PROG = "multitask-predict"
 RECORD_FILE = "prediction.json"
-#: What ``--stream``, which reads the release's layout only, advises for recordings of another
-#: layout (in place of ``--format``'s advice: ``run_command``).
-STREAM_LAYOUT_ONLY = ("--stream reads the JIGSAWS release's layout only (recordings of another "
-                      "layout: predict offline with --format FILE.toml; README, 'Your own "
-                      "recordings')")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -158,7 +153,7 @@ def _predict_all(run: TrainedRun, files: list[Path], recording_format: Recording
         return {f: run.predict(f, recording_format=recording_format) for f in files}, None
     if not recording_format.is_default:
         raise ValueError(f"--stream reads JIGSAWS-layout recordings only, not format "
-                         f"{recording_format.name}; predict offline (without --stream)")
+                         f"{recording_format.name}; predict offline, without --stream")
     run.require_online("--stream")
     recordings = {f: read_kinematics(f) for f in files}
     streamer = StreamingPredictor(run, run.stream_normalisation(args.data_dir))
@@ -169,7 +164,8 @@ def _predict_all(run: TrainedRun, files: list[Path], recording_format: Recording
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     return run_command(PROG, args.verbose, lambda: _predict(args),
-                       layout_advice=STREAM_LAYOUT_ONLY if args.stream else None)
+                       layout_advice=stream_layout_advice("the JIGSAWS release's layout",
+                                                          "predict") if args.stream else None)
 
 
 if __name__ == "__main__":

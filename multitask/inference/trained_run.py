@@ -214,13 +214,16 @@ class TrainedRun:
             raise ValueError(f"{what} needs a forward (online) model; {self.run_dir} is "
                              "bidirectional (trained without --direction forward)")
 
-    def stream_normalisation(self, data_dir: Path | str | None = None) -> Normalisation:
+    def stream_normalisation(self, data_dir: Path | str | None = None,
+                             fingerprint: str | None = None) -> Normalisation:
         """Fixed normalisation statistics of this run's streaming inputs.
 
         Read from ``<run>/stream_normalisation.json`` when present; otherwise computed from the
         run's training trials (``training_normalisation``, in ``data_dir`` or the run's data
         folder) and saved there for later use without the data, unless that release is known
         not to be the data the run trained on (``trained_on``): those serve this call only.
+        ``fingerprint``: that release's data fingerprint in the run's format, when the caller
+        has it (``Dataset.fingerprint``); None = hash the release if the run records one.
         """
         path = self.run_dir / STREAM_NORMALISATION_FILE
         if path.is_file():
@@ -229,8 +232,9 @@ class TrainedRun:
                                  if isinstance(saved, dict) else saved, f"{path}: normalisation")
         stats, trials = training_normalisation(self.config, data_dir)
         folder = data_dir or self.config.data.data_dir
-        fingerprint = data_fingerprint(replace(self.config.data, data_dir=str(folder)))
-        if self.trained_on(fingerprint) is False:
+        if fingerprint is None and self.data_fingerprint is not None:
+            fingerprint = data_fingerprint(replace(self.config.data, data_dir=str(folder)))
+        if fingerprint is not None and self.trained_on(fingerprint) is False:
             log.warning("%s is not the data %s trained on (%s): the stream's statistics come "
                         "from its trials, and are not saved in the run", folder, self.run_dir,
                         FINGERPRINT_DIFFERS)
