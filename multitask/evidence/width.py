@@ -27,7 +27,8 @@ seeds has less seed noise in its fold means, so its std and interval are the nar
   the real Suturing release; empty otherwise.
 
 ``width.png`` / ``.pdf`` draws score against width (log2 axis) for both models, the paper's
-values marked at 1024, each width's seed count under its tick.
+values marked at 1024, each width's seed count under its tick; below each metric, APoc - A with
+its 95 % interval against width, the paper's difference marked at 1024.
 """
 from __future__ import annotations
 
@@ -53,6 +54,7 @@ from .paper_results import TABLE_1  # noqa: E402
 MODELS = {"A": ConfigId("A", "fixed"), "APoc": ConfigId("APoc", "gradnorm")}
 #: The figure's name of each model.
 LABELS = {"A": "A", "APoc": r"APoc (GradNorm, $\alpha = 1.5$)"}
+COLOURS = ("tab:grey", "tab:blue")          # A, APoc
 METRICS = {"gesture_accuracy": "Accuracy", "gesture_edit": "Edit", "gesture_f1@10": "F1@10"}
 PAPER_WIDTH = 1024
 
@@ -199,33 +201,59 @@ def _paper(model: str, metric: str, part: WidthEvidence) -> float | None:
 
 
 def width_figure(table: pd.DataFrame, out_dir: Path) -> list[Path]:
-    """``width.png`` / ``.pdf``: one panel per metric, score against width (log2 axis, each
-    width's seed count under its tick), mean and standard deviation over folds for A and APoc
-    (side by side), the paper's values at 1024 as open diamonds; one legend above the panels."""
-    fig, axes = plt.subplots(1, len(METRICS), figsize=(3.2 * len(METRICS), 2.9), sharex=True)
-    ticks = table.drop_duplicates("hidden").sort_values("hidden")
-    for ax, (metric, title) in zip(axes, METRICS.items()):
+    """``width.png`` / ``.pdf``: one column per metric, against width (log2 axis, each width's
+    seed count under its tick). Top row: mean and standard deviation over folds of A and APoc
+    (side by side), the paper's values at 1024 as open diamonds. Bottom row: APoc - A paired
+    over folds with its 95 % interval, the paper's difference at 1024 as an open diamond, and
+    a line at zero. One legend above the panels."""
+    fig, axes = plt.subplots(2, len(METRICS), figsize=(3.2 * len(METRICS), 5.0), sharex=True,
+                             height_ratios=(3, 2))
+    for column, (metric, title) in enumerate(METRICS.items()):
         rows = table[table.metric == metric]
-        for offset, (name, colour) in zip((-0.04, 0.04), zip(MODELS, ("tab:grey", "tab:blue"))):
-            shifted = rows.hidden * 2 ** offset          # side by side on the log axis
-            ax.errorbar(shifted, rows[f"{name}_mean"], yerr=rows[f"{name}_std"], color=colour,
-                        marker="o", ms=4, capsize=2, lw=1.2, label=LABELS[name])
-            paper = rows[f"paper_{name}"].dropna()
-            if not paper.empty:
-                ax.plot(shifted[paper.index], paper, ls="none", marker="D", mfc="none",
-                        mec=colour, ms=7, label=f"{LABELS[name]}: paper")
+        _draw_scores(axes[0, column], rows, title)
+        _draw_difference(axes[1, column], rows)
+    ticks = table.drop_duplicates("hidden").sort_values("hidden")
+    for ax in axes[1]:
         ax.set_xscale("log", base=2)
         ax.set_xticks(ticks.hidden, [f"{hidden}\n{_seed_count(seeds)}" for hidden, seeds
                                      in zip(ticks.hidden, ticks.seeds.astype(str))])
         ax.minorticks_off()
         ax.set_xlabel("LSTM units per direction")
-        ax.set_ylabel(f"{title} [%]")
-        ax.grid(alpha=0.3)
     fig.tight_layout()
-    handles = sorted(zip(*axes[0].get_legend_handles_labels()), key=lambda h: "paper" in h[1])
+    handles = sorted(zip(*axes[0, 0].get_legend_handles_labels()), key=lambda h: "paper" in h[1])
     fig.legend(*zip(*handles), loc="lower center", ncol=4, fontsize=8, frameon=False,
                bbox_to_anchor=(0.5, 1.0))
     return save(fig, out_dir, "width")
+
+
+def _draw_scores(ax: plt.Axes, rows: pd.DataFrame, title: str) -> None:
+    """A's and APoc's mean (std over folds) of one metric per width, side by side on the log
+    axis, and the paper's values where the table has them."""
+    for offset, (name, colour) in zip((-0.04, 0.04), zip(MODELS, COLOURS)):
+        shifted = rows.hidden * 2 ** offset
+        ax.errorbar(shifted, rows[f"{name}_mean"], yerr=rows[f"{name}_std"], color=colour,
+                    marker="o", ms=4, capsize=2, lw=1.2, label=LABELS[name])
+        paper = rows[f"paper_{name}"].dropna()
+        if not paper.empty:
+            ax.plot(shifted[paper.index], paper, ls="none", marker="D", mfc="none", mec=colour,
+                    ms=7, label=f"{LABELS[name]}: paper")
+    ax.set_ylabel(f"{title} [%]")
+    ax.grid(alpha=0.3)
+
+
+def _draw_difference(ax: plt.Axes, rows: pd.DataFrame) -> None:
+    """APoc - A of one metric per width, paired over folds, with its 95 % interval; the paper's
+    difference (its APoc minus its A) where the table has both values."""
+    interval = [rows["diff"] - rows.ci_low, rows.ci_high - rows["diff"]]
+    ax.axhline(0, color="black", lw=0.8)
+    ax.errorbar(rows.hidden, rows["diff"], yerr=interval, color=COLOURS[1], marker="o", ms=4,
+                capsize=2, lw=1.2)
+    paper = (rows.paper_APoc - rows.paper_A).dropna()
+    if not paper.empty:
+        ax.plot(rows.hidden[paper.index], paper, ls="none", marker="D", mfc="none",
+                mec=COLOURS[1], ms=7)
+    ax.set_ylabel("APoc $-$ A [points]")
+    ax.grid(alpha=0.3)
 
 
 def _seed_count(seeds: str) -> str:
