@@ -230,7 +230,7 @@ def _draw_scores(ax: plt.Axes, rows: pd.DataFrame, title: str) -> None:
     """A's and APoc's mean (std over folds) of one metric per width, side by side on the log
     axis, and the paper's values where the table has them."""
     for offset, (name, colour) in zip((-0.04, 0.04), zip(MODELS, COLOURS)):
-        shifted = rows.hidden * 2 ** offset
+        shifted = rows.hidden * 2 ** offset          # side by side on the log axis
         ax.errorbar(shifted, rows[f"{name}_mean"], yerr=rows[f"{name}_std"], color=colour,
                     marker="o", ms=4, capsize=2, lw=1.2, label=LABELS[name])
         paper = rows[f"paper_{name}"].dropna()
