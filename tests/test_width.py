@@ -46,6 +46,19 @@ def test_one_row_per_width_and_metric_from_each_grids_runs(tmp_path, capsys):
     assert table[table.hidden == 32].paper_A.isna().all()
 
 
+def test_holm_corrects_each_metric_over_the_widths(tmp_path):
+    grids = [_grid(tmp_path, hidden) for hidden in (32, 64, 128)]
+    assert tables_main([str(grids[0]), "--widths", *map(str, grids[1:]),
+                        "--out", str(tmp_path / "w")]) == 0
+    table = pd.read_csv(tmp_path / "w" / "width.csv")
+    for _, family in table.groupby("metric"):
+        assert (family.p_holm >= family.p_value - 1e-4).all()
+        assert (family.p_holm <= 1).all()
+        smallest = family.p_value.idxmin()          # Holm's first step: m times the smallest p
+        assert family.p_holm[smallest] == pytest.approx(min(1, 3 * family.p_value[smallest]),
+                                                        abs=1e-3)
+
+
 def test_a_seed_still_training_is_left_out(tmp_path):
     grid = _grid(tmp_path, 64, seeds=(0, 1))
     (grid / "runs/revised/bidirectional/APoc-gradnorm/seed1/C/finished.json").unlink()
