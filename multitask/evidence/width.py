@@ -20,7 +20,7 @@ seeds has less seed noise in its fold means, so its std and interval are the nar
   (``paired.paired``, the procedure of ``claims.csv``);
 * ``p_holm``: ``p_value`` after Holm's correction over the widths of the table, within each
   metric (the family: "APoc - A on this metric differs from 0 at some width"; ``paired.holm``).
-  With 8 folds no exact p is below 2/256, so four widths' smallest adjusted p is 4 x 2/256 = 0.031;
+  With 8 folds no exact p is below 2/256, so with four widths no adjusted p is below 0.031;
 * ``A_epochs``, ``APoc_epochs``: the schedule each model trained (the presets differ: APoc
   trains 180 epochs at the ``converged`` preset, 120 at ``paper``);
 * ``A_runs``, ``A_converged``, ``A_undecided``, ``A_still_falling`` (and APoc's): the model's
@@ -193,10 +193,8 @@ def width_table(evidence: list[WidthEvidence]) -> pd.DataFrame:
             row |= {f"paper_{name}": _paper(name, metric, part) for name in MODELS}
             rows.append(row)
     table = pd.DataFrame(rows)
-    table.insert(table.columns.get_loc("p_value") + 1, "p_holm", table.p_value)
-    for metric in METRICS:
-        family = table.metric == metric
-        table.loc[family, "p_holm"] = holm(table.p_value[family].to_numpy(float))
+    adjusted = table.groupby("metric").p_value.transform(lambda p: holm(p.to_numpy(float)))
+    table.insert(table.columns.get_loc("p_value") + 1, "p_holm", adjusted)
     return table
 
 
