@@ -6,8 +6,9 @@ from its tables, ``paper_results``), ours with the exact sign-flip test over fol
 interval that inverts it (``paired``), and a verdict.
 
 **Families.** The claims of one quoted sentence of the paper form a family (``Claim.family``, the
-claim id's prefix); Holm's step-down correction runs within each family over its tested claims
-(``p_adjusted``). At ``n`` folds no p-value is below ``2 / 2^n``, so a family of ``m`` claims
+claim id's prefix); Holm's step-down correction runs within each family over its **declared**
+size, the family's claims whether the grid tested them or not (``p_adjusted``; an untested claim
+counts as p = 1, so a partial grid cannot shrink the correction of the claims it did test). At ``n`` folds no p-value is below ``2 / 2^n``, so a family of ``m`` claims
 cannot reach an adjusted p below ``m * 2 / 2^n`` (``smallest_adjusted_p``).
 
 **Verdicts**, from the adjusted p-value at level ``1 - confidence`` (0.05):
@@ -154,22 +155,27 @@ def evaluate(runs: pd.DataFrame, claims: tuple[Claim, ...] | None = None,
     """
     claims = CLAIMS if claims is None else claims
     rows = [_evaluate(claim, runs, config) for claim in claims]
+    declared = pd.Series([claim.family for claim in claims]).value_counts()
     tested = pd.DataFrame(rows, columns=COLUMNS).dropna(subset="p_value")
     for family, members in tested.groupby("family", sort=False):
-        adjusted = holm(members.p_value.to_numpy(float))
+        size = int(declared[family])
+        adjusted = holm(members.p_value.to_numpy(float), size=size)
         folds = int(members.folds.max())
-        floor = smallest_adjusted_p(len(members), folds)
+        floor = smallest_adjusted_p(size, folds)
         for index, p_adjusted in zip(members.index, adjusted):
             claim, row = claims[index], rows[index]
             row["p_adjusted"] = p_adjusted
             if row["folds"] >= MIN_PAIRS:
                 row["verdict"] = verdict(p_adjusted, row["ours_diff"], claim.expect,
                                          claim.margin, config.alpha)
+            notes = [row["note"]]
+            if len(members) < size:
+                notes.append(f"Holm over the family's {size} claims, of which {len(members)} "
+                             "tested (the untested count as p = 1)")
             if floor > config.alpha:
-                row["note"] = "; ".join(filter(None, [
-                    row["note"], f"its family of {len(members)} claims at {folds} folds cannot "
-                                 f"reach an adjusted p below {floor:.3f}: inconclusive whatever "
-                                 "the data"]))
+                notes.append(f"its family of {size} claims at {folds} folds cannot reach an "
+                             f"adjusted p below {floor:.3f}: inconclusive whatever the data")
+            row["note"] = "; ".join(filter(None, notes))
     return pd.DataFrame(rows, columns=COLUMNS).astype({"folds": "Int64", "seeds": "Int64"})
 
 

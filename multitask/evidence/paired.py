@@ -427,15 +427,28 @@ def simulated_intervals(folds: int, config: StatsConfig) -> tuple[np.ndarray, np
     return low, high
 
 
-def holm(p_values: Sequence[float]) -> np.ndarray:
-    """Holm's step-down adjusted p-values (same order as ``p_values``; NaN stays NaN and does not
-    count): the i-th smallest of m is ``max_{j <= i} min(1, (m - j + 1) p_(j))``."""
+def holm(p_values: Sequence[float], size: int | None = None) -> np.ndarray:
+    """Holm's step-down adjusted p-values (same order as ``p_values``; NaN stays NaN): the i-th
+    smallest of the ``m`` tested is ``max_{j <= i} min(1, (size - j + 1) p_(j))``.
+
+    Args:
+        p_values: the family's p-values; NaN for a member not tested (yet).
+        size: the family's declared size, tested or not; default the number tested. Counting
+            the untested members (as if their p were 1) keeps a partial grid from shrinking the
+            correction of the members it did test.
+
+    Raises:
+        ValueError: ``size`` is smaller than the number of tested members.
+    """
     p = np.asarray(p_values, float)
     adjusted = np.full(p.shape, np.nan)
     tested = np.flatnonzero(~np.isnan(p))
+    size = len(tested) if size is None else size
+    if size < len(tested):
+        raise ValueError(f"a family of {size} cannot hold {len(tested)} tested p-values")
     order = tested[np.argsort(p[tested], kind="stable")]
-    m, running = len(order), 0.0
+    running = 0.0
     for rank, index in enumerate(order):
-        running = max(running, min(1.0, (m - rank) * p[index]))
+        running = max(running, min(1.0, (size - rank) * p[index]))
         adjusted[index] = running
     return adjusted
