@@ -49,6 +49,12 @@ continues after a copy, on any machine.
     multitask-tables results/grid --widths results/width/h256 results/width/h512 results/paper/grid \\
         --out results/width
 
+``--confirm PLAN`` runs a pre-registered confirmatory analysis instead, exactly as the plan
+file says (``confirm``): its grids, seeds, endpoints, families and decision rules are the plan's;
+a part whose grid has not finished every run of its seeds is not analysed (no interim looks).
+
+    multitask-tables --confirm results/confirm/plan.toml --out results/confirm
+
 A folder of runs trained one by one (``multitask-train``, ``baseline-train``; no grid.json) gets
 ``runs.csv`` (with each run's folder), ``per_fold.csv`` and ``summary.csv``, and ``--compare``;
 each run's configuration, seed and fold come from its config.json (``standalone``).
@@ -80,6 +86,8 @@ PROG = "multitask-tables"
 MANIFEST = "tables.json"
 #: The same for the width study (``--widths``), which may share a folder with tables.
 WIDTH_MANIFEST = "width.json"
+#: The same for a confirmatory analysis (``--confirm``).
+CONFIRM_MANIFEST = "confirm.json"
 
 
 def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: bool = False,
@@ -256,7 +264,7 @@ def _tex(text: str, path: Path) -> Path:
 
 def build_parser() -> argparse.ArgumentParser:
     parser = command_parser(PROG, __doc__)
-    parser.add_argument("grid_dir", type=Path, metavar="GRID_DIR",
+    parser.add_argument("grid_dir", type=Path, metavar="GRID_DIR", nargs="?",
                         help="output folder of multitask-grid, or a folder of runs trained one "
                              "by one (multitask-train, baseline-train: runs, per-fold and "
                              "summary tables only)")
@@ -294,6 +302,11 @@ def build_parser() -> argparse.ArgumentParser:
                         help="the width study instead of tables: A against APoc (GradNorm) in "
                              "GRID_DIR and these grids, one width each; writes width.csv and "
                              "width.png/.pdf to --out (default: none, write the tables)")
+    parser.add_argument("--confirm", type=Path, metavar="PLAN",
+                        help="a pre-registered confirmatory analysis instead of tables, as the "
+                             "plan file says (results/confirm/plan.toml; its grids are named "
+                             "in it, so no GRID_DIR): writes confirm.csv and "
+                             "confirm_per_fold.csv to --out (default: none)")
     parser.add_argument("--allow-incomplete", action="store_true",
                         help="write tables although runs are missing, unfinished or unreadable, "
                              "marking the configurations concerned incomplete (default: refuse)")
@@ -312,6 +325,13 @@ def main(argv: list[str] | None = None) -> int:
     if bool(args.compare) != bool(args.metric) or (args.minus and not args.compare):
         parser.error("--compare needs --metric, and --metric and --minus need --compare")
     extra = (["--compare"] if args.compare else []) + _table_options(args)
+    if args.confirm:
+        if args.grid_dir or args.archive or args.widths or extra != ["--out"]:
+            parser.error("--confirm reads its grids from the plan: give it --out alone, "
+                         "without GRID_DIR")
+        return run_command(PROG, args.verbose, lambda: _confirm(args))
+    if args.grid_dir is None:
+        parser.error("GRID_DIR is required (but with --confirm)")
     if args.archive and extra:
         parser.error(f"--archive writes the archive alone: leave out {', '.join(extra)}")
     if args.widths and (args.archive or args.compare or "--out" not in extra
@@ -334,6 +354,19 @@ def _left_alone(args: argparse.Namespace) -> tuple[str, ...]:
     if args.no_figures:
         return ("figures/",)
     return () if args.curves else ("figures/curves/",)
+
+
+def _confirm(args: argparse.Namespace) -> None:
+    """``--confirm``: the plan's analysis into ``--out``, all files or none."""
+    from .confirm import write_confirm
+
+    check_output_folder(args.out, PROG, may_hold=True)
+    with staged_outputs(args.out, CONFIRM_MANIFEST, PROG, False) as staging:
+        written, skipped = write_confirm(args.confirm, staging)
+    for line in skipped:
+        print(f"note: {line}", file=sys.stderr)
+    for path in written:
+        print(args.out / path.relative_to(staging))
 
 
 def _run(args: argparse.Namespace) -> None:
