@@ -170,7 +170,7 @@ def _runs(grid_dir: Path, allow_incomplete: bool, seeds: tuple[int, ...] | None,
     """``collect.run_rows``, each problem and configuration left out reported on stderr; and
     whether a run folder of other settings than the grid's was left out."""
     from .checks import OTHER_SETTINGS
-    from .collect import LEFT_OUT, run_rows
+    from .collect import LEFT_OUT, MISPLACED, run_rows
     from .standalone import is_run_collection, standalone_rows
 
     if is_run_collection(grid_dir):
@@ -180,7 +180,7 @@ def _runs(grid_dir: Path, allow_incomplete: bool, seeds: tuple[int, ...] | None,
     for problem in problems:
         print(problem if problem.startswith(LEFT_OUT) else f"incomplete: {problem}",
               file=sys.stderr)
-    return runs, any(problem.startswith(OTHER_SETTINGS) for problem in problems)
+    return runs, any(problem.startswith((OTHER_SETTINGS, MISPLACED)) for problem in problems)
 
 
 def _run_collection_tables(folder: Path, out: Path, allow_incomplete: bool,
