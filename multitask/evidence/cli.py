@@ -22,10 +22,13 @@ yours, is never written over unless ``--overwrite``. ``--widths``
 keeps its own list, ``width.json``. The files are written together at the end (``rnn_seg.runs.manifest``):
 a call that fails leaves ``--out`` as it was.
 
-A grid with missing or unfinished runs, NaN metrics, unreadable metrics or stray folders is an
-error naming them (``multitask.evidence.collect``); with ``--allow-incomplete`` they are listed,
-and the configurations concerned are marked incomplete in the tables (``runs``, ``runs_expected``
-and ``complete`` columns of summary.csv; "(incomplete: n/m runs)" after the model's name).
+A grid with missing or unfinished runs, NaN metrics, unreadable or self-contradicting files, runs
+whose config.json records another place, or stray folders is an error naming them
+(``multitask.evidence.collect``); with ``--allow-incomplete`` they are listed, and the
+configurations concerned are marked incomplete in the tables (``runs``, ``runs_expected`` and
+``complete`` columns of summary.csv; "(incomplete: n/m runs)" after the model's name). Runs of
+one configuration that differ in a setting that changes a result are refused, always: no table
+pools them (``pooling``).
 
 While a grid runs, ``--finished-only`` writes the tables of its finished part: every
 configuration with a run not finished yet is left out (and listed), the rest are complete;

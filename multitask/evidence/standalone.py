@@ -66,7 +66,7 @@ def standalone_rows(folder: Path, allow_incomplete: bool = False,
             rows.append({RUN_COLUMN: name, **asdict(record_key(record)), **metrics})
             records[Path(name)] = record
     pool(records, folder)
-    rows = _without_duplicates(rows, problems)
+    rows = _without_duplicates(folder, rows, problems)
     if problems and not allow_incomplete:
         raise IncompleteEvidence(f"{folder}: incomplete evidence, no tables written:\n  "
                                  + "\n  ".join(problems)
@@ -77,7 +77,7 @@ def standalone_rows(folder: Path, allow_incomplete: bool = False,
     return pd.DataFrame(rows), problems
 
 
-def _without_duplicates(rows: list[dict], problems: list[str]) -> list[dict]:
+def _without_duplicates(folder: Path, rows: list[dict], problems: list[str]) -> list[dict]:
     """``rows`` less the second and further runs of one configuration, seed and fold (each would
     count as that fold's run), each named in a problem with the run kept; after ``pool``, such
     runs agree on every setting: they are two runs of one fold."""
@@ -85,8 +85,9 @@ def _without_duplicates(rows: list[dict], problems: list[str]) -> list[dict]:
     for row in rows:
         key = tuple(row[column] for column in KEY_COLUMNS)
         if key in kept:
-            problems.append(f"{LEFT_OUT} {row[RUN_COLUMN]}: a second run of the same settings, "
-                            f"seed and fold as {kept[key][RUN_COLUMN]} (tabulated)")
+            problems.append(f"{LEFT_OUT} {folder / row[RUN_COLUMN]}: a second run of the same "
+                            f"settings, seed and fold as {folder / kept[key][RUN_COLUMN]} "
+                            "(tabulated)")
         else:
             kept[key] = row
     return list(kept.values())

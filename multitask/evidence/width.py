@@ -174,8 +174,6 @@ def _check_comparable(grids: list[Path], evidence: list[WidthEvidence]) -> None:
     widths = [part.hidden for part in evidence]
     if len(set(widths)) < len(widths):
         raise ValueError(f"one grid per width, got widths {sorted(widths)}")
-    pool({run: record for part in evidence for run, record in part.records.items()},
-         "the grids of the width study", varying=STUDIED)
     first = evidence[0].data
     for grid, part in zip(grids[1:], evidence[1:]):
         differing = sorted(k for k in first.keys() | part.data.keys()
@@ -188,6 +186,8 @@ def _check_comparable(grids: list[Path], evidence: list[WidthEvidence]) -> None:
     if len(set(folds.values())) > 1:
         raise ValueError("the grids differ in their folds: "
                          + "; ".join(f"{grid}: {value}" for grid, value in folds.items()))
+    pool({run: record for part in evidence for run, record in part.records.items()},
+         "the grids of the width study", varying=STUDIED)
 
 
 def width_table(evidence: list[WidthEvidence]) -> pd.DataFrame:

@@ -59,6 +59,13 @@ def variant_record(variant: Variant, weighting: Weighting, config: RunConfig,
             **variant_extra(variant, weighting, gradnorm, heads), "data_fingerprint": fingerprint}
 
 
+#: Fields of config.json's ``run`` that place a run and that tables read (dotted): present in
+#: every record, so never taken from ``RunConfig``'s defaults (an older record may lack a field
+#: added since, which then holds its default).
+IDENTITY = ("test_user", "train.seed", "data.annotations", "encoder.bidirectional",
+            "encoder.hidden", "optim.unit", "optim.total")
+
+
 @dataclass(frozen=True)
 class RunRecord:
     """A run folder's config.json, checked."""
@@ -107,6 +114,9 @@ def read_run_record(run_dir: Path) -> RunRecord:
         shown = saved.get("run") if isinstance(saved, dict) else saved
         raise RunFolderError(f"{path}: run: not a run's configuration (value: "
                              f"{str(shown)[:60]!r})")
+    for field in IDENTITY:
+        if not _holds(saved["run"], field.split(".")):
+            raise RunFolderError(f"{path}: run.{field}: missing; every run records it")
     try:
         config = from_jsonable(RunConfig, _upgraded(saved["run"]), f"{path}: run")
         variant = _choice(saved, "variant", VARIANTS, "A", path)
@@ -116,7 +126,8 @@ def read_run_record(run_dir: Path) -> RunRecord:
             if name in saved:
                 from_jsonable(kind, saved[name], f"{path}: {name}")
     except ConfigError as error:
-        raise RunFolderError(str(error)) from None
+        raise RunFolderError(f"{error.where}: {error.problem} (value: "
+                             f"{str(error.value)[:60]!r})") from None
     except ValueError as error:
         raise RunFolderError(f"{path}: {error}") from None
     tasks = saved.get("tasks", list(VARIANTS[variant].task_names))
@@ -128,6 +139,15 @@ def read_run_record(run_dir: Path) -> RunRecord:
         raise RunFolderError(f"{path}: data_fingerprint: not a fingerprint (value: "
                              f"{fingerprint!r})")
     return RunRecord(path, saved, config, variant, weighting, tuple(tasks))
+
+
+def _holds(tree: dict, keys: list[str]) -> bool:
+    """Whether nested dict ``tree`` has the key path ``keys``."""
+    for key in keys:
+        if not isinstance(tree, dict) or key not in tree:
+            return False
+        tree = tree[key]
+    return True
 
 
 def _choice(saved: dict, name: str, allowed, default: str, path: Path) -> str:
