@@ -119,6 +119,37 @@ def test_settings_that_change_no_result_do_not_separate_runs(tmp_path, capsys, c
     assert pd.read_csv(tmp_path / "out" / "summary.csv").folds.tolist() == [2]
 
 
+def test_a_baseline_run_and_a_multitask_run_of_model_a_are_one_configuration(tmp_path, capsys):
+    """baseline-train records no variant or weighting: its run is model A with fixed weights."""
+    write_fake_run(tmp_path / "mine" / "B", _key("B"), SCORES)
+    write_fake_run(tmp_path / "mine" / "C", _key("C"), SCORES)
+    _edit(tmp_path / "mine" / "C" / "config.json", lambda c: [c.pop("variant"),
+                                                              c.pop("weighting")])
+    code, err = _tables(tmp_path / "mine", capsys)
+    assert code == 0, err
+    assert pd.read_csv(tmp_path / "out" / "summary.csv").folds.tolist() == [2]
+
+
+def test_a_record_that_predates_a_setting_pools_with_one_at_its_default(tmp_path, capsys):
+    """An APoc run whose config.json records GradNorm's and the head's settings at their
+    defaults, and one of a version that recorded neither: one configuration; another alpha or
+    head loss is another."""
+    for fold in "BC":
+        write_fake_run(tmp_path / "mine" / fold,
+                       RunKey("revised", "bidirectional", "APoc", "gradnorm", 0, fold), SCORES)
+    _edit(tmp_path / "mine" / "C" / "config.json", lambda c: c.update(
+        gradnorm={"alpha": 1.5}, heads={"ordinal_loss": "sum"}))
+    code, err = _tables(tmp_path / "mine", capsys)
+    assert code == 0, err
+    for change, setting in ((dict(gradnorm={"alpha": 0.5}), "gradnorm.alpha"),
+                            (dict(heads={"ordinal_loss": "mean"}), "heads.ordinal_loss")):
+        _edit(tmp_path / "mine" / "C" / "config.json", lambda c: c.update(change))
+        code, err = _tables(tmp_path / "mine", capsys)
+        _refused(code, err, f"APoc-gradnorm: {setting} ")
+        _edit(tmp_path / "mine" / "C" / "config.json", lambda c: c.update(
+            gradnorm={"alpha": 1.5}, heads={"ordinal_loss": "sum"}))
+
+
 def test_annotations_and_direction_make_rows_of_their_own(tmp_path, capsys):
     write_fake_run(tmp_path / "mine" / "rev", _key("B"), SCORES)
     original = RunKey("original", "bidirectional", "A", "fixed", 0, "B")
@@ -206,6 +237,19 @@ def test_widths_refuse_grids_whose_models_differ_in_more_than_width_and_schedule
              "run.encoder.precision")
 
 
+def test_a_recorded_run_the_spec_does_not_hold_is_not_tabulated(tmp_path, capsys):
+    """grid.json lists a seed-3 run its spec (seed 0) never planned, its config.json consistent
+    with its place: named, not tabulated as the grid's."""
+    grid = write_fake_grid(tmp_path / "grid", seeds=(0,), fingerprint="0123",
+                           experiments=(Experiment(("A", "APc")),))
+    extra = grid / "runs/revised/bidirectional/A-fixed/seed3/B"
+    shutil.copytree(grid / A_FIXED / "B", extra)
+    _edit(extra / "config.json", lambda c: c["run"]["train"].update(seed=3))
+    _edit(grid / "grid.json", lambda r: r["runs"].append(str(extra.relative_to(grid))))
+    code, err = _tables(grid, capsys)
+    _refused(code, err, f"{extra}: no run of the grid's spec")
+
+
 # -- 2. every read is validated -----------------------------------------------------------------
 def _two_runs(root: Path) -> Path:
     """Runs of A on folds B and C, trained one by one; returns B's."""
@@ -228,6 +272,8 @@ def _confusion(counts) -> dict:
     (lambda m: m["mean"].update(progress={"accuracy": 50.0}),
      "mean: tasks ['gesture', 'progress'], but the run's config.json records ['gesture']"),
     (lambda m: m.update(confusion=None), "confusion: not a confusion matrix per task"),
+    (lambda m: m.update(confusion={}),
+     "confusion: tasks [], but the run's config.json records ['gesture']"),
     (lambda m: m.update(confusion=_confusion([[1] * 10] * 9 + [[1] * 9])),
      "confusion.gesture.counts: not a 10 x 10 table of non-negative integers"),
     (lambda m: m.update(confusion=_confusion([[-1] * 10] * 10)),
@@ -267,6 +313,23 @@ def test_a_config_that_is_no_run_configuration_is_one_line(tmp_path, capsys, con
     _refused(code, err, f"{run / field.split(': ', 1)[0]}: {field.split(': ', 1)[1]}")
     with pytest.raises(RunFolderError, match="config.json: run: not a run's configuration"):
         read_run_config(run)                    # what multitask-predict and -evaluate read
+
+
+@pytest.mark.parametrize("command", ["evaluate", "predict", "export"])
+def test_inference_commands_name_a_config_that_is_no_run_configuration(tmp_path, capsys,
+                                                                       command):
+    from multitask.inference import evaluate_cli, export_cli, predict_cli
+
+    run = tmp_path / "run"
+    write_json(run / "config.json", {"run": 5})
+    argv = {"evaluate": [str(run)], "predict": [str(run), str(tmp_path / "rec.csv"), "--out",
+                                                str(tmp_path / "p")],
+            "export": [str(run), "--out", str(tmp_path / "e")]}[command]
+    main = {"evaluate": evaluate_cli, "predict": predict_cli, "export": export_cli}[command].main
+    code = main(argv)
+    err = capsys.readouterr().err
+    _refused(code, err, f"{run / 'config.json'}: run: not a run's configuration (value: '5')")
+    assert err.count("\n") == 1
 
 
 @pytest.mark.parametrize("change,field", [

@@ -21,7 +21,7 @@ from pathlib import Path
 
 from jigsaws_tools.errors import JigsawsError
 from multitask.grid.folder import GRID_RECORD, read_record
-from multitask.grid.spec import GridSpec, RunKey, run_arguments, spec_from_dict
+from multitask.grid.spec import GridSpec, RunKey, expand, run_arguments, spec_from_dict
 from multitask.models.run_record import variant_record
 from rnn_seg.runs.folder import CONFIG, RunFolderError, read_json
 from rnn_seg.runs.settings import SettingsMismatchError, check_run_dir
@@ -34,8 +34,8 @@ OTHER_SETTINGS = "other settings than the grid's spec:"
 
 def other_settings(root: Path, keys: dict[Path, RunKey]) -> dict[Path, str]:
     """``{run: what differs}`` for the run folders of ``keys`` (run path relative to ``root`` ->
-    its key) whose ``config.json`` does not record the run grid.json's spec puts there, or cannot
-    be read; a folder without config.json is not checked (it holds no finished run). Empty when
+    its key) that are no run of grid.json's spec, or whose ``config.json`` does not record the
+    run the spec puts there, or cannot be read; a folder without config.json is not checked (it holds no finished run). Empty when
     grid.json records no spec (an older grid: a warning says the runs are unchecked against one)
     or when its spec's task definition file is not on this machine (a grid of the user's own
     task tabulated elsewhere: a warning says the check was skipped; each run's config.json still
@@ -59,9 +59,12 @@ def other_settings(root: Path, keys: dict[Path, RunKey]) -> dict[Path, str]:
         return {}
     spec = spec_from_dict(record["spec"], source=f"{Path(root) / GRID_RECORD}: spec")
     spec = replace(spec, data_dir=".")              # where the data is: not a setting
+    planned = set(expand(spec, spec.test_users or tuple(sorted({k.fold for k in keys.values()}))))
     mismatched = {}
     for run, key in keys.items():
-        details = _mismatch(Path(root) / run, spec, key)
+        details = (_mismatch(Path(root) / run, spec, key) if key in planned
+                   else "no run of the grid's spec: its experiments, seeds and folds do not "
+                        "hold this configuration, seed and fold")
         if details:
             mismatched[run] = details
     return mismatched

@@ -291,10 +291,17 @@ def _stray_folders(root: Path, recorded: list[Path]) -> list[Path]:
 
 
 def grid_task_name(grid_dir: Path | str) -> str:
-    """The task a grid's runs were trained on (their ``config.json``); runs written before tasks
-    existed are Suturing's."""
-    for config in sorted(Path(grid_dir).glob("runs/*/*/*/seed*/*/config.json")):
-        return read_run_record(config.parent).config.data.task.name
+    """The task a grid's runs were trained on (the config.json of its first recorded run that has
+    a readable one); runs written before tasks existed are Suturing's."""
+    root = Path(grid_dir)
+    recorded = record_runs(root)
+    runs = ([root / run for run in recorded] if recorded is not None
+            else [config.parent for config in sorted(root.glob("runs/*/*/*/seed*/*/config.json"))])
+    for run in runs:
+        try:
+            return read_run_record(run).config.data.task.name
+        except RunFolderError:          # not trained yet, or refused by the tables already
+            continue
     return PAPER_TASK
 
 

@@ -85,10 +85,11 @@ def _check_confusion(path: Path, confusion, record: RunRecord) -> None:
     if not isinstance(confusion, dict):
         raise RunFolderError(f"{path}: confusion: not a confusion matrix per task (value: "
                              f"{str(confusion)[:60]!r})")
+    if set(confusion) != set(record.tasks):
+        raise RunFolderError(f"{path}: confusion: tasks {sorted(confusion)}, but the run's "
+                             f"config.json records {sorted(record.tasks)}")
     for task, matrix in confusion.items():
         field = f"confusion.{task}"
-        if task not in record.tasks:
-            raise RunFolderError(f"{path}: {field}: not a task of the run ({', '.join(record.tasks)})")
         if not isinstance(matrix, dict):
             raise RunFolderError(f"{path}: {field}: not a confusion matrix (value: "
                                  f"{str(matrix)[:60]!r})")

@@ -16,7 +16,6 @@ from typing import Any
 
 from baseline.config import RunConfig
 from rnn_seg.runs.folder import CONFIG, ConfigError, RunFolderError, from_jsonable, read_json
-from rnn_seg.runs.settings import RECORD_KEYS
 
 from .config import WEIGHTINGS, GradNormConfig, HeadConfig, Weighting
 from .variants import VARIANTS, Variant
@@ -52,7 +51,7 @@ def variant_extra(variant: Variant, weighting: Weighting, gradnorm: GradNormConf
 
 
 def variant_record(variant: Variant, weighting: Weighting, config: RunConfig,
-                   gradnorm: GradNormConfig, heads: HeadConfig, fingerprint: str) -> dict:
+                   gradnorm: GradNormConfig, heads: HeadConfig, fingerprint: str | None) -> dict:
     """The record (and settings) of a run of ``variant`` whose data has ``fingerprint``, as
     config.json holds it (``baseline.builder.run_configs``' layout)."""
     return {"run": config, "tasks": list(variant.task_names),
@@ -76,13 +75,17 @@ class RunRecord:
     variant: str
     weighting: Weighting
     tasks: tuple[str, ...]
+    gradnorm: GradNormConfig        # as recorded, else the default (a fixed-weight run's)
+    heads: HeadConfig               # as recorded, else the default (a run without ordered head)
+    fingerprint: str | None         # of the data; None in a record of an early version
 
     def configs(self) -> dict[str, Any]:
-        """The record as ``rnn_seg.runs.settings`` reads it: the ``RunConfig`` beside the other
-        recorded entries (less ``RECORD_KEYS``: its hash and provenance), so that its output-only
-        fields are told apart."""
-        return {**{k: v for k, v in self.saved.items() if k not in RECORD_KEYS},
-                "run": self.config}
+        """The record as ``variant_record`` writes it, for ``rnn_seg.runs.settings``: every
+        entry read back as its dataclass (so output-only fields are told apart), a field the
+        record's version did not write at its default, and a ``baseline-train`` run's variant
+        and weighting, which it leaves unsaid, as model A's with fixed weights."""
+        return variant_record(VARIANTS[self.variant], self.weighting, self.config,
+                              self.gradnorm, self.heads, self.fingerprint)
 
     def classes(self, task: str) -> tuple[str, ...]:
         """The class names of ``task`` (``"gesture"``: the task definition's gestures;
@@ -122,9 +125,8 @@ def read_run_record(run_dir: Path) -> RunRecord:
         variant = _choice(saved, "variant", VARIANTS, "A", path)
         weighting = _choice(saved, "weighting", WEIGHTINGS, "fixed", path)
         check_weighting(VARIANTS[variant], weighting)
-        for name, kind in (("gradnorm", GradNormConfig), ("heads", HeadConfig)):
-            if name in saved:
-                from_jsonable(kind, saved[name], f"{path}: {name}")
+        gradnorm = from_jsonable(GradNormConfig, saved.get("gradnorm", {}), f"{path}: gradnorm")
+        heads = from_jsonable(HeadConfig, saved.get("heads", {}), f"{path}: heads")
     except ConfigError as error:
         raise RunFolderError(f"{error.where}: {error.problem} (value: "
                              f"{str(error.value)[:60]!r})") from None
@@ -138,7 +140,8 @@ def read_run_record(run_dir: Path) -> RunRecord:
     if fingerprint is not None and not isinstance(fingerprint, str):
         raise RunFolderError(f"{path}: data_fingerprint: not a fingerprint (value: "
                              f"{fingerprint!r})")
-    return RunRecord(path, saved, config, variant, weighting, tuple(tasks))
+    return RunRecord(path, saved, config, variant, weighting, tuple(tasks), gradnorm, heads,
+                     fingerprint)
 
 
 def _holds(tree: dict, keys: list[str]) -> bool:
