@@ -85,7 +85,8 @@ def _train(args: argparse.Namespace, variant: Variant) -> int:
     from baseline.launch import run_training
     from rnn_seg.threads import configure_threads
 
-    from .models.fold_run import check_weighting, train_variant
+    from .models.fold_run import train_variant
+    from .models.run_record import check_weighting
 
     def configure() -> tuple[RunConfig, GradNormConfig, HeadConfig]:
         config = run_config_from_args(args, variant.optim(), variant.eval_points())

@@ -11,7 +11,9 @@ import numpy as np
 import pandas as pd
 
 from jigsaws_tools.task_definition import SUTURING
-from multitask.grid.spec import PAPER_EXPERIMENTS, Experiment, GridSpec, expand, run_config
+from multitask.grid.spec import (PAPER_EXPERIMENTS, Experiment, GridSpec, RunKey, expand,
+                                 run_config, spec_payload, with_budget)
+from multitask.models.variants import get_variant
 from rnn_seg.runs.folder import to_jsonable, write_json
 
 GESTURES = SUTURING.gestures
@@ -30,11 +32,15 @@ def write_fake_grid(root: Path, seeds: tuple[int, ...] = (0, 1), hidden: int = 1
                     epochs: int = 12,
                     experiments: tuple[Experiment, ...] = PAPER_EXPERIMENTS,
                     schedule_factors: dict[str, float] | None = None,
-                    per_class: bool = False) -> Path:
+                    per_class: bool = False, fingerprint: str | None = None) -> Path:
     """Every run of a grid (default: the paper's, 22 configurations) over 8 folds and ``seeds``
     under ``root``; every variant at the paper's relative length unless ``schedule_factors``.
     ``per_class``: metrics.json holds per-class precision, recall, F1 and the confusion matrices
-    (as runs finished since they were saved); without it, as an older archive's runs."""
+    (as runs finished since they were saved); without it, as an older archive's runs.
+    ``fingerprint``: every config.json records it as the data's, and grid.json records the spec,
+    so that the tables check every run against it (fixed weightings and offline models only: a
+    GradNorm or ordered head's settings are not written); without it, grid.json records no spec,
+    as an early version's."""
     spec = GridSpec(data_dir=str(root / "data" / "Suturing"), seeds=seeds, hidden=hidden,
                     epochs=epochs, experiments=experiments,
                     schedule_factors=schedule_factors or {})
@@ -45,9 +51,10 @@ def write_fake_grid(root: Path, seeds: tuple[int, ...] = (0, 1), hidden: int = 1
         config = run_config(spec, key)
         tasks = (["gesture"] if key.variant.startswith("A") else []) + (
             ["progress"] if "P" in key.variant else [])
-        _write_json(run_dir / "config.json", {"run": to_jsonable(config), "tasks": tasks,
-                                              "variant": key.variant,
-                                              "weighting": key.weighting})
+        record = {"run": to_jsonable(config), "tasks": tasks, "variant": key.variant,
+                  "weighting": key.weighting}
+        _write_json(run_dir / "config.json",
+                    record if fingerprint is None else {**record, "data_fingerprint": fingerprint})
         point = config.train.eval_points[-1]
         predictions = run_dir / "eval" / f"epoch{point:04d}" / "predictions"
         predictions.mkdir(parents=True)
@@ -68,8 +75,29 @@ def write_fake_grid(root: Path, seeds: tuple[int, ...] = (0, 1), hidden: int = 1
                 mean[task].update(_class_scores(metrics["confusion"][task]))
         _write_json(run_dir / "metrics.json", metrics)
         _write_json(run_dir / "finished.json", {"sweeps": 7 * config.optim.total})
-    _write_json(root / "grid.json", {"runs": [str(key.path()) for key in keys]})
+    runs = [str(key.path()) for key in keys]
+    _write_json(root / "grid.json", {"runs": runs} if fingerprint is None
+                else {"spec": spec_payload(with_budget(spec)), "runs": runs})
     return root
+
+
+def write_fake_run(run_dir: Path, key: RunKey, mean: dict[str, dict[str, float | None]],
+                   hidden: int = 16, epochs: int = 12) -> Path:
+    """A finished run of ``key`` at ``hidden`` units, ``epochs`` long (the variant's relative
+    length), without training: config.json, metrics.json of one evaluation point whose scores
+    are ``mean`` (a task of the variant that ``mean`` lacks scores an accuracy of 50), and
+    finished.json. Returns ``run_dir``."""
+    spec = GridSpec(data_dir=str(run_dir), seeds=(key.seed,), hidden=hidden, epochs=epochs,
+                    schedule_factors={})
+    config = run_config(spec, key)
+    tasks = list(get_variant(key.variant).task_names)
+    _write_json(run_dir / "config.json", {"run": to_jsonable(config), "tasks": tasks,
+                                          "variant": key.variant, "weighting": key.weighting})
+    mean = {task: mean.get(task, {"accuracy": 50.0}) for task in tasks}
+    _write_json(run_dir / "metrics.json", {"points": {str(config.train.eval_points[-1]): mean},
+                                           "mean": mean, "unit": "epochs"})
+    _write_json(run_dir / "finished.json", {"sweeps": 7 * config.optim.total})
+    return run_dir
 
 
 def _write_json(path: Path, obj) -> None:

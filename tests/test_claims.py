@@ -19,6 +19,8 @@ from multitask.evidence.latex import escape, required_packages
 from multitask.evidence.paired import (ConfigId, Contrast, NotPaired, SignFlip, StatsConfig,
                                        holm, paired, power)
 from multitask.evidence.cli import main as tables_main
+from multitask.grid.spec import RunKey
+from tests.fake_grid import write_fake_run
 
 FOLDS = tuple("BCDEFGHI")
 A, APC = ConfigId("A"), ConfigId("APc")
@@ -410,18 +412,17 @@ def test_claims_latex_writes_numbers_and_quotes_as_the_tables_do():
 
 
 def _write_grid(root, runs: pd.DataFrame) -> None:
-    """A finished-runs folder tree as ``multitask-grid`` leaves it (metrics only), with the
-    grid's record of its runs (grid.json)."""
+    """A finished-runs folder tree as ``multitask-grid`` leaves it (config and metrics only),
+    with the grid's record of its runs (grid.json)."""
     paths = []
     for row in runs.itertuples(index=False):
         path = (Path("runs") / row.annotations / row.direction / f"{row.variant}-{row.weighting}"
                 / f"seed{row.seed}" / row.fold)
         paths.append(str(path))
-        run = root / path
-        run.mkdir(parents=True)
-        (run / "metrics.json").write_text(json.dumps({"mean": {"gesture": {
-            "accuracy": row.gesture_edit, "edit": row.gesture_edit}}}))
-        (run / "finished.json").write_text("{}")
+        key = RunKey(row.annotations, row.direction, row.variant, row.weighting, row.seed,
+                     row.fold)
+        write_fake_run(root / path, key, {"gesture": {"accuracy": row.gesture_edit,
+                                                     "edit": row.gesture_edit}})
     (root / "grid.json").write_text(json.dumps({"runs": paths}))
 
 

@@ -83,16 +83,15 @@ def test_captions_name_the_variants_with_longer_schedules(tmp_path):
     assert "12 epochs (18 for APoc; 8 for Pc)" in (tmp_path / "out" / "table1.tex").read_text()
 
 
-def test_captions_say_only_what_the_runs_record(tmp_path):
-    """Runs without config.json (or predictions) still get tables; the caption leaves out what
-    it cannot read instead of guessing."""
+def test_runs_without_their_configuration_get_no_caption(tmp_path, capsys):
+    """A run without config.json cannot be checked against its place or the other runs: the
+    tables are refused, naming its config.json, rather than captioned with a guess."""
     grid = write_fake_grid(tmp_path / "grid", seeds=(0,), experiments=(Experiment(("A",)),))
-    for config in grid.glob("runs/**/config.json"):
-        config.unlink()
-    assert tables_main([str(grid), "--no-figures", "--out", str(tmp_path / "out")]) == 0
-    caption = (tmp_path / "out" / "table1.tex").read_text()
-    assert f"{sum(TRIALS.values())} trials" in caption and "Models: 1 seed (0)." in caption
-    assert "hidden units" not in caption and "epochs" not in caption
+    missing = next(grid.glob("runs/**/config.json"))
+    missing.unlink()
+    assert tables_main([str(grid), "--no-figures", "--out", str(tmp_path / "out")]) == 2
+    assert f"{missing}: not found" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
 
 
 def test_ours_only_leaves_out_the_paper(tables):

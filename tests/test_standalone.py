@@ -54,7 +54,9 @@ def test_a_copy_of_a_run_and_an_unfinished_run_are_named(runs, tmp_path, capsys)
     assert tables_main([str(mine), "--out", str(tmp_path / "refused")]) == 2
     err = capsys.readouterr().err
     assert "Traceback" not in err and f"not finished: {mine / 'APc_B'}" in err
-    assert "two runs of" in err and str(mine / "A_B.copy") in err
+    assert (f"{mine / 'A_B.copy'}: a second run of the same settings, seed and fold as "
+            f"{mine / 'A_B'}") in err
     assert not (tmp_path / "refused").exists()
     assert tables_main([str(mine), "--out", str(tmp_path / "rest"), "--allow-incomplete"]) == 0
+    assert f"left out: {mine / 'A_B.copy'}" in capsys.readouterr().err
     assert pd.read_csv(tmp_path / "rest" / "runs.csv").run.tolist() == ["A_B", "older/A_C"]

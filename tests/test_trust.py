@@ -28,6 +28,7 @@ from jigsaws_tools.dataset import DataConfig
 from jigsaws_tools.errors import WriteFailed
 from jigsaws_tools.synth import SynthConfig, write_release
 from multitask.grid.cli import main as grid_main
+from multitask.grid.folder import run_key
 from multitask.grid.record import prepare_grid
 from multitask.grid.spec import expand, load_spec, with_budget
 from multitask.evidence.cli import main as tables_main
@@ -39,11 +40,12 @@ from rnn_seg.lstm import EncoderConfig
 from rnn_seg.model import SegmentationModel
 from rnn_seg.optim import OptimConfig
 from rnn_seg.runs.provenance import cpu_model
-from rnn_seg.runs.folder import RunFolderError, write_atomic, write_json
+from rnn_seg.runs.folder import RunFolderError, read_json, write_atomic, write_json
 from rnn_seg.stack import TrainerStack
 from rnn_seg.tasks import SoftmaxClassification
 from rnn_seg.trainer import TrainConfig, Trainer, TrainingDiverged
 from test_stack import F, _data, _trainer, _weights
+from tests.fake_grid import write_fake_run
 
 ROOT = Path(__file__).resolve().parents[1]
 ENV = {**os.environ, "PYTHONPATH": str(ROOT), "TF_CPP_MIN_LOG_LEVEL": "3"}
@@ -739,12 +741,19 @@ def test_json_is_strict_and_files_follow_the_umask(tmp_path):
 def _fake_grid(root: Path) -> Path:
     """A finished two-fold grid of A-fixed, written by hand (no training)."""
     runs = [f"runs/revised/bidirectional/A-fixed/seed0/{fold}" for fold in "BC"]
-    write_json(root / "grid.json", {"spec": {}, "runs": runs})
+    write_json(root / "grid.json", {"runs": runs})
     for k, run in enumerate(runs):
         metrics = {"accuracy": 80.0 + k, "edit": 70.0 + k, "f1@10": 75.0 + k, "accuracy_G7": None}
-        write_json(root / run / "metrics.json", {"mean": {"gesture": metrics}})
-        write_json(root / run / "finished.json", {"sweeps": 1})
+        write_fake_run(root / run, run_key(run), {"gesture": metrics})
     return root / runs[0]
+
+
+def _nan_accuracy(run: Path) -> None:
+    """The run's gesture accuracy NaN at its evaluation point, and so in their mean."""
+    metrics = read_json(run / "metrics.json")
+    for scores in [metrics["mean"], *metrics["points"].values()]:
+        scores["gesture"]["accuracy"] = None
+    write_json(run / "metrics.json", metrics)
 
 
 def _tables(root: Path, capsys, *flags: str) -> tuple[int, str]:
@@ -764,13 +773,12 @@ def test_tables_of_a_complete_grid(tmp_path, capsys):
     (lambda run: shutil.rmtree(run), "not finished"),
     (lambda run: (run / "finished.json").unlink(), "not finished"),
     (lambda run: shutil.copytree(run, run.with_name("C.old")), "C.old"),
-    (lambda run: write_json(run / "metrics.json", {"mean": {"gesture": {"accuracy": None}}}),
-     "gesture_accuracy is nan"),
+    (_nan_accuracy, "gesture_accuracy is nan"),
     (lambda run: (run / "metrics.json").write_text('{"mean": {"gesture": {"accuracy": NaN}}}'),
      "metrics.json"),
     (lambda run: (run / "metrics.json").write_text('{"mean": {"gest'), "metrics.json"),
     (lambda run: write_json(run / "metrics.json", {"metrics": {}}),
-     "metrics.json: no 'mean' metrics per task"),
+     "metrics.json: mean: no metrics per task"),
 ])
 def test_tables_refuse_incomplete_evidence(tmp_path, capsys, damage, named):
     run = _fake_grid(tmp_path)
@@ -800,12 +808,11 @@ def _running_grid(root: Path) -> None:
     training (no finished.json)."""
     runs = [f"runs/revised/{direction}/A-fixed/seed{seed}/{fold}"
             for direction in ("bidirectional", "forward") for seed in (0, 1) for fold in "BC"]
-    write_json(root / "grid.json", {"spec": {}, "runs": runs})
+    write_json(root / "grid.json", {"runs": runs})
     for k, run in enumerate(runs):
         metrics = {"accuracy": 80.0 + k, "edit": 70.0 + k, "f1@10": 75.0 + k}
-        write_json(root / run / "metrics.json", {"mean": {"gesture": metrics}})
-        if run != runs[-1]:
-            write_json(root / run / "finished.json", {"sweeps": 1})
+        write_fake_run(root / run, run_key(run), {"gesture": metrics})
+    (root / runs[-1] / "finished.json").unlink()
 
 
 def test_finished_only_leaves_out_the_configurations_still_running(tmp_path, capsys):

@@ -121,12 +121,12 @@ def test_grids_on_other_data_settings_are_refused(tmp_path, capsys):
     grid = _grid(tmp_path, 64)
     for path in grid.glob("runs/**/config.json"):
         config = json.loads(path.read_text())
-        config["run"]["data"]["feature_set"] = "another"
+        config["run"]["data"]["preprocessing"]["cutoff_hz"] = 2.0
         path.write_text(json.dumps(config))
     assert tables_main([str(_grid(tmp_path, 16)), "--widths", str(grid),
                         "--out", str(tmp_path / "w")]) == 2
     err = capsys.readouterr().err
-    assert "the grids differ in their data settings (feature_set)" in err
+    assert "the grids differ in their data settings (preprocessing)" in err
 
 
 def test_seeds_no_grid_has_are_named(tmp_path, capsys):

@@ -1,7 +1,9 @@
 """A grid's runs as the paper's evidence: tables, figures, training curves and tested claims.
 
 * ``collect``: finished runs gathered into one row per run, fold and configuration (read first);
-* ``checks``: each run folder checked against the grid's spec as the grid checks it;
+* ``checks``: each run folder checked against the grid's spec as the grid checks it (recorded
+  settings only: no data, no TensorFlow); ``metrics_file``: each run's metrics.json checked
+  against itself and its run; ``pooling``: the one rule for which runs a table may pool;
 * ``tables``, ``latex``, ``captions``: the paper's Tables I-III and the ablation, as CSV and
   paste-ready LaTeX with captions read from the runs; ``paper_results``: the published numbers;
 * ``figures``, ``curves``: the paper's figures and training curves; ``confusion``: per-gesture

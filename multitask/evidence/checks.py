@@ -2,20 +2,29 @@
 
 ``multitask-grid`` checks every run folder's ``config.json`` against its spec before any work
 (``multitask.grid.record``); ``multitask-tables`` reads the spec grid.json records and asks the
-same check of every recorded folder (``record.recorded_mismatches``): the settings of the run the
-spec puts at the folder's place (its variant, weighting, seed and fold included) against those the
-folder records. A folder retrained by hand with other settings, or a run copied into another's
-folder, is so never tabulated as the spec's. The data is not read: the fingerprint is the one
-the folder records (the tables may be made where the data is not).
+same of every recorded folder (``other_settings``): the settings of the run the spec puts at the
+folder's place (its variant, weighting, seed and fold included, ``models.run_record``) against
+those the folder records. A folder retrained by hand with other settings, or a run copied into
+another's folder, is so never tabulated as the spec's. Only recorded settings are read: the
+fingerprint is the one the folder records, and neither the data (the tables may be made where the
+data is not), nor a synthetic release, nor TensorFlow is needed.
+
+A grid.json without a spec (written by hand, or by an early version) leaves nothing to check
+against: a warning says so, and the runs are still checked against their own config.json, their
+place and each other (``pooling``).
 """
 from __future__ import annotations
 
 import logging
+from dataclasses import replace
 from pathlib import Path
 
-from jigsaws_tools.cli.common import import_tensorflow
+from jigsaws_tools.errors import JigsawsError
 from multitask.grid.folder import GRID_RECORD, read_record
-from multitask.grid.spec import RunKey, spec_from_dict
+from multitask.grid.spec import GridSpec, RunKey, expand, run_arguments, spec_from_dict
+from multitask.models.run_record import variant_record
+from rnn_seg.runs.folder import CONFIG, RunFolderError, read_json
+from rnn_seg.runs.settings import SettingsMismatchError, check_run_dir
 
 log = logging.getLogger(__name__)
 
@@ -25,17 +34,23 @@ OTHER_SETTINGS = "other settings than the grid's spec:"
 
 def other_settings(root: Path, keys: dict[Path, RunKey]) -> dict[Path, str]:
     """``{run: what differs}`` for the run folders of ``keys`` (run path relative to ``root`` ->
-    its key) whose ``config.json`` does not record the run grid.json's spec puts there; empty
-    when grid.json records no spec (an older grid: nothing to check against) or when its spec's
-    task definition file is not on this machine (a grid of the user's own task tabulated
-    elsewhere: a warning says the check was skipped; each run's config.json still records the
-    definition it trained with).
+    its key) that are no run of grid.json's spec, or whose ``config.json`` does not record the
+    run the spec puts there, or cannot be read; a folder without config.json is not checked (it holds no finished run). Empty when
+    grid.json records no spec (an older grid: a warning says the runs are unchecked against one)
+    or when its spec's task definition file is not on this machine (a grid of the user's own
+    task tabulated elsewhere: a warning says the check was skipped; each run's config.json still
+    records the definition it trained with).
 
     Raises:
         ValueError: naming grid.json, when its spec cannot be read back.
     """
     record = read_record(root)
-    if not record or not isinstance(record.get("spec"), dict):
+    if not record:
+        return {}
+    if "spec" not in record:
+        log.warning("%s records no spec (a grid of an early version): its runs are checked against "
+                    "their own config.json and each other, unchecked against a spec",
+                    Path(root) / GRID_RECORD)
         return {}
     task = record["spec"].get("task")
     if isinstance(task, str) and task.endswith(".toml") and not Path(task).is_file():
@@ -43,9 +58,34 @@ def other_settings(root: Path, keys: dict[Path, RunKey]) -> dict[Path, str]:
                     "against the spec", Path(root) / GRID_RECORD, task)
         return {}
     spec = spec_from_dict(record["spec"], source=f"{Path(root) / GRID_RECORD}: spec")
-    import_tensorflow()                          # quietly: the grid's check builds the runs'
-    from multitask.grid.record import recorded_mismatches
+    spec = replace(spec, data_dir=".")              # where the data is: not a setting
+    planned = set(expand(spec, spec.test_users or tuple(sorted({k.fold for k in keys.values()}))))
+    mismatched = {}
+    for run, key in keys.items():
+        details = (_mismatch(Path(root) / run, spec, key) if key in planned
+                   else "no run of the grid's spec: its experiments, seeds and folds do not "
+                        "hold this configuration, seed and fold")
+        if details:
+            mismatched[run] = details
+    return mismatched
 
-    runs = {key: run for run, key in keys.items()}
-    return {runs[key]: details
-            for key, details in recorded_mismatches(Path(root), spec, list(runs)).items()}
+
+def _mismatch(run_dir: Path, spec: GridSpec, key: RunKey) -> str | None:
+    """What differs between the run folder's config.json and the run ``spec`` puts at ``key``
+    (the fingerprint as the folder records it); None when they agree or the folder holds no
+    config.json."""
+    path = run_dir / CONFIG
+    if not path.is_file():
+        return None
+    try:
+        saved = read_json(path)
+        fingerprint = saved.get("data_fingerprint") if isinstance(saved, dict) else None
+        args = run_arguments(spec, key)
+        check_run_dir(run_dir, variant_record(args["variant"], key.weighting, args["config"],
+                                              spec.gradnorm, spec.heads,
+                                              fingerprint or "(not recorded)"))
+    except SettingsMismatchError as error:
+        return error.details
+    except (RunFolderError, ValueError, JigsawsError) as error:   # config.json, the task file
+        return str(error).splitlines()[0]
+    return None

@@ -22,10 +22,13 @@ yours, is never written over unless ``--overwrite``. ``--widths``
 keeps its own list, ``width.json``. The files are written together at the end (``rnn_seg.runs.manifest``):
 a call that fails leaves ``--out`` as it was.
 
-A grid with missing or unfinished runs, NaN metrics, unreadable metrics or stray folders is an
-error naming them (``multitask.evidence.collect``); with ``--allow-incomplete`` they are listed,
-and the configurations concerned are marked incomplete in the tables (``runs``, ``runs_expected``
-and ``complete`` columns of summary.csv; "(incomplete: n/m runs)" after the model's name).
+A grid with missing or unfinished runs, NaN metrics, unreadable or self-contradicting files, runs
+whose config.json records another place, or stray folders is an error naming them
+(``multitask.evidence.collect``); with ``--allow-incomplete`` they are listed, and the
+configurations concerned are marked incomplete in the tables (``runs``, ``runs_expected`` and
+``complete`` columns of summary.csv; "(incomplete: n/m runs)" after the model's name). Runs of
+one configuration that differ in a setting that changes a result are refused, always: no table
+pools them (``pooling``).
 
 While a grid runs, ``--finished-only`` writes the tables of its finished part: every
 configuration with a run not finished yet is left out (and listed), the rest are complete;
@@ -178,7 +181,7 @@ def _runs(grid_dir: Path, allow_incomplete: bool, seeds: tuple[int, ...] | None,
     """``collect.run_rows``, each problem and configuration left out reported on stderr; and
     whether a run folder of other settings than the grid's was left out."""
     from .checks import OTHER_SETTINGS
-    from .collect import LEFT_OUT, run_rows
+    from .collect import LEFT_OUT, MISPLACED, run_rows
     from .standalone import is_run_collection, standalone_rows
 
     if is_run_collection(grid_dir):
@@ -188,7 +191,7 @@ def _runs(grid_dir: Path, allow_incomplete: bool, seeds: tuple[int, ...] | None,
     for problem in problems:
         print(problem if problem.startswith(LEFT_OUT) else f"incomplete: {problem}",
               file=sys.stderr)
-    return runs, any(problem.startswith(OTHER_SETTINGS) for problem in problems)
+    return runs, any(problem.startswith((OTHER_SETTINGS, MISPLACED)) for problem in problems)
 
 
 def _run_collection_tables(folder: Path, out: Path, allow_incomplete: bool,

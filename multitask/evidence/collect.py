@@ -1,10 +1,14 @@
 """Gather a grid's finished runs into tables: one row per run, per fold, per configuration.
 
 Tables refuse incomplete evidence. Against the grid's own record of its runs (grid.json), every
-recorded run must be finished with a readable ``metrics.json`` whose metrics are finite (NaN is
+recorded run must be finished, with a config.json that records the run its folder's place names
+(``pooling.misplaced``; checked against the grid's spec too, ``checks``) and a ``metrics.json``
+that agrees with itself and its run (``metrics_file``) whose metrics are finite (NaN is
 allowed only for a per-class score, ``<task>_<kind>_<class>`` with a kind of ``PER_CLASS``: the
 class is absent from that fold's test trials, or never predicted), and every folder under ``runs/``
-must be a recorded run (a stray copy such as ``C.old`` is not a fold). Otherwise
+must be a recorded run (a stray copy such as ``C.old`` is not a fold). The runs of one
+configuration must agree on every setting that changes a result (``pooling.pool``), or no table
+is written at all (``pooling.MixedSettings``). Otherwise
 ``IncompleteEvidence`` names every problem; with ``allow_incomplete`` the problems are returned
 instead and the configurations they touch are marked incomplete (``completeness``), never silently
 averaged over fewer runs. For a grid still running, ``finished_only`` leaves out whole
@@ -26,7 +30,6 @@ error or the three-way verdict was saved get them from their ``history.csv`` and
 """
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import asdict, fields
 from pathlib import Path
@@ -38,9 +41,12 @@ from jigsaws_tools.task_definition import PAPER_TASK
 from rnn_seg.convergence import ConvergenceCriterion, history_convergence, verdict
 from rnn_seg.runs.folder import HISTORY, RunFolderError, is_finished, read_json
 
-from ..grid.folder import GRID_RECORD, record_runs
+from ..grid.folder import GRID_RECORD, record_runs, run_key
 from ..grid.spec import RunKey
+from ..models.run_record import RunRecord, read_run_record
 from .checks import OTHER_SETTINGS, other_settings
+from .metrics_file import METRICS_FILE, read_metrics
+from .pooling import misplaced, pool, record_key
 
 KEY_COLUMNS = [f.name for f in fields(RunKey)]
 CONFIG_COLUMNS = ["annotations", "direction", "variant", "weighting"]
@@ -49,6 +55,8 @@ METRICS = ["gesture_accuracy", "gesture_edit", "gesture_f1@10", "progress_mae",
            "progress_mae_raw", "progress_accuracy", "progress_edit", "progress_f1@10"]
 LOWER_IS_BETTER = {"progress_mae", "progress_mae_raw"}
 _RENAME = {"mae_normalised_rounded": "mae", "mae_normalised": "mae_raw"}
+#: First words of the problem line of a grid's run folder whose config.json records another run.
+MISPLACED = "a run of another configuration, seed or fold than its folder's:"
 #: How a line of ``run_rows``' problems that names a configuration left out starts.
 LEFT_OUT = "left out:"
 #: Per-class scores: ``<kind>_<class>`` in metrics.json (``rnn_seg.tasks.task_metrics``).
@@ -61,10 +69,8 @@ CONVERGENCE_COUNTS = {"still_falling": "still falling", "undecided": "undecided"
 
 def key_from_path(run_dir: Path, root: Path) -> RunKey:
     """Inverse of ``RunKey.path``:
-    ``runs/<annotations>/<direction>/<variant>-<weighting>/seed<k>/<fold>``."""
-    annotations, direction, config, seed, fold = run_dir.relative_to(root / "runs").parts
-    variant, weighting = config.rsplit("-", 1)
-    return RunKey(annotations, direction, variant, weighting, int(seed.removeprefix("seed")), fold)
+    ``runs/<annotations>/<direction>/<variant>-<weighting>/seed<k>/<fold>`` (``run_key``)."""
+    return run_key(Path(run_dir).relative_to(root).as_posix())
 
 
 class IncompleteEvidence(ValueError):
@@ -99,13 +105,15 @@ def run_rows(grid_dir: Path | str, allow_incomplete: bool = False,
     left_out += [f"{LEFT_OUT} {_config_label(config)}, no run of seed(s) "
                  f"{', '.join(map(str, seeds))}" for config in _configs_without(root, every_run,
                                                                                recorded)]
-    rows = []
+    rows, records = [], {}
     for run in recorded:
         if run in mismatched or _config_of(key_from_path(root / run, root)) in unfinished:
             continue
-        row = run_row(root, run, problems)
-        if row is not None:
-            rows.append(row)
+        found = run_row(root, run, problems)
+        if found is not None:
+            rows.append(found[0])
+            records[run] = found[1]
+    pool(records, root)
     if problems and not allow_incomplete:
         raise IncompleteEvidence(
             f"{root}: incomplete evidence, no tables written:\n  " + "\n  ".join(problems)
@@ -180,38 +188,53 @@ def completeness(runs: pd.DataFrame, expected: pd.DataFrame) -> pd.DataFrame:
     return table
 
 
-def run_row(root: Path, run: Path, problems: list[str]) -> dict | None:
-    """Key columns and mean metrics of the finished run ``root / run``; None (and a problem)
-    when it is missing, unfinished, unreadable or has a NaN metric."""
-    metrics = run_metrics(root / run, problems)
-    return None if metrics is None else {**asdict(key_from_path(root / run, root)), **metrics}
+def run_row(root: Path, run: Path, problems: list[str]) -> tuple[dict, RunRecord] | None:
+    """Key columns and mean metrics of the finished run ``root / run`` of a grid, and its
+    record; None (and a problem) when it is missing, unfinished, unreadable, has a NaN metric or
+    its config.json records another run than its place (``pooling.misplaced``)."""
+    run_dir = root / run
+    record = finished_record(run_dir, problems)
+    if record is None:
+        return None
+    wrong = misplaced(record, key_from_path(run_dir, root))
+    if wrong:
+        problems.append(f"{MISPLACED} {run_dir}: its config.json records {wrong}")
+        return None
+    metrics = run_metrics(run_dir, record, problems)
+    return None if metrics is None else ({**asdict(record_key(record)), **metrics}, record)
 
 
-def run_metrics(run_dir: Path, problems: list[str]) -> dict | None:
-    """The convergence columns and mean metrics (``<task>_<metric>``) of the finished run
-    ``run_dir``; None (and a problem appended to ``problems``) when it is missing, unfinished,
-    unreadable or has a NaN metric."""
+def finished_record(run_dir: Path, problems: list[str]) -> RunRecord | None:
+    """The checked config.json of the finished run ``run_dir``; None (and a problem appended to
+    ``problems``) when it is missing, unfinished or its config.json cannot be used."""
     if not is_finished(run_dir):
         problems.append(f"not finished: {run_dir}")
         return None
-    path = run_dir / "metrics.json"
     try:
-        metrics = read_json(path)
+        return read_run_record(run_dir)
+    except RunFolderError as error:
+        problems.append(f"unreadable configuration: {error}")
+        return None
+
+
+def run_metrics(run_dir: Path, record: RunRecord, problems: list[str]) -> dict | None:
+    """The convergence columns and mean metrics (``<task>_<metric>``) of the finished run
+    ``run_dir`` of config.json ``record``; None (and a problem appended to ``problems``) when
+    its metrics.json cannot be used (``metrics_file``) or has a NaN metric."""
+    path = run_dir / METRICS_FILE
+    try:
+        metrics = read_metrics(run_dir, record)
     except RunFolderError as error:
         problems.append(f"unreadable metrics: {error}")
-        return None
-    mean = metrics.get("mean") if isinstance(metrics, dict) else None
-    if not isinstance(mean, dict) or not all(isinstance(v, dict) for v in mean.values()):
-        problems.append(f"unreadable metrics: {path}: no 'mean' metrics per task")
         return None
     convergence = _convergence(run_dir, metrics.get("convergence") or {})
     row = dict(convergence=convergence.get("verdict"), converged=convergence.get("converged"),
                loss_drop=convergence.get("max_loss_drop"),
                loss_drop_se=convergence.get("max_loss_drop_se"))
-    for task, values in mean.items():
+    for task, values in metrics["mean"].items():
         for name, value in values.items():
             value = math.nan if value is None else value
-            if not isinstance(value, (int, float)) or (math.isnan(value) and not per_class(name)):
+            if math.isnan(value) and not per_class(name):
                 problems.append(f"{task}_{name} is {value!r}, not a number: {path}")
                 return None
             row[f"{task}_{_RENAME.get(name, name)}"] = value
@@ -268,11 +291,17 @@ def _stray_folders(root: Path, recorded: list[Path]) -> list[Path]:
 
 
 def grid_task_name(grid_dir: Path | str) -> str:
-    """The task a grid's runs were trained on (their ``config.json``); runs written before tasks
-    existed are Suturing's."""
-    for config in sorted(Path(grid_dir).glob("runs/*/*/*/seed*/*/config.json")):
-        data = json.loads(config.read_text())["run"]["data"]
-        return data.get("task", {}).get("name", PAPER_TASK)
+    """The task a grid's runs were trained on (the config.json of its first recorded run that has
+    a readable one); runs written before tasks existed are Suturing's."""
+    root = Path(grid_dir)
+    recorded = record_runs(root)
+    runs = ([root / run for run in recorded] if recorded is not None
+            else [config.parent for config in sorted(root.glob("runs/*/*/*/seed*/*/config.json"))])
+    for run in runs:
+        try:
+            return read_run_record(run).config.data.task.name
+        except RunFolderError:          # not trained yet, or refused by the tables already
+            continue
     return PAPER_TASK
 
 

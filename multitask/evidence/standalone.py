@@ -9,8 +9,9 @@ the claims pair configurations over the folds and seeds a grid spec guarantees, 
 to a grid (``multitask-grid``).
 
 Problems are reported as a grid's are (``collect.run_rows``): a run not finished or unreadable,
-two runs of one configuration, seed and fold (which would both count as that fold's run), a grid
-folder among the runs (tabulate it on its own).
+a grid folder among the runs (tabulate it on its own), two runs of the same settings, seed and
+fold (which would both count as that fold's run; with ``--allow-incomplete`` the first in path
+order is tabulated and each other one is named as left out).
 """
 from __future__ import annotations
 
@@ -19,11 +20,10 @@ from pathlib import Path
 
 import pandas as pd
 
-from rnn_seg.runs.folder import CONFIG, RunFolderError, read_json
 from rnn_seg.runs.outputs import GRID_RECORD, folder_kind, folders_below
 
-from ..grid.spec import RunKey
-from .collect import IncompleteEvidence, run_metrics
+from .collect import KEY_COLUMNS, LEFT_OUT, IncompleteEvidence, finished_record, run_metrics
+from .pooling import pool, record_key
 
 #: The column of ``standalone_rows``' table naming each run's folder (relative to the folder
 #: tabulated; ``.`` when it is the run).
@@ -38,29 +38,6 @@ def is_run_collection(folder: Path) -> bool:
         return False
     return folder_kind(folder) == "run folder" or any(
         kind == "run folder" for _, kind in folders_below(folder))
-
-
-def key_from_config(run_dir: Path) -> RunKey:
-    """The configuration, seed and held-out user a run's ``config.json`` records.
-
-    Raises:
-        RunFolderError: naming the file and the missing or malformed field.
-    """
-    path = Path(run_dir) / CONFIG
-    saved = read_json(path)
-    try:
-        run = saved["run"]
-        fold = run["test_user"]
-        if not isinstance(fold, str):
-            raise ValueError(f"test_user {fold!r}: no held-out user to score")
-        return RunKey(annotations=run["data"]["annotations"],
-                      direction="bidirectional" if run["encoder"]["bidirectional"] else "forward",
-                      variant=saved.get("variant", "A"), weighting=saved.get("weighting", "fixed"),
-                      seed=int(run["train"]["seed"]), fold=fold)
-    except KeyError as error:
-        raise RunFolderError(f"{path}: not a run's configuration (no {error.args[0]!r})") from None
-    except (TypeError, ValueError) as error:
-        raise RunFolderError(f"{path}: not a run's configuration ({error})") from None
 
 
 def standalone_rows(folder: Path, allow_incomplete: bool = False,
@@ -78,23 +55,18 @@ def standalone_rows(folder: Path, allow_incomplete: bool = False,
              else list(folders_below(folder)))
     problems = [f"{path} is a grid folder: tabulate it on its own (multitask-tables {path})"
                 for path, kind in found if kind == "grid folder"]
-    rows, places = [], {}
+    rows, records = [], {}
     for run_dir, _ in (item for item in found if item[1] == "run folder"):
-        try:
-            key = key_from_config(run_dir)
-        except RunFolderError as error:
-            problems.append(f"unreadable configuration: {error}")
+        record = finished_record(run_dir, problems)
+        if record is None or (seeds is not None and record_key(record).seed not in seeds):
             continue
-        if seeds is not None and key.seed not in seeds:
-            continue
-        if key in places:
-            problems.append(f"two runs of {key.path()}: {places[key]} and {run_dir}")
-            continue
-        places[key] = run_dir
-        metrics = run_metrics(run_dir, problems)
+        metrics = run_metrics(run_dir, record, problems)
         if metrics is not None:
-            rows.append({RUN_COLUMN: run_dir.relative_to(folder).as_posix(), **asdict(key),
-                         **metrics})
+            name = run_dir.relative_to(folder).as_posix()
+            rows.append({RUN_COLUMN: name, **asdict(record_key(record)), **metrics})
+            records[Path(name)] = record
+    pool(records, folder)
+    rows = _without_duplicates(folder, rows, problems)
     if problems and not allow_incomplete:
         raise IncompleteEvidence(f"{folder}: incomplete evidence, no tables written:\n  "
                                  + "\n  ".join(problems)
@@ -103,3 +75,19 @@ def standalone_rows(folder: Path, allow_incomplete: bool = False,
     if not rows:
         raise IncompleteEvidence(f"{folder}: no finished run to tabulate")
     return pd.DataFrame(rows), problems
+
+
+def _without_duplicates(folder: Path, rows: list[dict], problems: list[str]) -> list[dict]:
+    """``rows`` less the second and further runs of one configuration, seed and fold (each would
+    count as that fold's run), each named in a problem with the run kept; after ``pool``, such
+    runs agree on every setting: they are two runs of one fold."""
+    kept: dict[tuple, dict] = {}
+    for row in rows:
+        key = tuple(row[column] for column in KEY_COLUMNS)
+        if key in kept:
+            problems.append(f"{LEFT_OUT} {folder / row[RUN_COLUMN]}: a second run of the same "
+                            f"settings, seed and fold as {folder / kept[key][RUN_COLUMN]} "
+                            "(tabulated)")
+        else:
+            kept[key] = row
+    return list(kept.values())

@@ -1,7 +1,10 @@
 """The width study: model A and APoc (GradNorm) across LSTM widths, one grid per width.
 
 Each grid holds runs of one width (their ``config.json`` says which), on the same data (every
-recorded data setting but the folder it was read from) and folds as the others. Per grid, the
+recorded data setting but the folder it was read from) and folds as the others; a model's runs
+agree on every setting but the width and the schedule across the grids, and on every setting
+within one (``pooling``). A folder without grid.json is no grid of the study: which runs it
+should hold, and so whether they are complete, is unknown. Per grid, the
 evidence is every seed (of ``seeds``, if given) whose A and APoc runs (revised labels,
 bidirectional) have all finished on every fold the grid records for them; a seed still training
 is left out, the table says which seeds each width has and the figure how many. Widths
@@ -47,12 +50,15 @@ import pandas as pd  # noqa: E402
 from jigsaws_tools.task_definition import PAPER_TASK  # noqa: E402
 from rnn_seg.runs.folder import CONFIG, is_finished, read_json  # noqa: E402
 
+from ..models.run_record import RunRecord  # noqa: E402
+
 from .captions import describe_runs, is_synthetic, task_name  # noqa: E402
 from .checks import OTHER_SETTINGS, other_settings  # noqa: E402
 from .collect import key_from_path, recorded_runs, run_row  # noqa: E402
 from .figures import save  # noqa: E402
 from .paired import ConfigId, Contrast, holm, paired  # noqa: E402
 from .paper_results import TABLE_1  # noqa: E402
+from .pooling import pool  # noqa: E402
 
 MODELS = {"A": ConfigId("A", "fixed"), "APoc": ConfigId("APoc", "gradnorm")}
 #: The figure's name of each model.
@@ -60,6 +66,10 @@ LABELS = {"A": "A", "APoc": r"APoc (GradNorm, $\alpha = 1.5$)"}
 COLOURS = ("tab:grey", "tab:blue")          # A, APoc
 METRICS = {"gesture_accuracy": "Accuracy", "gesture_edit": "Edit", "gesture_f1@10": "F1@10"}
 PAPER_WIDTH = 1024
+#: The settings a model's runs may differ in across the grids: the width studied and the
+#: schedule, which ``width.csv`` states per width (``A_epochs``, ``APoc_epochs``).
+STUDIED = ("run.encoder.hidden", "run.optim.total", "run.optim.decay_start",
+           "run.optim.decay_every", "run.train.eval_points")
 
 
 @dataclass(frozen=True)
@@ -72,12 +82,15 @@ class WidthEvidence:
     seeds: tuple[int, ...]
     runs: pd.DataFrame            # one row per run of A and APoc (``collect.run_rows``' columns)
     epochs: dict[str, int]        # model name (``MODELS``) -> its schedule's length in epochs
+    records: dict[Path, RunRecord]  # each run's folder -> its config.json
 
 
 def _model_runs(grid: Path, seeds: tuple[int, ...] | None) -> dict[int, dict[str, list[Path]]]:
     """Seed -> model name (``MODELS``) -> the run folders (relative to ``grid``) the grid records
     for it; only ``seeds``' when given."""
-    recorded, _ = recorded_runs(grid)
+    recorded, unknown = recorded_runs(grid)
+    if unknown:                     # no grid.json: which runs the grid should have is unknown
+        raise ValueError(f"{grid}: not a grid: {unknown[0]}")
     names = {model: name for name, model in MODELS.items()}
     by_seed: dict[int, dict[str, list[Path]]] = {}
     for run in recorded:
@@ -115,9 +128,10 @@ def width_evidence(grid: Path, seeds: tuple[int, ...] | None = None) -> WidthEvi
     models have finished.
 
     Raises:
-        ValueError: one line: no such seed (naming what each lacks), a run of them without usable
-            metrics or with other settings than the grid's spec, a model's runs of several widths
-            or schedules or of a schedule not in epochs, A and APoc at different widths.
+        ValueError: one line: ``grid`` holds no grid.json, no such seed (naming what each lacks),
+            a run of them without usable metrics or with other settings than the grid's spec or
+            its place, a model's runs differing in a setting (``pooling``) or of a schedule not in
+            epochs, A and APoc at different widths.
     """
     by_seed = _model_runs(grid, seeds)
     if seeds and not by_seed:
@@ -129,11 +143,13 @@ def width_evidence(grid: Path, seeds: tuple[int, ...] | None = None) -> WidthEvi
                 + "; ".join(line.strip() for line in details.splitlines()[1:])
                 for run, details in other_settings(grid, {run: key_from_path(grid / run, grid)
                                                           for run in folders}).items()]
-    rows = [row for run in folders if (row := run_row(grid, run, problems)) is not None]
+    found = {run: row for run in folders if (row := run_row(grid, run, problems)) is not None}
     if problems:
         raise ValueError(f"{grid}: {len(problems)} problem(s) with the runs of A and APoc, "
                          f"the first: {problems[0]}")
-    runs = pd.DataFrame(rows)
+    records = {grid / run: record for run, (_, record) in found.items()}
+    pool(records, grid)
+    runs = pd.DataFrame([row for row, _ in found.values()])
     described = {name: describe_runs(grid, model.select(runs)) for name, model in MODELS.items()}
     epochs = {}
     for name, description in described.items():
@@ -149,11 +165,12 @@ def width_evidence(grid: Path, seeds: tuple[int, ...] | None = None) -> WidthEvi
     data = read_json(grid / folders[0] / CONFIG)["run"]["data"]
     return WidthEvidence(widths.pop(), {k: v for k, v in data.items() if k != "data_dir"},
                          task_name(data) == PAPER_TASK and not is_synthetic(data), chosen, runs,
-                         epochs)
+                         epochs, records)
 
 
 def _check_comparable(grids: list[Path], evidence: list[WidthEvidence]) -> None:
-    """One grid per width, every grid on the same data and folds; a one-line ``ValueError``."""
+    """One grid per width, every grid on the same data and folds, each model's runs of every
+    grid alike but in their width and schedule (``pooling.pool``); a one-line ``ValueError``."""
     widths = [part.hidden for part in evidence]
     if len(set(widths)) < len(widths):
         raise ValueError(f"one grid per width, got widths {sorted(widths)}")
@@ -169,6 +186,8 @@ def _check_comparable(grids: list[Path], evidence: list[WidthEvidence]) -> None:
     if len(set(folds.values())) > 1:
         raise ValueError("the grids differ in their folds: "
                          + "; ".join(f"{grid}: {value}" for grid, value in folds.items()))
+    pool({run: record for part in evidence for run, record in part.records.items()},
+         "the grids of the width study", varying=STUDIED)
 
 
 def width_table(evidence: list[WidthEvidence]) -> pd.DataFrame:

@@ -8,15 +8,23 @@ from __future__ import annotations
 
 from pathlib import Path, PurePosixPath
 
+from baseline.config import DIRECTIONS
+from jigsaws_tools.annotations import ANNOTATION_VERSIONS
 from rnn_seg.runs.folder import RunFolderError, read_json
 from rnn_seg.runs.outputs import GRID_RECORD  # noqa: F401 (re-exported)
+
+from ..models.config import WEIGHTINGS
+from ..models.variants import VARIANTS
+from .spec import RunKey
 
 
 def read_record(grid_dir: Path | str) -> dict | None:
     """The parsed ``grid.json`` of the grid in ``grid_dir``, None when there is none.
 
     Raises ``RunFolderError`` naming the file when it is not valid JSON or holds no ``runs``
-    list of run paths (``runs/...`` strings, none leading outside ``runs/``).
+    list of run paths (``runs/...`` strings, none leading outside ``runs/``), naming the entry
+    when a path is not a run's place (``run_key``) or is listed twice, and naming ``spec`` when
+    it is there but not a table of settings.
     """
     path = Path(grid_dir) / GRID_RECORD
     if not path.is_file():
@@ -30,7 +38,41 @@ def read_record(grid_dir: Path | str) -> dict | None:
     if outside is not None:
         raise RunFolderError(f"{path}: runs: {outside!r} is not a folder under runs/ of the "
                              "grid (a relative path without '..')")
+    seen = set()
+    for run in runs:
+        try:
+            run_key(run)
+        except ValueError as error:
+            raise RunFolderError(f"{path}: runs: {error}") from None
+        if run in seen:
+            raise RunFolderError(f"{path}: runs: {run!r} is listed twice")
+        seen.add(run)
+    if "spec" in record and not isinstance(record["spec"], dict):
+        raise RunFolderError(f"{path}: spec: not a grid spec (value: {str(record['spec'])[:60]!r})")
     return record
+
+
+def run_key(run: str) -> RunKey:
+    """The run a grid puts at ``run``,
+    ``runs/<annotations>/<direction>/<variant>-<weighting>/seed<k>/<fold>`` (``RunKey.path``);
+    a ``ValueError`` naming ``run`` and what is wrong with it."""
+    parts = PurePosixPath(run).parts
+    shape = "runs/<annotations>/<direction>/<variant>-<weighting>/seed<k>/<fold>"
+    if len(parts) != 6 or parts[0] != "runs":
+        raise ValueError(f"{run!r} is not a run's place, {shape}")
+    _, annotations, direction, config, seed, fold = parts
+    variant, _, weighting = config.rpartition("-")
+    for value, allowed, what in ((annotations, ANNOTATION_VERSIONS, "annotation version"),
+                                 (direction, DIRECTIONS, "direction"),
+                                 (variant, VARIANTS, "variant"),
+                                 (weighting, WEIGHTINGS, "weighting")):
+        if value not in allowed:
+            raise ValueError(f"{run!r}: {value!r} is no {what} ({', '.join(allowed)}), so this "
+                             f"is not a run's place, {shape}")
+    if not seed.startswith("seed") or not seed[4:].isdigit() or not seed[4:].isascii():
+        raise ValueError(f"{run!r}: {seed!r} is not seed<k>, so this is not a run's place, "
+                         f"{shape}")
+    return RunKey(annotations, direction, variant, weighting, int(seed[4:]), fold)
 
 
 def _under_runs(run: str) -> bool:

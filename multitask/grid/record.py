@@ -11,20 +11,18 @@ settings (``rnn_seg.runs.settings``): a spec with another width or length never 
 finished".
 
 ``multitask-tables`` reads the record's run list to tell missing runs and stray folders, and
-checks each run folder as the grid does (``recorded_mismatches``, without the data); the
-record's file name and reader are ``folder``'s, which imports no TensorFlow.
+checks each run folder as the grid does (``multitask.evidence.checks``, without the data or
+TensorFlow); the record's file name and reader are ``folder``'s, which imports no TensorFlow.
 """
 from __future__ import annotations
 
 import json
-from dataclasses import replace
 from pathlib import Path
 from typing import Callable
 
-from jigsaws_tools.errors import JigsawsError
 from rnn_seg.runs.lock import hold_folder
 from rnn_seg.runs.provenance import now, provenance
-from rnn_seg.runs.folder import CONFIG, RunFolderError, clear_run_dir, read_json, write_json
+from rnn_seg.runs.folder import clear_run_dir, write_json
 from rnn_seg.runs.settings import SettingsMismatchError, check_run_dir, differences
 
 from ..models.fold_run import variant_configs
@@ -127,35 +125,6 @@ def _mismatched_runs(out: Path, spec: GridSpec, keys: list[RunKey]
         details = _mismatch(out / key.path(), configs)
         if details:
             mismatched.append((key, details))
-    return mismatched
-
-
-def recorded_mismatches(out: Path, spec: GridSpec, keys: list[RunKey]) -> dict[RunKey, str]:
-    """What the grid's own check (``prepare_grid``) would say of each run folder of ``keys``,
-    without the data: every setting of its config.json against ``spec``'s run for the folder's
-    place (variant, weighting, seed and fold included), the data fingerprint taken as the folder
-    records it. For ``multitask-tables``, which may run where the data is not.
-
-    Returns:
-        ``{key: what differs}`` for the folders that differ or whose config.json cannot be read
-        (a folder without config.json is not checked: it holds no finished run).
-    """
-    spec = replace(spec, data_dir=".")              # where the data is: not a setting
-    mismatched = {}
-    for key in keys:
-        path = out / key.path() / CONFIG
-        if not path.is_file():
-            continue
-        try:
-            saved = read_json(path)
-            fingerprint = saved.get("data_fingerprint") if isinstance(saved, dict) else None
-            configs = variant_configs(**run_arguments(spec, key),
-                                      fingerprint=fingerprint or "(not recorded)")
-            details = _mismatch(out / key.path(), configs)
-        except (RunFolderError, ValueError, JigsawsError) as error:    # config.json, task file
-            details = str(error).splitlines()[0]
-        if details:
-            mismatched[key] = details
     return mismatched
 
 

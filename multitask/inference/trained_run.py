@@ -9,7 +9,6 @@ another (``jigsaws_tools.recording_format``: columns, sample rate).
 """
 from __future__ import annotations
 
-import json
 import logging
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -31,6 +30,7 @@ from rnn_seg.tasks import Task
 from rnn_seg.trainer import predict
 
 from ..models.heads import HeadConfig
+from ..models.run_record import read_run_config  # noqa: F401 (re-exported)
 from .predictions import RecordingPrediction
 from ..models.variants import get_variant
 
@@ -45,32 +45,6 @@ log = logging.getLogger(__name__)
 
 
 # -- configuration ------------------------------------------------------------------------------
-def read_run_config(run_dir: Path) -> tuple[RunConfig, dict]:
-    """``(RunConfig, the whole config.json)`` of a run folder."""
-    if not Path(run_dir).is_dir():
-        raise RunFolderError(f"{run_dir}: no such run folder")
-    path = Path(run_dir) / CONFIG_FILE
-    if not path.is_file():
-        raise RunFolderError(f"{path}: not found; a run folder is what multitask-train, "
-                             "baseline-train or multitask-grid wrote (--out)")
-    try:
-        saved = json.loads(path.read_text())
-    except json.JSONDecodeError as error:
-        raise RunFolderError(f"{path}:{error.lineno}: not valid JSON ({error.msg})") from None
-    if not isinstance(saved, dict) or "run" not in saved:
-        raise RunFolderError(f"{path}: no 'run' configuration")
-    return from_jsonable(RunConfig, _upgraded(saved["run"]), f"{path}: run"), saved
-
-
-def _upgraded(run: dict) -> dict:
-    """A run configuration written by an earlier version, in today's terms: ``train.plots`` was
-    a bool (figures at every evaluation point or none)."""
-    train = run.get("train", {})
-    if isinstance(train, dict) and isinstance(train.get("plots"), bool):
-        return {**run, "train": {**train, "plots": "all" if train["plots"] else "none"}}
-    return run
-
-
 def run_tasks(saved: dict, config: RunConfig, where: str) -> tuple[str, list[Task]]:
     """``(variant name, tasks)`` of a run's config.json: its variant's tasks on the run's task
     definition with its head settings, or model A's for a ``baseline-train`` run (which records

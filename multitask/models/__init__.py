@@ -4,7 +4,9 @@
 * ``heads``: the progress heads (regression, classification, ordered classification);
 * ``gradnorm``: GradNorm's trainer; ``config``: loss weighting, GradNorm and head settings (no
   TensorFlow import);
-* ``fold_run``: one variant on one LOUO fold (``train_variant``).
+* ``fold_run``: one variant on one LOUO fold (``train_variant``);
+* ``run_record``: what a run's config.json records, written and read back checked (no
+  TensorFlow import).
 
 May import ``jigsaws_tools``, ``rnn_seg`` and ``baseline``; no other wing of ``multitask``.
 """

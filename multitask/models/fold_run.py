@@ -5,44 +5,16 @@ from functools import partial
 from pathlib import Path
 from typing import Callable
 
-from baseline.builder import build_trainer, run_configs
+from baseline.builder import build_trainer, data_fingerprint
 from baseline.config import RunConfig
 from jigsaws_tools.dataset import Dataset
 from rnn_seg.trainer import Trainer
 
-from .config import WEIGHTINGS, Weighting
+from .config import Weighting
 from .gradnorm import GradNormConfig, GradNormTrainer
 from .heads import HeadConfig
+from .run_record import variant_extra, variant_record
 from .variants import Variant
-
-
-def check_weighting(variant: Variant, weighting: Weighting) -> None:
-    """Raise ``ValueError`` unless ``variant`` has ``weighting`` (GradNorm needs two tasks)."""
-    if weighting not in WEIGHTINGS:
-        raise ValueError(f"weighting must be one of {WEIGHTINGS}, not {weighting!r}")
-    if weighting == "gradnorm" and not variant.multitask:
-        raise ValueError(f"GradNorm needs two tasks; variant {variant.name} has one")
-
-
-def variant_extra(variant: Variant, weighting: Weighting, gradnorm: GradNormConfig,
-                  heads: HeadConfig) -> dict:
-    """What config.json records of a variant beyond its ``RunConfig`` and tasks: its name and
-    weighting, the GradNorm settings of a GradNorm run, the head settings of an ordered progress
-    head.
-
-    Args:
-        variant: the model variant (``variants.VARIANTS``).
-        weighting: ``"fixed"`` or ``"gradnorm"`` (checked against the variant).
-        gradnorm: GradNorm's settings, recorded with ``"gradnorm"``.
-        heads: the progress heads' settings, recorded for an ordered progress head.
-    """
-    check_weighting(variant, weighting)
-    extra = {"variant": variant.name, "weighting": weighting}
-    if weighting == "gradnorm":
-        extra["gradnorm"] = gradnorm
-    if variant.progress == "oc":
-        extra["heads"] = heads
-    return extra
 
 
 def variant_configs(variant: Variant, weighting: Weighting, config: RunConfig,
@@ -59,8 +31,8 @@ def variant_configs(variant: Variant, weighting: Weighting, config: RunConfig,
         fingerprint: the data's (``baseline.builder.data_fingerprint``); None = compute it.
         heads: the progress heads' settings.
     """
-    return run_configs(config, variant.tasks(config.data.task, heads),
-                       variant_extra(variant, weighting, gradnorm, heads), fingerprint)
+    return variant_record(variant, weighting, config, gradnorm, heads,
+                          fingerprint or data_fingerprint(config.data))
 
 
 def variant_trainer(variant: Variant, weighting: Weighting, config: RunConfig, run_dir: Path,

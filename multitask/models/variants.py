@@ -51,6 +51,11 @@ class Variant:
         return tasks
 
     @property
+    def task_names(self) -> tuple[str, ...]:
+        """The names of ``tasks``' heads, as config.json records them (no TensorFlow)."""
+        return ("gesture",) * self.gestures + ("progress",) * (self.progress is not None)
+
+    @property
     def multitask(self) -> bool:
         """Whether the variant has two tasks (gestures and progress)."""
         return self.gestures and self.progress is not None

@@ -1,0 +1,171 @@
+"""What a run's ``config.json`` records, without TensorFlow or the data: written and read back.
+
+``variant_record`` is the record a run of a variant writes (``fold_run.variant_configs`` adds the
+data fingerprint it computes; a grid's run folder is checked against it with the fingerprint the
+folder records). ``read_run_record`` reads a run folder's record back, every field checked: the
+run's ``RunConfig`` (``from_jsonable``: types, ranges, unknown keys), its variant, weighting,
+tasks, GradNorm and head settings and data fingerprint; a ``baseline-train`` run, which records no
+variant, is model A with fixed weights. A bad record is a ``RunFolderError`` naming the file and
+the field.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from baseline.config import RunConfig
+from rnn_seg.runs.folder import CONFIG, ConfigError, RunFolderError, from_jsonable, read_json
+
+from .config import WEIGHTINGS, GradNormConfig, HeadConfig, Weighting
+from .variants import VARIANTS, Variant
+
+
+def check_weighting(variant: Variant, weighting: Weighting) -> None:
+    """Raise ``ValueError`` unless ``variant`` has ``weighting`` (GradNorm needs two tasks)."""
+    if weighting not in WEIGHTINGS:
+        raise ValueError(f"weighting must be one of {WEIGHTINGS}, not {weighting!r}")
+    if weighting == "gradnorm" and not variant.multitask:
+        raise ValueError(f"GradNorm needs two tasks; variant {variant.name} has one")
+
+
+def variant_extra(variant: Variant, weighting: Weighting, gradnorm: GradNormConfig,
+                  heads: HeadConfig) -> dict:
+    """What config.json records of a variant beyond its ``RunConfig`` and tasks: its name and
+    weighting, the GradNorm settings of a GradNorm run, the head settings of an ordered progress
+    head.
+
+    Args:
+        variant: the model variant (``variants.VARIANTS``).
+        weighting: ``"fixed"`` or ``"gradnorm"`` (checked against the variant).
+        gradnorm: GradNorm's settings, recorded with ``"gradnorm"``.
+        heads: the progress heads' settings, recorded for an ordered progress head.
+    """
+    check_weighting(variant, weighting)
+    extra = {"variant": variant.name, "weighting": weighting}
+    if weighting == "gradnorm":
+        extra["gradnorm"] = gradnorm
+    if variant.progress == "oc":
+        extra["heads"] = heads
+    return extra
+
+
+def variant_record(variant: Variant, weighting: Weighting, config: RunConfig,
+                   gradnorm: GradNormConfig, heads: HeadConfig, fingerprint: str | None) -> dict:
+    """The record (and settings) of a run of ``variant`` whose data has ``fingerprint``, as
+    config.json holds it (``baseline.builder.run_configs``' layout)."""
+    return {"run": config, "tasks": list(variant.task_names),
+            **variant_extra(variant, weighting, gradnorm, heads), "data_fingerprint": fingerprint}
+
+
+#: Fields of config.json's ``run`` that place a run and that tables read (dotted): present in
+#: every record, so never taken from ``RunConfig``'s defaults (an older record may lack a field
+#: added since, which then holds its default).
+IDENTITY = ("test_user", "train.seed", "data.annotations", "encoder.bidirectional",
+            "encoder.hidden", "optim.unit", "optim.total")
+
+
+@dataclass(frozen=True)
+class RunRecord:
+    """A run folder's config.json, checked."""
+
+    path: Path                      # the config.json
+    saved: dict                     # as parsed
+    config: RunConfig
+    variant: str
+    weighting: Weighting
+    tasks: tuple[str, ...]
+    gradnorm: GradNormConfig        # as recorded, else the default (a fixed-weight run's)
+    heads: HeadConfig               # as recorded, else the default (a run without ordered head)
+    fingerprint: str | None         # of the data; None in a record of an early version
+
+    def configs(self) -> dict[str, Any]:
+        """The record as ``variant_record`` writes it, for ``rnn_seg.runs.settings``: every
+        entry read back as its dataclass (so output-only fields are told apart), a field the
+        record's version did not write at its default, and a ``baseline-train`` run's variant
+        and weighting, which it leaves unsaid, as model A's with fixed weights."""
+        return variant_record(VARIANTS[self.variant], self.weighting, self.config,
+                              self.gradnorm, self.heads, self.fingerprint)
+
+    def classes(self, task: str) -> tuple[str, ...]:
+        """The class names of ``task`` (``"gesture"``: the task definition's gestures;
+        ``"progress"``: its stages)."""
+        definition = self.config.data.task
+        return tuple(definition.gestures if task == "gesture" else definition.stage_names)
+
+
+def read_run_config(run_dir: Path) -> tuple[RunConfig, dict]:
+    """``(RunConfig, the whole config.json)`` of a run folder (``read_run_record``)."""
+    record = read_run_record(run_dir)
+    return record.config, record.saved
+
+
+def read_run_record(run_dir: Path) -> RunRecord:
+    """The checked record of the run folder ``run_dir``.
+
+    Raises:
+        RunFolderError: one line naming the folder or config.json and the field at fault.
+    """
+    if not Path(run_dir).is_dir():
+        raise RunFolderError(f"{run_dir}: no such run folder")
+    path = Path(run_dir) / CONFIG
+    if not path.is_file():
+        raise RunFolderError(f"{path}: not found; a run folder is what multitask-train, "
+                             "baseline-train or multitask-grid wrote (--out)")
+    saved = read_json(path)
+    if not isinstance(saved, dict) or not isinstance(saved.get("run"), dict):
+        shown = saved.get("run") if isinstance(saved, dict) else saved
+        raise RunFolderError(f"{path}: run: not a run's configuration (value: "
+                             f"{str(shown)[:60]!r})")
+    for field in IDENTITY:
+        if not _holds(saved["run"], field.split(".")):
+            raise RunFolderError(f"{path}: run.{field}: missing; every run records it")
+    try:
+        config = from_jsonable(RunConfig, _upgraded(saved["run"]), f"{path}: run")
+        variant = _choice(saved, "variant", VARIANTS, "A", path)
+        weighting = _choice(saved, "weighting", WEIGHTINGS, "fixed", path)
+        check_weighting(VARIANTS[variant], weighting)
+        gradnorm = from_jsonable(GradNormConfig, saved.get("gradnorm", {}), f"{path}: gradnorm")
+        heads = from_jsonable(HeadConfig, saved.get("heads", {}), f"{path}: heads")
+    except ConfigError as error:
+        raise RunFolderError(f"{error.where}: {error.problem} (value: "
+                             f"{str(error.value)[:60]!r})") from None
+    except ValueError as error:
+        raise RunFolderError(f"{path}: {error}") from None
+    tasks = saved.get("tasks", list(VARIANTS[variant].task_names))
+    if tasks != list(VARIANTS[variant].task_names):
+        raise RunFolderError(f"{path}: tasks: {tasks!r} are not variant {variant}'s "
+                             f"({list(VARIANTS[variant].task_names)})")
+    fingerprint = saved.get("data_fingerprint")
+    if fingerprint is not None and not isinstance(fingerprint, str):
+        raise RunFolderError(f"{path}: data_fingerprint: not a fingerprint (value: "
+                             f"{fingerprint!r})")
+    return RunRecord(path, saved, config, variant, weighting, tuple(tasks), gradnorm, heads,
+                     fingerprint)
+
+
+def _holds(tree: dict, keys: list[str]) -> bool:
+    """Whether nested dict ``tree`` has the key path ``keys``."""
+    for key in keys:
+        if not isinstance(tree, dict) or key not in tree:
+            return False
+        tree = tree[key]
+    return True
+
+
+def _choice(saved: dict, name: str, allowed, default: str, path: Path) -> str:
+    """``saved[name]``, one of ``allowed`` (``default`` when absent)."""
+    value = saved.get(name, default)
+    if not isinstance(value, str) or value not in allowed:
+        raise RunFolderError(f"{path}: {name}: expected one of {', '.join(allowed)} "
+                             f"(value: {value!r})")
+    return value
+
+
+def _upgraded(run: dict) -> dict:
+    """A run configuration written by an earlier version, in today's terms: ``train.plots`` was
+    a bool (figures at every evaluation point or none)."""
+    train = run.get("train", {})
+    if isinstance(train, dict) and isinstance(train.get("plots"), bool):
+        return {**run, "train": {**train, "plots": "all" if train["plots"] else "none"}}
+    return run
