@@ -84,7 +84,7 @@ def _check_enclosing(out: Path, place: Path, command: str, run_place: str | None
     run's ``evaluate/`` is writable for ``multitask-evaluate`` in a grid's run too)."""
     for parent in place.parents:
         first = place.relative_to(parent).parts[0]
-        kind = _recorded_kind(parent)
+        kind = recorded_kind(parent)
         if kind == "run folder":
             if first != run_place:
                 only = f" (only under its {run_place}/)" if run_place else ""
@@ -98,7 +98,7 @@ def _check_enclosing(out: Path, place: Path, command: str, run_place: str | None
                                     "does not write there (choose another output folder)")
 
 
-def _recorded_kind(folder: Path) -> str | None:
+def recorded_kind(folder: Path) -> str | None:
     """``folder_kind`` of a folder above an output, known by its records, not their names: a
     grid's ``grid.json`` lists its ``runs``, a run's ``config.json`` or ``finished.json`` holds
     its ``settings_hash`` (so a project folder holding a config.json of its own is no run)."""
