@@ -22,6 +22,7 @@ import numpy as np
 
 from jigsaws_tools.dataset import holds_unrecorded_default
 from jigsaws_tools.errors import NO_SPACE, WriteFailed
+from jigsaws_tools.files import read_regular
 
 from ..config import unit_name
 
@@ -203,12 +204,13 @@ def write_json(path: Path, obj: Any) -> None:
 
 
 def read_json(path: Path) -> Any:
-    """Parse a strict JSON file; an unreadable or invalid one is a ``RunFolderError`` naming it."""
+    """Parse a strict JSON file; an unreadable or invalid one, or one that is no regular file (a
+    FIFO: refused at once), is a ``RunFolderError`` naming it."""
     def reject(constant: str):
         raise ValueError(f"{constant} is not strict JSON")
 
     try:
-        return json.loads(Path(path).read_text(encoding="utf-8"), parse_constant=reject)
+        return json.loads(read_regular(path).decode("utf-8"), parse_constant=reject)
     except (OSError, UnicodeDecodeError, ValueError) as error:
         raise RunFolderError(f"{path}: unreadable or not valid JSON ({error})") from None
 

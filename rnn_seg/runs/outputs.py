@@ -16,6 +16,8 @@ import os
 from pathlib import Path
 from typing import Iterator
 
+from jigsaws_tools.files import read_regular
+
 from .folder import CHECKPOINTS, CONFIG, FINISHED, require_empty
 
 #: The record a grid folder holds (``multitask.grid.folder``).
@@ -112,7 +114,7 @@ def recorded_kind(folder: Path) -> str | None:
 def _holds_key(path: Path, key: str) -> bool:
     """Whether ``path`` is a JSON object with ``key`` (unreadable or absent: no)."""
     try:
-        record = json.loads(path.read_text(encoding="utf-8"))
+        record = json.loads(read_regular(path).decode("utf-8"))
     except (OSError, UnicodeDecodeError, ValueError):
         return False
     return isinstance(record, dict) and key in record
