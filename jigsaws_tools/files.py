@@ -17,7 +17,11 @@ from .errors import JigsawsError
 
 
 class NotRegularFileError(JigsawsError, ValueError):
-    """A path to read is a FIFO, a socket or a device, not a regular file."""
+    """A path to read is a FIFO, a socket or a device (``kind``), not a regular file."""
+
+    def __init__(self, path: Path | str, kind: str):
+        super().__init__(f"{path}: {kind}, not a regular file")
+        self.path, self.kind = Path(path), kind
 
 
 def read_regular(path: Path | str) -> bytes:
@@ -30,7 +34,7 @@ def read_regular(path: Path | str) -> bytes:
         if stat.S_ISDIR(mode):
             raise IsADirectoryError(21, "Is a directory", str(path))
         if not stat.S_ISREG(mode):
-            raise NotRegularFileError(f"{path}: {_kind(mode)}, not a regular file; name a file")
+            raise NotRegularFileError(path, _kind(mode))
         os.set_blocking(fd, True)
         return f.read()
 

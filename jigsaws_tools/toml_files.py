@@ -73,7 +73,7 @@ def read_toml(path: Path | str, what: str) -> dict:
     except OSError as error:
         problem = f"cannot read this {what} file ({error.strerror or error})"
     except NotRegularFileError as error:
-        problem = f"{str(error).removeprefix(f'{path}: ')}, not a {what} file"
+        problem = f"{error.kind}, not a {what} file"
     except UnicodeDecodeError as error:
         problem = f"not a {what} file: not UTF-8 text (byte {error.start})"
     except tomllib.TOMLDecodeError as error:

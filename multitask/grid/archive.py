@@ -33,7 +33,6 @@ import shutil
 import stat
 from pathlib import Path
 
-from jigsaws_tools.errors import WriteFailed
 from rnn_seg.runs.folder import (CONFIG, FINISHED, GRADNORM_LOG, HISTORY, RunFolderError,
                                  is_finished, read_json, write_json)
 from rnn_seg.runs.outputs import recorded_kind
@@ -203,8 +202,8 @@ def _copy_run(grid: Path, run: str, to: Path) -> None:
 
 def _copy_file(source: Path, to: Path, grid: Path) -> None:
     """Copy the regular file ``source`` of the grid ``grid`` to the new file ``to``; a symbolic
-    link or any other non-regular file is a ``RunFolderError`` naming it, a full disk a
-    ``WriteFailed`` naming ``to``."""
+    link or any other non-regular file is a ``RunFolderError`` naming it; a failed write an
+    ``OSError`` naming ``to``."""
     try:
         fd = os.open(source, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | os.O_NONBLOCK)
     except OSError as error:
@@ -220,8 +219,8 @@ def _copy_file(source: Path, to: Path, grid: Path) -> None:
         try:
             with open(to, "xb") as writer:
                 shutil.copyfileobj(reader, writer)
-        except OSError as error:
-            raise WriteFailed.from_os_error(error, to) or error from None
+        except OSError as error:           # named: the file written, not the one read
+            raise OSError(error.errno, error.strerror, str(to)) from None
 
 
 def kept_predictions(run_dir: Path) -> dict[str, Path]:

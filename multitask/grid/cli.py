@@ -61,7 +61,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--out", type=Path, required=True, metavar="DIR",
                         help="grid folder (shared by every worker on Dask)")
     parser.add_argument("--workers", type=positive_int, default=1, metavar="N",
-                        help="local worker processes")
+                        help="local worker processes, at most the machine's cores")
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help="Dask scheduler address (tcp://host:8786): run the jobs on that "
                              "cluster (default: none, local workers)")
@@ -118,11 +118,13 @@ def _run(args: argparse.Namespace) -> int:
     spec = with_budget(spec.with_absolute_paths())              # as recorded, one path
     if not args.scheduler:                       # a cluster's workers have their own CPUs
         require_native_precision(spec.precision)
-        try:
-            thread_count(str(args.threads))
-        except argparse.ArgumentTypeError as error:
-            raise ValueError(f"--threads: {error} (with --scheduler, each worker checks its "
-                             "own)") from None
+        for option, count, note in (
+                ("--threads", args.threads, " (with --scheduler, each worker checks its own)"),
+                ("--workers", args.workers, " (one TensorFlow process per worker)")):
+            try:
+                thread_count(str(count))
+            except argparse.ArgumentTypeError as error:
+                raise ValueError(f"{option}: {error}{note}") from None
     if args.stack > 1 and spec.loops == "xla":
         raise ValueError("--stack vectorises the runs' steps, which turns XLA's compiled loops "
                          "back into TensorFlow ops: use --stack 1 with loops xla (or graph loops "

@@ -21,7 +21,7 @@ from typing import Any, Literal, TypeVar, Union
 import numpy as np
 
 from jigsaws_tools.dataset import holds_unrecorded_default
-from jigsaws_tools.errors import NO_SPACE, WriteFailed
+from jigsaws_tools.errors import NO_SPACE, WriteFailed  # noqa: F401 (re-exported)
 from jigsaws_tools.files import read_regular
 
 from ..config import unit_name
@@ -175,8 +175,8 @@ def _dataclass_from_jsonable(cls: type, value: Any, where: str) -> Any:
 
 def write_atomic(path: Path, text: str) -> None:
     """Write ``text`` to ``path`` through a temporary file and a rename: never half a file. The
-    file gets the permissions of any new file (``0o666`` less the umask). A full disk is a
-    ``WriteFailed`` naming ``path``."""
+    file gets the permissions of any new file (``0o666`` less the umask). A full disk is an
+    ``OSError`` naming ``path`` (not its temporary file)."""
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.parent / f".{path.name}.{secrets.token_hex(4)}.tmp"
     fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
@@ -186,8 +186,8 @@ def write_atomic(path: Path, text: str) -> None:
         os.replace(tmp, path)
     except BaseException as error:
         tmp.unlink(missing_ok=True)
-        if isinstance(error, OSError) and error.errno in NO_SPACE:
-            raise WriteFailed(path, error.strerror or str(error)) from None
+        if isinstance(error, OSError) and error.errno in NO_SPACE:     # named: path
+            raise OSError(error.errno, error.strerror, str(path)) from None
         raise
 
 
