@@ -469,7 +469,8 @@ def test_predict_evaluate_and_export_replace_earlier_output_all_or_nothing(
     from rnn_seg.runs.manifest import finish_pending
 
     first, second = (str(kinematics_dir(synth_dir) / f"Suturing_{n}.txt") for n in ("B002", "B003"))
-    labels, scores, exported = tmp_path / "labels", tmp_path / "scores" / "B", tmp_path / "exp" / "A"
+    labels, scores = tmp_path / "labels", tmp_path / "scores" / "B"
+    exported = tmp_path / "exp" / "A"
     commands = {  # place observed, the earlier output, the new one over it
         "predict": (labels, [predict_main, str(bi_run), first, "--out", str(labels), "--no-plots"],
                     [predict_main, str(bi_run), second, "--out", str(labels), "--no-plots",
@@ -502,3 +503,28 @@ def test_predict_evaluate_and_export_replace_earlier_output_all_or_nothing(
             assert visible(seen) in (old, new), (name, step)
             assert not [p for p in copy.iterdir() if p.name.endswith(".tmp")
                         or p.name.startswith(".partial-")], (name, step)
+
+
+def test_a_full_disk_during_export_is_one_line_and_leaves_the_earlier_export(
+        bi_run, tmp_path, capsys, monkeypatch):
+    """TensorFlow's own error of a refused write (``ulimit -f``: OutOfRangeError "File too
+    large") is one line naming the SavedModel and the space left, no traceback; the earlier
+    export stays whole and nothing hidden is left beside it."""
+    from test_publish import visible
+
+    out = tmp_path / "exported" / "APoc_B"
+    assert export_main([str(bi_run), "--out", str(out)]) == 0
+    before = visible(out)
+
+    def refused(*args, **kwargs):
+        raise tf.errors.OutOfRangeError(None, None, f"{tmp_path}/x/variables.data; File too large")
+
+    monkeypatch.setattr(tf.saved_model, "save", refused)
+    capsys.readouterr()
+    assert export_main([str(bi_run), "--out", str(out), "--overwrite"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "Traceback" not in err, err
+    assert f"cannot write SavedModel {out} (" in err and "File too large" in err
+    assert "MB free" in err and "checkpoint" not in err
+    assert visible(out) == before
+    assert [p.name for p in out.parent.iterdir()] == ["APoc_B"]
