@@ -213,3 +213,24 @@ def test_an_archive_killed_at_any_step_over_an_earlier_one_is_the_old_or_the_new
             pass
         assert visible(copy / "archive") in (old, new), step
         assert _unlocked(copy) == ["archive"], step
+
+
+@pytest.mark.parametrize("pending, refusal", [
+    ({"staging": ".partial-t-x", "remove": ["grid/grid.json"], "files": []}, "grid folder"),
+    ({"staging": "../elsewhere", "remove": [], "files": []}, "not the record of an interrupted"),
+    ({"staging": ".partial-t-x", "remove": ["../outside.csv"], "files": []},
+     "not the record of an interrupted")])
+def test_a_forged_journal_moves_and_removes_nothing_outside_the_outputs_places(
+        tmp_path, pending, refusal):
+    """The journal is read as any input: a removal in a grid held in the folder, a staging
+    folder or a file outside it is refused, naming the manifest, and nothing is touched."""
+    out = tmp_path / "out"
+    (out / "grid").mkdir(parents=True)
+    (out / "grid" / "grid.json").write_text('{"runs": []}')
+    (tmp_path / "outside.csv").write_text("mine")
+    (out / "t.json").write_text(json.dumps({"written_by": "cmd", "files": [],
+                                            "pending": pending}))
+    with pytest.raises(ValueError, match=refusal):
+        _publish_files(out)
+    assert (out / "grid" / "grid.json").exists() and (tmp_path / "outside.csv").exists()
+    assert "pending" in json.loads((out / "t.json").read_text())

@@ -93,6 +93,7 @@ def finish_pending(out: Path, manifest: str) -> None:
             (out / name).parent.mkdir(parents=True, exist_ok=True)
             os.replace(file, out / name)
         for name in remove:
+            _check_place(out, name, manifest, record.get("written_by", "a command"))
             step(f"remove {name}")
             _remove(out, name)
         step("list")
