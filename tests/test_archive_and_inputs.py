@@ -20,6 +20,7 @@ from multitask.evidence.cli import main as tables_main
 from multitask.grid.cli import main as grid_main
 from multitask.grid.spec import PAPER_EXPERIMENTS
 from rnn_seg.runs.folder import RunFolderError, read_json
+from rnn_seg.runs.logs import read_log
 from test_publish import visible
 
 
@@ -186,3 +187,34 @@ def test_workers_are_bounded_like_threads(tmp_path, capsys):
     err = _one_line(capsys.readouterr().err)
     assert f"--workers: expected at most this machine's {cores} cores" in err
     assert not (tmp_path / "g").exists()
+
+
+@pytest.mark.parametrize("name", ["metrics.json", "config.json", "history.csv"])
+def test_a_fifo_in_a_run_never_hangs_the_tables(fake_grid, tmp_path, capsys, name):
+    """A FIFO among a run's files is refused at once where it is read (metrics.json always),
+    naming it, with no tables written."""
+    grid = tmp_path / "grid"
+    shutil.copytree(fake_grid, grid)
+    run = next((grid / "runs").glob("*/*/*/*/C"))
+    (run / name).unlink()
+    os.mkfifo(run / name)
+    with at_most(60):
+        code = tables_main([str(grid), "--out", str(tmp_path / "tables"), "--no-figures"])
+    err = capsys.readouterr().err
+    if name == "metrics.json":         # read by every table; the others where needed
+        assert code == 2 and f"{run / name}: a FIFO (named pipe), not a regular file" in err
+    if code:
+        assert str(run / name) in err and "Traceback" not in err
+        assert not (tmp_path / "tables").exists()
+    if name == "history.csv":          # as the training curves and GradNorm figures read it
+        with at_most(60), pytest.raises(RunFolderError, match="FIFO"):
+            read_log(run / name)
+
+
+def test_predict_refuses_a_fifo_as_input_at_once(tmp_path, capsys):
+    from multitask.inference.predict_cli import kinematics_files
+
+    fifo = tmp_path / "Suturing_B001.txt"
+    os.mkfifo(fifo)
+    with at_most(60), pytest.raises(ValueError, match="not a regular file or a folder"):
+        kinematics_files([fifo])

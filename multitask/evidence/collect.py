@@ -26,7 +26,6 @@ error or the three-way verdict was saved get them from their ``history.csv`` and
 """
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import asdict, fields
 from pathlib import Path
@@ -37,6 +36,7 @@ import pandas as pd
 from jigsaws_tools.task_definition import PAPER_TASK
 from rnn_seg.convergence import ConvergenceCriterion, history_convergence, verdict
 from rnn_seg.runs.folder import HISTORY, RunFolderError, is_finished, read_json
+from rnn_seg.runs.logs import read_log
 
 from ..grid.folder import GRID_RECORD, record_runs
 from ..grid.spec import RunKey
@@ -231,7 +231,7 @@ def _convergence(run_dir: Path, saved: dict) -> dict:
     if "max_loss_drop_se" not in saved:
         try:
             total = read_json(run_dir / "config.json")["run"]["optim"]["total"]
-            recomputed = history_convergence(pd.read_csv(run_dir / HISTORY), list(drops),
+            recomputed = history_convergence(read_log(run_dir / HISTORY), list(drops),
                                              total, criterion)
         except (RunFolderError, KeyError, TypeError, OSError, ValueError):
             return saved
@@ -271,7 +271,7 @@ def grid_task_name(grid_dir: Path | str) -> str:
     """The task a grid's runs were trained on (their ``config.json``); runs written before tasks
     existed are Suturing's."""
     for config in sorted(Path(grid_dir).glob("runs/*/*/*/seed*/*/config.json")):
-        data = json.loads(config.read_text())["run"]["data"]
+        data = read_json(config)["run"]["data"]
         return data.get("task", {}).get("name", PAPER_TASK)
     return PAPER_TASK
 

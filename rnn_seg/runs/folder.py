@@ -22,7 +22,7 @@ import numpy as np
 
 from jigsaws_tools.dataset import holds_unrecorded_default
 from jigsaws_tools.errors import NO_SPACE, WriteFailed  # noqa: F401 (re-exported)
-from jigsaws_tools.files import read_regular
+from jigsaws_tools.files import NotRegularFileError, read_regular
 
 from ..config import unit_name
 
@@ -211,6 +211,8 @@ def read_json(path: Path) -> Any:
 
     try:
         return json.loads(read_regular(path).decode("utf-8"), parse_constant=reject)
+    except NotRegularFileError as error:
+        raise RunFolderError(f"{path}: {error.kind}, not a regular file") from None
     except (OSError, UnicodeDecodeError, ValueError) as error:
         raise RunFolderError(f"{path}: unreadable or not valid JSON ({error})") from None
 
