@@ -218,3 +218,23 @@ def test_predict_refuses_a_fifo_as_input_at_once(tmp_path, capsys):
     os.mkfifo(fifo)
     with at_most(60), pytest.raises(ValueError, match="not a regular file or a folder"):
         kinematics_files([fifo])
+
+
+def test_a_grid_keeps_training_when_its_archive_meets_a_full_disk(fake_grid, tmp_path,
+                                                                  monkeypatch):
+    """``multitask-grid --archive``: after a job, a full disk is a warning naming the file (the
+    grid goes on); before training, a failure naming it."""
+    from jigsaws_tools.errors import WriteFailed
+    from multitask.grid.cli import _archive
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(shutil, "copyfileobj", full)
+    said: list[str] = []
+    _archive(fake_grid, tmp_path / "archive", said.append, warn=True)
+    assert len(said) == 1 and "warning: the archive in" in said[0]
+    assert f"cannot write {tmp_path / 'archive' / 'grid.json'}" in said[0]
+    with pytest.raises(WriteFailed, match="MB free"):
+        _archive(fake_grid, tmp_path / "archive", said.append)
+    assert not list(tmp_path.iterdir())

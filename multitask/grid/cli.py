@@ -31,6 +31,7 @@ from jigsaws_tools.cli.arg_types import positive_int, thread_count
 from jigsaws_tools.cli.common import (command_parser, deprecated_alias, import_tensorflow,
                                       run_command)
 from jigsaws_tools.cli.options import DEFAULT_DATA_DIR_TEXT
+from jigsaws_tools.errors import WriteFailed
 from jigsaws_tools.recording_format import RELEASE_LAYOUT_ONLY
 from rnn_seg.config import LOOPS, require_native_precision
 from rnn_seg.runs.folder import RunFolderError, is_finished
@@ -183,7 +184,7 @@ def _archive(out: Path, dest: Path, log: Callable[[str], None], warn: bool = Fal
 
     try:
         finished, recorded = archive_grid(out, dest)
-    except (OSError, RunFolderError) as error:
+    except (OSError, RunFolderError, WriteFailed) as error:     # WriteFailed: a full disk
         if not warn:
             raise
         log(f"[grid] warning: the archive in {dest} was not updated: {error}")
