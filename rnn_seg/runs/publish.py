@@ -58,7 +58,7 @@ def claimed(target: Path | str) -> Iterator[None]:
     """Hold the lock of the place ``target`` (``.<name>.lock`` beside it) for the block, after
     recovering what publishes of ``target`` killed before left beside it (``recover_folder``)."""
     target = Path(target)
-    with hold_folder(target.parent, "output folder", f".{target.name}.lock"):
+    with hold_folder(target.parent, f"output {target.name} in the folder", f".{target.name}.lock"):
         recover_folder(target)
         yield
 
