@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import errno
+import os
 import shutil
 from pathlib import Path
 
@@ -58,23 +59,41 @@ class DefinitionError(JigsawsError, ValueError):
 NO_SPACE = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
 
 
+#: What a training run's ``WriteFailed`` adds to its advice.
+RESUMES = "a run resumes from its last complete checkpoint"
+
+
 class WriteFailed(RuntimeError):
     """A file could not be written for lack of space (``NO_SPACE``): names the file, the reason
     and the space left. Not the user's input: commands report it as a failure (exit 1). What was
-    written before stays; a run resumes from its last complete checkpoint."""
+    written before stays (a command's published outputs are whole: ``rnn_seg.runs.publish``)."""
 
-    def __init__(self, path: Path | str, reason: str, what: str = ""):
-        """``what`` the file is, named before its path (e.g. ``"checkpoint"``)."""
+    def __init__(self, path: Path | str, reason: str, what: str = "", then: str = ""):
+        """``what`` the file is, named before its path (e.g. ``"checkpoint"``); ``then``: what
+        running the command again does (e.g. ``RESUMES``)."""
         folder = next((p for p in (Path(path), *Path(path).parents) if p.is_dir()), Path("."))
         free = shutil.disk_usage(folder).free / 1e6
         named = f"{what} {path}" if what else str(path)
         super().__init__(f"cannot write {named} ({reason}); {free:.0f} MB free on its file "
-                         "system. Make room and run the same command again (a run resumes from "
-                         "its last complete checkpoint)")
+                         "system. Make room and run the same command again"
+                         + (f" ({then})" if then else ""))
 
     @classmethod
-    def from_os_error(cls, error: OSError) -> WriteFailed | None:
-        """The failure an ``OSError`` stands for when it is a lack of space, else None."""
+    def from_os_error(cls, error: OSError, path: Path | str | None = None
+                      ) -> WriteFailed | None:
+        """The failure an ``OSError`` stands for when it is a lack of space, else None; it names
+        ``path`` (the file being written), else the error's file."""
         if error.errno not in NO_SPACE:
             return None
-        return cls(error.filename or "a file", error.strerror or str(error))
+        return cls(path or error.filename or "a file", error.strerror or str(error))
+
+    @classmethod
+    def from_message(cls, path: Path | str, message: str, what: str = "", then: str = ""
+                     ) -> WriteFailed | None:
+        """The failure to write ``path`` that another library's error ``message`` stands for
+        when it names a lack of space (TensorFlow's errors carry the system's reason in their
+        text: "...; No space left on device"), else None."""
+        reason = message.strip().splitlines()[0] if message.strip() else message
+        if not any(os.strerror(code) in message for code in NO_SPACE):
+            return None
+        return cls(path, reason, what, then)

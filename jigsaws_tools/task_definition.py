@@ -28,9 +28,10 @@ and ``Needle_Passing`` in ``jigsaws_tools/data/tasks/``, and a user passes their
     G1 = { frames = [45, 110] }     # segment length in 30 Hz frames, from [min, max)
     G5 = { frames = [40, 90], like = "G1" }     # motion blended with G1's (hard to tell apart)
 
-A step produces one of its gestures (with the given weights, uniform by default), with probability
-``p`` (default 1); ``cycles = "first"`` / ``"later"`` restricts a cycle step to the first cycle / to
-the others. The adjustment rule is the paper's (``jigsaws_tools.progress``).
+A step produces one of its gestures (with the given weights: positive, at most 1e6; uniform by
+default), with probability ``p`` (default 1); ``cycles = "first"`` / ``"later"`` restricts a cycle
+step to the first cycle / to the others. The adjustment rule is the paper's
+(``jigsaws_tools.progress``).
 """
 from __future__ import annotations
 
@@ -50,6 +51,9 @@ from .toml_files import (builtin_names, find_definition, known_keys, read_defini
 #: The paper's task, the default wherever a task can be omitted.
 PAPER_TASK = "Suturing"
 CYCLE_SCOPES = ("every", "first", "later")
+#: The largest weight of a synthetic step's gesture: relative weights, bounded so that their sum,
+#: which normalises them, stays finite.
+MAX_WEIGHT = 1e6
 _NAME = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]*$")
 _GESTURE = re.compile(r"^\S+$")
 
@@ -59,7 +63,7 @@ class SynthStep:
     """One step of a synthetic gesture sequence (see the module docstring)."""
 
     gestures: tuple[str, ...]
-    weights: tuple[float, ...]      # one per gesture, positive; normalised when sampled
+    weights: tuple[float, ...]      # one per gesture, in (0, MAX_WEIGHT]; normalised when sampled
     p: float = 1.0
     cycles: str = "every"
 
@@ -315,9 +319,11 @@ def _check_synthetic(task: TaskDefinition, grammar: SynthGrammar) -> None:
                 if g not in timed:
                     raise DefinitionError("", f"synthetic.gestures.{g}", None,
                                           f"{key} can produce {g}: give its frames")
-            if len(step.weights) != len(step.gestures) or min(step.weights) <= 0:
+            if (len(step.weights) != len(step.gestures) or min(step.weights) <= 0
+                    or max(step.weights) > MAX_WEIGHT):
                 raise DefinitionError("", f"{key}.weights", list(step.weights),
-                                      "one positive weight per gesture")
+                                      f"one positive weight per gesture, at most {MAX_WEIGHT:g} "
+                                      "(relative weights: their sum must stay finite)")
             if not 0 < step.p <= 1:
                 raise DefinitionError("", f"{key}.p", step.p, "a probability in (0, 1]")
             if step.cycles not in CYCLE_SCOPES or (part != "cycle" and step.cycles != "every"):

@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any, Callable, TypeVar
 
 from .errors import DefinitionError, JigsawsError
+from .files import NotRegularFileError, read_regular
 
 T = TypeVar("T")
 
@@ -51,9 +52,10 @@ def find_definition(value: str | Path, kind: str, what: str, read: Callable[[Pat
 def read_toml(path: Path | str, what: str) -> dict:
     """The tables of the TOML file ``path`` (UTF-8, a byte-order mark allowed).
 
-    A missing file, a folder, an unreadable or non-UTF-8 file, or invalid TOML is a one-line
-    ``DefinitionError`` naming the file and what it should be (``x.toml: no such spec file``),
-    not the operating system's ``[Errno 2] ...``.
+    A missing file, a folder, a FIFO or other non-regular file (refused at once, ``files``), an
+    unreadable or non-UTF-8 file, or invalid TOML is a one-line ``DefinitionError`` naming the
+    file and what it should be (``x.toml: no such spec file``), not the operating system's
+    ``[Errno 2] ...``.
 
     Args:
         path: the file.
@@ -61,7 +63,7 @@ def read_toml(path: Path | str, what: str) -> dict:
     """
     path = Path(path)
     try:
-        return tomllib.loads(path.read_text(encoding="utf-8-sig"))
+        return tomllib.loads(read_regular(path).decode("utf-8-sig"))
     except FileNotFoundError:
         problem = f"no such {what} file"
     except IsADirectoryError:
@@ -70,6 +72,8 @@ def read_toml(path: Path | str, what: str) -> dict:
         problem = f"cannot read this {what} file (permission denied)"
     except OSError as error:
         problem = f"cannot read this {what} file ({error.strerror or error})"
+    except NotRegularFileError as error:
+        problem = f"{error.kind}, not a {what} file"
     except UnicodeDecodeError as error:
         problem = f"not a {what} file: not UTF-8 text (byte {error.start})"
     except tomllib.TOMLDecodeError as error:

@@ -77,14 +77,16 @@ def _no_spec_file(kind: str, tmp_path: Path, monkeypatch) -> Path:
         path.write_text("hidden = = 8\n")
     elif kind == "permission denied":
         path.write_text('preset = "quick"\n')
-        read_text = Path.read_text
+        import jigsaws_tools.files
 
-        def refuse(self, *args, **kwargs):
-            if self == path:
+        opened = os.open
+
+        def refuse(name, *args, **kwargs):
+            if Path(name) == path:
                 raise PermissionError(13, "Permission denied", str(path))
-            return read_text(self, *args, **kwargs)
+            return opened(name, *args, **kwargs)
 
-        monkeypatch.setattr(Path, "read_text", refuse)
+        monkeypatch.setattr(jigsaws_tools.files.os, "open", refuse)
     return path
 
 

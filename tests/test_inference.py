@@ -454,3 +454,77 @@ def test_an_unfinished_run_loads_with_a_warning(bi_run, tmp_path, caplog):
     run = load_run(run_dir, checkpoint=min(checkpoint_sweeps(run_dir)))
     assert not run.finished and run.checkpoint == min(checkpoint_sweeps(run_dir))
     assert "unfinished" in caplog.text
+
+
+def test_predict_evaluate_and_export_replace_earlier_output_all_or_nothing(
+        bi_run, fw_run, synth_dir, tmp_path, monkeypatch):
+    """Over an earlier output, each command killed at any step of its publish (its place copied
+    there, as a SIGKILL leaves it) shows the earlier output or the new one, whole: a folder
+    written whole at every instant, the files of a prediction once the next call has finished
+    the journalled moves."""
+    from test_publish import observed_steps, visible
+
+    from rnn_seg.runs import publish
+    from rnn_seg.runs.lock import hold_folder
+    from rnn_seg.runs.manifest import finish_pending
+
+    first, second = (str(kinematics_dir(synth_dir) / f"Suturing_{n}.txt") for n in ("B002", "B003"))
+    labels, scores = tmp_path / "labels", tmp_path / "scores" / "B"
+    exported = tmp_path / "exp" / "A"
+    commands = {  # place observed, the earlier output, the new one over it
+        "predict": (labels, [predict_main, str(bi_run), first, "--out", str(labels), "--no-plots"],
+                    [predict_main, str(bi_run), second, "--out", str(labels), "--no-plots",
+                     "--overwrite"]),
+        "evaluate": (scores.parent, [evaluate_main, str(bi_run), "--out", str(scores),
+                                     "--no-plots", "--test-user", "C"],
+                     [evaluate_main, str(bi_run), "--out", str(scores), "--no-plots",
+                      "--overwrite"]),
+        "export": (exported.parent, [export_main, str(fw_run), "--out", str(exported)],
+                   [export_main, str(bi_run), "--out", str(exported), "--overwrite"])}
+    for name, (place, earlier, later) in commands.items():
+        assert earlier[0](earlier[1:]) == 0
+        output = labels if name == "predict" else place / (scores if name == "evaluate"
+                                                            else exported).name
+        old = visible(output)
+        taken = observed_steps(monkeypatch, place, tmp_path / "killed" / name)
+        assert later[0](later[1:]) == 0
+        monkeypatch.setattr(publish, "step_hook", lambda step: None)
+        new = visible(output)
+        assert old != new and taken, name
+        for step, copy in taken:
+            seen = copy if name == "predict" else copy / output.name
+            if name == "predict":
+                with hold_folder(copy, "output folder"):
+                    finish_pending(copy, "prediction.json")
+            else:
+                assert visible(seen) in (old, new), (name, step)
+                with publish.claimed(seen):
+                    pass
+            assert visible(seen) in (old, new), (name, step)
+            assert not [p for p in copy.iterdir() if p.name.endswith(".tmp")
+                        or p.name.startswith(".partial-")], (name, step)
+
+
+def test_a_full_disk_during_export_is_one_line_and_leaves_the_earlier_export(
+        bi_run, tmp_path, capsys, monkeypatch):
+    """TensorFlow's own error of a refused write (``ulimit -f``: OutOfRangeError "File too
+    large") is one line naming the SavedModel and the space left, no traceback; the earlier
+    export stays whole and nothing hidden is left beside it."""
+    from test_publish import visible
+
+    out = tmp_path / "exported" / "APoc_B"
+    assert export_main([str(bi_run), "--out", str(out)]) == 0
+    before = visible(out)
+
+    def refused(*args, **kwargs):
+        raise tf.errors.OutOfRangeError(None, None, f"{tmp_path}/x/variables.data; File too large")
+
+    monkeypatch.setattr(tf.saved_model, "save", refused)
+    capsys.readouterr()
+    assert export_main([str(bi_run), "--out", str(out), "--overwrite"]) == 1
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "Traceback" not in err, err
+    assert f"cannot write SavedModel {out} (" in err and "File too large" in err
+    assert "MB free" in err and "checkpoint" not in err
+    assert visible(out) == before
+    assert [p.name for p in out.parent.iterdir()] == ["APoc_B"]

@@ -46,7 +46,7 @@ def test_compiled_loops_are_how_a_run_computes_not_what(tmp_path):
     """A run folder and a grid accept either loops: same settings, same grid."""
     from dataclasses import replace
 
-    from multitask.grid.record import _canonical
+    from multitask.grid.folder import comparable_spec as _canonical
     from multitask.grid.spec import GridSpec, spec_payload
     from rnn_seg.runs.settings import settings_hash
 

@@ -128,6 +128,8 @@ def _write(tmp_path, text, name="task.toml"):
      "probability"),
     (('{ gesture = "A", p = 0.6 }', '{ gesture = ["A", "C"], weights = [1], p = 0.6 }'),
      "synthetic.cycle[3].weights", "one positive weight per gesture"),
+    (('{ gesture = "A", p = 0.6 }', '{ gesture = ["A", "C"], weights = [1e308, 1e308], p = 0.6 }'),
+     "synthetic.cycle[3].weights", "their sum must stay finite"),
     (('P = { frames = [40, 90] }', ''), "synthetic.gestures.P", "give its frames"),
     (('cycles = [3, 3]', 'cycles = 3'), "synthetic.cycles", "two integers"),
 ])

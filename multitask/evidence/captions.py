@@ -5,7 +5,6 @@ not have.
 """
 from __future__ import annotations
 
-import json
 from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -13,6 +12,7 @@ from pathlib import Path
 import pandas as pd
 
 from jigsaws_tools.task_definition import PAPER_TASK
+from rnn_seg.runs.folder import read_json
 
 from ..grid.archive import archived_test_trials, kept_predictions
 from ..grid.spec import RunKey
@@ -60,7 +60,7 @@ def describe_runs(grid_dir: Path | str, runs: pd.DataFrame) -> RunsDescription:
     root = Path(grid_dir)
     keys = [RunKey(**{k: row[k] for k in RunKey.__dataclass_fields__})
             for row in runs.to_dict("records")]
-    configs = {key: json.loads(path.read_text())["run"] for key in keys
+    configs = {key: read_json(path)["run"] for key in keys
                if (path := root / key.path() / "config.json").is_file()}
     lengths: dict[int, list[str]] = {}
     for key, config in configs.items():

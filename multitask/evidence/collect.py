@@ -40,6 +40,7 @@ import pandas as pd
 from jigsaws_tools.task_definition import PAPER_TASK
 from rnn_seg.convergence import ConvergenceCriterion, history_convergence, verdict
 from rnn_seg.runs.folder import HISTORY, RunFolderError, is_finished, read_json
+from rnn_seg.runs.logs import read_log
 
 from ..grid.folder import GRID_RECORD, record_runs, run_key
 from ..grid.spec import RunKey
@@ -254,7 +255,7 @@ def _convergence(run_dir: Path, saved: dict) -> dict:
     if "max_loss_drop_se" not in saved:
         try:
             total = read_json(run_dir / "config.json")["run"]["optim"]["total"]
-            recomputed = history_convergence(pd.read_csv(run_dir / HISTORY), list(drops),
+            recomputed = history_convergence(read_log(run_dir / HISTORY), list(drops),
                                              total, criterion)
         except (RunFolderError, KeyError, TypeError, OSError, ValueError):
             return saved

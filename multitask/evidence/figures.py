@@ -37,6 +37,7 @@ from jigsaws_tools.release import KINEMATICS_HZ  # noqa: E402
 from jigsaws_tools.task_definition import load_task  # noqa: E402
 
 from rnn_seg.runs.folder import read_json  # noqa: E402
+from rnn_seg.runs.logs import read_log  # noqa: E402
 
 from ..grid.archive import kept_predictions  # noqa: E402
 from ..grid.spec import RunKey  # noqa: E402
@@ -359,7 +360,7 @@ def gradnorm_weights(grid_dir: Path, out_dir: Path) -> list[Path]:
                              sharex=True, sharey=True)
     for ax, (variant, logs) in zip(axes[0], panels.items()):
         for log in logs:
-            frame = pd.read_csv(log)
+            frame = read_log(log)
             for column, colour in WEIGHT_LINES.values():
                 ax.plot(frame.unit, frame[column], color=colour, alpha=0.35, lw=1)
         alpha = read_json(logs[0].parent / "config.json").get("gradnorm", {}).get("alpha")

@@ -16,32 +16,36 @@ it was archived, and each fold's test trials (their names only, for the tables' 
   archived run of other settings is never taken for one of the spec's.
 
 An archive is written into a new or empty folder, or replaces a folder that holds nothing but an
-archive's files, and only if every run finished there is finished in the grid too (so that a
-grid recording a part of an archived spec never thins out the archive); anything else there
-(weights, predictions, tables, a lock, runs the grid lacks) stops it before any work, as does a
-destination inside the grid or the grid inside it.
+archive of the same grid: its ``grid.json`` records the same spec (``folder.comparable_spec``),
+and every run finished there is finished in the grid too (so that a grid recording a part of an
+archived spec never thins out the archive). Anything else there (weights, predictions, tables, a
+lock, another spec's archive, runs the grid lacks) stops it before any work, as does a
+destination inside the grid or the grid inside it, or one inside any run folder or grid folder
+(whose folders are theirs). An archive holds only each run's own regular files: a file or run
+folder that is a symbolic link, or any other non-regular file, stops it, naming the path. The
+archive is published whole (``rnn_seg.runs.publish.staged_folder``): at every instant the
+destination holds the old archive or the new one.
 """
 from __future__ import annotations
 
 import os
 import shutil
-import tempfile
+import stat
 from pathlib import Path
 
-from rnn_seg.runs.provenance import now
 from rnn_seg.runs.folder import (CONFIG, FINISHED, GRADNORM_LOG, HISTORY, RunFolderError,
                                  is_finished, read_json, write_json)
+from rnn_seg.runs.outputs import recorded_kind
+from rnn_seg.runs.provenance import now
+from rnn_seg.runs.publish import claimed, staged_folder
 
-from .folder import GRID_RECORD, read_record
+from .folder import GRID_RECORD, comparable_spec, read_record
 from .spec import RunKey
 
 ARCHIVE_RECORD = "archive.json"
 #: The files of a finished run an archive keeps; the first two must be there.
 RUN_FILES = (CONFIG, "metrics.json", FINISHED, "timing.json", HISTORY, GRADNORM_LOG)
 REQUIRED = RUN_FILES[:2]
-#: In the names of the hidden folders an archive is written in (ignored by git: a process killed
-#: while archiving may leave one).
-PARTIAL = ".partial-"
 #: Path parts of a run folder in a grid: runs/<annotations>/<direction>/<config>/seed<k>/<fold>.
 RUN_DEPTH = len(RunKey("a", "d", "v", "w", 0, "f").path().parts)
 
@@ -67,22 +71,18 @@ def archive_grid(grid_dir: Path | str, dest: Path | str) -> tuple[int, int]:
     record = read_record(source)
     if record is None:
         raise RunFolderError(f"{source}: no {GRID_RECORD}: not a grid folder to archive")
-    dest = check_destination(source, dest)
-    finished = _finished_runs(source, record)
-    dest.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=f".{dest.name}{PARTIAL}", dir=dest.parent))
-    try:
-        shutil.copy2(source / GRID_RECORD, staging / GRID_RECORD)
-        for run in finished:
-            _copy_run(source / run, staging / run)
-        write_json(staging / ARCHIVE_RECORD, {
-            "source": str(source), "archived": now(), "runs_finished": len(finished),
-            "runs_recorded": len(record["runs"]), "run_files": list(RUN_FILES),
-            "test_trials": _test_trials(source, record["runs"])})
-        _put_in_place(staging, dest)
-    except BaseException:
-        shutil.rmtree(staging, ignore_errors=True)
-        raise
+    resolved = check_destination(source, dest, record)
+    with claimed(resolved):                    # checked again, as no other process may change it
+        check_destination(source, dest, record)
+        finished = _finished_runs(source, record)
+        with staged_folder(resolved, overwrite=True) as staging:
+            _copy_file(source / GRID_RECORD, staging / GRID_RECORD, source)
+            for run in finished:
+                _copy_run(source, run, staging / run)
+            write_json(staging / ARCHIVE_RECORD, {
+                "source": str(source), "archived": now(), "runs_finished": len(finished),
+                "runs_recorded": len(record["runs"]), "run_files": list(RUN_FILES),
+                "test_trials": _test_trials(source, record["runs"])})
     return len(finished), len(record["runs"])
 
 
@@ -95,10 +95,11 @@ def archived_test_trials(grid_dir: Path | str) -> dict[str, list[str]]:
     return trials if isinstance(trials, dict) else {}
 
 
-def check_destination(grid_dir: Path | str, dest: Path | str) -> Path:
-    """``dest`` resolved, once it is known that the archive of the grid ``grid_dir`` may be
-    written there (see the module docstring; a grid without its record yet has no finished
-    runs); writes nothing.
+def check_destination(grid_dir: Path | str, dest: Path | str, record: dict | None = None
+                      ) -> Path:
+    """``dest`` resolved, once it is known that the archive of the grid ``grid_dir`` (whose
+    record is ``record``, read unless given) may be written there (see the module docstring; a
+    grid without its record yet has no finished runs); writes nothing.
 
     Raises:
         RunFolderError: naming ``dest`` and why not.
@@ -110,13 +111,21 @@ def check_destination(grid_dir: Path | str, dest: Path | str) -> Path:
     if resolved == source or source in resolved.parents or resolved in source.parents:
         raise RunFolderError(f"{dest}: the grid {source} and its archive must be separate "
                              "folders, neither inside the other")
+    enclosing = next(((parent, kind) for parent in resolved.parents
+                      if (kind := recorded_kind(parent))), None)
+    if enclosing:
+        raise RunFolderError(f"{dest}: lies inside the {enclosing[1]} {enclosing[0]}, whose "
+                             "folders are its own; archive into a folder outside every run and "
+                             "grid folder")
     if resolved.exists() and not resolved.is_dir():
         raise RunFolderError(f"{dest}: not a folder; archive a grid into a folder")
     foreign = _foreign_path(resolved) if resolved.is_dir() else None
     if foreign is not None:
         raise RunFolderError(f"{dest}: holds {foreign}, which no scores archive holds; nothing "
                              "written. Archive into a new folder.")
-    dropped = sorted(set(_archived_runs(resolved)) - set(_finished_runs(source)))
+    record = read_record(source) if record is None else record
+    _check_same_spec(dest, resolved, source, record)
+    dropped = sorted(set(_archived_runs(resolved)) - set(_finished_runs(source, record)))
     if dropped:
         raise RunFolderError(
             f"{dest}: its archive holds {len(dropped)} finished run(s) that {source} does not "
@@ -124,6 +133,22 @@ def check_destination(grid_dir: Path | str, dest: Path | str) -> Path:
             "is written. Archive into a new folder, or first give the grid a spec that records "
             "them (multitask-grid --spec ... --restart; their runs must be in the grid folder).")
     return resolved
+
+
+def _check_same_spec(dest: Path, resolved: Path, source: Path, record: dict | None) -> None:
+    """Refuse an archive in ``resolved`` whose grid.json records another spec than the grid's
+    ``record`` (where the data lies and how the runs compute aside): another grid's evidence.
+    A grid without its record yet (a dry run before its first launch) has nothing to compare."""
+    if record is None or not (resolved / GRID_RECORD).exists():
+        return
+    theirs, ours = (comparable_spec(r.get("spec") or {})
+                    for r in (read_record(resolved) or {}, record))
+    if theirs != ours:
+        changed = sorted(key for key in {*theirs, *ours} if theirs.get(key) != ours.get(key))
+        raise RunFolderError(f"{dest}: holds the archive of another grid ({resolved / GRID_RECORD} "
+                             f"records another spec than {source / GRID_RECORD}: "
+                             f"{', '.join(changed)} differ); nothing written. Archive into a "
+                             "new folder.")
 
 
 def _finished_runs(grid: Path, record: dict | None = None) -> list[str]:
@@ -158,16 +183,44 @@ def _foreign_path(folder: Path) -> Path | None:
     return None
 
 
-def _copy_run(run_dir: Path, to: Path) -> None:
-    """The archived files of one finished run; a missing required file is an error."""
+def _copy_run(grid: Path, run: str, to: Path) -> None:
+    """The archived files of the finished run ``grid/run``; a missing required file is an
+    error, as is a run folder that is (or lies behind) a symbolic link."""
+    run_dir = grid / run
+    if run_dir.resolve() != run_dir:
+        raise RunFolderError(f"{run_dir}: a symbolic link (or behind one), not a folder of the "
+                             f"grid {grid}; an archive holds only the grid's own runs")
     missing = [name for name in REQUIRED if not (run_dir / name).is_file()]
     if missing:
         raise RunFolderError(f"{run_dir}: finished but without {', '.join(missing)}; "
                              "nothing archived")
     to.mkdir(parents=True)
     for name in RUN_FILES:
-        if (run_dir / name).is_file():
-            shutil.copy2(run_dir / name, to / name)
+        if (run_dir / name).exists() or (run_dir / name).is_symlink():
+            _copy_file(run_dir / name, to / name, grid)
+
+
+def _copy_file(source: Path, to: Path, grid: Path) -> None:
+    """Copy the regular file ``source`` of the grid ``grid`` to the new file ``to``; a symbolic
+    link or any other non-regular file is a ``RunFolderError`` naming it; a failed write an
+    ``OSError`` naming ``to``."""
+    try:
+        fd = os.open(source, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | os.O_NONBLOCK)
+    except OSError as error:
+        if source.is_symlink():
+            raise RunFolderError(f"{source}: a symbolic link, not a file of the grid {grid}; an "
+                                 "archive holds only the runs' own files") from None
+        raise RunFolderError(f"{source}: unreadable ({error.strerror})") from None
+    with os.fdopen(fd, "rb") as reader:
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            raise RunFolderError(f"{source}: not a regular file; an archive holds only the "
+                                 "runs' own files")
+        os.set_blocking(fd, True)
+        try:
+            with open(to, "xb") as writer:
+                shutil.copyfileobj(reader, writer)
+        except OSError as error:           # named: the file written, not the one read
+            raise OSError(error.errno, error.strerror, str(to)) from None
 
 
 def kept_predictions(run_dir: Path) -> dict[str, Path]:
@@ -188,19 +241,3 @@ def _test_trials(root: Path, runs: list[str]) -> dict[str, list[str]]:
     return dict(sorted({**archived_test_trials(root), **kept}.items()))
 
 
-def _put_in_place(staging: Path, dest: Path) -> None:
-    """Rename the complete archive ``staging`` to ``dest``; an earlier archive there is moved
-    aside first and removed once the new one is in place."""
-    old = None
-    if dest.exists():
-        old = Path(tempfile.mkdtemp(prefix=f".{dest.name}{PARTIAL}old-", dir=dest.parent))
-        os.replace(dest, old / dest.name)
-    try:
-        os.replace(staging, dest)
-    except BaseException:
-        if old is not None:
-            os.replace(old / dest.name, dest)
-        raise
-    finally:
-        if old is not None:
-            shutil.rmtree(old, ignore_errors=True)

@@ -31,6 +31,7 @@ from jigsaws_tools.cli.arg_types import positive_int, thread_count
 from jigsaws_tools.cli.common import (command_parser, deprecated_alias, import_tensorflow,
                                       run_command)
 from jigsaws_tools.cli.options import DEFAULT_DATA_DIR_TEXT
+from jigsaws_tools.errors import WriteFailed
 from jigsaws_tools.recording_format import RELEASE_LAYOUT_ONLY
 from rnn_seg.config import LOOPS, require_native_precision
 from rnn_seg.runs.folder import RunFolderError, is_finished
@@ -61,7 +62,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--out", type=Path, required=True, metavar="DIR",
                         help="grid folder (shared by every worker on Dask)")
     parser.add_argument("--workers", type=positive_int, default=1, metavar="N",
-                        help="local worker processes")
+                        help="local worker processes, at most the machine's cores")
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help="Dask scheduler address (tcp://host:8786): run the jobs on that "
                              "cluster (default: none, local workers)")
@@ -118,11 +119,13 @@ def _run(args: argparse.Namespace) -> int:
     spec = with_budget(spec.with_absolute_paths())              # as recorded, one path
     if not args.scheduler:                       # a cluster's workers have their own CPUs
         require_native_precision(spec.precision)
-        try:
-            thread_count(str(args.threads))
-        except argparse.ArgumentTypeError as error:
-            raise ValueError(f"--threads: {error} (with --scheduler, each worker checks its "
-                             "own)") from None
+        for option, count, note in (
+                ("--threads", args.threads, " (with --scheduler, each worker checks its own)"),
+                ("--workers", args.workers, " (one TensorFlow process per worker)")):
+            try:
+                thread_count(str(count))
+            except argparse.ArgumentTypeError as error:
+                raise ValueError(f"{option}: {error}{note}") from None
     if args.stack > 1 and spec.loops == "xla":
         raise ValueError("--stack vectorises the runs' steps, which turns XLA's compiled loops "
                          "back into TensorFlow ops: use --stack 1 with loops xla (or graph loops "
@@ -181,7 +184,7 @@ def _archive(out: Path, dest: Path, log: Callable[[str], None], warn: bool = Fal
 
     try:
         finished, recorded = archive_grid(out, dest)
-    except (OSError, RunFolderError) as error:
+    except (OSError, RunFolderError, WriteFailed) as error:     # WriteFailed: a full disk
         if not warn:
             raise
         log(f"[grid] warning: the archive in {dest} was not updated: {error}")

@@ -6,6 +6,7 @@ reads its run list to tell missing runs and stray folders apart. Both go through
 """
 from __future__ import annotations
 
+import json
 from pathlib import Path, PurePosixPath
 
 from baseline.config import DIRECTIONS
@@ -16,6 +17,13 @@ from rnn_seg.runs.outputs import GRID_RECORD  # noqa: F401 (re-exported)
 from ..models.config import WEIGHTINGS
 from ..models.variants import VARIANTS
 from .spec import RunKey
+#: Spec keys saying where the data is, not what it holds: not compared with grid.json's, since
+#: every run folder's check compares the data fingerprint (a grid may resume on moved data).
+LOCATION_KEYS = ("data_dir",)
+#: Spec keys that say how the runs compute, not what: a grid may resume with other values.
+EXECUTION_KEYS = ("loops",)
+#: Spec keys added after grid.json was first written -> the value their absence meant.
+IMPLIED_BY_OLDER_RECORDS = {"schedule_factors": {}}
 
 
 def read_record(grid_dir: Path | str) -> dict | None:
@@ -87,3 +95,16 @@ def record_runs(grid_dir: Path | str) -> list[str] | None:
     a record."""
     record = read_record(grid_dir)
     return None if record is None else record["runs"]
+
+
+def comparable_spec(spec: dict) -> dict:
+    """A grid.json spec as two grids of the same runs record it alike: the keys its (older)
+    writer did not know set to what that writer implied, less its ``LOCATION_KEYS`` and
+    ``EXECUTION_KEYS``, its experiments in a fixed order (where the data lies, how the runs
+    compute and the order the experiments run in are not what the grid's runs are)."""
+    kept = {key: value for key, value in {**IMPLIED_BY_OLDER_RECORDS, **spec}.items()
+            if key not in LOCATION_KEYS + EXECUTION_KEYS}
+    if isinstance(kept.get("experiments"), list):
+        kept["experiments"] = sorted(kept["experiments"],
+                                     key=lambda experiment: json.dumps(experiment, sort_keys=True))
+    return kept

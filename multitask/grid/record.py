@@ -17,6 +17,7 @@ TensorFlow); the record's file name and reader are ``folder``'s, which imports n
 from __future__ import annotations
 
 import json
+from dataclasses import replace
 from pathlib import Path
 from typing import Callable
 
@@ -26,17 +27,10 @@ from rnn_seg.runs.folder import clear_run_dir, write_json
 from rnn_seg.runs.settings import SettingsMismatchError, check_run_dir, differences
 
 from ..models.fold_run import variant_configs
-from .folder import GRID_RECORD, read_record, record_runs
+from .folder import GRID_RECORD, comparable_spec, read_record, record_runs
 from .spec import GridSpec, RunKey, run_arguments, spec_payload
 
 SHOWN = 5           # mismatching runs named in full in an error
-#: Spec keys saying where the data is, not what it holds: not compared with grid.json's, since
-#: every run folder's check compares the data fingerprint (a grid may resume on moved data).
-LOCATION_KEYS = ("data_dir",)
-#: Spec keys that say how the runs compute, not what: a grid may resume with other values.
-EXECUTION_KEYS = ("loops",)
-#: Spec keys added after grid.json was first written -> the value their absence meant.
-IMPLIED_BY_OLDER_RECORDS = {"schedule_factors": {}}
 
 
 def prepare_grid(out: Path, spec: GridSpec, keys: list[RunKey], restart: bool = False,
@@ -80,8 +74,8 @@ def prepare_grid(out: Path, spec: GridSpec, keys: list[RunKey], restart: bool = 
 
 def _check_record(out: Path, spec: GridSpec, runs: list[str]) -> None:
     recorded = read_record(out)
-    changed = differences({"spec": _canonical(_as_current(recorded.get("spec") or {}))},
-                          {"spec": _canonical(spec_payload(spec))})
+    changed = differences({"spec": comparable_spec(recorded.get("spec") or {})},
+                          {"spec": comparable_spec(spec_payload(spec))})
     old_runs = recorded["runs"]
     if set(old_runs) != set(runs):                  # the order of the runs is not the grid's
         changed.append(f"runs: {len(old_runs)} -> {len(runs)} ({len(set(runs) - set(old_runs))} "
@@ -92,24 +86,6 @@ def _check_record(out: Path, spec: GridSpec, runs: list[str]) -> None:
             + "\n  ".join(changed),
             "Use another --out, or --restart to make this spec the grid's (runs of other "
             "settings are trained afresh; finished runs of the same settings are kept).")
-
-
-def _as_current(spec: dict) -> dict:
-    """A grid.json spec with the keys its (older) writer did not know set to what that writer
-    implied, so that the same grid reads the same."""
-    return {**IMPLIED_BY_OLDER_RECORDS, **spec}
-
-
-def _canonical(spec: dict) -> dict:
-    """A grid.json spec less its ``LOCATION_KEYS`` and ``EXECUTION_KEYS``, its experiments in a
-    fixed order: where the data lies, how the runs compute and the order the experiments run in
-    are not what the grid's runs are."""
-    kept = {key: value for key, value in spec.items()
-            if key not in LOCATION_KEYS + EXECUTION_KEYS}
-    if isinstance(kept.get("experiments"), list):
-        kept["experiments"] = sorted(kept["experiments"],
-                                     key=lambda experiment: json.dumps(experiment, sort_keys=True))
-    return kept
 
 
 def _mismatched_runs(out: Path, spec: GridSpec, keys: list[RunKey]

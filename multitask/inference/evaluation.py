@@ -21,8 +21,8 @@ from jigsaws_tools.dataset import Dataset, Trial, load_dataset
 from jigsaws_tools.preprocessing import Normalisation
 from jigsaws_tools.recording_format import RecordingFormat
 from jigsaws_tools.release import discover
-from rnn_seg.runs.folder import staged_folder
 from rnn_seg.runs.outputs import check_new_output
+from rnn_seg.runs.publish import staged_folder
 from rnn_seg.sweeps import sweeps_per_epoch
 from rnn_seg.trainer import predict, write_evaluation
 

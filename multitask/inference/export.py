@@ -27,11 +27,13 @@ import numpy as np
 import tensorflow as tf
 from scipy import signal
 
+from jigsaws_tools.errors import WriteFailed
 from jigsaws_tools.features import feature_columns
 from jigsaws_tools.preprocessing import butterworth
 from jigsaws_tools.release import KINEMATICS_HZ, NUM_KINEMATIC_COLUMNS
-from rnn_seg.runs.folder import staged_folder, to_jsonable, write_json
+from rnn_seg.runs.folder import to_jsonable, write_json
 from rnn_seg.runs.outputs import check_new_output
+from rnn_seg.runs.publish import staged_folder
 
 from .trained_run import CONFIG_FILE, TrainedRun
 
@@ -183,11 +185,15 @@ def export_run(run: TrainedRun, out: Path, overwrite: bool = False) -> Path:
     check_new_output(out, "multitask-export", EXPORT_ENTRIES, overwrite)
     module = ExportedRun(run)
     with staged_folder(out, overwrite) as folder:
-        tf.saved_model.save(module, str(folder),
-                            signatures={"serving_default": module.serve,
-                                        "features": module.features},
-                            # inference only: the LSTM's hand-written gradient is not exported
-                            options=tf.saved_model.SaveOptions(experimental_custom_gradients=False))
+        try:
+            tf.saved_model.save(module, str(folder),
+                                signatures={"serving_default": module.serve,
+                                            "features": module.features},
+                                # inference only: the LSTM's hand-written gradient is not exported
+                                options=tf.saved_model.SaveOptions(
+                                    experimental_custom_gradients=False))
+        except tf.errors.OpError as error:      # TensorFlow's own error, not an OSError
+            raise WriteFailed.from_message(out, str(error), "SavedModel") or error from None
         write_json(folder / DESCRIPTION_FILE, describe(run))
         (folder / DESCRIPTION_FILE).with_name(CONFIG_FILE).write_text(
             (run.run_dir / CONFIG_FILE).read_text())

@@ -76,6 +76,9 @@ def kinematics_files(inputs: list[Path], recording_format: RecordingFormat = JIG
             if not found:
                 raise ValueError(f"{folder}: no kinematics files ({pattern})")
             files.extend(found)
+        elif path.exists():
+            raise ValueError(f"{path}: not a regular file or a folder (a FIFO, a socket or a "
+                             "device); name kinematics files or folders of them")
         else:
             raise ValueError(f"{path}: no such file or folder")
     names: dict[str, Path] = {}

@@ -21,14 +21,13 @@ index) are removed when a run starts.
 from __future__ import annotations
 
 import gc
-import os
 import shutil
 from pathlib import Path
 from typing import Callable, Collection
 
 import tensorflow as tf
 
-from jigsaws_tools.errors import NO_SPACE
+from jigsaws_tools.errors import RESUMES
 
 from ..config import KEEP_CHECKPOINTS, UNITS, KeepCheckpoints  # noqa: F401 (re-exported)
 from .folder import CHECKPOINTS as FOLDER
@@ -74,10 +73,10 @@ class CheckpointStore:
             self.checkpoint.write(str(prefix))
         except tf.errors.OpError as error:      # TensorFlow's own error, not an OSError
             _delete(prefix)                     # never an index without its data
-            reason = _first_line(error)
-            if any(os.strerror(code) in reason for code in NO_SPACE):
-                raise WriteFailed(prefix, reason, "checkpoint") from None
-            raise OSError(f"cannot write checkpoint {prefix}: {reason}") from None
+            failed = WriteFailed.from_message(prefix, _first_line(error), "checkpoint", RESUMES)
+            if failed:
+                raise failed from None
+            raise OSError(f"cannot write checkpoint {prefix}: {_first_line(error)}") from None
         saved = self.sweeps()
         self._keep_only(set(saved[-2:]) | self._kept(saved))
 

@@ -13,17 +13,16 @@ import os
 import re
 import secrets
 import shutil
-import tempfile
 import types
 import typing
-from contextlib import contextmanager
 from pathlib import Path
-from typing import Any, Iterator, Literal, TypeVar, Union
+from typing import Any, Literal, TypeVar, Union
 
 import numpy as np
 
 from jigsaws_tools.dataset import holds_unrecorded_default
-from jigsaws_tools.errors import WriteFailed  # noqa: F401 (re-exported)
+from jigsaws_tools.errors import NO_SPACE, WriteFailed  # noqa: F401 (re-exported)
+from jigsaws_tools.files import NotRegularFileError, read_regular
 
 from ..config import unit_name
 
@@ -44,7 +43,8 @@ RUN_OUTPUTS = (CHECKPOINTS, "eval", "metrics.json", "timing.json", "tensorboard"
                "evaluate", "stream_normalisation.json", FINISHED)
 #: The folders of ``RUN_OUTPUTS``: everything below them is the package's.
 RUN_FOLDERS = (CHECKPOINTS, "eval", "tensorboard", "evaluate")
-#: A temporary file of ``write_atomic`` or folder of ``staged_folder``: ``.<name>.<random>.tmp``.
+#: A temporary file of ``write_atomic`` or folder of ``publish.staged_folder``:
+#: ``.<name>.<random>.tmp``.
 _TEMPORARY = re.compile(r"^\.(?P<name>.+)\.[0-9a-z_]{8}\.tmp$")
 
 
@@ -175,7 +175,8 @@ def _dataclass_from_jsonable(cls: type, value: Any, where: str) -> Any:
 
 def write_atomic(path: Path, text: str) -> None:
     """Write ``text`` to ``path`` through a temporary file and a rename: never half a file. The
-    file gets the permissions of any new file (``0o666`` less the umask)."""
+    file gets the permissions of any new file (``0o666`` less the umask). A full disk is an
+    ``OSError`` naming ``path`` (not its temporary file)."""
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.parent / f".{path.name}.{secrets.token_hex(4)}.tmp"
     fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
@@ -183,31 +184,11 @@ def write_atomic(path: Path, text: str) -> None:
         with os.fdopen(fd, "w", encoding="utf-8") as f:
             f.write(text)
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as error:
         tmp.unlink(missing_ok=True)
+        if isinstance(error, OSError) and error.errno in NO_SPACE:     # named: path
+            raise OSError(error.errno, error.strerror, str(path)) from None
         raise
-
-
-@contextmanager
-def staged_folder(target: Path, overwrite: bool = False) -> Iterator[Path]:
-    """A fresh hidden sibling folder to write into; it becomes ``target`` when the block ends
-    normally and is removed when it fails, so ``target`` is never left half-written.
-
-    An existing non-empty ``target`` is an error (``FileExistsError``) unless ``overwrite``; it is
-    then replaced only once the new folder is complete.
-    """
-    target = Path(target)
-    if not overwrite:
-        require_empty(target)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(dir=target.parent, prefix=f".{target.name}.", suffix=".tmp"))
-    try:
-        yield staging
-        if target.exists():
-            shutil.rmtree(target)
-        os.replace(staging, target)
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
 
 
 def require_empty(target: Path) -> None:
@@ -223,12 +204,15 @@ def write_json(path: Path, obj: Any) -> None:
 
 
 def read_json(path: Path) -> Any:
-    """Parse a strict JSON file; an unreadable or invalid one is a ``RunFolderError`` naming it."""
+    """Parse a strict JSON file; an unreadable or invalid one, or one that is no regular file (a
+    FIFO: refused at once), is a ``RunFolderError`` naming it."""
     def reject(constant: str):
         raise ValueError(f"{constant} is not strict JSON")
 
     try:
-        return json.loads(Path(path).read_text(encoding="utf-8"), parse_constant=reject)
+        return json.loads(read_regular(path).decode("utf-8"), parse_constant=reject)
+    except NotRegularFileError as error:
+        raise RunFolderError(f"{path}: {error.kind}, not a regular file") from None
     except (OSError, UnicodeDecodeError, ValueError) as error:
         raise RunFolderError(f"{path}: unreadable or not valid JSON ({error})") from None
 

@@ -1,4 +1,6 @@
-"""One writer per folder: an advisory lock on ``<folder>/.lock`` while a process writes there.
+"""One writer per folder: an advisory lock on ``<folder>/.lock`` while a process writes there
+(or on ``<folder>/<name>`` for one place of the folder: ``publish`` locks the folder it replaces
+by a lock file beside it, ``.<target>.lock``).
 
 ``fcntl.flock`` locks belong to the open file, so the operating system releases them when the
 holder exits, however it exits: the lock of a dead process is simply taken by the next one. The
@@ -47,8 +49,8 @@ class _Hold:
     depth: int = 1
 
 
-#: Folders locked by this process, by resolved path.
-_held: dict[Path, _Hold] = {}
+#: Lock files held by this process, by resolved folder and lock file name.
+_held: dict[tuple[Path, str], _Hold] = {}
 
 
 class FolderLockedError(RunFolderError):
@@ -56,25 +58,27 @@ class FolderLockedError(RunFolderError):
 
 
 @contextmanager
-def hold_folder(folder: Path | str, what: str = "run folder") -> Iterator[None]:
+def hold_folder(folder: Path | str, what: str = "run folder",
+                lock_file: str = LOCK_FILE) -> Iterator[None]:
     """Hold ``folder``'s lock for the block (creating the folder); raise ``FolderLockedError``
     naming the folder and the holder at once if another process holds it. At its end, the lock
-    file and the folders the block created are removed, the folders only if empty."""
+    file and the folders the block created are removed, the folders only if empty.
+    ``lock_file``: the lock file's name in ``folder`` (one lock per place of the folder)."""
     folder = Path(folder)
-    key = folder.resolve()
+    key = (folder.resolve(), lock_file)
     if key in _held:
         _held[key].depth += 1
     else:
-        _held[key] = _take(folder, what)
+        _held[key] = _take(folder, what, lock_file)
     try:
         yield
     finally:
         _held[key].depth -= 1
         if not _held[key].depth:
-            _release(folder, _held.pop(key))
+            _release(folder / lock_file, _held.pop(key))
 
 
-def _take(folder: Path, what: str) -> _Hold:
+def _take(folder: Path, what: str, lock_file: str) -> _Hold:
     """Create ``folder`` if need be and lock it; again while another process's release removes
     the lock file or a folder on its way (between our ``mkdir`` and ``open``, or ``open`` and
     ``flock``)."""
@@ -82,7 +86,7 @@ def _take(folder: Path, what: str) -> _Hold:
     while True:
         try:
             made.update(dict.fromkeys(_make_folders(folder)))
-            taken = _acquire(folder, what)
+            taken = _acquire(folder, what, lock_file)
         except FileNotFoundError:                      # a folder made was removed meanwhile
             continue
         if taken is not None:
@@ -105,10 +109,10 @@ def _make_folders(folder: Path) -> list[Path]:
     return made
 
 
-def _acquire(folder: Path, what: str) -> tuple[int, bool] | None:
+def _acquire(folder: Path, what: str, lock_file: str) -> tuple[int, bool] | None:
     """Open and lock ``folder``'s lock file: its descriptor and whether this call created the
     file; None if the file's last holder removed it before this process held the lock."""
-    path = folder / LOCK_FILE
+    path = folder / lock_file
     fd, created = _open_lock_file(path, what)
     if fd is None:
         return None
@@ -163,10 +167,9 @@ def _names(path: Path, fd: int) -> bool:
         return False
 
 
-def _release(folder: Path, hold: _Hold) -> None:
-    """Unlock ``folder``, first removing the lock file ``hold`` created, then the folders made
-    for it, deepest first, until one is not empty."""
-    path = folder / LOCK_FILE
+def _release(path: Path, hold: _Hold) -> None:
+    """Unlock the lock file ``path``, first removing it if ``hold`` created it, then the
+    folders made for it, deepest first, until one is not empty."""
     try:
         if hold.created_lock and _names(path, hold.fd):
             path.unlink()

@@ -18,6 +18,8 @@ from typing import Sequence
 
 import pandas as pd
 
+from jigsaws_tools.files import NotRegularFileError, read_regular
+
 from .folder import RunFolderError, write_atomic
 
 
@@ -84,7 +86,7 @@ def read_log(path: Path) -> pd.DataFrame:
     """A CSV log as a table; one that cannot be parsed is a ``RunFolderError`` naming the file
     and pandas' reason (e.g. the line with too many fields)."""
     try:
-        return pd.read_csv(path)
+        return pd.read_csv(io.BytesIO(read_regular(path)))
     except (OSError, UnicodeDecodeError, ValueError) as error:    # ParserError, EmptyDataError
         reason = str(error).strip().splitlines()[0] if str(error).strip() else "empty"
         raise RunFolderError(f"{path}: unreadable CSV log ({reason})") from None
@@ -92,8 +94,8 @@ def read_log(path: Path) -> pd.DataFrame:
 
 def _lines(path: Path) -> list[str]:
     try:
-        return path.read_text(encoding="utf-8").splitlines(keepends=True)
-    except (OSError, UnicodeDecodeError) as error:
+        return read_regular(path).decode("utf-8").splitlines(keepends=True)
+    except (OSError, UnicodeDecodeError, NotRegularFileError) as error:
         raise RunFolderError(f"{path}: unreadable CSV log ({error})") from None
 
 

@@ -14,12 +14,12 @@ place together, and the folder's *manifest* (a JSON file named by the command, e
   is moved, unless ``overwrite`` says to replace such files;
 - every file written or removed lies in the folder itself, never behind a symbolic link, in a
   run or grid folder it holds, or at a path that is a folder (refused before anything moves);
-- a command that fails or is interrupted leaves the folder as it was (but for a hidden
-  ``.partial-*`` folder if the process is killed outright), never half old and half new, and a
-  folder it created for the output is removed again.
-
-Between the moves the manifest lists the old and the new files together, so a process killed
-there leaves a folder whose files the next call may still replace.
+- a command that fails or is interrupted leaves the folder as it was, and a folder it created
+  for the output is removed again; the publish itself is journalled (``publish``): the
+  manifest, marked ``pending``, names the complete staging folder and the files to remove
+  before the first file moves, and a call killed among the moves is finished by the next call
+  writing that output (``finish_pending``), before it looks at the folder. Meanwhile the
+  manifest lists the old and the new files together, and says ``pending``.
 """
 from __future__ import annotations
 
@@ -33,6 +33,7 @@ from typing import Any, Iterator
 from .folder import RunFolderError, read_json, write_json
 from .lock import hold_folder
 from .outputs import OutputFolderError, folder_kind
+from .publish import naming_full_disk, step
 
 #: In the names of the hidden staging folders (a killed process may leave one; git ignores it).
 PARTIAL = ".partial-"
@@ -61,12 +62,46 @@ def staged_outputs(out: Path, manifest: str, command: str, overwrite: bool = Fal
     """
     out = Path(out)
     with hold_folder(out, "output folder"):
-        staging = Path(tempfile.mkdtemp(prefix=f"{PARTIAL}{Path(manifest).stem}-", dir=out))
+        finish_pending(out, manifest)
+        staging = Path(tempfile.mkdtemp(prefix=_staging_prefix(manifest), dir=out))
         try:
-            yield staging
-            _publish(staging, out, manifest, command, overwrite, record or {}, kept)
-        finally:
+            with naming_full_disk(staging, out):
+                yield staging
+            plan = _plan(staging, out, manifest, command, overwrite, kept)
+        except BaseException:
             shutil.rmtree(staging, ignore_errors=True)
+            raise
+        _journal(out, manifest, command, record or {}, staging, plan)
+        finish_pending(out, manifest)
+
+
+def finish_pending(out: Path, manifest: str) -> None:
+    """Finish the publish that the manifest in ``out`` records as ``pending`` (a call killed
+    among its moves): move the files still in its staging folder into place, remove the files
+    it names, and list the new output alone; then remove the staging folders of calls killed
+    before they published. Call it holding ``out``'s lock."""
+    out = Path(out)
+    path = out / manifest
+    record = read_json(path) if path.is_file() else None
+    pending = record.get("pending") if isinstance(record, dict) else None
+    if pending is not None:
+        staging, remove, files = _pending(path, pending)
+        for file in sorted(p for p in staging.rglob("*") if p.is_file()):
+            name = file.relative_to(staging).as_posix()
+            _check_place(out, name, manifest, record.get("written_by", "a command"))
+            step(f"move {name}")
+            (out / name).parent.mkdir(parents=True, exist_ok=True)
+            os.replace(file, out / name)
+        for name in remove:
+            _check_place(out, name, manifest, record.get("written_by", "a command"))
+            step(f"remove {name}")
+            _remove(out, name)
+        step("list")
+        write_json(path, {**{k: v for k, v in record.items() if k != "pending"}, "files": files})
+    for leftover in sorted(out.glob(f"{_staging_prefix(manifest)}*")):
+        if leftover.is_dir() and not leftover.is_symlink():
+            step("clear")
+            shutil.rmtree(leftover)
 
 
 def listed(out: Path, manifest: str) -> list[str]:
@@ -83,10 +118,11 @@ def listed(out: Path, manifest: str) -> list[str]:
     return files
 
 
-def _publish(staging: Path, out: Path, manifest: str, command: str, overwrite: bool,
-             record: dict[str, Any], kept: tuple[str, ...]) -> None:
-    """Move every file of ``staging`` to the same place in ``out``, then list them (and the
-    listed files under ``kept``) alone."""
+def _plan(staging: Path, out: Path, manifest: str, command: str, overwrite: bool,
+          kept: tuple[str, ...]) -> tuple[list[str], list[str], list[str]]:
+    """``(old, new, stale)``: the files the manifest lists now, those of ``staging`` (to move to
+    the same place in ``out``), and the listed files to remove (those neither new nor under
+    ``kept``); every place checked, nothing moved."""
     new = sorted(p.relative_to(staging).as_posix() for p in staging.rglob("*") if p.is_file())
     old = listed(out, manifest)
     for name in new:
@@ -96,17 +132,44 @@ def _publish(staging: Path, out: Path, manifest: str, command: str, overwrite: b
                 raise OutputFolderError(f"{out / name} exists and is not an output of {command} "
                                         f"({out / manifest} does not list it); move it, choose "
                                         "another output folder, or replace it (--overwrite)")
-    left = [name for name in old if name not in new and name.startswith(kept)]
-    stale = [name for name in old if name not in new and name not in left]
+    stale = [name for name in old if name not in new and not name.startswith(kept)]
     for name in stale:
         _check_place(out, name, manifest, command)
-    _write_manifest(out, manifest, command, sorted({*old, *new}), record)
-    for name in new:
-        (out / name).parent.mkdir(parents=True, exist_ok=True)
-        os.replace(staging / name, out / name)
-    for name in stale:
-        _remove(out, name)
-    _write_manifest(out, manifest, command, sorted({*new, *left}), record)
+    return old, new, stale
+
+
+def _journal(out: Path, manifest: str, command: str, record: dict[str, Any], staging: Path,
+             plan: tuple[list[str], list[str], list[str]]) -> None:
+    """Write the manifest of a publish about to start: the old and new files together, and
+    ``pending``: the staging folder, the files to remove and the files of the new output (the
+    new ones and the listed ones under ``kept``)."""
+    old, new, stale = plan
+    files = sorted({*new, *(name for name in old if name not in stale)})
+    step("journal")
+    write_json(out / manifest, {"written_by": command, **record, "files": sorted({*old, *new}),
+                                "pending": {"staging": staging.name, "remove": stale,
+                                            "files": files}})
+
+
+def _pending(path: Path, pending: Any) -> tuple[Path, list[str], list[str]]:
+    """The staging folder, the files to remove and the new files of a manifest's ``pending``
+    record; a record of another shape is a ``RunFolderError`` naming the manifest."""
+    ok = (isinstance(pending, dict) and isinstance(pending.get("staging"), str)
+          and pending["staging"].startswith(_staging_prefix(path.name))
+          and "/" not in pending["staging"]
+          and all(isinstance(pending.get(key), list)
+                  and all(isinstance(f, str) and _relative(f) for f in pending[key])
+                  for key in ("remove", "files")))
+    if not ok:
+        raise RunFolderError(f"{path}: pending: not the record of an interrupted publish "
+                             f"(value: {str(pending)[:80]!r}); remove the manifest's 'pending' "
+                             "entry and run the command again")
+    return path.parent / pending["staging"], pending["remove"], pending["files"]
+
+
+def _staging_prefix(manifest: str) -> str:
+    """The name prefix of the staging folders of the output listed by ``manifest``."""
+    return f"{PARTIAL}{Path(manifest).stem}-"
 
 
 def _check_place(out: Path, name: str, manifest: str, command: str) -> None:
@@ -134,11 +197,6 @@ def _obstacle(place: Path) -> str | None:
         return "a file"
     kind = folder_kind(place)
     return f"a {kind}" if kind else None
-
-
-def _write_manifest(out: Path, manifest: str, command: str, files: list[str],
-                    record: dict[str, Any]) -> None:
-    write_json(out / manifest, {"written_by": command, **record, "files": files})
 
 
 def _remove(out: Path, name: str) -> None:

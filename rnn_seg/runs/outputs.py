@@ -16,6 +16,8 @@ import os
 from pathlib import Path
 from typing import Iterator
 
+from jigsaws_tools.files import read_regular
+
 from .folder import CHECKPOINTS, CONFIG, FINISHED, require_empty
 
 #: The record a grid folder holds (``multitask.grid.folder``).
@@ -84,7 +86,7 @@ def _check_enclosing(out: Path, place: Path, command: str, run_place: str | None
     run's ``evaluate/`` is writable for ``multitask-evaluate`` in a grid's run too)."""
     for parent in place.parents:
         first = place.relative_to(parent).parts[0]
-        kind = _recorded_kind(parent)
+        kind = recorded_kind(parent)
         if kind == "run folder":
             if first != run_place:
                 only = f" (only under its {run_place}/)" if run_place else ""
@@ -98,7 +100,7 @@ def _check_enclosing(out: Path, place: Path, command: str, run_place: str | None
                                     "does not write there (choose another output folder)")
 
 
-def _recorded_kind(folder: Path) -> str | None:
+def recorded_kind(folder: Path) -> str | None:
     """``folder_kind`` of a folder above an output, known by its records, not their names: a
     grid's ``grid.json`` lists its ``runs``, a run's ``config.json`` or ``finished.json`` holds
     its ``settings_hash`` (so a project folder holding a config.json of its own is no run)."""
@@ -112,7 +114,7 @@ def _recorded_kind(folder: Path) -> str | None:
 def _holds_key(path: Path, key: str) -> bool:
     """Whether ``path`` is a JSON object with ``key`` (unreadable or absent: no)."""
     try:
-        record = json.loads(path.read_text(encoding="utf-8"))
+        record = json.loads(read_regular(path).decode("utf-8"))
     except (OSError, UnicodeDecodeError, ValueError):
         return False
     return isinstance(record, dict) and key in record

@@ -1,0 +1,47 @@
+"""Reading a file a user names: a regular file only, refused at once otherwise.
+
+A FIFO (named pipe), a socket or a device where a file is expected would block the read until
+another process writes into it, or never end. ``read_regular`` opens the path without waiting for
+a writer (``O_NONBLOCK``) and refuses anything but a regular file (symbolic links followed),
+naming it: task definitions, recording formats and grid specs (``toml_files``), and every JSON
+record of a run or grid (``rnn_seg.runs.folder.read_json``) are read through it; trial files are
+checked before they are read (``release``).
+"""
+from __future__ import annotations
+
+import os
+import stat
+from pathlib import Path
+
+from .errors import JigsawsError
+
+
+class NotRegularFileError(JigsawsError, ValueError):
+    """A path to read is a FIFO, a socket or a device (``kind``), not a regular file."""
+
+    def __init__(self, path: Path | str, kind: str):
+        super().__init__(f"{path}: {kind}, not a regular file")
+        self.path, self.kind = Path(path), kind
+
+
+def read_regular(path: Path | str) -> bytes:
+    """The bytes of the regular file ``path``; ``NotRegularFileError`` naming it for a FIFO, a
+    socket or a device (at once, without waiting for a writer), ``IsADirectoryError`` for a
+    folder, the usual ``OSError`` for a missing or unreadable one."""
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    with os.fdopen(fd, "rb") as f:
+        mode = os.fstat(fd).st_mode
+        if stat.S_ISDIR(mode):
+            raise IsADirectoryError(21, "Is a directory", str(path))
+        if not stat.S_ISREG(mode):
+            raise NotRegularFileError(path, _kind(mode))
+        os.set_blocking(fd, True)
+        return f.read()
+
+
+def _kind(mode: int) -> str:
+    if stat.S_ISFIFO(mode):
+        return "a FIFO (named pipe)"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    return "a device"

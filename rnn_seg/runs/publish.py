@@ -1,0 +1,172 @@
+"""Publishing a command's output: complete before it is visible, never half old and half new.
+
+Every command that replaces an earlier output (``multitask-tables``' tables, figures and scores
+archives, ``multitask-predict``, ``multitask-evaluate``, ``multitask-export``) writes the new
+output into a hidden staging place first and publishes it only once it is complete, here. A
+publish holds the lock of its place throughout and starts by recovering whatever a publish
+killed there (SIGKILL, a power cut) left, so an interrupted publish is finished or undone by the
+next one, before it looks at the place. Two forms:
+
+- a folder written whole (``staged_folder``: an evaluation, a SavedModel, a scores archive) is
+  exchanged with its complete staging folder ``.<name>.<random>.tmp`` in one system call (Linux
+  ``renameat2(RENAME_EXCHANGE)``; a folder that is not there yet by one ``rename``): at every
+  instant the visible folder is the old one or the new one, whole. The old one, now under the
+  staging name, is removed afterwards (a leftover the next publish removes). Where the system
+  or file system cannot exchange, the old folder is renamed aside (``.<name>.<random>.old.tmp``)
+  before the new one is renamed in, and the next publish puts it back if the process died in
+  between;
+- files among others in a shared folder (``manifest.staged_outputs``: tables beside a README,
+  predictions) are moved in one by one after a *journal*, the manifest marked ``pending``, names
+  the complete staging folder and the files to remove; a publish killed among the moves is
+  finished (rolled forward) by the next call writing that output (``finish_pending``).
+
+``step_hook`` is called with the name of every step that changes what is visible, just before
+it: tests set it to kill the process there (``tests/test_publish.py``).
+"""
+from __future__ import annotations
+
+import ctypes
+import errno
+import functools
+import os
+import re
+import secrets
+import shutil
+import tempfile
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Callable, Iterator
+
+from jigsaws_tools.errors import NO_SPACE, WriteFailed
+
+from .folder import require_empty
+from .lock import hold_folder
+
+#: Fault injection for tests: called with each step's name just before the step.
+step_hook: Callable[[str], None] = lambda step: None
+_AT_FDCWD = -100
+_RENAME_EXCHANGE = 2
+
+
+def step(name: str) -> None:
+    """Mark the next step of a publish (``step_hook``)."""
+    step_hook(name)
+
+
+@contextmanager
+def claimed(target: Path | str) -> Iterator[None]:
+    """Hold the lock of the place ``target`` (``.<name>.lock`` beside it) for the block, after
+    recovering what publishes of ``target`` killed before left beside it (``recover_folder``)."""
+    target = Path(target)
+    with hold_folder(target.parent, f"output {target.name} in the folder", f".{target.name}.lock"):
+        recover_folder(target)
+        yield
+
+
+@contextmanager
+def staged_folder(target: Path | str, overwrite: bool = False) -> Iterator[Path]:
+    """A fresh hidden sibling folder to write into; it replaces ``target`` when the block ends
+    normally (module docstring) and is removed when it fails, so ``target`` is never seen
+    half-written, nor missing once it existed.
+
+    An existing non-empty ``target`` is an error (``FileExistsError``) unless ``overwrite``; it is
+    then replaced only once the new folder is complete. A full disk while the block writes is a
+    ``WriteFailed`` naming the file at its place in ``target`` (or ``target``).
+    """
+    target = Path(target)
+    with claimed(target):
+        if not overwrite:
+            require_empty(target)
+        staging = Path(tempfile.mkdtemp(dir=target.parent, prefix=f".{target.name}.",
+                                        suffix=".tmp"))
+        try:
+            with naming_full_disk(staging, target):
+                yield staging
+            _swap_in(staging, target)
+        finally:
+            shutil.rmtree(staging, ignore_errors=True)
+
+
+@contextmanager
+def naming_full_disk(staging: Path, visible: Path) -> Iterator[None]:
+    """Turn an ``OSError`` of a full disk (``NO_SPACE``) raised in the block into a
+    ``WriteFailed`` naming the file being written at its visible place (its path under
+    ``staging`` moved to ``visible``), or ``visible`` when the error names no file of
+    ``staging``."""
+    try:
+        yield
+    except OSError as error:
+        if error.errno not in NO_SPACE:
+            raise
+        named = Path(error.filename) if error.filename else None
+        place = (visible / named.relative_to(staging)
+                 if named is not None and named.is_relative_to(staging) else visible)
+        raise WriteFailed(place, error.strerror or str(error)) from None
+
+
+def _swap_in(staging: Path, target: Path) -> None:
+    """Put the complete folder ``staging`` at ``target``; an old ``target`` ends up at
+    ``staging`` (exchanged) or is removed (renamed aside first where exchange is not
+    available)."""
+    step("swap")
+    try:
+        os.rename(staging, target)          # no folder there, or an empty one: in one step
+        return
+    except OSError as error:
+        if error.errno not in (errno.ENOTEMPTY, errno.EEXIST):
+            raise
+    if exchange(staging, target):
+        step("remove old")
+        return
+    aside = target.with_name(f".{target.name}.{secrets.token_hex(4)}.old.tmp")
+    os.rename(target, aside)
+    step("swap aside")
+    os.rename(staging, target)
+    step("remove old")
+    shutil.rmtree(aside)
+
+
+def exchange(a: Path, b: Path) -> bool:
+    """Swap the paths ``a`` and ``b`` in one system call (both exist); False where the system or
+    the file system cannot (nothing done then)."""
+    renameat2 = _renameat2()
+    if renameat2 is None:
+        return False
+    if renameat2(_AT_FDCWD, os.fsencode(a), _AT_FDCWD, os.fsencode(b), _RENAME_EXCHANGE) == 0:
+        return True
+    code = ctypes.get_errno()
+    if code in (errno.EINVAL, errno.ENOSYS, errno.EOPNOTSUPP):
+        return False
+    raise OSError(code, os.strerror(code), str(b))
+
+
+@functools.cache
+def _renameat2() -> Callable | None:
+    """The C library's ``renameat2`` (glibc 2.28+), None elsewhere."""
+    try:
+        function = ctypes.CDLL(None, use_errno=True).renameat2
+    except (OSError, AttributeError, TypeError):
+        return None
+    function.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p,
+                         ctypes.c_uint]
+    function.restype = ctypes.c_int
+    return function
+
+
+def recover_folder(target: Path) -> None:
+    """Clear what publishes of ``target`` killed before left beside it (call under the lock of
+    ``claimed``): a staging folder (the new output never shown, or the old one after the
+    exchange) is removed; an old folder renamed aside is put back if ``target`` is missing (the
+    process died before the new one took its place), else removed."""
+    target = Path(target)
+    leftover = re.compile(rf"^\.{re.escape(target.name)}\.[0-9a-z_]{{8}}(?P<old>\.old)?\.tmp$")
+    if not target.parent.is_dir():
+        return
+    for path in sorted(target.parent.iterdir()):
+        found = leftover.match(path.name)
+        if not found or path.is_symlink() or not path.is_dir():
+            continue
+        if found["old"] and not (target.exists() or target.is_symlink()):
+            os.rename(path, target)
+        else:
+            shutil.rmtree(path)
