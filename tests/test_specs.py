@@ -9,7 +9,9 @@ import pytest
 from multitask.grid.spec import expand, load_spec, release_users, with_budget
 
 ROOT = Path(__file__).resolve().parents[1]
-SPECS = sorted((ROOT / "results").rglob("*.toml"))
+#: Confirmatory plans (``multitask.evidence.confirm``) are TOML too, but no grid spec.
+PLANS = sorted((ROOT / "results").rglob("plan.toml"))
+SPECS = sorted(set((ROOT / "results").rglob("*.toml")) - set(PLANS))
 
 
 def test_there_are_specs():
@@ -23,6 +25,15 @@ def test_every_committed_spec_expands(path):
         pytest.skip(f"{spec.release_dir()} not found")
     keys = expand(spec, release_users(spec))
     assert keys and len(set(keys)) == len(keys)
+
+
+@pytest.mark.parametrize("path", PLANS, ids=[str(p.relative_to(ROOT)) for p in PLANS])
+def test_every_committed_plan_reads(path):
+    from multitask.evidence.confirm import read_plan
+
+    plan = read_plan(path)
+    assert plan.parts and all(family.endpoints for part in plan.parts
+                              for family in part.families)
 
 
 def test_the_smoke_grid_is_small_and_synthetic():
