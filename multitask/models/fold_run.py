@@ -10,18 +10,10 @@ from baseline.config import RunConfig
 from jigsaws_tools.dataset import Dataset
 from rnn_seg.trainer import Trainer
 
-from .config import WEIGHTINGS, Weighting
+from .config import Weighting
 from .gradnorm import GradNormConfig, GradNormTrainer
 from .heads import HeadConfig
-from .variants import Variant
-
-
-def check_weighting(variant: Variant, weighting: Weighting) -> None:
-    """Raise ``ValueError`` unless ``variant`` has ``weighting`` (GradNorm needs two tasks)."""
-    if weighting not in WEIGHTINGS:
-        raise ValueError(f"weighting must be one of {WEIGHTINGS}, not {weighting!r}")
-    if weighting == "gradnorm" and not variant.multitask:
-        raise ValueError(f"GradNorm needs two tasks; variant {variant.name} has one")
+from .variants import Variant, check_weighting
 
 
 def variant_extra(variant: Variant, weighting: Weighting, gradnorm: GradNormConfig,
