@@ -12,8 +12,8 @@ from .config import RunConfig
 from .options import add_run_arguments, run_config_from_args
 
 PROG = "baseline-train"
-#: The first line a training prints.
-MODEL_NAME = "A (gestures only), DiPietro et al.'s BiLSTM"
+#: The first line a training prints, after "model: ", of its ``--direction``.
+MODEL_NAME = "A (gestures only), DiPietro et al.'s LSTM, {direction}"
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -35,7 +35,8 @@ def _train(args: argparse.Namespace) -> int:
 
     def configure() -> RunConfig:
         config = run_config_from_args(args, OptimConfig())
-        print(f"model: {MODEL_NAME}\n{config.describe()}", flush=True)
+        print(f"model: {MODEL_NAME.format(direction=args.direction)}\n{config.describe()}",
+              flush=True)
         return config
 
     def train(config: RunConfig) -> dict:

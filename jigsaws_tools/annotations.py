@@ -66,14 +66,14 @@ def amendments(version: str, task: TaskDefinition = SUTURING) -> tuple[Amendment
 def labels_named(version: str, index: ReleaseIndex) -> str:
     """How a report names the labels of ``index``'s trials under ``version``: ``"revised
     annotations: 12 amendments"`` where the version amends some of them, else what they are, the
-    transcriptions as given (``"labels as transcribed (no amendment applies to these trials)"``
+    transcriptions as given (``"labels as transcribed: no amendment applies to these trials"``
     for your own recordings, another task, or a release that lacks the amended trials)."""
     if version == "original":
         return "original annotations"
     names = {t.name for t in index.trials}
     applied = sum(a.trial in names for a in amendments(version, index.task))
     if not applied:
-        return "labels as transcribed (no amendment applies to these trials)"
+        return "labels as transcribed: no amendment applies to these trials"
     return f"{version} annotations: {applied} amendment{'s' * (applied != 1)}"
 
 

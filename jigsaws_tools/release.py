@@ -20,7 +20,7 @@ from typing import NoReturn, Sequence
 
 import numpy as np
 
-from .errors import FormatError, JigsawsError, ReleaseNotFoundError
+from .errors import OBTAIN_HINT, FormatError, JigsawsError, ReleaseNotFoundError
 from .gestures import UNLABELLED
 from .messages import data_logger
 from .recording_format import JIGSAWS_FORMAT, RecordingFormat, another_layout_hint
@@ -135,15 +135,19 @@ def require_layout(root: Path, task: TaskDefinition = SUTURING,
     and transcriptions folders (those ``recording_format`` names; nothing in them is read). In
     the release's layout, a folder that holds something else is a one-line ``JigsawsError``
     (``_refuse_another_layout``)."""
+    hint = OBTAIN_HINT if recording_format.is_default else (
+        f"a {recording_format.name} data folder holds the folders its format's [files] names: "
+        f"{recording_format.recordings} and {recording_format.transcriptions} (README, 'Your "
+        f"own recordings')")
     if not root.is_dir():
         what = "JIGSAWS" if recording_format.is_default else f"{recording_format.name} data"
-        raise ReleaseNotFoundError(root, f"{what} {task.name} folder")
+        raise ReleaseNotFoundError(root, f"{what} {task.name} folder", hint)
     if recording_format.is_default:
         _refuse_another_layout(root, task)
     for folder, what in ((root / recording_format.recordings, "kinematics folder"),
                          (root / recording_format.transcriptions, "transcriptions folder")):
         if not folder.is_dir():
-            raise ReleaseNotFoundError(folder, what)
+            raise ReleaseNotFoundError(folder, what, hint)
 
 
 def _refuse_another_layout(root: Path, task: TaskDefinition) -> None:
