@@ -53,12 +53,12 @@ def build_parser(variant_name: str = DEFAULT_VARIANT) -> argparse.ArgumentParser
 
 
 def main(argv: list[str] | None = None) -> int:
-    pre = argparse.ArgumentParser(add_help=False)
-    add_variant_argument(pre)
+    pre = argparse.ArgumentParser(add_help=False)      # the variant whose defaults --help shows
+    pre.add_argument("--variant", default=DEFAULT_VARIANT)
     known, _ = pre.parse_known_args(argv)
-    variant = get_variant(known.variant)
-    parser = build_parser(variant.name)
-    args = parser.parse_args(argv)
+    parser = build_parser(known.variant if known.variant in VARIANTS else DEFAULT_VARIANT)
+    args = parser.parse_args(argv)                     # refuses an unknown variant
+    variant = get_variant(args.variant)
     unused = _unused_options(args, variant)
     if unused:
         parser.refuse(unused)

@@ -96,6 +96,20 @@ def test_a_misspelt_option_gets_the_closest_one(module, argv, suggestion, capsys
     assert suggestion in err and len(err.splitlines()) == 1, err
 
 
+@pytest.mark.parametrize("module, argv, suggestion", [
+    ("multitask.train_cli", ["--variant", "apoc", "--out", "x"], "did you mean APoc?"),
+    ("multitask.train_cli", ["--weighting", "gradnrom", "--out", "x"], "did you mean gradnorm?"),
+    ("jigsaws_tools.cli.main", ["inpsect"], "did you mean inspect?"),
+])
+def test_a_misspelt_choice_gets_the_closest_one(module, argv, suggestion, capsys):
+    with pytest.raises(SystemExit) as stop:
+        importlib.import_module(module).main(argv)
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert "invalid choice" in err and err.rstrip().endswith(suggestion), err
+    assert err.split(":")[0] in ("multitask-train", "jigsaws-tools"), err
+
+
 def test_an_option_like_none_gets_no_suggestion(capsys):
     with pytest.raises(SystemExit):
         importlib.import_module("multitask.train_cli").main(["--zzzzzz", "--out", "x"])

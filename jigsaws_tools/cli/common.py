@@ -144,17 +144,34 @@ class CommandParser(argparse.ArgumentParser):
                 action.resolve(self, namespace)
         return namespace, extras
 
+    def _check_value(self, action: argparse.Action, value: Any) -> None:
+        """argparse's check of a value against ``action.choices`` (a subcommand's name too),
+        its message ending with the closest choice (``did you mean APoc?``)."""
+        if action.choices is not None and value not in action.choices:
+            choices = ", ".join(map(repr, action.choices))
+            raise argparse.ArgumentError(action, f"invalid choice: {value!r} (choose from "
+                                                 f"{choices}){_closest(value, action.choices)}")
+        super()._check_value(action, value)
+
     def _did_you_mean(self, unknown: str) -> str:
         """``"; did you mean --hidden?"`` for the option shown in help that is closest to
         ``unknown`` (``--hiden``, ``--hidden=3``), or "" when none is close."""
         options = [o for a in self._actions if a.help != argparse.SUPPRESS
                    for o in a.option_strings if o.startswith("--")]
-        close = difflib.get_close_matches(unknown.split("=")[0], options, n=1, cutoff=0.7)
-        return f"; did you mean {close[0]}?" if close else ""
+        return _closest(unknown.split("=")[0], options)
 
     def refuse(self, message: str) -> NoReturn:
         """Exit 2 after one line ``prog: error: message`` (``error`` also prints the usage)."""
         self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def _closest(given: Any, candidates: Sequence[Any]) -> str:
+    """``"; did you mean X?"`` for the candidate closest to ``given`` (the same but for case
+    first, else ``difflib``'s closest match), or "" when none is close."""
+    names = [str(c) for c in candidates]
+    close = ([n for n in names if n.lower() == str(given).lower()]
+             or difflib.get_close_matches(str(given), names, n=1, cutoff=0.7))
+    return f"; did you mean {close[0]}?" if close else ""
 
 
 def command_parser(prog: str, description: str | None, **kwargs: Any) -> CommandParser:
