@@ -105,9 +105,9 @@ def test_a_misspelt_choice_gets_the_closest_one(module, argv, suggestion, capsys
     with pytest.raises(SystemExit) as stop:
         importlib.import_module(module).main(argv)
     assert stop.value.code == 2
-    err = capsys.readouterr().err
-    assert "invalid choice" in err and err.rstrip().endswith(suggestion), err
-    assert err.split(":")[0] in ("multitask-train", "jigsaws-tools"), err
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert "invalid choice" in last and last.endswith(suggestion), last
+    assert last.split(":")[0] in ("multitask-train", "jigsaws-tools"), last
 
 
 def test_an_option_like_none_gets_no_suggestion(capsys):
