@@ -221,8 +221,8 @@ def require_user(root: Path | str, user: str, task: TaskDefinition = SUTURING,
     alone (``discover``), before any recording is read."""
     index = discover(root, task, recording_format)
     if user not in index.users:
-        raise JigsawsError(f"{root}: no {task.name} trial of user {user!r} to test on "
-                           f"(--test-user); its users are {', '.join(index.users)}")
+        raise JigsawsError(f"unknown test user {user!r} (--test-user): {root} holds "
+                           f"{task.name} trials of users {', '.join(index.users)}")
 
 
 def _trial_files(folder: Path, task: TaskDefinition, recording_format: RecordingFormat,

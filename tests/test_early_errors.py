@@ -47,8 +47,8 @@ def _refused_before_tensorflow(result, *expected: str) -> None:
 def test_training_refuses_an_unknown_test_user_before_tensorflow(synth_dir, tmp_path, module):
     result = _run_checked(module, ["--data-dir", str(synth_dir), "--test-user", "A",
                                    "--out", str(tmp_path / "run")])
-    _refused_before_tensorflow(result, "no Suturing trial of user 'A'", "--test-user",
-                               "its users are B, C")
+    _refused_before_tensorflow(result, "unknown test user 'A' (--test-user)",
+                               "Suturing trials of users B, C")
     assert "model:" not in result.stdout and not (tmp_path / "run").exists()
 
 
@@ -78,7 +78,7 @@ def test_export_refuses_an_existing_folder_before_tensorflow(run_record, tmp_pat
 def test_evaluate_refuses_an_unknown_user_before_tensorflow(run_record, tmp_path):
     result = _run_checked("multitask.inference.evaluate_cli",
                           [str(run_record), "--test-user", "Z", "--out", str(tmp_path / "s")])
-    _refused_before_tensorflow(result, "no Suturing trial of user 'Z'")
+    _refused_before_tensorflow(result, "unknown test user 'Z'")
 
 
 @pytest.mark.parametrize("module, argv, suggestion", [
