@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from jigsaws_tools.cli.common import command_parser, import_tensorflow, run_command
+from jigsaws_tools.cli.common import command_parser, run_command
 from rnn_seg.config import OptimConfig
 from rnn_seg.runs.provenance import set_command
 
@@ -12,6 +12,8 @@ from .config import RunConfig
 from .options import add_run_arguments, run_config_from_args
 
 PROG = "baseline-train"
+#: The first line a training prints, after "model: ", of its ``--direction``.
+MODEL_NAME = "A (gestures only), DiPietro et al.'s LSTM, {direction}"
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -27,21 +29,23 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _train(args: argparse.Namespace) -> int:
-    """Configure (no data read), take the run folder's lock, train; returns the exit code."""
-    import_tensorflow()
-    from rnn_seg.threads import configure_threads
-
-    from .builder import train_baseline
+    """Configure (no data read, no TensorFlow), take the run folder's lock, train; returns the
+    exit code."""
     from .launch import run_training
 
     def configure() -> RunConfig:
         config = run_config_from_args(args, OptimConfig())
-        configure_threads(args.threads, args.hidden, args.precision,
-                          bidirectional=args.direction == "bidirectional")
-        print(config.describe(), flush=True)
+        print(f"model: {MODEL_NAME.format(direction=args.direction)}\n{config.describe()}",
+              flush=True)
         return config
 
     def train(config: RunConfig) -> dict:
+        from rnn_seg.threads import configure_threads
+
+        from .builder import train_baseline
+
+        configure_threads(args.threads, args.hidden, args.precision,
+                          bidirectional=args.direction == "bidirectional")
         return train_baseline(config, args.out, log=lambda m: print(m, flush=True),
                               restart=args.restart)
 

@@ -3,7 +3,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, fields, is_dataclass
 
-from jigsaws_tools.dataset import DataConfig
+from jigsaws_tools.dataset import DataConfig, holds_unrecorded_default
+from jigsaws_tools.preprocessing import decimation
+from jigsaws_tools.release import KINEMATICS_HZ
 from jigsaws_tools.recording_format import RecordingFormat
 from jigsaws_tools.task_definition import TaskDefinition
 from rnn_seg.config import EncoderConfig, OptimConfig, TrainConfig, check_eval_points
@@ -40,15 +42,31 @@ class RunConfig:
         lines = [f"test user: {self.test_user}"]
         for name in ("data", "encoder", "optim", "train"):
             lines += _describe(name, getattr(self, name))
-        return "\n".join(lines)
+        return "\n".join(_with_real_step(line, self.data) for line in lines)
+
+
+def _with_real_step(line: str, data: DataConfig) -> str:
+    """The preprocessing line of ``describe`` saying the step it takes at the recording format's
+    rate, where that is not ``resample_factor`` (given in 30 Hz release frames): at 50 Hz,
+    ``resample_factor=6 (30 Hz frames; at rate_hz=50: one sample in 10, 5 Hz)``."""
+    prep, rate = data.preprocessing, data.recording_format.rate_hz
+    step = decimation(prep, rate)
+    if not line.startswith("data.preprocessing:") or step == prep.resample_factor:
+        return line
+    factor = f"resample_factor={prep.resample_factor}"
+    return line.replace(factor, f"{factor} ({KINEMATICS_HZ:g} Hz frames; at rate_hz={rate:g}: "
+                                f"one sample in {step}, {prep.sample_hz:g} Hz)")
 
 
 def _describe(name: str, config) -> list[str]:
-    """``name: field=value, ...`` for a configuration dataclass, then its nested ones."""
+    """``name: field=value, ...`` for a configuration dataclass, then its nested ones; a field
+    that records leave out while it holds its default (``holds_unrecorded_default``) is left out
+    too."""
     plain, nested = [], []
     for f in fields(config):
         value = getattr(config, f.name)
-        if isinstance(config, RecordingFormat) and f.name in _FORMAT_LAYOUT:
+        if (isinstance(config, RecordingFormat) and f.name in _FORMAT_LAYOUT
+                or not is_dataclass(value) and holds_unrecorded_default(config, f.name)):
             continue
         if isinstance(value, TaskDefinition):
             plain.append(f"{f.name}={value.name}")

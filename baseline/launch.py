@@ -13,9 +13,9 @@ import sys
 from pathlib import Path
 from typing import Callable, TypeVar
 
+from jigsaws_tools.cli.common import import_tensorflow
 from rnn_seg.runs.lock import hold_folder
 from rnn_seg.runs.outputs import check_output_folder
-from rnn_seg.trainer import TrainingDiverged
 
 Config = TypeVar("Config")
 
@@ -26,10 +26,14 @@ def run_training(prog: str, out: Path, configure: Callable[[], Config],
                  train: Callable[[Config], dict]) -> tuple[int, dict | None]:
     """``train(configure())`` holding ``out``'s lock; returns ``(exit code, metrics or None)``.
 
+    The check of ``out`` and ``configure`` run before TensorFlow is imported (quietly, by
+    ``import_tensorflow``), so that a mistake in the command line is reported at once.
+
     Args:
         prog: the command's name, first word of every message.
-        out: the run folder, locked after ``configure`` and before ``train``.
-        configure: builds (and so validates) the configuration; reads no data.
+        out: the run folder, checked before ``configure`` and locked before ``train``.
+        configure: builds (and so validates) the configuration; reads no data and imports no
+            TensorFlow.
         train: trains a run of that configuration in ``out`` and returns its metrics.
 
     ``out`` must be a run folder or a new one: not a grid folder, a folder holding runs, or a
@@ -40,8 +44,11 @@ def run_training(prog: str, out: Path, configure: Callable[[], Config],
         ``TrainingDiverged``, for ``run_command`` to report (a write refused for lack of space
         included).
     """
-    config = configure()
     check_output_folder(out, prog, may_be_run=True)
+    config = configure()
+    import_tensorflow()
+    from rnn_seg.trainer import TrainingDiverged
+
     try:
         with hold_folder(out):
             return 0, train(config)

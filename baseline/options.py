@@ -13,7 +13,7 @@ from jigsaws_tools.cli.arg_types import (momentum, non_negative_int, positive_fl
                                          positive_int_list, probability, thread_count)
 from jigsaws_tools.dataset import DataConfig, check_format_fits
 from jigsaws_tools.preprocessing import PreprocessConfig
-from jigsaws_tools.release import require_layout
+from jigsaws_tools.release import require_layout, require_user
 from jigsaws_tools.features import FEATURE_SETS
 from jigsaws_tools.cli.format_options import add_format_option, format_from_options
 from jigsaws_tools.cli.options import add_data_arguments, data_dir_from_args
@@ -157,7 +157,8 @@ def run_config_from_args(args: argparse.Namespace, optim: OptimConfig,
                          eval_points: tuple[int, ...] = TrainConfig.eval_points) -> RunConfig:
     """Build the run's configuration from parsed options. Every value is checked by the
     configuration dataclasses (``ValueError`` naming field, range and value) before the data is
-    read.
+    read, and the data folder's file names must hold trials of ``--test-user``. The data folder
+    is recorded absolute, and as typed (``DataConfig.with_resolved_data_dir``).
 
     Args:
         args: options parsed by a parser built with ``add_run_arguments``.
@@ -187,8 +188,9 @@ def run_config_from_args(args: argparse.Namespace, optim: OptimConfig,
     check_format_fits(recording_format, args.features, PreprocessConfig(), args.format or "")
     data_dir = data_dir_from_args(args, task)
     require_layout(Path(data_dir), task, recording_format)  # before any output
+    require_user(Path(data_dir), args.test_user, task, recording_format)   # file names only
     data = DataConfig(str(data_dir), feature_set=args.features, annotations=args.annotations,
-                      task=task, recording_format=recording_format)
+                      task=task, recording_format=recording_format).with_resolved_data_dir()
     return RunConfig(data=data, test_user=args.test_user, encoder=encoder, optim=optim,
                      train=train)
 

@@ -7,9 +7,13 @@ every command of the project shares; ``plots`` draws label ribbons.
 
 Imports: numpy, scipy, pandas, matplotlib and the standard library; no other package of the
 project (it is the bottom layer: ``jigsaws_tools -> rnn_seg -> baseline -> multitask``). Only
-``cli.common.import_tensorflow`` loads TensorFlow, for the commands that train.
+``cli.common.import_tensorflow`` loads TensorFlow, for the commands that train. Warnings go
+through ``logging`` at their level, each said once per command (``messages``).
 """
 from .lazy import lazy_exports
+from .messages import install
+
+install()       # warnings as "WARNING: ..." where the application configures no logging
 
 #: Public name -> the submodule defining it, imported on first use (``jigsaws_tools.lazy``).
 _PUBLIC = {

@@ -63,6 +63,20 @@ def amendments(version: str, task: TaskDefinition = SUTURING) -> tuple[Amendment
                      for number, row in enumerate(csv.DictReader(f), start=2))
 
 
+def labels_named(version: str, index: ReleaseIndex) -> str:
+    """How a report names the labels of ``index``'s trials under ``version``: ``"revised
+    annotations: 12 amendments"`` where the version amends some of them, else what they are, the
+    transcriptions as given (``"labels as transcribed: no amendment applies to these trials"``
+    for your own recordings, another task, or a release that lacks the amended trials)."""
+    if version == "original":
+        return "original annotations"
+    names = {t.name for t in index.trials}
+    applied = sum(a.trial in names for a in amendments(version, index.task))
+    if not applied:
+        return "labels as transcribed: no amendment applies to these trials"
+    return f"{version} annotations: {applied} amendment{'s' * (applied != 1)}"
+
+
 def amendment_table_text(version: str, task: TaskDefinition = SUTURING) -> str:
     """The raw table behind a version ('' when it amends nothing); part of the dataset cache key."""
     name = _table_name(version, task)

@@ -11,12 +11,11 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import logging
 import os
 import tempfile
 import zipfile
 import zlib
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -25,6 +24,7 @@ import numpy as np
 from .annotations import amendment_table_text, apply_amendments, check_version
 from .errors import DefinitionError, JigsawsError
 from .features import DEFAULT_FEATURE_SET, feature_names
+from .messages import data_logger
 from .preprocessing import PreprocessConfig, decimation, preprocess
 from .progress import progress_labels
 from .recording_format import (JIGSAWS_FORMAT, RecordingFormat, check_feature_columns,
@@ -37,7 +37,7 @@ CACHE_FORMAT = 2
 JIGSAWS_ENV = "JIGSAWS_DIR"
 CACHE_ENV = "JIGSAWS_CACHE_DIR"
 
-log = logging.getLogger(__name__)
+log = data_logger(__name__)
 
 
 @dataclass(frozen=True)
@@ -53,17 +53,23 @@ class DataConfig:
     #: Left out of the settings a run folder is checked against (``rnn_seg.runs.settings``): where
     #: the release is, not what it holds, which the run's data fingerprint (``cache_key``) hashes. A
     #: run resumes with its release reached by another path (relative, moved, a node's local copy).
-    output_fields: ClassVar[tuple[str, ...]] = ("data_dir",)
+    output_fields: ClassVar[tuple[str, ...]] = ("data_dir", "data_dir_as_given")
     #: Not recorded (config.json, settings, fingerprint) while they hold their default, so runs
     #: written before the field existed keep their settings and fingerprint.
-    unrecorded_defaults: ClassVar[tuple[str, ...]] = ("recording_format",)
+    unrecorded_defaults: ClassVar[tuple[str, ...]] = ("recording_format", "data_dir_as_given")
 
+    #: The release folder: absolute in the runs this version trains (``with_resolved_data_dir``),
+    #: so that every command reading a run finds it from any working directory; a run of an
+    #: earlier version may record it relative, as it was typed (``run_record.recorded_data_dir``).
     data_dir: str
     feature_set: str = DEFAULT_FEATURE_SET
     annotations: str = "revised"
     preprocessing: PreprocessConfig = field(default_factory=PreprocessConfig)
     task: TaskDefinition = SUTURING
     recording_format: RecordingFormat = JIGSAWS_FORMAT
+    #: ``data_dir`` as the user typed it (e.g. ``../shared/jigsaws/Suturing``), when it was
+    #: resolved; "" when ``data_dir`` is as given.
+    data_dir_as_given: str = ""
 
     def __post_init__(self):
         check_version(self.annotations)
@@ -75,6 +81,15 @@ class DataConfig:
     def features(self) -> tuple[str, ...]:
         """The model's input features, in order (``jigsaws_tools.features.feature_names``)."""
         return feature_names(self.feature_set)
+
+    def with_resolved_data_dir(self) -> DataConfig:
+        """This configuration with ``data_dir`` absolute (resolved against the working
+        directory) and, when that changed it, the path as given in ``data_dir_as_given``."""
+        resolved = str(Path(self.data_dir).resolve())
+        if resolved == self.data_dir:
+            return self
+        return replace(self, data_dir=resolved,
+                       data_dir_as_given=self.data_dir_as_given or self.data_dir)
 
 
 def check_format_fits(recording_format: RecordingFormat, feature_set: str,
@@ -230,7 +245,7 @@ def cache_key(config: DataConfig, index: ReleaseIndex) -> str:
         paths.append(meta_path(index.root, config.task))
     files = [(p.relative_to(index.root).as_posix(), _file_digest(p)) for p in paths]
     options = {k: v for k, v in asdict(config).items()
-               if k != "data_dir" and not holds_unrecorded_default(config, k)}
+               if k not in config.output_fields and not holds_unrecorded_default(config, k)}
     payload = json.dumps({"format": CACHE_FORMAT, "config": options,
                           "amendments": amendment_table_text(config.annotations, config.task),
                           "files": files}, sort_keys=True)

@@ -21,10 +21,12 @@ class JigsawsError(Exception):
 
 
 class ReleaseNotFoundError(JigsawsError, FileNotFoundError):
-    """The release folder, or a folder it must contain, does not exist."""
+    """The release folder, or a folder it must contain, does not exist. ``hint``: how to get
+    one, on the same line (default: how to obtain JIGSAWS, a paragraph on a line of its own)."""
 
-    def __init__(self, path: Path, what: str):
-        super().__init__(f"{what} not found: {path}\n{OBTAIN_HINT}")
+    def __init__(self, path: Path, what: str, hint: str = OBTAIN_HINT):
+        super().__init__(f"{what} not found: {path}{chr(10) if hint == OBTAIN_HINT else '; '}"
+                         f"{hint}")
         self.path = Path(path)
 
 

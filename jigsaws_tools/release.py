@@ -13,7 +13,6 @@ release's by default.
 """
 from __future__ import annotations
 
-import logging
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,8 +20,9 @@ from typing import NoReturn, Sequence
 
 import numpy as np
 
-from .errors import FormatError, JigsawsError, ReleaseNotFoundError
+from .errors import OBTAIN_HINT, FormatError, JigsawsError, ReleaseNotFoundError
 from .gestures import UNLABELLED
+from .messages import data_logger
 from .recording_format import JIGSAWS_FORMAT, RecordingFormat, another_layout_hint
 from .task_definition import SUTURING, TaskDefinition
 
@@ -44,8 +44,11 @@ GAP_PERIODS = 2.5
 DRIFT_TOLERANCE = 0.01
 #: How to get past a time column the checks refuse (the end of their messages).
 _TIME_ADVICE = "resample the recording to a uniform grid, or drop time_column from the format"
+#: Why a line starting with ``#`` is refused, and what to do.
+_COMMENT = ("a comment line: comments are not allowed in a recording, every non-blank line after "
+            "its header is one sample (delete such lines, e.g. grep -v '^#')")
 
-log = logging.getLogger(__name__)
+log = data_logger(__name__)
 
 
 @dataclass(frozen=True)
@@ -132,15 +135,19 @@ def require_layout(root: Path, task: TaskDefinition = SUTURING,
     and transcriptions folders (those ``recording_format`` names; nothing in them is read). In
     the release's layout, a folder that holds something else is a one-line ``JigsawsError``
     (``_refuse_another_layout``)."""
+    hint = OBTAIN_HINT if recording_format.is_default else (
+        f"a {recording_format.name} data folder holds the folders its format's [files] names: "
+        f"{recording_format.recordings} and {recording_format.transcriptions} (README, 'Your "
+        f"own recordings')")
     if not root.is_dir():
         what = "JIGSAWS" if recording_format.is_default else f"{recording_format.name} data"
-        raise ReleaseNotFoundError(root, f"{what} {task.name} folder")
+        raise ReleaseNotFoundError(root, f"{what} {task.name} folder", hint)
     if recording_format.is_default:
         _refuse_another_layout(root, task)
     for folder, what in ((root / recording_format.recordings, "kinematics folder"),
                          (root / recording_format.transcriptions, "transcriptions folder")):
         if not folder.is_dir():
-            raise ReleaseNotFoundError(folder, what)
+            raise ReleaseNotFoundError(folder, what, hint)
 
 
 def _refuse_another_layout(root: Path, task: TaskDefinition) -> None:
@@ -205,6 +212,17 @@ def discover(root: Path | str, task: TaskDefinition = SUTURING,
                                          f"transcription")
     return ReleaseIndex(root, tuple(trials), missing_kin, missing_tr, task,
                         tuple(reason for _, reason in sorted(unusable.items())), fmt)
+
+
+def require_user(root: Path | str, user: str, task: TaskDefinition = SUTURING,
+                 recording_format: RecordingFormat = JIGSAWS_FORMAT) -> None:
+    """Raise a one-line ``JigsawsError`` unless the folder ``root`` holds complete trials of
+    ``user`` (a test user, ``--test-user``), naming the users it holds; from the file names
+    alone (``discover``), before any recording is read."""
+    index = discover(root, task, recording_format)
+    if user not in index.users:
+        raise JigsawsError(f"unknown test user {user!r} (--test-user): {root} holds "
+                           f"{task.name} trials of users {', '.join(index.users)}")
 
 
 def _trial_files(folder: Path, task: TaskDefinition, recording_format: RecordingFormat,
@@ -351,6 +369,8 @@ def _column_names(path: Path, fmt: RecordingFormat, lines: list[str]) -> tuple[l
     if not fmt.header:
         return list(fmt.columns), 0
     for number, line in enumerate(lines, start=1):
+        if line.lstrip().startswith("#"):
+            raise FormatError(path, number, line.strip(), _COMMENT)
         if line.strip():
             names = [n.strip().strip('"\'') for n in
                      (line.split(fmt.separator) if fmt.separator else line.split())]
@@ -411,8 +431,7 @@ def _check_times(path: Path, fmt: RecordingFormat, times: np.ndarray, numbers: l
         raise FormatError(path, numbers[row], float(times[row]),
                           f"{column} jumps {step:.6g} s ({1 / step:.4g} Hz) from {before}, "
                           f"{step / period:.1f} periods of rate_hz = {fmt.rate_hz:g} ({fmt.name} "
-                          f"format; at most {GAP_PERIODS:g}): a gap or another rate; "
-                          f"{_TIME_ADVICE}")
+                          f"format; at most {GAP_PERIODS:g}): {_gap_or_rate(fmt, steps)}")
     expected = np.arange(len(times)) * period
     drifted = (np.abs(times - times[0] - expected)
                > GAP_PERIODS * period + DRIFT_TOLERANCE * expected)
@@ -422,8 +441,23 @@ def _check_times(path: Path, fmt: RecordingFormat, times: np.ndarray, numbers: l
                           f"{column} drifts from rate_hz = {fmt.rate_hz:g} of the {fmt.name} "
                           f"format: {times[row] - times[0]:.6g} s after the first row's "
                           f"{times[0]:g} s, where {row} rows give {expected[row]:.6g} s "
-                          f"(allowed: {DRIFT_TOLERANCE:.0%} of it and {GAP_PERIODS:g} periods); "
-                          f"{_TIME_ADVICE}")
+                          f"(allowed: {DRIFT_TOLERANCE:.0%} of it and {GAP_PERIODS:g} periods): "
+                          f"{_gap_or_rate(fmt, steps)}")
+
+
+def _gap_or_rate(fmt: RecordingFormat, steps: np.ndarray) -> str:
+    """What times refused by ``_check_times`` (``steps``: between rows, [s]) mean, and what to do:
+    when their median step gives a rate more than ``DRIFT_TOLERANCE`` from the format's, that
+    rate, and a format declaring it; else a gap (or a clock off its rate) in a recording at the
+    format's rate."""
+    positive = steps[steps > 0]
+    rate = 1 / float(np.median(positive)) if len(positive) else fmt.rate_hz
+    if abs(rate - fmt.rate_hz) <= DRIFT_TOLERANCE * fmt.rate_hz:
+        return f"a gap in a recording at {fmt.rate_hz:g} Hz; {_TIME_ADVICE}"
+    shown = f"{round(rate)}" if abs(rate - round(rate)) <= 1e-3 * rate else f"{rate:.4g}"
+    return (f"its times fit {shown} Hz (median step {1 / rate:.6g} s), not the format's "
+            f"{fmt.rate_hz:g} Hz: read it with a format of rate_hz = {shown} (a copy of "
+            f"{fmt.name}'s), or {_TIME_ADVICE}")
 
 
 def _diagnose_rows(path: Path, names: list[str], fmt: RecordingFormat,
@@ -434,9 +468,7 @@ def _diagnose_rows(path: Path, names: list[str], fmt: RecordingFormat,
     hint = f"; {another_layout_hint()}" if fmt.is_default else ""
     for number, line in rows:
         if line.lstrip().startswith("#"):
-            raise FormatError(path, number, line.strip(), "a comment line: a recording has "
-                              "none, every non-blank line after its header is one sample "
-                              "(delete such lines, e.g. grep -v '^#')")
+            raise FormatError(path, number, line.strip(), _COMMENT)
         fields = line.split(fmt.separator) if fmt.separator else line.split()
         if len(fields) != len(names):
             raise FormatError(path, number, len(fields),

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import logging
 import os
 import secrets
 import shutil
@@ -25,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import JigsawsError
+from .messages import data_logger
 from .release import KINEMATICS_HZ, kinematics_dir, meta_path, trial_name, transcriptions_dir
 from .task_definition import SUTURING, SynthGrammar, SynthStep, TaskDefinition
 
@@ -36,7 +36,7 @@ SYNTH_USERS = ("B", "C", "D", "E", "F", "G", "H", "I")
 SYNTH_SKILLS = ("N", "I", "E", "E", "I", "N", "N", "N")
 TRIALS_PER_USER = 5
 
-log = logging.getLogger(__name__)
+log = data_logger(__name__)
 
 
 @dataclass(frozen=True)

@@ -10,11 +10,11 @@ import sys
 from baseline.config import RunConfig
 from baseline.options import add_run_arguments, run_config_from_args
 from jigsaws_tools.cli.arg_types import non_negative_float, positive_float
-from jigsaws_tools.cli.common import command_parser, import_tensorflow, run_command
+from jigsaws_tools.cli.common import command_parser, run_command
 from rnn_seg.runs.provenance import set_command
 
 from .models.config import ORDINAL_LOSSES, RELATIVE_RATES, WEIGHTINGS, GradNormConfig, HeadConfig
-from .models.variants import VARIANTS, Variant, get_variant
+from .models.variants import VARIANTS, Variant, check_weighting, get_variant
 
 PROG = "multitask-train"
 DEFAULT_VARIANT = "APc"
@@ -32,9 +32,9 @@ def build_parser(variant_name: str = DEFAULT_VARIANT) -> argparse.ArgumentParser
     variant = get_variant(variant_name)
     parser = command_parser(PROG, __doc__)
     add_variant_argument(parser)
-    parser.add_argument("--weighting", choices=WEIGHTINGS, default=WEIGHTINGS[0],
+    parser.add_argument("--weighting", choices=WEIGHTINGS, default=None,
                         help="task loss weights: fixed w1 = w2 = 1, or GradNorm (two-task "
-                             "variants only)")
+                             f"variants only; the paper's) (default: {WEIGHTINGS[0]})")
     parser.add_argument("--alpha", type=non_negative_float,
                         help=f"GradNorm's asymmetry alpha (default: {GradNormConfig.alpha})")
     parser.add_argument("--weight-lr", type=positive_float, metavar="LR",
@@ -53,12 +53,12 @@ def build_parser(variant_name: str = DEFAULT_VARIANT) -> argparse.ArgumentParser
 
 
 def main(argv: list[str] | None = None) -> int:
-    pre = argparse.ArgumentParser(add_help=False)
-    add_variant_argument(pre)
+    pre = argparse.ArgumentParser(add_help=False)      # the variant whose defaults --help shows
+    pre.add_argument("--variant", default=DEFAULT_VARIANT)
     known, _ = pre.parse_known_args(argv)
-    variant = get_variant(known.variant)
-    parser = build_parser(variant.name)
-    args = parser.parse_args(argv)
+    parser = build_parser(known.variant if known.variant in VARIANTS else DEFAULT_VARIANT)
+    args = parser.parse_args(argv)                     # refuses an unknown variant
+    variant = get_variant(args.variant)
     unused = _unused_options(args, variant)
     if unused:
         parser.refuse(unused)
@@ -71,7 +71,7 @@ def _unused_options(args: argparse.Namespace, variant: Variant) -> str | None:
     GradNorm's without ``--weighting gradnorm``, ``--ordinal-loss`` without an ordered head."""
     gradnorm = [o for o, v in (("--alpha", args.alpha), ("--weight-lr", args.weight_lr),
                                ("--relative-rate", args.relative_rate)) if v is not None]
-    if gradnorm and args.weighting != "gradnorm":
+    if gradnorm and weighting(args) != "gradnorm":
         return f"{gradnorm[0]} is a GradNorm setting; add --weighting gradnorm, or leave it out"
     if args.ordinal_loss is not None and variant.progress != "oc":
         return (f"--ordinal-loss applies to an ordered progress head (APoc, Poc), not to "
@@ -79,29 +79,35 @@ def _unused_options(args: argparse.Namespace, variant: Variant) -> str | None:
     return None
 
 
-def _train(args: argparse.Namespace, variant: Variant) -> int:
-    """Configure (no data read), take the run folder's lock, train; returns the exit code."""
-    import_tensorflow()
-    from baseline.launch import run_training
-    from rnn_seg.threads import configure_threads
+def weighting(args: argparse.Namespace) -> str:
+    """The task weighting the options ask for (``--weighting``, default fixed)."""
+    return args.weighting or WEIGHTINGS[0]
 
-    from .models.fold_run import train_variant
-    from .models.run_record import check_weighting
+
+def _train(args: argparse.Namespace, variant: Variant) -> int:
+    """Configure (no data read, no TensorFlow), take the run folder's lock, train; returns the
+    exit code. The model's full name, its weighting included, is the first line printed."""
+    from baseline.launch import run_training
 
     def configure() -> tuple[RunConfig, GradNormConfig, HeadConfig]:
-        config = run_config_from_args(args, variant.optim(), variant.eval_points())
         gradnorm = GradNormConfig(**_given(alpha=args.alpha, learning_rate=args.weight_lr,
                                            relative_rate=args.relative_rate))
         heads = HeadConfig(**_given(ordinal_loss=args.ordinal_loss))
-        check_weighting(variant, args.weighting)
-        configure_threads(args.threads, args.hidden, args.precision,
-                          bidirectional=args.direction == "bidirectional")
-        print(f"variant: {variant.name} ({args.weighting})\n{config.describe()}", flush=True)
+        check_weighting(variant, weighting(args))
+        config = run_config_from_args(args, variant.optim(), variant.eval_points())
+        print(f"model: {variant.full_name(weighting(args), gradnorm, args.weighting is not None)}"
+              f"\n{config.describe()}", flush=True)
         return config, gradnorm, heads
 
     def train(configs: tuple[RunConfig, GradNormConfig, HeadConfig]) -> dict:
+        from rnn_seg.threads import configure_threads
+
+        from .models.fold_run import train_variant
+
         config, gradnorm, heads = configs
-        return train_variant(variant, args.weighting, config, args.out, gradnorm,
+        configure_threads(args.threads, args.hidden, args.precision,
+                          bidirectional=args.direction == "bidirectional")
+        return train_variant(variant, weighting(args), config, args.out, gradnorm,
                              log=lambda m: print(m, flush=True), heads=heads,
                              restart=args.restart)
 

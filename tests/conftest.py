@@ -28,3 +28,12 @@ def synth_dir(tmp_path_factory) -> Path:
 @pytest.fixture(autouse=True)
 def _isolated_cache(tmp_path_factory, monkeypatch):
     monkeypatch.setenv("JIGSAWS_CACHE_DIR", str(tmp_path_factory.getbasetemp() / "cache"))
+
+
+@pytest.fixture(autouse=True)
+def _data_warnings_said_anew():
+    """Each test is a command of its own: its data warnings are said once more
+    (``jigsaws_tools.messages``)."""
+    from jigsaws_tools.messages import new_command
+
+    new_command()

@@ -309,8 +309,9 @@ def test_stream_evaluation_scores_the_offline_samples(fw_run, tmp_path):
 
 def test_recordings_of_another_layout_get_the_advice_of_the_mode_that_reads_them(
         fw_run, synth_dir, tmp_path, capsys):
-    """Offline prediction and evaluation take --format and suggest it; --stream reads one layout
-    only and says so, pointing to the offline mode with --format."""
+    """Prediction (offline and --stream) and offline evaluation take --format and suggest it;
+    evaluate --stream reads the run's layout only and says so, pointing to the offline mode with
+    --format."""
     kinematics, _ = _held_out(synth_dir)
     narrow = tmp_path / "narrow.txt"
     narrow.write_text("".join(" ".join(line.split()[:70]) + "\n"
@@ -326,8 +327,9 @@ def test_recordings_of_another_layout_get_the_advice_of_the_mode_that_reads_them
                          "--no-plots"]) == 2
             err = capsys.readouterr().err
             assert argv[-1] in err and "Traceback" not in err, err
-            assert ("need --format FILE.toml" in err) == (not stream), err
-            assert not stream or f"{command} offline, without --stream, with --format" in err, err
+            only_offline = bool(stream) and command == "evaluate"
+            assert ("need --format FILE.toml" in err) == (not only_offline), err
+            assert not only_offline or "evaluate offline, without --stream, with --format" in err
 
 
 def test_stream_normalisation_is_read_back_without_the_data(fw_run, tmp_path):

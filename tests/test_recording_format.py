@@ -3,6 +3,7 @@
 predicted; bad format files and bad recordings give one-line errors (exit 2)."""
 from __future__ import annotations
 
+import json
 import shutil
 
 import numpy as np
@@ -333,7 +334,7 @@ def test_a_comment_line_is_refused_on_its_own_line(robot_dir, tmp_path, comment)
     """numpy would skip it but count it out of the rows, so every later error's line and every
     transcription row would be off by one: a recording has no comment lines."""
     bad = _edited(robot_dir, tmp_path, 3, b"0.01", comment + b"\n0.01")   # before line 3
-    with pytest.raises(FormatError, match=rf"edited\.csv:3: a comment line"):
+    with pytest.raises(FormatError, match=r"edited\.csv:3: a comment line"):
         read_recording(bad, read_format_file(robot_dir / "my_robot.toml"))
 
 
@@ -483,3 +484,106 @@ def test_the_papers_amendments_never_relabel_a_recording_at_another_rate():
         apply_amendments(amendment.trial, labels, "revised", SUTURING, float(RATE))
     kept, _ = apply_amendments(amendment.trial, labels, "original", SUTURING, float(RATE))
     assert np.array_equal(kept, labels)
+
+
+# -- own-format runs exported and streamed (issue #48) ---------------------------------------------
+@pytest.fixture(scope="module")
+def robot_forward_run(robot_dir):
+    """A tiny forward run on the robot's 100 Hz CSVs: streamable."""
+    out = robot_dir / "forward_run"
+    assert train_main(["--data-dir", str(robot_dir / "data"), "--format",
+                       str(robot_dir / "my_robot.toml"), "--variant", "APc", "--hidden", "8",
+                       "--epochs", "2", "--direction", "forward", "--test-user", "B",
+                       "--no-plots", "--threads", "1", "--out", str(out)]) == 0
+    return out
+
+
+def test_an_own_format_run_streams_its_recordings(robot_forward_run, robot_dir, tmp_path):
+    recording = robot_dir / "data" / "recordings" / "Suturing-B-1.csv"
+    out = tmp_path / "stream"
+    assert predict_main([str(robot_forward_run), str(recording), "--stream", "--no-plots",
+                         "--out", str(out)]) == 0
+    table = pd.read_csv(out / "Suturing-B-1.csv")
+    assert len(table) == len(pd.read_csv(recording))           # one row per 100 Hz row
+    assert np.diff(table["sample"].drop_duplicates()).tolist() == [1] * (table["sample"].max())
+    run = load_run(robot_forward_run)
+    causal = run.predict(recording, causal=True)               # the whole-sequence causal pass
+    np.testing.assert_array_equal(causal.labels("gesture"),
+                                  [GESTURES.index(g) for g in table["gesture"]])
+    assert causal.sample_frames[1] - causal.sample_frames[0] == RATE // 5
+
+
+def test_an_own_format_run_exports_a_savedmodel_of_its_format(robot_run, robot_dir, tmp_path):
+    import tensorflow as tf
+
+    from multitask.inference.export_cli import main as export_main
+
+    recording = robot_dir / "data" / "recordings" / "Suturing-B-1.csv"
+    assert export_main([str(robot_run), "--out", str(tmp_path / "saved")]) == 0
+    description = json.loads((tmp_path / "saved" / "assets.extra" / "model.json").read_text())
+    run = load_run(robot_run)
+    assert description["recording"]["rate_hz"] == RATE
+    assert description["recording"]["columns"] == list(COLUMNS.values())   # the run's features
+    assert description["preprocessing"]["resample_step"] == RATE // 5
+    model = tf.saved_model.load(str(tmp_path / "saved"))
+    inputs = run.read_inputs(recording)                        # [rows, 14] in those columns
+    served = model.signatures["serving_default"](kinematics=tf.constant(inputs))
+    offline = run.predict(recording)
+    assert len(served["frame"]) == len(inputs)
+    np.testing.assert_array_equal(served["gesture"].numpy(), offline.labels("gesture"))
+    with pytest.raises((ValueError, tf.errors.InvalidArgumentError)):   # 13 columns, not 14
+        model.signatures["serving_default"](kinematics=tf.constant(inputs[:, :-1]))
+
+
+def _format_at(rate: int, **changes) -> str:
+    text = FORMAT.replace(f"rate_hz = {RATE}", f"rate_hz = {rate}")
+    for old, new in changes.items():
+        text = text.replace(old, new)
+    return text
+
+
+def test_times_at_another_rate_name_the_rate_they_fit(robot_dir, tmp_path):
+    (tmp_path / "at50.toml").write_text(_format_at(50))
+    recording = robot_dir / "data" / "recordings" / "Suturing-B-1.csv"
+    with pytest.raises(FormatError) as error:
+        read_recording(recording, read_format_file(tmp_path / "at50.toml"))
+    message = str(error.value)
+    assert "its times fit 100 Hz" in message and "rate_hz = 100" in message, message
+    assert "\n" not in message
+
+
+def test_a_gap_at_the_formats_rate_is_called_a_gap(robot_dir, tmp_path):
+    bad = _bad_copy(robot_dir, tmp_path, lambda t: t.drop(index=t.index[30:40]))
+    with pytest.raises(FormatError, match="a gap in a recording at 100 Hz"):
+        _read_robot(bad, robot_dir)
+
+
+def test_a_comment_before_the_header_says_comments_are_not_allowed(robot_dir, tmp_path):
+    recording = robot_dir / "data" / "recordings" / "Suturing-B-1.csv"
+    commented = tmp_path / "commented.csv"
+    commented.write_text("# recorded 2026-11-27 on arm 1\n" + recording.read_text())
+    with pytest.raises(FormatError, match=r"commented\.csv:1: a comment line: comments are not "
+                                          r"allowed"):
+        _read_robot(commented, robot_dir)
+
+
+def test_inspect_names_labels_no_amendment_touches_as_transcribed(robot_dir, synth_dir, capsys):
+    assert tools_main(["inspect", "--data-dir", str(robot_dir / "data"), "--format",
+                       str(robot_dir / "my_robot.toml")]) == 0
+    out = capsys.readouterr().out
+    assert "revised annotations" not in out and "labels as transcribed" in out, out
+    assert tools_main(["inspect", "--data-dir", str(synth_dir)]) == 0
+    assert "(revised annotations: " in capsys.readouterr().out      # the release's trial names
+
+
+@pytest.mark.parametrize("rate, step", [(30, 6), (50, 10), (100, 20)])
+def test_the_printed_configuration_gives_the_step_at_the_formats_rate(tmp_path, rate, step):
+    from baseline.config import RunConfig
+    from jigsaws_tools.dataset import DataConfig
+
+    (tmp_path / "fmt.toml").write_text(_format_at(rate))
+    fmt = read_format_file(tmp_path / "fmt.toml")
+    text = RunConfig(DataConfig(str(tmp_path), recording_format=fmt)).describe()
+    line = next(line for line in text.splitlines() if line.startswith("data.preprocessing:"))
+    assert f"rate_hz={rate}" in text
+    assert (f"one sample in {step}" in line) == (step != 6), line

@@ -48,6 +48,7 @@ Conventions:
 from __future__ import annotations
 
 import argparse
+import difflib
 import logging
 import os
 import re
@@ -57,6 +58,7 @@ import traceback
 from typing import Any, Callable, NoReturn, Sequence
 
 from ..errors import JigsawsError, WriteFailed
+from ..messages import FORMAT as MESSAGE_FORMAT, new_command
 
 DISTRIBUTION = "mtrnn-jigsaws"
 TF_LOG_LEVEL_ENV = "TF_CPP_MIN_LOG_LEVEL"
@@ -72,6 +74,10 @@ _TF_NOISE = re.compile(r"WARNING: All log messages before absl::InitializeLog\(\
 #: An option string left over by argparse (``--format``, ``-x``, ``--format=x.toml``), not a lone
 #: ``-``, ``--`` or a negative number.
 _OPTION = re.compile(r"--?[A-Za-z][^=]*")
+#: reST markup of the module docstrings that describe the commands (``plain_text``).
+_INLINE_LITERAL = re.compile(r"``(.+?)``", re.DOTALL)
+_ROLE = re.compile(r":[a-z]+:`([^`]+)`")
+_LITERAL_BLOCK = re.compile(r"(?<=\S)::(?=\n)")
 
 
 def package_version() -> str:
@@ -98,7 +104,12 @@ class _VersionAction(argparse.Action):
 
 class HelpFormatter(argparse.RawDescriptionHelpFormatter):
     """Keeps the description's layout and appends ``(default: X)`` to every option that has a
-    default (not to flags, and not where the help text already states it)."""
+    default (not to flags, and not where the help text already states it). The descriptions are
+    the commands' module docstrings: their reST markup is left out of the help (``x`` -> x, a
+    literal block's ``::`` -> ``:``)."""
+
+    def format_help(self) -> str:
+        return plain_text(super().format_help())
 
     def _get_help_string(self, action: argparse.Action) -> str:
         text = action.help or ""
@@ -109,27 +120,58 @@ class HelpFormatter(argparse.RawDescriptionHelpFormatter):
         return f"{text} (default: %(default)s)"
 
 
+def plain_text(text: str) -> str:
+    """``text`` without reST markup: ``x`` -> x, ``:func:`x``` -> x, and a paragraph's closing
+    ``::`` (announcing a literal block) -> ``:``."""
+    return _LITERAL_BLOCK.sub(":", _ROLE.sub(r"\1", _INLINE_LITERAL.sub(r"\1", text)))
+
+
 class CommandParser(argparse.ArgumentParser):
     """The parser of every command and subcommand (``command_parser``; a subcommand's parser is of
     its command's class). Once the whole command line is read, an option the (sub)command does not
-    take is refused in one line naming it, and the deprecated positional arguments
-    (``deprecated_positional``) are resolved: argparse would give the value that follows an
-    unknown option to such a positional argument."""
+    take is refused in one line naming it and the closest option it does take (``did you mean``),
+    and the deprecated positional arguments (``deprecated_positional``) are resolved: argparse
+    would give the value that follows an unknown option to such a positional argument."""
 
     def parse_known_args(self, args=None, namespace=None):
         namespace, extras = super().parse_known_args(args, namespace)
         unknown = next((m.group() for m in map(_OPTION.match, extras) if m), None)
         if unknown:
-            self.refuse(f"{self.prog.split()[-1]} takes no {unknown} option "
-                        f"(see {self.prog} --help)")
+            self.refuse(f"{self.prog.split()[-1]} takes no {unknown} option"
+                        f"{self._did_you_mean(unknown)} (see {self.prog} --help)")
         for action in self._actions:
             if isinstance(action, _DeprecatedPositional):
                 action.resolve(self, namespace)
         return namespace, extras
 
+    def _check_value(self, action: argparse.Action, value: Any) -> None:
+        """argparse's check of a value against ``action.choices`` (a subcommand's name too),
+        its message ending with the closest choice (``did you mean APoc?``)."""
+        if action.choices is not None and value not in action.choices:
+            choices = ", ".join(map(repr, action.choices))
+            raise argparse.ArgumentError(action, f"invalid choice: {value!r} (choose from "
+                                                 f"{choices}){_closest(value, action.choices)}")
+        super()._check_value(action, value)
+
+    def _did_you_mean(self, unknown: str) -> str:
+        """``"; did you mean --hidden?"`` for the option shown in help that is closest to
+        ``unknown`` (``--hiden``, ``--hidden=3``), or "" when none is close."""
+        options = [o for a in self._actions if a.help != argparse.SUPPRESS
+                   for o in a.option_strings if o.startswith("--")]
+        return _closest(unknown.split("=")[0], options)
+
     def refuse(self, message: str) -> NoReturn:
         """Exit 2 after one line ``prog: error: message`` (``error`` also prints the usage)."""
         self.exit(2, f"{self.prog}: error: {message}\n")
+
+
+def _closest(given: Any, candidates: Sequence[Any]) -> str:
+    """``"; did you mean X?"`` for the candidate closest to ``given`` (the same but for case
+    first, else ``difflib``'s closest match), or "" when none is close."""
+    names = [str(c) for c in candidates]
+    close = ([n for n in names if n.lower() == str(given).lower()]
+             or difflib.get_close_matches(str(given), names, n=1, cutoff=0.7))
+    return f"; did you mean {close[0]}?" if close else ""
 
 
 def command_parser(prog: str, description: str | None, **kwargs: Any) -> CommandParser:
@@ -233,12 +275,14 @@ def deprecated_positional(parser: CommandParser, new: argparse.Action) -> None:
 
 
 def configure_output(verbose: bool) -> None:
-    """Logging format and level, and TensorFlow's C++ log level (before anything imports it)."""
+    """Logging format and level, and TensorFlow's C++ log level (before anything imports it);
+    a new command, whose data warnings are each said once (``messages.new_command``)."""
     if verbose:
         os.environ[TF_LOG_LEVEL_ENV] = "0"
     else:
         os.environ.setdefault(TF_LOG_LEVEL_ENV, QUIET_TF_LOG_LEVEL)
-    logging.basicConfig(format="%(levelname)s: %(message)s",
+    new_command()
+    logging.basicConfig(format=MESSAGE_FORMAT,
                         level=logging.INFO if verbose else logging.WARNING)
 
 

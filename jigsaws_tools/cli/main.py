@@ -41,6 +41,7 @@ def _synth(args: argparse.Namespace) -> None:
 def _inspect(args: argparse.Namespace) -> None:
     import pandas as pd
 
+    from ..annotations import labels_named
     from ..release import discover
     from ..summary import release_summary
 
@@ -51,7 +52,7 @@ def _inspect(args: argparse.Namespace) -> None:
     with pd.option_context("display.max_rows", None, "display.width", 200):
         print(table.to_string())
     print(f"\n{len(table)} complete trials, {table['frames'].sum()} frames at {fmt.rate_hz:g} Hz, "
-          f"{table['labelled'].sum()} labelled ({args.annotations} annotations)")
+          f"{table['labelled'].sum()} labelled ({labels_named(args.annotations, index)})")
     print("gestures:", _histogram(table[list(task.gestures)].sum()))
     print("progress:", _histogram(table[list(task.stage_names)].sum()))
     print("missing kinematics:", ", ".join(index.missing_kinematics) or "none")
@@ -62,6 +63,7 @@ def _inspect(args: argparse.Namespace) -> None:
 def _stages(args: argparse.Namespace) -> None:
     import pandas as pd
 
+    from ..annotations import labels_named
     from ..release import discover
     from ..stage_order import IN_ORDER, KINDS, stage_order
 
@@ -69,7 +71,7 @@ def _stages(args: argparse.Namespace) -> None:
     index = discover(data_dir_from_args(args, task), task, format_from_options(args))
     table, breaks = stage_order(index, args.annotations)
     print("stages: " + " -> ".join(f"{i} {name}" for i, name in enumerate(task.stage_names))
-          + f" ({args.annotations} annotations)\n")
+          + f" ({labels_named(args.annotations, index)})\n")
     with pd.option_context("display.max_rows", None, "display.width", 200):
         print(table.to_string())
     totals = table[list(KINDS)].sum()

@@ -47,6 +47,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from jigsaws_tools.dataset import DataConfig  # noqa: E402
 from jigsaws_tools.task_definition import PAPER_TASK  # noqa: E402
 from rnn_seg.runs.folder import CONFIG, is_finished, read_json  # noqa: E402
 
@@ -77,7 +78,7 @@ class WidthEvidence:
     """One grid's part of the study: its width, data, seeds and the runs of A and APoc."""
 
     hidden: int
-    data: dict                    # A's first run's ``config.json`` ``run.data``, without data_dir
+    data: dict                    # A's first run's ``config.json`` ``run.data``, not where it was
     paper: bool                   # trained on the real release of the paper's task
     seeds: tuple[int, ...]
     runs: pd.DataFrame            # one row per run of A and APoc (``collect.run_rows``' columns)
@@ -163,7 +164,8 @@ def width_evidence(grid: Path, seeds: tuple[int, ...] | None = None) -> WidthEvi
     if len(widths) > 1:
         raise ValueError(f"{grid}: A and APoc were trained at different widths {sorted(widths)}")
     data = read_json(grid / folders[0] / CONFIG)["run"]["data"]
-    return WidthEvidence(widths.pop(), {k: v for k, v in data.items() if k != "data_dir"},
+    return WidthEvidence(widths.pop(),
+                         {k: v for k, v in data.items() if k not in DataConfig.output_fields},
                          task_name(data) == PAPER_TASK and not is_synthetic(data), chosen, runs,
                          epochs, records)
 

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Callable, Iterator, TextIO
 
 from jigsaws_tools.cli.common import import_tensorflow
+from jigsaws_tools.messages import new_command
 from rnn_seg.runs.provenance import set_command
 
 from .spec import RunKey, run_arguments, spec_from_dict
@@ -94,7 +95,9 @@ class _ToLogs(logging.Handler):
 
 @contextmanager
 def _warnings_to(logs: list[Log]) -> Iterator[None]:
-    """Send ``jigsaws_tools``' warnings to the runs' logs instead of the worker's terminal."""
+    """Send ``jigsaws_tools``' warnings to the runs' logs instead of the worker's terminal, each
+    once per job (``jigsaws_tools.messages``: a worker runs many)."""
+    new_command()
     logger = logging.getLogger("jigsaws_tools")
     handler, propagate = _ToLogs(logs), logger.propagate
     logger.addHandler(handler)

@@ -16,8 +16,6 @@ TensorFlow); the record's file name and reader are ``folder``'s, which imports n
 """
 from __future__ import annotations
 
-import json
-from dataclasses import replace
 from pathlib import Path
 from typing import Callable
 

@@ -17,6 +17,8 @@ from jigsaws_tools.cli.common import run_command
 from jigsaws_tools.cli.format_options import add_format_option
 
 from .options import load_for_command, stream_layout_advice, trained_run_parser
+from .output_folders import check_evaluation_folder
+from .run_record import data_folder, read_run_config
 
 PROG = "multitask-evaluate"
 
@@ -42,6 +44,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _evaluate(args: argparse.Namespace) -> None:
+    _check_arguments(args)
     run = load_for_command(args)                 # imports TensorFlow quietly, first
     from rnn_seg.trainer import metrics_summary
 
@@ -54,6 +57,20 @@ def _evaluate(args: argparse.Namespace) -> None:
     print(f"{args.run_dir}, checkpoint after sweep {run.checkpoint}, user {user}"
           f"{', stream' if args.stream else ''}: {metrics_summary(run.tasks, metrics)}")
     print(f"done: outputs in {out}")
+
+
+def _check_arguments(args: argparse.Namespace) -> None:
+    """Before TensorFlow loads: the run, its data folder (recorded or ``--data-dir``), the user
+    whose trials are scored among its file names, and ``--out``."""
+    from jigsaws_tools.recording_format import load_format
+    from jigsaws_tools.release import require_user
+
+    config = read_run_config(args.run_dir)[0]
+    fmt = load_format(args.format) if args.format else config.data.recording_format
+    require_user(data_folder(config, args.run_dir, args.data_dir),
+                 args.test_user or config.test_user, config.data.task, fmt)
+    if args.out is not None:
+        check_evaluation_folder(args.out, args.overwrite)
 
 
 def main(argv: list[str] | None = None) -> int:

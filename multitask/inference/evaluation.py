@@ -21,18 +21,16 @@ from jigsaws_tools.dataset import Dataset, Trial, load_dataset
 from jigsaws_tools.preprocessing import Normalisation
 from jigsaws_tools.recording_format import RecordingFormat
 from jigsaws_tools.release import discover
-from rnn_seg.runs.outputs import check_new_output
 from rnn_seg.runs.publish import staged_folder
 from rnn_seg.sweeps import sweeps_per_epoch
 from rnn_seg.trainer import predict, write_evaluation
 
+from .output_folders import check_evaluation_folder
 from .predictions import hold
+from .run_record import data_folder
 from .trained_run import FINGERPRINT_DIFFERS, TrainedRun
 
 log = logging.getLogger(__name__)
-
-#: What an evaluation folder holds (``write_evaluation``): all ``--overwrite`` may replace.
-EVALUATION_ENTRIES = frozenset({"metrics.json", "predictions", "plots"})
 
 
 def default_evaluation_dir(run: TrainedRun, test_user: str, stream: bool) -> Path:
@@ -70,8 +68,7 @@ def evaluate_run(run: TrainedRun, out: Path, data_dir: Path | str | None = None,
     Returns:
         The metrics per task.
     """
-    check_new_output(out, "multitask-evaluate", EVALUATION_ENTRIES, overwrite,
-                     run_place="evaluate")
+    check_evaluation_folder(out, overwrite)
     fmt = run.recording_format(recording_format)
     if stream:
         run.require_online("streaming evaluation")
@@ -79,7 +76,7 @@ def evaluate_run(run: TrainedRun, out: Path, data_dir: Path | str | None = None,
             raise ValueError(f"streaming evaluation reads the format the run trained on "
                              f"({run.config.data.recording_format.name}), not {fmt.name}")
     data_config = replace(run.config.data, recording_format=fmt,
-                          data_dir=str(data_dir or run.config.data.data_dir))
+                          data_dir=str(data_folder(run.config, run.run_dir, data_dir)))
     dataset = load_dataset(data_config)
     same_data = run.trained_on(dataset.fingerprint)
     if same_data is None:
@@ -100,7 +97,7 @@ def evaluate_run(run: TrainedRun, out: Path, data_dir: Path | str | None = None,
         outputs = predict(run.model, data.inputs, run.config.train.prediction)
     point, unit = checkpoint_point(run, dataset)
     header = {"point": point, "unit": unit, "checkpoint": run.checkpoint,
-              "run_dir": str(run.run_dir), "data_dir": data_config.data_dir,
+              "run_dir": str(run.run_dir.resolve()), "data_dir": data_config.data_dir,
               "test_user": test_user, "preprocessing": "stream" if stream else "offline",
               "trained_on_this_data": same_data}
     with staged_folder(out, overwrite) as folder:

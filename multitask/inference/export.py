@@ -2,12 +2,16 @@
 
 ``tf.saved_model.load(DIR).signatures[...]``:
 
-* ``serving_default(kinematics)``: one recording, ``kinematics`` ``[n_frames, 76]`` float64 in the
-  JIGSAWS column layout at 30 Hz. The run's offline preprocessing runs inside the graph (feature
-  columns; zero-phase Butterworth low-pass, computed as ``scipy.signal.sosfiltfilt`` does, odd
-  padding included; every 6th frame from the first; z-normalisation over the recording), then the
-  network. Returns, per 30 Hz frame as ``multitask-predict``'s CSV: ``frame`` ``[n]`` int64
-  (1-based), ``sample`` ``[n]`` int64 (the 5 Hz sample it takes its prediction from) and, per task,
+* ``serving_default(kinematics)``: one recording, ``kinematics`` ``[n_frames, C]`` float64 at the
+  recording format's rate, in the columns ``model.json``'s ``recording.columns`` lists: the
+  format's own columns when its files have no header (the release's 76 JIGSAWS columns at 30 Hz
+  for a run trained on the release), else the columns of the run's features, by the names the
+  format gives them, in that order. The run's offline preprocessing runs inside the graph
+  (feature columns; zero-phase Butterworth low-pass designed at the recording's rate, computed as
+  ``scipy.signal.sosfiltfilt`` does, odd padding included; one frame in ``resample_step`` from
+  the first, 6 at 30 Hz, 20 at 100 Hz; z-normalisation over the recording), then the network.
+  Returns, per frame (row) as ``multitask-predict``'s CSV: ``frame`` ``[n]`` int64 (1-based),
+  ``sample`` ``[n]`` int64 (the 5 Hz sample it takes its prediction from) and, per task,
   ``<task>`` ``[n]`` int64 (class index) and ``<task>_scores`` ``[n, K]`` float32 (the CSV's score
   columns). Recordings need more frames than the filter's padding (15).
 * ``features(features)``: preprocessed samples ``[T, F]`` float32 -> ``<task>`` ``[T]`` and
@@ -17,7 +21,8 @@ A non-finite input value (NaN, inf) is an error (``InvalidArgumentError``), as i
 ``multitask-predict``, rather than scores of NaN for every frame.
 
 ``assets.extra/model.json`` documents the signatures, the class names of every task, the
-preprocessing parameters (filter sections, columns, rate) and the run's configuration.
+recording format the run trained on (columns, rate; ``recording``), the preprocessing parameters
+(filter sections, columns, step) and the run's configuration.
 """
 from __future__ import annotations
 
@@ -28,20 +33,16 @@ import tensorflow as tf
 from scipy import signal
 
 from jigsaws_tools.errors import WriteFailed
-from jigsaws_tools.features import feature_columns
-from jigsaws_tools.preprocessing import butterworth
-from jigsaws_tools.release import KINEMATICS_HZ, NUM_KINEMATIC_COLUMNS
+from jigsaws_tools.preprocessing import butterworth, decimation
 from rnn_seg.runs.folder import to_jsonable, write_json
-from rnn_seg.runs.outputs import check_new_output
 from rnn_seg.runs.publish import staged_folder
 
+from .output_folders import check_export_folder
 from .trained_run import CONFIG_FILE, TrainedRun
 
-EXPORT_FORMAT = 1
+#: 2: the input columns and rate of the run's recording format (1: the release's only).
+EXPORT_FORMAT = 2
 DESCRIPTION_FILE = Path("assets.extra") / "model.json"
-#: What a SavedModel folder holds: all ``--overwrite`` may replace.
-EXPORT_ENTRIES = frozenset({"saved_model.pb", "fingerprint.pb", "variables", "assets",
-                            "assets.extra"})
 
 
 def _sosfilt(sos: np.ndarray, x: tf.Tensor, state: tf.Tensor) -> tf.Tensor:
@@ -83,19 +84,18 @@ class ExportedRun(tf.Module):
 
     def __init__(self, run: TrainedRun):
         super().__init__(name="exported_run")
-        if not run.config.data.recording_format.is_default:
-            raise ValueError(f"{run.run_dir}: trained on {run.config.data.recording_format.name} "
-                             "recordings; an export serves JIGSAWS-layout kinematics only")
+        fmt = run.config.data.recording_format
         self.model = run.model
         self._tasks = run.tasks
         self._prep = run.config.data.preprocessing
-        self._columns = list(feature_columns(run.config.data.feature_set))
-        self._sos = butterworth(self._prep.cutoff_hz, self._prep.filter_order)
+        self._columns = run.feature_indices()
+        self._step = decimation(self._prep, fmt.rate_hz)
+        self._sos = butterworth(self._prep.cutoff_hz, self._prep.filter_order, fmt.rate_hz)
         size = len(self._columns)
         self.features = tf.function(self._features,
                                     input_signature=[tf.TensorSpec([None, size], tf.float32)])
         self.serve = tf.function(self._serve, input_signature=[
-            tf.TensorSpec([None, NUM_KINEMATIC_COLUMNS], tf.float64, name="kinematics")])
+            tf.TensorSpec([None, len(run.input_columns())], tf.float64, name="kinematics")])
 
     def _features(self, features: tf.Tensor) -> dict[str, tf.Tensor]:
         """Samples ``[T, F]`` -> per task ``<task>`` ``[T]`` and ``<task>_scores`` ``[T, K]``."""
@@ -109,19 +109,19 @@ class ExportedRun(tf.Module):
         return result
 
     def _serve(self, kinematics: tf.Tensor) -> dict[str, tf.Tensor]:
-        """One recording ``[n_frames, 76]`` -> per-frame predictions (module docstring)."""
+        """One recording ``[n_frames, C]`` -> per-frame predictions (module docstring)."""
         kinematics = tf.debugging.assert_all_finite(kinematics,
                                                     "kinematics hold a non-finite value")
         x = tf.gather(kinematics, self._columns, axis=1)
         if self._prep.lowpass:
             x = _sosfiltfilt(self._sos, x)
-        x = x[::self._prep.resample_factor]
+        x = x[::self._step]
         if self._prep.normalise:
             std = tf.math.reduce_std(x, axis=0, keepdims=True)
             x = (x - tf.reduce_mean(x, axis=0, keepdims=True)) / tf.where(std > 0, std, 1.0)
         per_sample = self._features(tf.cast(x, tf.float32))
         frames = tf.range(1, tf.shape(kinematics)[0] + 1, dtype=tf.int64)
-        samples = (frames - 1) // self._prep.resample_factor
+        samples = (frames - 1) // self._step
         result = {"frame": frames, "sample": samples}
         result.update({name: tf.gather(value, samples) for name, value in per_sample.items()})
         return result
@@ -129,31 +129,37 @@ class ExportedRun(tf.Module):
 
 def describe(run: TrainedRun) -> dict:
     """The contents of ``assets.extra/model.json``."""
-    prep = run.config.data.preprocessing
+    prep, fmt = run.config.data.preprocessing, run.config.data.recording_format
+    columns = run.input_columns()
     return {
         "format": EXPORT_FORMAT,
         "run": {"run_dir": str(run.run_dir.resolve()), "variant": run.variant,
                 "checkpoint_sweep": run.checkpoint, "finished": run.finished},
+        "recording": {"format": fmt.name, "rate_hz": fmt.rate_hz, "columns": columns,
+                      "features": {f: fmt.column_of(f) for f in run.config.data.features},
+                      "definition": to_jsonable(fmt)},
         "signatures": {
             "serving_default": {
-                "inputs": {"kinematics": f"[n_frames, {NUM_KINEMATIC_COLUMNS}] float64, one "
-                                         f"recording, JIGSAWS columns, {KINEMATICS_HZ:g} Hz"},
+                "inputs": {"kinematics": f"[n_frames, {len(columns)}] float64, one recording "
+                                         f"at {fmt.rate_hz:g} Hz, in the columns "
+                                         f"recording.columns ({fmt.name} format)"},
                 "outputs": {"frame": "[n_frames] int64, 1-based",
                             "sample": "[n_frames] int64, the sample whose prediction the frame "
-                                      "takes: (frame - 1) // resample_factor",
+                                      "takes: (frame - 1) // resample_step",
                             **_task_outputs(run, "n_frames")}},
             "features": {
-                "inputs": {"features": f"[T, {len(feature_columns(run.config.data.feature_set))}]"
-                                       " float32, preprocessed samples"},
+                "inputs": {"features": f"[T, {len(run.config.data.features)}] float32, "
+                                       "preprocessed samples"},
                 "outputs": _task_outputs(run, "T")}},
         "tasks": [{"name": t.name, "classes": list(t.class_names),
                    "score_columns": t.score_columns(), "ordered": t.ordered} for t in run.tasks],
         "preprocessing": {
-            "feature_columns_1based": [c + 1 for c in feature_columns(run.config.data.feature_set)],
+            "feature_columns_1based": [c + 1 for c in run.feature_indices()],
             "lowpass": prep.lowpass,
-            "lowpass_sos": butterworth(prep.cutoff_hz, prep.filter_order).tolist(),
+            "lowpass_sos": butterworth(prep.cutoff_hz, prep.filter_order, fmt.rate_hz).tolist(),
             "lowpass_method": "scipy.signal.sosfiltfilt(sos, x, axis=0) on the whole recording",
-            "resample_factor": prep.resample_factor,
+            "resample_step": decimation(prep, fmt.rate_hz),
+            "sample_hz": prep.sample_hz,
             "normalise": prep.normalise,
             "normalise_method": "per column: (x - mean) / std over the recording's samples "
                                 "(population std; 0 -> 1)",
@@ -182,7 +188,7 @@ def export_run(run: TrainedRun, out: Path, overwrite: bool = False) -> Path:
     Returns:
         ``out``.
     """
-    check_new_output(out, "multitask-export", EXPORT_ENTRIES, overwrite)
+    check_export_folder(out, overwrite)
     module = ExportedRun(run)
     with staged_folder(out, overwrite) as folder:
         try:

@@ -1,15 +1,17 @@
 """``multitask-predict``: label new recordings with a trained run.
 
-INPUT is a JIGSAWS-layout kinematics file (76 columns, one line per 30 Hz frame; no transcription
-needed) or a folder of them; with --format, a recording in that format (e.g. a CSV at 100 Hz with
-its own column names) or a folder of them. For each recording NAME the output folder gets NAME.csv
-(one row per frame of the recording: the predicted gesture name, its class probabilities, the
-progress stage and scores when the model has a progress head) and NAME.png (ribbons at 5 Hz);
-prediction.json records the run, the checkpoint, the inputs and the files written. They are written
-together once every recording is predicted (``rnn_seg.runs.manifest``): ``--overwrite`` replaces an
-earlier prediction in the folder whole, removing the files its record lists that this one does
-not write, and any other file of an output's name; other files stay, and an input recording is
-never written over. See docs/REPRODUCTION.md for how prediction treats every frame.
+INPUT is a recording in the format the run trained on, offline or --stream (for a run trained on
+the release, a JIGSAWS-layout kinematics file: 76 columns, one line per 30 Hz frame; no
+transcription needed) or a folder of them; with --format, a recording in that format (e.g. a CSV at
+100 Hz with its own column names) or a folder of them. For each recording NAME the output folder
+gets NAME.csv (one row per frame of the recording: the predicted gesture name, its class
+probabilities, the progress stage and scores when the model has a progress head) and NAME.png
+(ribbons at 5 Hz); prediction.json records the run, the checkpoint, the inputs and the files
+written. They are written together once every recording is predicted (``rnn_seg.runs.manifest``):
+``--overwrite`` replaces an earlier prediction in the folder whole, removing the files its record
+lists that this one does not write, and any other file of an output's name; other files stay, and
+an input recording is never written over. See docs/REPRODUCTION.md for how prediction treats every
+frame.
 """
 from __future__ import annotations
 
@@ -20,13 +22,14 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from jigsaws_tools.cli.common import import_tensorflow, run_command
+from jigsaws_tools.cli.common import run_command
 from jigsaws_tools.cli.format_options import add_format_option
 from jigsaws_tools.recording_format import JIGSAWS_FORMAT, RecordingFormat
 from rnn_seg.runs.manifest import listed, staged_outputs
 from rnn_seg.runs.outputs import check_output_folder
 
-from .options import load_for_command, stream_layout_advice, trained_run_parser
+from .options import load_for_command, trained_run_parser
+from .run_record import STREAM_NORMALISATION_FILE, data_folder, read_run_config
 
 if TYPE_CHECKING:
     from jigsaws_tools.preprocessing import Normalisation
@@ -92,16 +95,16 @@ def kinematics_files(inputs: list[Path], recording_format: RecordingFormat = JIG
 def _predict(args: argparse.Namespace) -> None:
     from jigsaws_tools.recording_format import load_format
 
-    import_tensorflow()                 # quietly, before trained_run imports it
-    from .trained_run import read_run_config
-
     if args.data_dir and not args.stream:
         raise ValueError("--data-dir only applies with --stream (offline prediction normalises "
                          "each recording by itself)")
+    config = read_run_config(args.run_dir)[0]           # every check before TensorFlow loads
     recording_format = (load_format(args.format) if args.format
-                        else read_run_config(args.run_dir)[0].data.recording_format)
+                        else config.data.recording_format)
     files = kinematics_files(args.inputs, recording_format)
     _check_outputs(args, files)
+    if args.stream and not (args.run_dir / STREAM_NORMALISATION_FILE).is_file():
+        data_folder(config, args.run_dir, args.data_dir)     # its training trials' statistics
     run = load_for_command(args)
     recording_format = run.recording_format(args.format)        # checked against the run
     predictions, normalisation = _predict_all(run, files, recording_format, args)
@@ -148,27 +151,20 @@ def _predict_all(run: TrainedRun, files: list[Path], recording_format: Recording
                  ) -> tuple[dict[Path, RecordingPrediction], Normalisation | None]:
     """Every recording's predictions (offline, or frame by frame with ``--stream``) and the fixed
     statistics a stream used; every input is read and checked before anything is written."""
-    from jigsaws_tools.release import read_kinematics
-
     from .streaming import StreamingPredictor, stream_recording
 
     if not args.stream:
         return {f: run.predict(f, recording_format=recording_format) for f in files}, None
-    if not recording_format.is_default:
-        raise ValueError(f"--stream reads JIGSAWS-layout recordings only, not format "
-                         f"{recording_format.name}; predict offline, without --stream")
     run.require_online("--stream")
-    recordings = {f: read_kinematics(f) for f in files}
-    streamer = StreamingPredictor(run, run.stream_normalisation(args.data_dir))
+    recordings = {f: run.read_inputs(f, recording_format) for f in files}
+    streamer = StreamingPredictor(run, run.stream_normalisation(args.data_dir), recording_format)
     return ({f: stream_recording(streamer, k, str(f)) for f, k in recordings.items()},
             streamer.normalisation)
 
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    return run_command(PROG, args.verbose, lambda: _predict(args),
-                       layout_advice=stream_layout_advice("the JIGSAWS release's layout",
-                                                          "predict") if args.stream else None)
+    return run_command(PROG, args.verbose, lambda: _predict(args))
 
 
 if __name__ == "__main__":

@@ -30,13 +30,11 @@ from rnn_seg.tasks import Task
 from rnn_seg.trainer import predict
 
 from ..models.heads import HeadConfig
-from ..models.run_record import read_run_config  # noqa: F401 (re-exported)
 from .predictions import RecordingPrediction
+from .run_record import (CONFIG_FILE, STREAM_NORMALISATION_FILE, data_folder,  # noqa: F401
+                         read_run_config)
 from ..models.variants import get_variant
 
-CONFIG_FILE = "config.json"
-#: Fixed normalisation statistics of a forward run's streaming inputs, saved once per run.
-STREAM_NORMALISATION_FILE = "stream_normalisation.json"
 #: What a data fingerprint other than the run's means (``TrainedRun.trained_on``).
 FINGERPRINT_DIFFERS = ("its data fingerprint differs from config.json's: other files, or another "
                        "version's way of deriving labels from them")
@@ -106,18 +104,37 @@ class TrainedRun:
                           where)
         return fmt
 
-    def features(self, kinematics: np.ndarray, where: str = "kinematics",
-                 recording_format: RecordingFormat | None = None) -> np.ndarray:
-        """The run's input columns ``[n_frames, F]`` of a recording ``[n_frames, C]`` whose
-        columns are those ``recording_format`` lists (default: the run's; the release's 76)."""
+    def input_columns(self, recording_format: str | Path | RecordingFormat | None = None
+                      ) -> list[str]:
+        """The columns of a recording's values ``[n_frames, C]`` passed as an array, in order
+        (``features``, ``predict``, ``StreamingPredictor.push``, an export's signature): all the
+        format's columns when its files have no header (the release's 76), else the columns of
+        the run's features in the format's names (a header, which says which is which, comes
+        with a file only). Default: the run's format."""
         fmt = self.recording_format(recording_format)
-        if fmt.header:
-            raise ValueError(f"{where}: format {fmt.name} names its columns in a header line; "
-                             "pass the recording's file, whose header says which is which")
+        if not fmt.header:
+            return list(fmt.columns)
+        return [fmt.column_of(f) for f in self.config.data.features]
+
+    def feature_indices(self, recording_format: str | Path | RecordingFormat | None = None
+                        ) -> list[int]:
+        """0-based positions of the run's features among ``input_columns``."""
+        fmt = self.recording_format(recording_format)
+        columns = self.input_columns(fmt)
+        return [columns.index(fmt.column_of(f)) for f in self.config.data.features]
+
+    def features(self, kinematics: np.ndarray, where: str = "kinematics",
+                 recording_format: str | Path | RecordingFormat | None = None) -> np.ndarray:
+        """The run's input columns ``[n_frames, F]`` of a recording ``[n_frames, C]`` whose
+        columns are ``input_columns(recording_format)`` (default: the run's format; the
+        release's 76)."""
+        fmt = self.recording_format(recording_format)
+        columns = self.input_columns(fmt)
         kinematics = np.asarray(kinematics, dtype=np.float64)
-        if kinematics.ndim != 2 or kinematics.shape[1] != len(fmt.columns):
-            raise ValueError(f"{where}: expected [frames, {len(fmt.columns)}] kinematics "
-                             f"({fmt.name} columns), got shape {list(kinematics.shape)}")
+        if kinematics.ndim != 2 or kinematics.shape[1] != len(columns):
+            shown = ", ".join(columns[:3]) + (", ..." if len(columns) > 3 else "")
+            raise ValueError(f"{where}: expected [frames, {len(columns)}] kinematics ({fmt.name} "
+                             f"columns {shown}), got shape {list(kinematics.shape)}")
         if not len(kinematics):
             raise ValueError(f"{where}: no kinematic frames")
         bad = np.argwhere(~np.isfinite(kinematics))
@@ -126,8 +143,14 @@ class TrainedRun:
             raise ValueError(f"{where}: frame {frame + 1}, column {column + 1}: non-finite "
                              f"kinematic value ({kinematics[frame, column]}); the recording "
                              "files refuse it too")
-        return kinematics[:, [fmt.columns.index(fmt.column_of(f))
-                              for f in self.config.data.features]]
+        return kinematics[:, self.feature_indices(fmt)]
+
+    def read_inputs(self, path: Path | str,
+                    recording_format: str | Path | RecordingFormat | None = None) -> np.ndarray:
+        """A recording file's values in ``input_columns(recording_format)`` ``[n_frames, C]``
+        (``jigsaws_tools.release.read_recording``: every error names the file and line)."""
+        fmt = self.recording_format(recording_format)
+        return read_recording(path, fmt, None if not fmt.header else self.config.data.features)
 
     def outputs(self, inputs: list[np.ndarray]) -> dict[str, list[np.ndarray]]:
         """Raw head outputs ``[T_i, K]`` per task of preprocessed sequences ``[T_i, F]``, each
@@ -141,8 +164,8 @@ class TrainedRun:
         """Predict every task for one recording.
 
         Args:
-            kinematics: the path of a recording file, or its values ``[n_frames, C]`` in the
-                columns of a format without header (the release's: ``[n_frames, 76]`` at 30 Hz).
+            kinematics: the path of a recording file, or its values ``[n_frames, C]`` in
+                ``input_columns(recording_format)`` (the release's: ``[n_frames, 76]`` at 30 Hz).
             causal: preprocess as a stream would (causal filter, fixed statistics); forward
                 models only. Default: the run's offline preprocessing.
             normalisation: the fixed statistics for ``causal`` (None = ``stream_normalisation()``).
@@ -204,8 +227,8 @@ class TrainedRun:
             saved = read_json(path)
             return from_jsonable(Normalisation, saved.get("normalisation")
                                  if isinstance(saved, dict) else saved, f"{path}: normalisation")
-        stats, trials = training_normalisation(self.config, data_dir)
-        folder = data_dir or self.config.data.data_dir
+        folder = data_folder(self.config, self.run_dir, data_dir)
+        stats, trials = training_normalisation(self.config, folder)
         if fingerprint is None and self.data_fingerprint is not None:
             fingerprint = data_fingerprint(replace(self.config.data, data_dir=str(folder)))
         if fingerprint is not None and self.trained_on(fingerprint) is False:
@@ -230,7 +253,8 @@ def training_normalisation(config: RunConfig, data_dir: Path | str | None = None
     """Mean and standard deviation of the causally preprocessed samples of a run's training
     trials (every frame, as a stream sees them), pooled; and the trials' names.
 
-    ``data_dir``: the release holding them (default: the run's ``data.data_dir``).
+    ``data_dir``: the release holding them (default: the run's ``data.data_dir``, which must
+    be absolute or relative to the working directory).
     """
     data = config.data
     index = discover(data_dir or data.data_dir, data.task, data.recording_format)

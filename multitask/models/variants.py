@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 from jigsaws_tools.task_definition import SUTURING, TaskDefinition
 from rnn_seg.config import OptimConfig, TrainConfig
 
-from .config import HeadConfig
+from .config import WEIGHTINGS, GradNormConfig, HeadConfig
 
 if TYPE_CHECKING:
     from rnn_seg.tasks import Task
@@ -21,6 +21,8 @@ if TYPE_CHECKING:
 _MULTITASK = {"r": OptimConfig(learning_rate=0.1, momentum=0.9),
               "c": OptimConfig(learning_rate=1.0), "oc": OptimConfig(learning_rate=1.0)}
 MULTITASK_EVAL = TrainConfig.eval_points
+#: How each progress head learns, as the model's full name says it (``Variant.full_name``).
+PROGRESS_HEADS = {"r": "regression", "c": "classification", "oc": "ordered classification"}
 #: Footnote: single-task P models "were trained ... with the same hyperparameters as their
 #: multi-task counterpart. Weight decay was however anticipated and training was stopped after 80
 #: iterations." We shift the whole schedule 40 epochs earlier (docs/REPRODUCTION.md).
@@ -60,6 +62,25 @@ class Variant:
         """Whether the variant has two tasks (gestures and progress)."""
         return self.gestures and self.progress is not None
 
+    def full_name(self, weighting: str, gradnorm: GradNormConfig | None = None,
+                  weighting_given: bool = True) -> str:
+        """The model as a training's first printed line names it, its task weighting included,
+        e.g. ``APoc (gestures + progress by ordered classification), GradNorm task weights
+        (alpha 1.5)``; with ``weighting_given`` False (the default weighting, not asked for) a
+        fixed-weight multi-task model says how to get the paper's GradNorm."""
+        head = PROGRESS_HEADS.get(self.progress)
+        if not self.multitask:
+            return f"{self.name} (gestures only)" if self.gestures else (
+                f"{self.name} (progress only, by {head})")
+        name = f"{self.name} (gestures + progress by {head})"
+        if weighting == "gradnorm":
+            gradnorm = gradnorm or GradNormConfig()
+            return (f"{name}, GradNorm task weights (alpha {gradnorm.alpha:g}, weight learning "
+                    f"rate {gradnorm.learning_rate:g}, {gradnorm.relative_rate} ratios)")
+        fixed = f"{name}, fixed task weights w1 = w2 = 1"
+        return fixed if weighting_given else (f"{fixed} (the default; --weighting gradnorm for "
+                                              "the paper's GradNorm)")
+
     def optim(self) -> OptimConfig:
         """The paper's optimiser and schedule for this variant."""
         base = _MULTITASK[self.progress] if self.progress else OptimConfig()
@@ -91,6 +112,14 @@ VARIANTS: dict[str, Variant] = {v.name: v for v in (
     Variant("APr", True, "r"), Variant("APc", True, "c"), Variant("APoc", True, "oc"),
     Variant("Pr", False, "r"), Variant("Pc", False, "c"), Variant("Poc", False, "oc"),
 )}
+
+
+def check_weighting(variant: Variant, weighting: str) -> None:
+    """Raise ``ValueError`` unless ``variant`` has ``weighting`` (GradNorm needs two tasks)."""
+    if weighting not in WEIGHTINGS:
+        raise ValueError(f"weighting must be one of {WEIGHTINGS}, not {weighting!r}")
+    if weighting == "gradnorm" and not variant.multitask:
+        raise ValueError(f"GradNorm needs two tasks; variant {variant.name} has one")
 
 
 def get_variant(name: str) -> Variant:
