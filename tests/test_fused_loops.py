@@ -24,8 +24,10 @@ def _run(data_dir, out, loops):
                        optim=OptimConfig(total=6, decay_start=4, decay_every=100),
                        train=TrainConfig(seed=0, eval_points=()))
     train_baseline(config, out, log=lambda m: None)
+    recorded = json.loads((out / "config.json").read_text())
+    assert recorded["provenance"]["loops"] == loops               # those the process ran
     return (json.loads((out / "metrics.json").read_text())["mean"]["gesture"],
-            json.loads((out / "config.json").read_text())["run"]["encoder"]["loops"])
+            recorded["run"]["encoder"]["loops"])
 
 
 @needs_fused
