@@ -169,6 +169,24 @@ def test_fused_loops_split_between_threads_equal_the_op_loops():
         np.testing.assert_allclose(got.numpy(), want.numpy(), rtol=1e-4, atol=1e-6)
 
 
+@needs_fused
+def test_fused_loops_take_any_number_of_rows():
+    """The fused ops run a batch in passes of up to 6 rows: 13 rows (6 + 6 + 1), 20 units (a
+    partial panel), give the op loops' outputs and gradients."""
+    rng = np.random.default_rng(6)
+    x = tf.constant(rng.normal(size=(13, 11, F)), tf.float32)
+    r = tf.constant(rng.random((13, 11)) < 0.2)
+    results = {}
+    for loops in ("graph", "fused"):
+        enc = _encoder("corrected", loops=loops, hidden=20)
+        with tf.GradientTape() as tape:
+            y = enc(x, r, None)
+            loss = tf.reduce_sum(y * y)
+        results[loops] = [y, *tape.gradient(loss, enc.trainable_variables)]
+    for got, want in zip(results["fused"], results["graph"]):
+        np.testing.assert_allclose(got.numpy(), want.numpy(), rtol=1e-5, atol=1e-6)
+
+
 @needs_fused_bf16
 def test_fused_bf16_loops_equal_the_op_loops_to_bf16_rounding():
     """bfloat16 products in the fused ops round as TensorFlow's do (operands and results to

@@ -41,11 +41,7 @@ def library_dir() -> Path:
 
 def compile_command(source: Path, target: Path) -> list[str]:
     """The compiler's command line for ``source`` -> shared library ``target``."""
-    compiler = os.environ.get("CXX") or "g++"
-    if shutil.which(compiler) is None:
-        raise KernelUnavailable(f"no C++ compiler: {compiler!r} not found (install g++, or set "
-                                "$CXX)")
-    return [compiler, "-shared", "-fPIC", "-O3", "-march=native", "-w",
+    return [os.environ.get("CXX") or "g++", "-shared", "-fPIC", "-O3", "-march=native", "-w",
             *tf.sysconfig.get_compile_flags(), str(source), "-o", str(target),
             *tf.sysconfig.get_link_flags()]
 
@@ -61,6 +57,10 @@ def library_path() -> Path:
 
 def build(path: Path) -> None:
     """Compile the library into ``path`` (through a temporary file renamed into place)."""
+    command = compile_command(SOURCE, path)
+    if shutil.which(command[0]) is None:
+        raise KernelUnavailable(f"no C++ compiler: {command[0]!r} not found (install g++, or "
+                                "set $CXX)")
     path.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=path.parent, prefix=".build-") as work:
         target = Path(work) / path.name
@@ -91,7 +91,8 @@ def library() -> ModuleType:
     except OSError as error:
         raise KernelUnavailable(f"{path}: {error}") from None
     except tf.errors.NotFoundError as error:
-        raise KernelUnavailable(f"loading {path} failed: {error.message.splitlines()[0]}") from None
+        raise KernelUnavailable(f"loading {path} failed: {error.message.splitlines()[0]} "
+                                "(delete it to rebuild)") from None
 
 
 def weight_dtypes() -> set[tf.DType]:
