@@ -1,6 +1,8 @@
 """The fused C++ loops (``loops = "fused"``): a run trains as on the graph loops; where they cannot
 be built, the graph loops run after one line saying why, and a failed build leaves nothing."""
 import json
+import os
+import shutil
 from dataclasses import replace
 
 import pytest
@@ -39,6 +41,15 @@ def test_a_seeded_run_on_the_fused_loops_scores_as_on_the_graph_loops(synth_dir,
     assert (graph_loops, fused_loops) == ("graph", "fused")
     for metric in ("accuracy", "edit", "f1@10"):
         assert fused[metric] == pytest.approx(graph[metric], abs=1.0), metric
+
+
+@pytest.mark.skipif(shutil.which(os.environ.get("CXX") or "g++") is None,
+                    reason="no C++ compiler: the fused loops' tests are skipped")
+def test_the_fused_loops_build_wherever_a_compiler_is():
+    """With a compiler present, a failing build is a bug, not a reason to skip (CI checks it)."""
+    assert build.unavailable("fp32") is None
+    if lstm.native_bf16() and "avx512_bf16" in lstm.cpu_flags():
+        assert build.unavailable("bf16") is None
 
 
 def test_unbuildable_fused_loops_fall_back_to_the_graph_loops_after_one_line(monkeypatch, capsys):
