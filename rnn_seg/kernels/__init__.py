@@ -15,5 +15,5 @@ of the layer (input product, dropout, resets, reversal, ``dW_h``, clipping) is u
 ``python -m rnn_seg.kernels`` builds the library now (e.g. right after installing) and prints
 where it is, or why it cannot be built (exit status 1).
 
-Imports: TensorFlow and ``jigsaws_tools`` (the cache folder) only.
+Imports: TensorFlow, ``jigsaws_tools`` (the cache folder) and the engine's ``config`` only.
 """
