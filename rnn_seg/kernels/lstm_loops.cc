@@ -16,9 +16,9 @@
 // operand is rounded to bfloat16 (nearest even) and the float32 sum is rounded to bfloat16 and
 // widened, as TensorFlow's bfloat16 matmul and cast do in rnn_seg.lstm.product.
 //
-// Threads: the units' panels are split between up to the op's intra-op thread count (at least 4
-// panels a thread); the threads meet once per step at a barrier (every unit's h_t, or every
-// gate's dz_t, is read by the next step's product).
+// Threads: up to the op's intra-op thread count (at least 4 panels a thread) share each step's
+// panels, claiming a few at a time (SharedSteps); a step starts once every panel of the one
+// before is done (every unit's h_t, or every gate's dz_t, is read by the next step's product).
 #include <algorithm>
 #include <atomic>
 #include <condition_variable>
@@ -34,7 +34,6 @@
 #endif
 
 #include "Eigen/Core"
-#include "absl/synchronization/blocking_counter.h"
 #include "tensorflow/core/framework/op.h"
 #include "tensorflow/core/framework/op_kernel.h"
 #include "tensorflow/core/framework/shape_inference.h"
@@ -67,60 +66,110 @@ std::unique_ptr<T[], AlignedFree> aligned_zeros(size_t count) {
   return std::unique_ptr<T[], AlignedFree>(p);
 }
 
-// A barrier for the few threads of one op: spins for about a step's time, then sleeps until the
-// last thread arrives (a busy machine may have descheduled it; spinning on would take its core).
-class Barrier {
+// A loop over steps whose panels several threads share: every participant claims chunks of
+// the current step's panels, and a step's panels are claimed only once every panel of the step
+// before is done. A participant that is descheduled (a busy machine) holds up a step by at most
+// the chunk it claimed: the others claim the rest, so the op never waits for a thread that has
+// not started. Waiting spins for about a step's time, then sleeps until the step completes.
+class SharedSteps {
  public:
-  explicit Barrier(int threads) : threads_(threads) {}
-  void wait() {
-    if (threads_ == 1) return;
-    const int generation = generation_.load();
-    if (arrived_.fetch_add(1) == threads_ - 1) {
-      arrived_.store(0);
-      generation_.fetch_add(1);
-      if (sleepers_.load() > 0) {
+  SharedSteps(int steps, int panels, int chunk)
+      : panels_(panels), chunk_(chunk), total_(int64_t(steps) * panels) {}
+
+  // Runs work(step, first_panel, end_panel) on chunks until nothing is left to claim;
+  // start(step) runs before this participant's first chunk of a step.
+  template <typename Start, typename Work>
+  void participate(Start start, Work work) {
+    int64_t started = -1;
+    for (;;) {
+      int64_t first = claimed_.load();
+      const int64_t step = first / panels_;
+      if (first >= total_) return;
+      wait_done(step * panels_);                         // the step before is complete
+      const int64_t end_of_step = (step + 1) * panels_;
+      int64_t last = 0;
+      for (first = claimed_.load(); first < end_of_step;) {
+        last = std::min(first + chunk_, end_of_step);
+        if (claimed_.compare_exchange_weak(first, last)) break;
+      }
+      if (first >= end_of_step) continue;                // all claimed: on to the next step
+      if (started != step) {
+        start(static_cast<int>(step));
+        started = step;
+      }
+      work(static_cast<int>(step), static_cast<int>(first - step * panels_),
+           static_cast<int>(last - step * panels_));
+      const int64_t done = done_.fetch_add(last - first) + (last - first);
+      if (done % panels_ == 0 && sleepers_.load() > 0) {
         { std::lock_guard<std::mutex> lock(mutex_); }
         wake_.notify_all();
       }
-      return;
     }
+  }
+
+  // Until every panel of every step is done.
+  void wait_all() { wait_done(total_); }
+
+  // A pool task enters before it participates (false: the op is over, return at once) and
+  // leaves after; finish() (the op's own thread, after wait_all) waits for those inside.
+  bool enter() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (finished_) return false;
+    ++inside_;
+    return true;
+  }
+  void leave() {
+    { std::lock_guard<std::mutex> lock(mutex_); --inside_; }
+    wake_.notify_all();
+  }
+  void finish() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    finished_ = true;
+    wake_.wait(lock, [&] { return inside_ == 0; });
+  }
+
+ private:
+  void wait_done(int64_t target) {
     for (int spins = 0; spins < kSpins; ++spins) {
-      if (generation_.load(std::memory_order_acquire) != generation) return;
+      if (done_.load(std::memory_order_acquire) >= target) return;
 #if defined(__x86_64__)
       __builtin_ia32_pause();
 #endif
     }
     std::unique_lock<std::mutex> lock(mutex_);
     sleepers_.fetch_add(1);
-    wake_.wait(lock, [&] { return generation_.load() != generation; });
+    wake_.wait(lock, [&] { return done_.load() >= target; });
     sleepers_.fetch_sub(1);
   }
 
- private:
   static constexpr int kSpins = 20000;
-  const int threads_;
-  std::atomic<int> arrived_{0}, generation_{0}, sleepers_{0};
+  const int64_t panels_, chunk_, total_;
+  std::atomic<int64_t> claimed_{0}, done_{0};
+  std::atomic<int> sleepers_{0};
+  int inside_ = 0;
+  bool finished_ = false;
   std::mutex mutex_;
   std::condition_variable wake_;
 };
 
-// Runs body(first_panel, end_panel) on `threads` threads, panels split evenly: the calling
-// thread and threads - 1 tasks of the op's intra-op pool (whose idle threads spin for work, so
-// a task starts at once; threads of our own would compete with them for the cores).
-template <typename Body>
-void run_threads(OpKernelContext* ctx, int threads, int panels, Body body) {
-  auto range = [&](int t) {
-    body(static_cast<int>(int64_t(panels) * t / threads),
-         static_cast<int>(int64_t(panels) * (t + 1) / threads));
-  };
-  absl::BlockingCounter done(threads - 1);
+// Runs `participant(steps)` (which calls SharedSteps::participate with its own buffers) on the
+// calling thread and on threads - 1 tasks of the op's intra-op pool (whose idle threads spin for
+// work, so a task usually starts at once; threads of our own would compete with them for the
+// cores). A task that starts after the op's steps are all done returns at once.
+template <typename Participant>
+void run_shared(OpKernelContext* ctx, int threads, int steps, int panels,
+                Participant participant) {
+  constexpr int kChunk = 2;                              // panels claimed at a time
+  auto shared = std::make_shared<SharedSteps>(steps, panels, kChunk);
   for (int t = 1; t < threads; ++t)
-    ctx->device()->tensorflow_cpu_worker_threads()->workers->Schedule([&, t] {
-      range(t);
-      done.DecrementCount();
+    ctx->device()->tensorflow_cpu_worker_threads()->workers->Schedule([shared, &participant] {
+      if (!shared->enter()) return;
+      participant(*shared);
+      shared->leave();
     });
-  range(0);
-  done.Wait();
+  participant(*shared);
+  shared->wait_all();
+  shared->finish();
 }
 
 int thread_count(OpKernelContext* ctx, int panels) {
@@ -363,15 +412,15 @@ void forward(OpKernelContext* ctx, const Dims& d, const float* x_proj, const flo
              const typename Panels::Weight* w_h, const float* peep, float* out[6]) {
   const int H = d.hidden, B = d.batch;
   const Panels w = Panels::forward(w_h, H);
-  const int threads = thread_count(ctx, w.panels);
-  Barrier barrier(threads);
   const size_t step = size_t(B) * H;
   float *h = out[0], *c = out[1], *g = out[2], *i = out[3], *f = out[4], *o = out[5];
-  run_threads(ctx, threads, w.panels, [&](int first, int end) {
+  run_shared(ctx, thread_count(ctx, w.panels), d.steps, w.panels, [&](SharedSteps& steps) {
     typename Panels::Rows rows;
     v16 acc[kMaxRows][4];
-    for (int t = 0; t < d.steps; ++t) {
+    auto start = [&](int t) {                            // every unit's h_{t-1} is written
       if (t > 0) rows.prepare(h + (t - 1) * step, B, H, H);
+    };
+    steps.participate(start, [&](int t, int first, int end) {
       for (int panel = first; panel < end; ++panel) {
         const int unit = panel * kLanes;
         const Lanes w_ic = load(peep, unit, H), w_fc = load(peep + H, unit, H),
@@ -405,8 +454,7 @@ void forward(OpKernelContext* ctx, const Dims& d, const float* x_proj, const flo
           }
         }
       }
-      barrier.wait();
-    }
+    });
   });
 }
 
@@ -418,20 +466,33 @@ void backward(OpKernelContext* ctx, const Dims& d, const float* dh_out, const fl
               const float* peep, float* dz) {
   const int H = d.hidden, B = d.batch;
   const Panels w = Panels::backward(w_h, H);
-  const int threads = thread_count(ctx, w.panels);
-  Barrier barrier(threads);
   const size_t step = size_t(B) * H;
   const float *c = state[0], *g = state[1], *i = state[2], *f = state[3], *o = state[4];
   std::vector<float> dh_next(step, 0.0f), dc_next(step, 0.0f);   // reaching step t from t + 1
-  run_threads(ctx, threads, w.panels, [&](int first, int end) {
+  // Shared step s runs time t = steps - 1 - s for a panel's units: the product dz_{t+1} W^T
+  // (every unit's dz_{t+1} is written) gives their dh reaching t, then their dz_t.
+  run_shared(ctx, thread_count(ctx, w.panels), d.steps, w.panels, [&](SharedSteps& steps) {
     typename Panels::Rows rows;
     v16 acc[kMaxRows][4];
-    for (int t = d.steps - 1; t >= 0; --t) {
-      for (int panel = first; panel < end; ++panel) {   // dz_t of this thread's units
+    auto start = [&](int s) {
+      const int t = d.steps - 1 - s;
+      if (s > 0) rows.prepare(dz + size_t(t + 1) * B * 4 * H, B, 4 * H, 4 * H);
+    };
+    steps.participate(start, [&](int s, int first, int end) {
+      const int t = d.steps - 1 - s;
+      for (int panel = first; panel < end; ++panel) {
         const int unit = panel * kLanes;
+        for (int row0 = 0; s > 0 && row0 < B; row0 += kMaxRows) {    // dh reaching step t
+          const int count = std::min(kMaxRows, B - row0);
+          product_rows<Panels, true>(w, rows, row0, count, panel, acc);
+          for (int r = 0; r < count; ++r) {
+            const int b = row0 + r;
+            store(lanes(acc[r][0]) * keep[(t + 1) * B + b], &dh_next[b * H], unit, H);
+          }
+        }
         const Lanes w_ic = load(peep, unit, H), w_fc = load(peep + H, unit, H),
                     w_oc = load(peep + 2 * H, unit, H);
-        for (int b = 0; b < B; ++b) {
+        for (int b = 0; b < B; ++b) {                                // dz_t of these units
           const size_t at = t * step + b * H;
           const Lanes c_t = load(c + at, unit, H), g_t = load(g + at, unit, H),
                       i_t = load(i + at, unit, H), f_t = load(f + at, unit, H),
@@ -451,21 +512,7 @@ void backward(OpKernelContext* ctx, const Dims& d, const float* dh_out, const fl
           store(dc * to_prev, &dc_next[b * H], unit, H);
         }
       }
-      barrier.wait();                                    // every unit's dz_t written
-      if (t == 0) break;
-      rows.prepare(dz + size_t(t) * B * 4 * H, B, 4 * H, 4 * H);
-      for (int panel = first; panel < end; ++panel) {   // dh reaching step t - 1
-        const int unit = panel * kLanes;
-        for (int row0 = 0; row0 < B; row0 += kMaxRows) {
-          const int count = std::min(kMaxRows, B - row0);
-          product_rows<Panels, true>(w, rows, row0, count, panel, acc);
-          for (int r = 0; r < count; ++r) {
-            const int b = row0 + r;
-            store(lanes(acc[r][0]) * keep[t * B + b], &dh_next[b * H], unit, H);
-          }
-        }
-      }
-    }
+    });
   });
 }
 
