@@ -179,7 +179,7 @@ int thread_count(OpKernelContext* ctx, int panels) {
 
 // ---- the products, float32 -------------------------------------------------------------------
 
-// Weights in panels for one direction of product; rows(r) gives the row operand's pointer.
+// W_h laid out in panels for one of the two products (forward h W, backward dz W^T).
 struct Fp32Panels {
   using Weight = float;
   int panels, depth;                       // depth: vectors of 4 x 16 floats per panel
@@ -518,7 +518,7 @@ void backward(OpKernelContext* ctx, const Dims& d, const float* dh_out, const fl
 
 // ---- the ops ---------------------------------------------------------------------------------
 
-tensorflow::Status check(OpKernelContext* ctx, const Tensor& x, int rank, const char* name) {
+tensorflow::Status check(const Tensor& x, int rank, const char* name) {
   if (x.dims() != rank)
     return InvalidArgument(name, " must have rank ", rank, ", got ", x.shape().DebugString());
   return tensorflow::OkStatus();
@@ -532,8 +532,9 @@ class ForwardOp : public OpKernel {
   void Compute(OpKernelContext* ctx) override {
     const Tensor &x_proj = ctx->input(0), &keep = ctx->input(1), &w = ctx->input(2),
                  &peep = ctx->input(3), &steps = ctx->input(4);
-    OP_REQUIRES_OK(ctx, check(ctx, x_proj, 3, "x_proj"));
-    OP_REQUIRES_OK(ctx, check(ctx, w, 2, "w"));
+    OP_REQUIRES_OK(ctx, check(x_proj, 3, "x_proj"));
+    OP_REQUIRES_OK(ctx, check(w, 2, "w"));
+    OP_REQUIRES_OK(ctx, check(steps, 0, "steps"));
     const Dims d{steps.scalar<int32_t>()(), int(x_proj.dim_size(0)), int(x_proj.dim_size(1)),
                  int(w.dim_size(0))};
     OP_REQUIRES(ctx, x_proj.dim_size(2) == 4 * d.hidden && w.dim_size(1) == 4 * d.hidden &&
@@ -574,8 +575,9 @@ class BackwardOp : public OpKernel {
   void Compute(OpKernelContext* ctx) override {
     const Tensor &dh_out = ctx->input(0), &keep = ctx->input(1), &c_prev = ctx->input(7),
                  &w = ctx->input(8), &peep = ctx->input(9), &steps = ctx->input(10);
-    OP_REQUIRES_OK(ctx, check(ctx, dh_out, 3, "dh_out"));
-    OP_REQUIRES_OK(ctx, check(ctx, w, 2, "w"));
+    OP_REQUIRES_OK(ctx, check(dh_out, 3, "dh_out"));
+    OP_REQUIRES_OK(ctx, check(w, 2, "w"));
+    OP_REQUIRES_OK(ctx, check(steps, 0, "steps"));
     const Dims d{steps.scalar<int32_t>()(), int(dh_out.dim_size(0)), int(dh_out.dim_size(1)),
                  int(w.dim_size(0))};
     OP_REQUIRES(ctx, dh_out.dim_size(2) == d.hidden && w.dim_size(1) == 4 * d.hidden &&
