@@ -161,12 +161,14 @@ def test_compiled_loops_equal_the_op_loops(mode, loops):
 
 @needs_fused
 def test_fused_loops_split_between_threads_equal_the_op_loops():
-    """At 130 units the fused ops split 9 panels of 16 units (the last one partial) between the
-    intra-op threads, which meet once per step: same outputs and gradients as the op loops."""
-    fused, graph = (_outputs_and_gradients("corrected", loops, hidden=130, layers=1)
-                    for loops in ("fused", "graph"))
-    for got, want in zip(fused, graph):
+    """At 130 units the intra-op threads share 9 panels of 16 units (the last one partial),
+    claiming them as they come: same outputs and gradients as the op loops, and the same to the
+    last bit whichever thread computed which panel."""
+    fused, again, graph = (_outputs_and_gradients("corrected", loops, hidden=130, layers=1)
+                           for loops in ("fused", "fused", "graph"))
+    for got, repeated, want in zip(fused, again, graph):
         np.testing.assert_allclose(got.numpy(), want.numpy(), rtol=1e-4, atol=1e-6)
+        np.testing.assert_array_equal(got.numpy(), repeated.numpy())
 
 
 @needs_fused
