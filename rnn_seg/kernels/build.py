@@ -61,6 +61,8 @@ def build(path: Path) -> None:
     if shutil.which(command[0]) is None:
         raise KernelUnavailable(f"no C++ compiler: {command[0]!r} not found (install g++, or "
                                 "set $CXX)")
+    print(f"building the fused LSTM loops into {path} (once per TensorFlow version)",
+          file=sys.stderr)
     path.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=path.parent, prefix=".build-") as work:
         target = Path(work) / path.name
@@ -84,8 +86,6 @@ def library() -> ModuleType:
     path = library_path()
     try:
         if not path.is_file():
-            print(f"building the fused LSTM loops into {path} (once per TensorFlow version)",
-                  file=sys.stderr)
             build(path)
         return tf.load_op_library(str(path))
     except OSError as error:
