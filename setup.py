@@ -45,7 +45,9 @@ setup(
     python_requires=">=3.11",
     packages=find_packages(include=["jigsaws_tools*", "rnn_seg*", "baseline*", "multitask*"]),
     package_data={"jigsaws_tools": ["data/*.csv", "data/tasks/*.toml",
-                                   "data/formats/*.toml"]},
+                                   "data/formats/*.toml"],
+                  # the fused LSTM loops' source, compiled on first use (rnn_seg/kernels)
+                  "rnn_seg": ["kernels/*.cc"]},
     install_requires=[
         "tensorflow-cpu>=2.21,<3",
         "numpy>=2.4,<3",

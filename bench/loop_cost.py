@@ -1,12 +1,13 @@
-"""Per-step cost of the LSTM's loops over time: TensorFlow ops step by step against XLA.
+"""Per-step cost of the LSTM's loops over time: TensorFlow ops step by step, XLA, fused C++ ops.
 
 Times, on one core, one direction's forward loop (``h W_h`` and the cell, recording every
 step's activations) and backward loop (the per-step factors, then ``dz W_h^T`` and the chain
 rule step by step), each as ``graph`` (TensorFlow ops, as ``--loops graph`` runs them) and
-``xla`` (one compiled kernel, as ``--loops xla``), plus a loop of the bare product ``h W_h``
-alone: what a step would cost without the cell's other ops. B=5, T=900 (a sweep of the real
-data), float32; median of 7 calls after a warm-up (that compiles). Prints microseconds per step
-and the speed-up of XLA.
+``xla`` (one compiled kernel, as ``--loops xla``) and ``fused`` (the C++ ops of
+``rnn_seg.kernels``, as ``--loops fused``; left out, saying why, where they cannot be built), plus
+a loop of the bare product ``h W_h`` alone: what a step would cost without the cell's other ops.
+B=5, T=900 (a sweep of the real data), float32; median of 7 calls after a warm-up (that
+compiles). Prints microseconds per step and each path's speed-up over ``graph``.
 
     python bench/loop_cost.py [--hidden 128 256 512 1024] [--steps 900]
 """
@@ -44,13 +45,19 @@ def main() -> None:
     import tensorflow as tf
 
     from rnn_seg import lstm
+    from rnn_seg.kernels.build import unavailable
+
+    paths = list(lstm._LOOP_FUNCTIONS)
+    if (reason := unavailable("fp32")) is not None:
+        print(f"fused loops left out: {reason}")
+        paths.remove("fused")
 
     tf.config.threading.set_intra_op_parallelism_threads(1)
     tf.config.threading.set_inter_op_parallelism_threads(1)
     T = args.steps
     print(f"one direction, B={B}, T={T}, float32, one core; us per step")
-    print(f"{'H':>5s} {'bare product':>12s} {'forward graph':>13s} {'xla':>6s} {'speed-up':>8s} "
-          f"{'backward graph':>14s} {'xla':>6s} {'speed-up':>8s}")
+    columns = [f"{phase} {path}" for phase in ("forward", "backward") for path in paths]
+    print(f"{'H':>5s} {'bare product':>12s} " + " ".join(f"{c:>14s}" for c in columns))
     rng = np.random.default_rng(0)
     for H in args.hidden:
         x_proj = tf.constant(rng.normal(size=(T, B, 4 * H)).astype(np.float32))
@@ -68,17 +75,20 @@ def main() -> None:
                                  (0, dh_out[0]), parallel_iterations=1)[1]
 
         costs = {"bare": per_step(bare, T)}
-        for loops, (forward, backward) in lstm._LOOP_FUNCTIONS.items():
+        for loops in paths:
+            forward, backward = lstm._LOOP_FUNCTIONS[loops]
             forward = tf.function(forward) if loops == "graph" else forward
             backward = tf.function(backward) if loops == "graph" else backward
             costs["forward", loops] = per_step(
                 lambda f=forward: f(x_proj, keep, W_h, peep, T), T)
             costs["backward", loops] = per_step(
                 lambda b=backward: b(dh_out, keep, state, c_prev, W_h, peep, T), T)
-        fw = costs["forward", "graph"], costs["forward", "xla"]
-        bw = costs["backward", "graph"], costs["backward", "xla"]
-        print(f"{H:5d} {costs['bare']:12.1f} {fw[0]:13.1f} {fw[1]:6.1f} {fw[0] / fw[1]:7.2f}x "
-              f"{bw[0]:14.1f} {bw[1]:6.1f} {bw[0] / bw[1]:7.2f}x", flush=True)
+        cells = []
+        for phase in ("forward", "backward"):
+            for path in paths:
+                cost, speed_up = costs[phase, path], costs[phase, "graph"] / costs[phase, path]
+                cells.append(f"{cost:.1f}" + ("" if path == "graph" else f" ({speed_up:.2f}x)"))
+        print(f"{H:5d} {costs['bare']:12.1f} " + " ".join(f"{c:>14s}" for c in cells), flush=True)
 
 
 if __name__ == "__main__":

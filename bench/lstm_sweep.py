@@ -1,7 +1,8 @@
 """Time one training sweep (forward, backward, SGD update) of the bidirectional LSTM model.
 
 Compares ``rnn_seg``'s layer in float32 (``rnn_seg``), with bfloat16 products (``rnn_seg_bf16``,
-when the CPU has native bfloat16) and with XLA-compiled loops (``rnn_seg_xla``) with a per-gate
+when the CPU has native bfloat16), with XLA-compiled loops (``rnn_seg_xla``) and with the fused
+C++ loops of ``rnn_seg.kernels`` (``rnn_seg_fused``, ``rnn_seg_fused_bf16``) with a per-gate
 reference written like the original code and with two peers doing the same workload, PyTorch's
 ``nn.LSTM`` (``torch``, ``torch_bf16``: CPU autocast) and Keras's ``Bidirectional(LSTM)`` in our
 TensorFlow (``keras``, ``keras_bf16``: the ``mixed_bfloat16`` policy), at paper size (H=1024,
@@ -36,14 +37,18 @@ os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "2")
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "bench")]
 F, K, B = 14, 10, 5
-IMPLEMENTATIONS = ("rnn_seg", "rnn_seg_bf16", "rnn_seg_xla", "per_gate", "torch", "torch_bf16",
-                   "keras", "keras_bf16")
+IMPLEMENTATIONS = ("rnn_seg", "rnn_seg_bf16", "rnn_seg_xla", "rnn_seg_fused",
+                   "rnn_seg_fused_bf16", "per_gate", "torch", "torch_bf16", "keras", "keras_bf16")
 #: Each peer's package (the first part of its name) and how to install it.
 PEERS = {"torch": "pip install -e '.[bench]'", "keras": "pip install keras"}
 #: (label, slower, faster): each prints ``slower``'s median over ``faster``'s when both ran.
 RATIOS = (("rnn_seg vs per_gate", "per_gate", "rnn_seg"),
           ("bf16 vs fp32", "rnn_seg", "rnn_seg_bf16"),
           ("xla loops vs graph", "rnn_seg", "rnn_seg_xla"),
+          ("fused loops vs graph", "rnn_seg", "rnn_seg_fused"),
+          ("fused bf16 vs graph bf16", "rnn_seg_bf16", "rnn_seg_fused_bf16"),
+          ("fused vs torch (fp32)", "torch", "rnn_seg_fused"),
+          ("fused bf16 vs torch (bf16)", "torch_bf16", "rnn_seg_fused_bf16"),
           ("rnn_seg vs torch (fp32)", "torch", "rnn_seg"),
           ("rnn_seg vs torch (bf16)", "torch_bf16", "rnn_seg_bf16"),
           ("rnn_seg vs keras (fp32)", "keras", "rnn_seg"),
@@ -64,9 +69,12 @@ def _step_function(impl: str, hidden: int):
     dropout_rng = tf.random.Generator.from_seed(1)
     if impl.startswith("rnn_seg"):
         precision = "bf16" if impl.endswith("bf16") else "fp32"
-        loops = "xla" if impl.endswith("xla") else "graph"
+        loops = next((name for name in ("xla", "fused") if f"_{name}" in impl), "graph")
         model = SegmentationModel(F, EncoderConfig(hidden=hidden, precision=precision,
                                                    loops=loops), [task], seed=0)
+        if model.encoder.config.loops != loops:
+            from lstm_peers import Unsupported
+            raise Unsupported(f"{loops} loops unavailable here (the line above says why)")
 
         def outputs(x, r):
             return model(x, r, tf.transpose(dropout_rng.make_seeds(model.dropout_calls)))["gesture"]

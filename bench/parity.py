@@ -3,14 +3,15 @@
 Trains model A and APc (w1 = w2 = 1, revised labels, bidirectional) on every LOUO fold at the
 ``quick`` budget, once as the reference (float32 products, TensorFlow-op loops) and once with
 the option under test (``--compare bf16``: bfloat16 products; ``--compare xla``: XLA-compiled
-loops), same seeds and everything else, as grids under ``--out`` (resumable: finished runs are
-kept; the reference grid is shared by every comparison). The reference grid also trains the
-forward (online) A and APc, whose runs ``multitask-evaluate --stream`` scores for the cost of
-streaming. Prints, per model and gesture metric, both means over folds, the mean paired
+loops; ``--compare fused``: the fused C++ loops), same seeds and everything else, as grids under
+``--out`` (resumable: finished runs are kept; the reference grid is shared by every comparison).
+The reference grid also trains the forward (online) A and APc, whose runs ``multitask-evaluate
+--stream`` scores for the cost of streaming. Prints, per model and gesture metric, both means over folds, the mean paired
 difference (option - reference) and the two-sided Wilcoxon signed-rank p-value over folds.
 
     python bench/parity.py --compare bf16 --out runs/parity [--workers 2]
     python bench/parity.py --compare xla --out runs/parity
+    python bench/parity.py --compare fused --out runs/parity     # the fused C++ loops (#49)
 """
 from __future__ import annotations
 
@@ -34,7 +35,8 @@ variants = ["A", "APc"]
 directions = ["forward"]
 """
 #: grid name -> its spec line; "fp32" is the reference
-OPTIONS = {"fp32": 'precision = "fp32"', "bf16": 'precision = "bf16"', "xla": 'loops = "xla"'}
+OPTIONS = {"fp32": 'precision = "fp32"', "bf16": 'precision = "bf16"', "xla": 'loops = "xla"',
+           "fused": 'loops = "fused"'}
 METRICS = ("gesture_accuracy", "gesture_edit", "gesture_f1@10")
 
 

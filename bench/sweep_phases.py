@@ -17,8 +17,9 @@ it trains with (``rnn_seg``: ``rnn_seg.threads``; PyTorch: every core in each op
   columns): the products' share of ``forward loops``;
 - ``sweep``: the whole training sweep (``lstm_sweep.py``'s).
 
-``rnn_seg_eigen`` runs the same phases with TensorFlow's oneDNN rewrites off
-(``TF_ENABLE_ONEDNN_OPTS=0``): its ``MatMul`` is then Eigen's contraction.
+``rnn_seg_fused`` runs them with the fused C++ loops (``--loops fused``, ``rnn_seg.kernels``;
+skipped where they cannot be built). ``rnn_seg_eigen`` runs the same phases with TensorFlow's
+oneDNN rewrites off (``TF_ENABLE_ONEDNN_OPTS=0``): its ``MatMul`` is then Eigen's contraction.
 
 PyTorch phases: ``forward`` (the bidirectional ``nn.LSTM`` alone, no autograd), ``forward +
 backward`` (the LSTM and the gradient of a sum of its outputs), ``forward products alone``
@@ -31,6 +32,7 @@ Run on a quiet machine; medians of ``--repeats`` after a warm-up::
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import os
 import statistics
@@ -57,13 +59,16 @@ def _median_time(call: Callable[[], object], repeats: int) -> float:
     return statistics.median(times)
 
 
-def rnn_seg_phases(hidden: int, steps: int, repeats: int) -> dict[str, float]:
-    """Seconds per phase of ``rnn_seg``'s float32 sweep (module docstring)."""
+def rnn_seg_phases(hidden: int, steps: int, repeats: int, loops: str = "graph"
+                   ) -> dict[str, float]:
+    """Seconds per phase of ``rnn_seg``'s float32 sweep with ``loops`` (module docstring)."""
     import tensorflow as tf
 
     from lstm_sweep import _batch, _step_function
-    from rnn_seg.lstm import _backward_loop, _forward_loop, _shift
+    from rnn_seg.lstm import _LOOP_FUNCTIONS, _shift
     from rnn_seg.threads import configure_threads
+
+    _forward_loop, _backward_loop = _LOOP_FUNCTIONS[loops]
 
     threads = configure_threads(0, hidden, "fp32")
     rng = tf.random.Generator.from_seed(0)
@@ -106,7 +111,7 @@ def rnn_seg_phases(hidden: int, steps: int, repeats: int) -> dict[str, float]:
     }
     times = {name: _median_time(lambda c=call: tf.nest.map_structure(
         lambda t: t.numpy(), c()), repeats) for name, call in calls.items()}
-    step = _step_function("rnn_seg", hidden)
+    step = _step_function("rnn_seg" if loops == "graph" else f"rnn_seg_{loops}", hidden)
     x, r, y = (tf.constant(v) for v in _batch(steps))
     times["sweep"] = _median_time(lambda: step(x, r, y).numpy(), repeats)
     return {"threads": list(threads), **times}
@@ -150,6 +155,7 @@ def torch_phases(hidden: int, steps: int, repeats: int) -> dict[str, float]:
 #: name -> (phases, environment it runs in). ``rnn_seg_eigen``: TensorFlow with its oneDNN
 #: rewrites off (``TF_ENABLE_ONEDNN_OPTS=0``), so ``MatMul`` runs Eigen's contraction.
 PEERS = {"rnn_seg": (rnn_seg_phases, {}),
+         "rnn_seg_fused": (functools.partial(rnn_seg_phases, loops="fused"), {}),
          "rnn_seg_eigen": (rnn_seg_phases, {"TF_ENABLE_ONEDNN_OPTS": "0"}),
          "torch": (torch_phases, {})}
 

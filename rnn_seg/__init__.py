@@ -5,6 +5,7 @@ then ``model.SegmentationModel`` (a recurrent encoder shared by one dense head p
 
 * ``config``: the encoder, optimiser and training dataclasses (no TensorFlow import);
 * ``lstm``: DiPietro et al.'s peephole LSTM with resets and its hand-written backward pass;
+  ``kernels/``: its loops over time as compiled C++ ops (``loops = "fused"``, optional);
 * ``model``, ``dense``: the encoder plus one head per ``tasks.Task``;
 * ``tasks``: what a head predicts (targets, loss, decoding);
 * ``sweeps``: batches of sequences wrapped to the longest; ``optim``: SGD and its schedule;

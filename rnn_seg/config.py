@@ -17,8 +17,8 @@ ResetMode = Literal["original", "corrected"]
 RESET_MODES = ("original", "corrected")
 Precision = Literal["fp32", "bf16"]
 PRECISIONS = ("fp32", "bf16")
-Loops = Literal["graph", "xla"]
-LOOPS = ("graph", "xla")
+Loops = Literal["graph", "xla", "fused"]
+LOOPS = ("graph", "xla", "fused")
 
 
 @dataclass(frozen=True)
@@ -36,7 +36,8 @@ class EncoderConfig:
     init_scale: float = 0.1
     reset_mode: ResetMode = "original"
     precision: Precision = "fp32"   # of the LSTM's matrix products (rnn_seg.lstm's docstring)
-    loops: Loops = "graph"          # TensorFlow ops step by step, or one XLA kernel per loop
+    loops: Loops = "graph"          # TensorFlow ops step by step, one XLA kernel per loop, or
+                                    # the compiled C++ loops of rnn_seg.kernels
 
     def __post_init__(self):
         require_number("EncoderConfig.hidden", self.hidden, integer=True, low=1)

@@ -31,11 +31,15 @@ same equations, so results agree with ``graph`` to float32 rounding (tested), wh
 longer pays TensorFlow's per-op dispatch, which is most of a step's cost in a small model
 (docs/PERFORMANCE.md). XLA compiles a kernel per input shape, so a sequence's steps are padded
 to a bucket (two per octave) and the loop stops at the last real step; each bucket compiles once
-per process.
+per process. ``fused`` runs each loop as one C++ op (``rnn_seg.kernels``: weights laid out once per
+call, gates and peepholes fused with each step's product), built on first use; where it cannot be
+built or loaded, the encoder says why in one line and runs the ``graph`` loops.
 """
 from __future__ import annotations
 
 import functools
+import sys
+from dataclasses import replace
 from typing import Callable, NamedTuple
 
 import tensorflow as tf
@@ -43,6 +47,8 @@ import tensorflow as tf
 from .config import (LOOPS, PRECISIONS, RESET_MODES, EncoderConfig,  # noqa: F401 (re-exported)
                      Loops, Precision, ResetMode, cpu_flags, native_bf16,
                      require_native_precision)
+from .kernels import build as fused_build
+from .kernels import loops as fused_loops
 
 _DTYPES = {"fp32": tf.float32, "bf16": tf.bfloat16}
 
@@ -203,7 +209,8 @@ def _backward_loop(dh_out, keep, state, c_prev, W, peep, steps, bounded=False):
 _LOOP_FUNCTIONS = {
     "graph": (_forward_loop, _backward_loop),
     "xla": (tf.function(functools.partial(_forward_loop, bounded=True), jit_compile=True),
-            tf.function(functools.partial(_backward_loop, bounded=True), jit_compile=True))}
+            tf.function(functools.partial(_backward_loop, bounded=True), jit_compile=True)),
+    "fused": (fused_loops.forward_loop, fused_loops.backward_loop)}
 _BPTT = {(precision, loops): _bptt_in(dtype, loops)
          for precision, dtype in _DTYPES.items() for loops in LOOPS}
 
@@ -348,7 +355,7 @@ class RecurrentEncoder(tf.Module):
 
     def __init__(self, input_size: int, config: EncoderConfig, rng: tf.random.Generator):
         super().__init__(name="encoder")
-        self.config = config
+        self.config = config = runnable_loops(config)
         self.cells = {
             d: [LSTMCellWeights(input_size if layer == 0 else config.hidden, config.hidden,
                                 config.init_scale, rng, name=f"{d}_layer{layer}")
@@ -463,6 +470,30 @@ class RecurrentEncoder(tf.Module):
                          tf.float32) + params.b
         return lstm_scan(x_proj, resets, params.W_h, params.peep, self.config.precision,
                          self.config.loops)
+
+
+def runnable_loops(config: EncoderConfig) -> EncoderConfig:
+    """``config``, or, when its ``fused`` loops cannot be built or loaded here, ``config`` with the
+    ``graph`` loops after one line on stderr saying why (once per process and reason)."""
+    if config.loops != "fused":
+        return config
+    reason = _fused_unavailable(config.precision)
+    if reason is None:
+        return config
+    _say_once(f"fused LSTM loops unavailable ({reason}): running the graph loops")
+    return replace(config, loops="graph")
+
+
+@functools.lru_cache(maxsize=None)
+def _fused_unavailable(precision: Precision) -> str | None:
+    """``rnn_seg.kernels.build.unavailable``, asked once per process (a failed build is not
+    retried)."""
+    return fused_build.unavailable(precision)
+
+
+@functools.lru_cache(maxsize=None)
+def _say_once(line: str) -> None:
+    print(line, file=sys.stderr)
 
 
 def _flip(direction: str, x: tf.Tensor) -> tf.Tensor:

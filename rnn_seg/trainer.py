@@ -306,8 +306,10 @@ class Trainer:
             check_run_dir(self.run_dir, self.configs)
         config_path = self.run_dir / CONFIG
         if not config_path.is_file():
+            # provenance's loops: those this process runs (graph where fused ones cannot be built)
             write_json(config_path, {**self.configs, "settings_hash": self.settings_hash,
-                                     "provenance": {**provenance(), "started": now()}})
+                                     "provenance": {**provenance(), "started": now(),
+                                                    "loops": self.model.encoder.config.loops}})
         self._record = read_json(config_path)
         self.settings_hash = self._record.get("settings_hash", self.settings_hash)
         self._saved_hash.assign(self.settings_hash)

@@ -5,14 +5,15 @@ import tensorflow as tf
 
 from rnn_seg.lstm import EncoderConfig, RecurrentEncoder, reverse_resets
 from rnn_seg.sweeps import make_sweep, reset_flags
+from tests.fused_loops import LOOPS, needs_fused, needs_fused_bf16
 from tests.lstm_reference import bidirectional_forward, lstm_forward, tf_lstm_forward
 
 F, H = 3, 6
 
 
-def _encoder(mode, bidirectional=True, layers=1, loops="graph"):
-    config = EncoderConfig(hidden=H, layers=layers, bidirectional=bidirectional, keep_prob=1.0,
-                           reset_mode=mode, loops=loops)
+def _encoder(mode, bidirectional=True, layers=1, loops="graph", hidden=H, precision="fp32"):
+    config = EncoderConfig(hidden=hidden, layers=layers, bidirectional=bidirectional,
+                           keep_prob=1.0, reset_mode=mode, loops=loops, precision=precision)
     enc = RecurrentEncoder(F, config, tf.random.Generator.from_seed(3))
     for cells in enc.cells.values():     # non-zero biases so they are checked too
         for cell in cells:
@@ -31,9 +32,10 @@ def _wrapped_batch():
     return make_sweep(seqs), reset_flags(lengths, max(lengths))
 
 
+@pytest.mark.parametrize("loops", LOOPS)
 @pytest.mark.parametrize("mode", ["original", "corrected"])
-def test_bidirectional_outputs_match_reference(mode):
-    enc = _encoder(mode)
+def test_bidirectional_outputs_match_reference(mode, loops):
+    enc = _encoder(mode, loops=loops)
     x, r = _wrapped_batch()
     got = enc(tf.constant(x), tf.constant(r), None).numpy()
     want = bidirectional_forward(x.astype(np.float64), r, _params(enc.cells["fw"][0]),
@@ -70,10 +72,11 @@ def test_reverse_resets_corrected_marks_last_frames():
                                   [[0, 0, 1, 0, 1], [0, 1, 0, 1, 1]])
 
 
+@pytest.mark.parametrize("loops", LOOPS)
 @pytest.mark.parametrize("mode", ["original", "corrected"])
-def test_gradients_match_reference(mode):
+def test_gradients_match_reference(mode, loops):
     """d(sum of outputs * weights)/d(params) against central finite differences of the reference."""
-    enc = _encoder(mode)
+    enc = _encoder(mode, loops=loops)
     x, r = _wrapped_batch()
     readout = np.random.default_rng(2).normal(size=(x.shape[0], x.shape[1], 2 * H))
     with tf.GradientTape() as tape:
@@ -106,10 +109,11 @@ def test_gradients_match_reference(mode):
             np.testing.assert_allclose(grad[idx], (up - down) / (2 * eps), rtol=2e-2, atol=2e-3)
 
 
+@pytest.mark.parametrize("loops", LOOPS)
 @pytest.mark.parametrize("mode", ["original", "corrected"])
-def test_hand_written_backward_equals_autodiff(mode):
+def test_hand_written_backward_equals_autodiff(mode, loops):
     """Every gradient of a two-layer BiLSTM against autodiff through the step-by-step TF cell."""
-    enc = _encoder(mode, layers=2)
+    enc = _encoder(mode, layers=2, loops=loops)
     x, r = _wrapped_batch()
     x, r = tf.constant(x), tf.constant(r)
     readout = tf.constant(np.random.default_rng(4).normal(size=(*x.shape[:2], 2 * H)), tf.float32)
@@ -121,7 +125,7 @@ def test_hand_written_backward_equals_autodiff(mode):
             fw = tf_lstm_forward(fw, r, *_variables(enc.cells["fw"][layer]))
             rv = tf_lstm_forward(rv, rv_resets, *_variables(enc.cells["rv"][layer]))
         slow = tf.reduce_sum(tf.concat([fw, tf.reverse(rv, [1])], 2) * readout)
-    np.testing.assert_allclose(fast.numpy(), slow.numpy(), rtol=1e-6)
+    np.testing.assert_allclose(fast.numpy(), slow.numpy(), rtol=1e-6, atol=1e-6)
     variables = enc.trainable_variables
     for var, got, want in zip(variables, tape.gradient(fast, variables),
                               tape.gradient(slow, variables)):
@@ -129,24 +133,72 @@ def test_hand_written_backward_equals_autodiff(mode):
                                    err_msg=var.name)
 
 
-@pytest.mark.parametrize("mode", ["original", "corrected"])
-def test_compiled_loops_equal_the_op_loops(mode):
-    """XLA's loops (padded to a compiled size, stopped at the last real step) give a two-layer
-    BiLSTM's outputs and every gradient of the op-by-op loops, to float32 rounding."""
+def _outputs_and_gradients(mode, loops, hidden=H, precision="fp32", layers=2):
+    """A BiLSTM's outputs and every gradient on a wrapped sweep of 37, 16 and 9 steps (XLA pads
+    it to 48: one sequence a whole compiled size)."""
     rng = np.random.default_rng(5)
-    lengths = (37, 16, 9)             # padded to 48; one a whole compiled size; wrapped copies
+    lengths = (37, 16, 9)
     x = make_sweep([rng.normal(size=(n, F)).astype(np.float32) for n in lengths])
     x, r = tf.constant(x), tf.constant(reset_flags(lengths, max(lengths)))
-    readout = tf.constant(rng.normal(size=(*x.shape[:2], 2 * H)), tf.float32)
+    readout = tf.constant(rng.normal(size=(*x.shape[:2], 2 * hidden)), tf.float32)
+    enc = _encoder(mode, layers=layers, loops=loops, hidden=hidden, precision=precision)
+    assert enc.config.loops == loops                 # not fallen back to another path
+    with tf.GradientTape() as tape:
+        y = enc(x, r, None)
+        loss = tf.reduce_sum(y * readout)
+    return [y, *tape.gradient(loss, enc.trainable_variables)]
+
+
+@pytest.mark.parametrize("loops", ["xla", pytest.param("fused", marks=needs_fused)])
+@pytest.mark.parametrize("mode", ["original", "corrected"])
+def test_compiled_loops_equal_the_op_loops(mode, loops):
+    """XLA's loops (padded to a compiled size, stopped at the last real step) and the fused C++
+    loops give a two-layer BiLSTM's outputs and every gradient of the op-by-op loops, to float32
+    rounding."""
+    for got, want in zip(_outputs_and_gradients(mode, loops), _outputs_and_gradients(mode, "graph")):
+        np.testing.assert_allclose(got.numpy(), want.numpy(), rtol=1e-5, atol=1e-6)
+
+
+@needs_fused
+def test_fused_loops_split_between_threads_equal_the_op_loops():
+    """At 130 units the intra-op threads share 9 panels of 16 units (the last one partial),
+    claiming them as they come: same outputs and gradients as the op loops, and the same to the
+    last bit whichever thread computed which panel."""
+    fused, again, graph = (_outputs_and_gradients("corrected", loops, hidden=130, layers=1)
+                           for loops in ("fused", "fused", "graph"))
+    for got, repeated, want in zip(fused, again, graph):
+        np.testing.assert_allclose(got.numpy(), want.numpy(), rtol=1e-4, atol=1e-6)
+        np.testing.assert_array_equal(got.numpy(), repeated.numpy())
+
+
+@needs_fused
+def test_fused_loops_take_any_number_of_rows():
+    """The fused ops run a batch in passes of up to 6 rows: 13 rows (6 + 6 + 1), 20 units (a
+    partial panel), give the op loops' outputs and gradients."""
+    rng = np.random.default_rng(6)
+    x = tf.constant(rng.normal(size=(13, 11, F)), tf.float32)
+    r = tf.constant(rng.random((13, 11)) < 0.2)
     results = {}
-    for loops in ("graph", "xla"):
-        enc = _encoder(mode, layers=2, loops=loops)
+    for loops in ("graph", "fused"):
+        enc = _encoder("corrected", loops=loops, hidden=20)
         with tf.GradientTape() as tape:
             y = enc(x, r, None)
-            loss = tf.reduce_sum(y * readout)
+            loss = tf.reduce_sum(y * y)
         results[loops] = [y, *tape.gradient(loss, enc.trainable_variables)]
-    for got, want in zip(results["xla"], results["graph"]):
+    for got, want in zip(results["fused"], results["graph"]):
         np.testing.assert_allclose(got.numpy(), want.numpy(), rtol=1e-5, atol=1e-6)
+
+
+@needs_fused_bf16
+def test_fused_bf16_loops_equal_the_op_loops_to_bf16_rounding():
+    """bfloat16 products in the fused ops round as TensorFlow's do (operands and results to
+    bfloat16, sums in float32): outputs and gradients agree with the op loops' bfloat16 path far
+    inside bfloat16's own error (0.4 % a product; here at most 0.1 %, relative L2 norm)."""
+    fused, graph = (_outputs_and_gradients("original", loops, hidden=40, precision="bf16")
+                    for loops in ("fused", "graph"))
+    for got, want in zip(fused, graph):
+        error = np.linalg.norm(got.numpy() - want.numpy()) / np.linalg.norm(want.numpy())
+        assert error < 1e-3
 
 
 def test_compiled_loop_sizes_are_two_per_octave():

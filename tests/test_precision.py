@@ -11,6 +11,7 @@ from rnn_seg.model import SegmentationModel
 from rnn_seg.sweeps import make_sweep, reset_flags
 from rnn_seg.tasks import SoftmaxClassification
 from rnn_seg.trainer import loss_gradients
+from tests.fused_loops import needs_fused_bf16
 
 F, H, K = 14, 64, 10
 #: bfloat16 keeps 8 significant bits: each product's result is within 2^-8 (0.4 %) of float32.
@@ -19,8 +20,9 @@ F, H, K = 14, 64, 10
 GRADIENT_TOLERANCE = 0.02
 
 
-def _gradients(precision: str, bidirectional: bool = True):
-    config = EncoderConfig(hidden=H, bidirectional=bidirectional, precision=precision)
+def _gradients(precision: str, bidirectional: bool = True, loops: str = "graph"):
+    config = EncoderConfig(hidden=H, bidirectional=bidirectional, precision=precision,
+                           loops=loops)
     task = SoftmaxClassification("gesture", [f"G{k}" for k in range(K)])
     model = SegmentationModel(F, config, [task], seed=0)
     rng = np.random.default_rng(0)
@@ -34,10 +36,11 @@ def _gradients(precision: str, bidirectional: bool = True):
     return float(losses[0]), [g.numpy() for g in grads]
 
 
+@pytest.mark.parametrize("loops", ["graph", pytest.param("fused", marks=needs_fused_bf16)])
 @pytest.mark.parametrize("bidirectional", [True, False])
-def test_bf16_gradients_agree_with_fp32(bidirectional):
-    loss32, grads32 = _gradients("fp32", bidirectional)
-    loss16, grads16 = _gradients("bf16", bidirectional)
+def test_bf16_gradients_agree_with_fp32(bidirectional, loops):
+    loss32, grads32 = _gradients("fp32", bidirectional, loops)
+    loss16, grads16 = _gradients("bf16", bidirectional, loops)
     assert loss16 == pytest.approx(loss32, rel=0.01)
     for g32, g16 in zip(grads32, grads16):
         error = np.linalg.norm(g16 - g32) / np.linalg.norm(g32)

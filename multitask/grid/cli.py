@@ -57,8 +57,9 @@ def build_parser() -> argparse.ArgumentParser:
                              f"(default: the spec's, else {DEFAULT_DATA_DIR_TEXT})")
     parser.add_argument("--loops", choices=LOOPS,
                         help="override the spec's loops: how the LSTM's loops over time run "
-                             "(xla: compiled, faster, same results to float32 rounding; a grid "
-                             "may resume with either; default: the spec's, else graph)")
+                             "(xla: compiled by XLA; fused: C++ ops built on first use; same "
+                             "results to float32 rounding; a grid may resume with any; default: "
+                             "the spec's, else graph)")
     parser.add_argument("--out", type=Path, required=True, metavar="DIR",
                         help="grid folder (shared by every worker on Dask)")
     parser.add_argument("--workers", type=positive_int, default=1, metavar="N",
@@ -126,10 +127,10 @@ def _run(args: argparse.Namespace) -> int:
                 thread_count(str(count))
             except argparse.ArgumentTypeError as error:
                 raise ValueError(f"{option}: {error}{note}") from None
-    if args.stack > 1 and spec.loops == "xla":
-        raise ValueError("--stack vectorises the runs' steps, which turns XLA's compiled loops "
-                         "back into TensorFlow ops: use --stack 1 with loops xla (or graph loops "
-                         "with --stack)")
+    if args.stack > 1 and spec.loops != "graph":
+        raise ValueError(f"--stack vectorises the runs' steps, which turns {spec.loops}'s "
+                         f"compiled loops back into TensorFlow ops: use --stack 1 with loops "
+                         f"{spec.loops} (or graph loops with --stack)")
     _check_grid_folder(args.out)
     keys = expand(spec, release_users(spec))
     budget = spec.budget

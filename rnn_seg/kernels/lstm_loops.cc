@@ -1,0 +1,706 @@
+// The peephole LSTM's two loops over time as TensorFlow ops (rnn_seg/kernels/__init__.py).
+//
+// MtrnnLstmForward runs rnn_seg.lstm._forward_loop's steps and MtrnnLstmBackward
+// rnn_seg.lstm._backward_loop's (the per-step factors of the chain rule included), with the
+// same equations and operands: each step's recurrent product streams the weights once from a
+// copy laid out per call in panels (no per-step packing), and the gate nonlinearities of the
+// units a panel produces run right after it, on Eigen's vectorised tanh and logistic (those
+// TensorFlow's own tanh and sigmoid use). Shapes: time-major, T steps, B rows, H units; gate
+// order (g, i, f, o) as in rnn_seg.lstm.
+//
+// Panels cover 16 units each. Forward, panel p holds, for every k < H, the 64 weights
+// W[k, q H + 16 p + l] (q the gate, l < 16): one step of the product for 16 units is H
+// broadcast-multiply-adds of 4 vectors. Backward, the product dz W^T (K = 4H) streams
+// W[16 p + l, 4 k + q] for q < 4 as four vectors, summed at the end. With bfloat16 weights a
+// panel holds pairs of consecutive k for the AVX512_BF16 dot product (vdpbf16ps), the row
+// operand is rounded to bfloat16 (nearest even) and the float32 sum is rounded to bfloat16 and
+// widened, as TensorFlow's bfloat16 matmul and cast do in rnn_seg.lstm.product.
+//
+// Threads: up to the op's intra-op thread count (at least 4 panels a thread) share each step's
+// panels, claiming a few at a time (SharedSteps); a step starts once every panel of the one
+// before is done (every unit's h_t, or every gate's dz_t, is read by the next step's product).
+#include <algorithm>
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <memory>
+#include <mutex>
+#include <vector>
+
+#if defined(__AVX512BF16__)
+#include <immintrin.h>
+#endif
+
+#include "Eigen/Core"
+#include "tensorflow/core/framework/op.h"
+#include "tensorflow/core/framework/op_kernel.h"
+#include "tensorflow/core/framework/shape_inference.h"
+
+namespace {
+
+using tensorflow::bfloat16;
+using tensorflow::OpKernel;
+using tensorflow::OpKernelConstruction;
+using tensorflow::OpKernelContext;
+using tensorflow::Tensor;
+using tensorflow::TensorShape;
+using tensorflow::errors::InvalidArgument;
+
+constexpr int kLanes = 16;      // floats in a vector, units in a panel
+constexpr int kMaxRows = 6;     // batch rows per pass over a panel (4 accumulators a row)
+
+typedef float v16 __attribute__((vector_size(64)));
+typedef Eigen::Array<float, kLanes, 1> Lanes;
+
+struct AlignedFree {
+  void operator()(void* p) const { std::free(p); }
+};
+
+template <typename T>
+std::unique_ptr<T[], AlignedFree> aligned_zeros(size_t count) {
+  size_t bytes = (count * sizeof(T) + 63) / 64 * 64;
+  T* p = static_cast<T*>(std::aligned_alloc(64, bytes));
+  std::memset(p, 0, bytes);
+  return std::unique_ptr<T[], AlignedFree>(p);
+}
+
+// A loop over steps whose panels several threads share: every participant claims chunks of
+// the current step's panels, and a step's panels are claimed only once every panel of the step
+// before is done. A participant that is descheduled (a busy machine) holds up a step by at most
+// the chunk it claimed: the others claim the rest, so the op never waits for a thread that has
+// not started. Waiting spins for about a step's time, then sleeps until the step completes.
+class SharedSteps {
+ public:
+  SharedSteps(int steps, int panels, int chunk)
+      : panels_(panels), chunk_(chunk), total_(int64_t(steps) * panels) {}
+
+  // Runs work(step, first_panel, end_panel) on chunks until nothing is left to claim;
+  // start(step) runs before this participant's first chunk of a step.
+  template <typename Start, typename Work>
+  void participate(Start start, Work work) {
+    int64_t started = -1;
+    for (;;) {
+      int64_t first = claimed_.load();
+      const int64_t step = first / panels_;
+      if (first >= total_) return;
+      wait_done(step * panels_);                         // the step before is complete
+      const int64_t end_of_step = (step + 1) * panels_;
+      int64_t last = 0;
+      for (first = claimed_.load(); first < end_of_step;) {
+        last = std::min(first + chunk_, end_of_step);
+        if (claimed_.compare_exchange_weak(first, last)) break;
+      }
+      if (first >= end_of_step) continue;                // all claimed: on to the next step
+      if (started != step) {
+        start(static_cast<int>(step));
+        started = step;
+      }
+      work(static_cast<int>(step), static_cast<int>(first - step * panels_),
+           static_cast<int>(last - step * panels_));
+      const int64_t done = done_.fetch_add(last - first) + (last - first);
+      if (done % panels_ == 0 && sleepers_.load() > 0) {
+        { std::lock_guard<std::mutex> lock(mutex_); }
+        wake_.notify_all();
+      }
+    }
+  }
+
+  // Until every panel of every step is done.
+  void wait_all() { wait_done(total_); }
+
+  // A pool task enters before it participates (false: the op is over, return at once) and
+  // leaves after; finish() (the op's own thread, after wait_all) waits for those inside.
+  bool enter() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (finished_) return false;
+    ++inside_;
+    return true;
+  }
+  void leave() {
+    { std::lock_guard<std::mutex> lock(mutex_); --inside_; }
+    wake_.notify_all();
+  }
+  void finish() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    finished_ = true;
+    wake_.wait(lock, [&] { return inside_ == 0; });
+  }
+
+ private:
+  void wait_done(int64_t target) {
+    for (int spins = 0; spins < kSpins; ++spins) {
+      if (done_.load(std::memory_order_acquire) >= target) return;
+#if defined(__x86_64__)
+      __builtin_ia32_pause();
+#endif
+    }
+    std::unique_lock<std::mutex> lock(mutex_);
+    sleepers_.fetch_add(1);
+    wake_.wait(lock, [&] { return done_.load() >= target; });
+    sleepers_.fetch_sub(1);
+  }
+
+  static constexpr int kSpins = 20000;
+  const int64_t panels_, chunk_, total_;
+  std::atomic<int64_t> claimed_{0}, done_{0};
+  std::atomic<int> sleepers_{0};
+  int inside_ = 0;
+  bool finished_ = false;
+  std::mutex mutex_;
+  std::condition_variable wake_;
+};
+
+// Runs `participant(steps)` (which calls SharedSteps::participate with its own buffers) on the
+// calling thread and on threads - 1 tasks of the op's intra-op pool (whose idle threads spin for
+// work, so a task usually starts at once; threads of our own would compete with them for the
+// cores). A task that starts after the op's steps are all done returns at once.
+template <typename Participant>
+void run_shared(OpKernelContext* ctx, int threads, int steps, int panels,
+                Participant participant) {
+  constexpr int kChunk = 2;                              // panels claimed at a time
+  auto shared = std::make_shared<SharedSteps>(steps, panels, kChunk);
+  for (int t = 1; t < threads; ++t)
+    ctx->device()->tensorflow_cpu_worker_threads()->workers->Schedule([shared, &participant] {
+      if (!shared->enter()) return;
+      participant(*shared);
+      shared->leave();
+    });
+  participant(*shared);
+  shared->wait_all();
+  shared->finish();
+}
+
+int thread_count(OpKernelContext* ctx, int panels) {
+  int pool = ctx->device()->tensorflow_cpu_worker_threads()->num_threads;
+  return std::max(1, std::min(pool, panels / 4));
+}
+
+// ---- the products, float32 -------------------------------------------------------------------
+
+// W_h laid out in panels for one of the two products (forward h W, backward dz W^T).
+struct Fp32Panels {
+  using Weight = float;
+  int panels, depth;                       // depth: vectors of 4 x 16 floats per panel
+  std::unique_ptr<float[], AlignedFree> data;
+
+  // forward: h W, W [H, 4H] row-major
+  static Fp32Panels forward(const float* w, int hidden) {
+    Fp32Panels p{(hidden + kLanes - 1) / kLanes, hidden, nullptr};
+    p.data = aligned_zeros<float>(size_t(p.panels) * p.depth * 4 * kLanes);
+    for (int panel = 0; panel < p.panels; ++panel)
+      for (int k = 0; k < hidden; ++k)
+        for (int q = 0; q < 4; ++q)
+          for (int l = 0; l < kLanes; ++l) {
+            int unit = panel * kLanes + l;
+            if (unit < hidden)
+              p.at(panel, k)[q * kLanes + l] = w[size_t(k) * 4 * hidden + q * hidden + unit];
+          }
+    return p;
+  }
+
+  // backward: dz W^T, four consecutive k per step of the panel
+  static Fp32Panels backward(const float* w, int hidden) {
+    Fp32Panels p{(hidden + kLanes - 1) / kLanes, hidden, nullptr};
+    p.data = aligned_zeros<float>(size_t(p.panels) * p.depth * 4 * kLanes);
+    for (int panel = 0; panel < p.panels; ++panel)
+      for (int k = 0; k < hidden; ++k)
+        for (int q = 0; q < 4; ++q)
+          for (int l = 0; l < kLanes; ++l) {
+            int unit = panel * kLanes + l;
+            if (unit < hidden)
+              p.at(panel, k)[q * kLanes + l] = w[size_t(unit) * 4 * hidden + 4 * k + q];
+          }
+    return p;
+  }
+
+  float* at(int panel, int k) const {
+    return data.get() + (size_t(panel) * depth + k) * 4 * kLanes;
+  }
+
+  // Row operand as this product reads it (float32: the rows themselves).
+  struct Rows {
+    const float* base;
+    size_t stride;
+    void prepare(const float* rows, int, size_t row_stride, int) {
+      base = rows;
+      stride = row_stride;
+    }
+  };
+
+  // out[r][0..63]: forward, the 4 gates' sums for the panel's 16 units; backward, the sum over
+  // the panel's 4 vectors in out[r][0..15].
+  template <int R, bool kBackward>
+  void product(const Rows& rows, int row0, int panel, v16 (*acc)[4]) const {
+    for (int r = 0; r < R; ++r)
+      for (int q = 0; q < 4; ++q) acc[r][q] = v16{};
+    const float* a[R];
+    for (int r = 0; r < R; ++r) a[r] = rows.base + (row0 + r) * rows.stride;
+    const v16* w = reinterpret_cast<const v16*>(at(panel, 0));
+    for (int k = 0; k < depth; ++k, w += 4) {
+      const v16 w0 = w[0], w1 = w[1], w2 = w[2], w3 = w[3];
+      for (int r = 0; r < R; ++r) {
+        if (kBackward) {
+          const float* s = a[r] + 4 * k;
+          acc[r][0] += s[0] * w0;
+          acc[r][1] += s[1] * w1;
+          acc[r][2] += s[2] * w2;
+          acc[r][3] += s[3] * w3;
+        } else {
+          const float s = a[r][k];
+          acc[r][0] += s * w0;
+          acc[r][1] += s * w1;
+          acc[r][2] += s * w2;
+          acc[r][3] += s * w3;
+        }
+      }
+    }
+    if (kBackward)
+      for (int r = 0; r < R; ++r) acc[r][0] = (acc[r][0] + acc[r][1]) + (acc[r][2] + acc[r][3]);
+  }
+};
+
+// ---- the products, bfloat16 (AVX512_BF16) ----------------------------------------------------
+
+#if defined(__AVX512BF16__)
+uint16_t bits(bfloat16 x) {
+  uint16_t b;
+  std::memcpy(&b, &x, 2);
+  return b;
+}
+
+struct Bf16Panels {
+  using Weight = bfloat16;
+  int panels, depth;                       // depth: steps of 4 vectors of 16 bfloat16 pairs
+  std::unique_ptr<uint16_t[], AlignedFree> data;
+
+  uint16_t* at(int panel, int k2) const {
+    return data.get() + (size_t(panel) * depth + k2) * 4 * kLanes * 2;
+  }
+
+  // forward: vector q at step k2 holds (W[2 k2, col], W[2 k2 + 1, col]), col = q H + unit
+  static Bf16Panels forward(const bfloat16* w, int hidden) {
+    Bf16Panels p{(hidden + kLanes - 1) / kLanes, (hidden + 1) / 2, nullptr};
+    p.data = aligned_zeros<uint16_t>(size_t(p.panels) * p.depth * 4 * kLanes * 2);
+    for (int panel = 0; panel < p.panels; ++panel)
+      for (int k = 0; k < hidden; ++k)
+        for (int q = 0; q < 4; ++q)
+          for (int l = 0; l < kLanes; ++l) {
+            int unit = panel * kLanes + l;
+            if (unit < hidden)
+              p.at(panel, k / 2)[(q * kLanes + l) * 2 + k % 2] =
+                  bits(w[size_t(k) * 4 * hidden + q * hidden + unit]);
+          }
+    return p;
+  }
+
+  // backward: vector q at step k2 holds (W[unit, 8 k2 + 2 q], W[unit, 8 k2 + 2 q + 1])
+  static Bf16Panels backward(const bfloat16* w, int hidden) {
+    Bf16Panels p{(hidden + kLanes - 1) / kLanes, (hidden + 1) / 2, nullptr};
+    p.data = aligned_zeros<uint16_t>(size_t(p.panels) * p.depth * 4 * kLanes * 2);
+    for (int panel = 0; panel < p.panels; ++panel)
+      for (int k = 0; k < 4 * hidden; ++k)
+        for (int l = 0; l < kLanes; ++l) {
+          int unit = panel * kLanes + l;
+          if (unit < hidden)
+            p.at(panel, k / 8)[((k % 8) / 2 * kLanes + l) * 2 + k % 2] =
+                bits(w[size_t(unit) * 4 * hidden + k]);
+        }
+    return p;
+  }
+
+  // Row operand: every row rounded to bfloat16 (nearest even), in pairs, padded with zeros.
+  struct Rows {
+    std::vector<uint32_t> pairs;
+    size_t stride = 0;
+    void prepare(const float* rows, int count, size_t row_stride, int length) {
+      stride = (length + 31) / 32 * 16;       // pairs, whole vectors of 16
+      pairs.assign(count * stride, 0);
+      std::vector<float> padded(stride * 2);
+      for (int r = 0; r < count; ++r) {
+        std::fill(padded.begin(), padded.end(), 0.0f);
+        std::copy(rows + r * row_stride, rows + r * row_stride + length, padded.begin());
+        for (size_t k = 0; k < stride * 2; k += 32) {
+          __m512 lo = _mm512_loadu_ps(&padded[k]), hi = _mm512_loadu_ps(&padded[k + 16]);
+          __m512bh b = _mm512_cvtne2ps_pbh(hi, lo);
+          _mm512_storeu_si512(&pairs[r * stride + k / 2], (__m512i)b);
+        }
+      }
+    }
+  };
+
+  template <int R, bool kBackward>
+  void product(const Rows& rows, int row0, int panel, v16 (*acc_out)[4]) const {
+    __m512 acc[R][4];
+    for (int r = 0; r < R; ++r)
+      for (int q = 0; q < 4; ++q) acc[r][q] = _mm512_setzero_ps();
+    const uint32_t* a[R];
+    for (int r = 0; r < R; ++r) a[r] = rows.pairs.data() + (row0 + r) * rows.stride;
+    const uint16_t* w = at(panel, 0);
+    for (int k = 0; k < depth; ++k, w += 4 * kLanes * 2) {
+      __m512bh wq[4];
+      for (int q = 0; q < 4; ++q)
+        wq[q] = (__m512bh)_mm512_load_si512(reinterpret_cast<const void*>(w + q * kLanes * 2));
+      for (int r = 0; r < R; ++r)
+        for (int q = 0; q < 4; ++q) {
+          uint32_t s = kBackward ? a[r][4 * k + q] : a[r][k];
+          acc[r][q] = _mm512_dpbf16_ps(acc[r][q], (__m512bh)_mm512_set1_epi32(s), wq[q]);
+        }
+    }
+    for (int r = 0; r < R; ++r) {
+      if (kBackward)
+        acc[r][0] = _mm512_add_ps(_mm512_add_ps(acc[r][0], acc[r][1]),
+                                  _mm512_add_ps(acc[r][2], acc[r][3]));
+      for (int q = 0; q < (kBackward ? 1 : 4); ++q) {   // the product's bfloat16 result
+        __m256bh rounded = _mm512_cvtneps_pbh(acc[r][q]);
+        __m512i widened = _mm512_slli_epi32(_mm512_cvtepu16_epi32((__m256i)rounded), 16);
+        acc_out[r][q] = (v16)_mm512_castsi512_ps(widened);
+      }
+    }
+  }
+};
+#endif
+
+template <typename Panels, bool kBackward>
+void product_rows(const Panels& w, const typename Panels::Rows& rows, int row0, int count,
+                  int panel, v16 (*acc)[4]) {
+  switch (count) {
+    case 1: w.template product<1, kBackward>(rows, row0, panel, acc); break;
+    case 2: w.template product<2, kBackward>(rows, row0, panel, acc); break;
+    case 3: w.template product<3, kBackward>(rows, row0, panel, acc); break;
+    case 4: w.template product<4, kBackward>(rows, row0, panel, acc); break;
+    case 5: w.template product<5, kBackward>(rows, row0, panel, acc); break;
+    default: w.template product<6, kBackward>(rows, row0, panel, acc); break;
+  }
+}
+
+// 16 lanes of a [.., H] row from `unit` on (zeros past H), and back.
+Lanes load(const float* row, int unit, int hidden) {
+  Lanes v;
+  if (unit + kLanes <= hidden) {
+    std::memcpy(v.data(), row + unit, sizeof(v));
+    return v;
+  }
+  v.setZero();
+  for (int l = 0; l < kLanes && unit + l < hidden; ++l) v[l] = row[unit + l];
+  return v;
+}
+
+void store(const Lanes& v, float* row, int unit, int hidden) {
+  if (unit + kLanes <= hidden) {
+    std::memcpy(row + unit, v.data(), sizeof(v));
+    return;
+  }
+  for (int l = 0; l < kLanes && unit + l < hidden; ++l) row[unit + l] = v[l];
+}
+
+Lanes lanes(const v16& v) {
+  Lanes out;
+  std::memcpy(out.data(), &v, sizeof(v));
+  return out;
+}
+
+// ---- forward ---------------------------------------------------------------------------------
+
+struct Dims {
+  int steps, size, batch, hidden;
+};
+
+template <typename Panels>
+void forward(OpKernelContext* ctx, const Dims& d, const float* x_proj, const float* keep,
+             const typename Panels::Weight* w_h, const float* peep, float* out[6]) {
+  const int H = d.hidden, B = d.batch;
+  const Panels w = Panels::forward(w_h, H);
+  const size_t step = size_t(B) * H;
+  float *h = out[0], *c = out[1], *g = out[2], *i = out[3], *f = out[4], *o = out[5];
+  run_shared(ctx, thread_count(ctx, w.panels), d.steps, w.panels, [&](SharedSteps& steps) {
+    typename Panels::Rows rows;
+    v16 acc[kMaxRows][4];
+    auto start = [&](int t) {                            // every unit's h_{t-1} is written
+      if (t > 0) rows.prepare(h + (t - 1) * step, B, H, H);
+    };
+    steps.participate(start, [&](int t, int first, int end) {
+      for (int panel = first; panel < end; ++panel) {
+        const int unit = panel * kLanes;
+        const Lanes w_ic = load(peep, unit, H), w_fc = load(peep + H, unit, H),
+                    w_oc = load(peep + 2 * H, unit, H);
+        for (int row0 = 0; row0 < B; row0 += kMaxRows) {
+          const int count = std::min(kMaxRows, B - row0);
+          if (t > 0) product_rows<Panels, false>(w, rows, row0, count, panel, acc);
+          for (int r = 0; r < count; ++r) {
+            const int b = row0 + r;
+            const float k = keep[t * B + b];
+            const float* z_x = x_proj + (size_t(t) * B + b) * 4 * H;
+            Lanes z[4], c_prev = Lanes::Zero();
+            for (int q = 0; q < 4; ++q) {
+              z[q] = load(z_x + q * H, unit, H);
+              if (t > 0) z[q] += lanes(acc[r][q]) * k;
+            }
+            if (t > 0) c_prev = load(c + (t - 1) * step + b * H, unit, H) * k;
+            const Lanes g_t = z[0].tanh();
+            const Lanes i_t = (z[1] + w_ic * c_prev).logistic();
+            const Lanes f_t = (z[2] + w_fc * c_prev).logistic();
+            const Lanes c_t = g_t * i_t + c_prev * f_t;
+            const Lanes o_t = (z[3] + w_oc * c_t).logistic();
+            const Lanes h_t = o_t * c_t.tanh();
+            const size_t at = t * step + b * H;
+            store(h_t, h + at, unit, H);
+            store(c_t, c + at, unit, H);
+            store(g_t, g + at, unit, H);
+            store(i_t, i + at, unit, H);
+            store(f_t, f + at, unit, H);
+            store(o_t, o + at, unit, H);
+          }
+        }
+      }
+    });
+  });
+}
+
+// ---- backward --------------------------------------------------------------------------------
+
+template <typename Panels>
+void backward(OpKernelContext* ctx, const Dims& d, const float* dh_out, const float* keep,
+              const float* state[5], const float* c_prev, const typename Panels::Weight* w_h,
+              const float* peep, float* dz) {
+  const int H = d.hidden, B = d.batch;
+  const Panels w = Panels::backward(w_h, H);
+  const size_t step = size_t(B) * H;
+  const float *c = state[0], *g = state[1], *i = state[2], *f = state[3], *o = state[4];
+  std::vector<float> dh_next(step, 0.0f), dc_next(step, 0.0f);   // reaching step t from t + 1
+  // Shared step s runs time t = steps - 1 - s for a panel's units: the product dz_{t+1} W^T
+  // (every unit's dz_{t+1} is written) gives their dh reaching t, then their dz_t.
+  run_shared(ctx, thread_count(ctx, w.panels), d.steps, w.panels, [&](SharedSteps& steps) {
+    typename Panels::Rows rows;
+    v16 acc[kMaxRows][4];
+    auto start = [&](int s) {
+      const int t = d.steps - 1 - s;
+      if (s > 0) rows.prepare(dz + size_t(t + 1) * B * 4 * H, B, 4 * H, 4 * H);
+    };
+    steps.participate(start, [&](int s, int first, int end) {
+      const int t = d.steps - 1 - s;
+      for (int panel = first; panel < end; ++panel) {
+        const int unit = panel * kLanes;
+        for (int row0 = 0; s > 0 && row0 < B; row0 += kMaxRows) {    // dh reaching step t
+          const int count = std::min(kMaxRows, B - row0);
+          product_rows<Panels, true>(w, rows, row0, count, panel, acc);
+          for (int r = 0; r < count; ++r) {
+            const int b = row0 + r;
+            store(lanes(acc[r][0]) * keep[(t + 1) * B + b], &dh_next[b * H], unit, H);
+          }
+        }
+        const Lanes w_ic = load(peep, unit, H), w_fc = load(peep + H, unit, H),
+                    w_oc = load(peep + 2 * H, unit, H);
+        for (int b = 0; b < B; ++b) {                                // dz_t of these units
+          const size_t at = t * step + b * H;
+          const Lanes c_t = load(c + at, unit, H), g_t = load(g + at, unit, H),
+                      i_t = load(i + at, unit, H), f_t = load(f + at, unit, H),
+                      o_t = load(o + at, unit, H), cp = load(c_prev + at, unit, H);
+          const Lanes tc = c_t.tanh();
+          const Lanes d_i = i_t * (1.0f - i_t), d_f = f_t * (1.0f - f_t);
+          const Lanes out_o = tc * o_t * (1.0f - o_t);
+          const Lanes out_c = o_t * (1.0f - tc * tc) + out_o * w_oc;
+          const Lanes to_prev = keep[t * B + b] * (f_t + g_t * d_i * w_ic + cp * d_f * w_fc);
+          const Lanes dh = load(dh_out + at, unit, H) + load(&dh_next[b * H], unit, H);
+          const Lanes dc = load(&dc_next[b * H], unit, H) + dh * out_c;
+          float* dz_t = dz + (size_t(t) * B + b) * 4 * H;
+          store(dc * (i_t * (1.0f - g_t * g_t)), dz_t, unit, H);
+          store(dc * (g_t * d_i), dz_t + H, unit, H);
+          store(dc * (cp * d_f), dz_t + 2 * H, unit, H);
+          store(dh * out_o, dz_t + 3 * H, unit, H);
+          store(dc * to_prev, &dc_next[b * H], unit, H);
+        }
+      }
+    });
+  });
+}
+
+// ---- the ops ---------------------------------------------------------------------------------
+
+tensorflow::Status check(const Tensor& x, int rank, const char* name) {
+  if (x.dims() != rank)
+    return InvalidArgument(name, " must have rank ", rank, ", got ", x.shape().DebugString());
+  return tensorflow::OkStatus();
+}
+
+template <typename T>
+class ForwardOp : public OpKernel {
+ public:
+  explicit ForwardOp(OpKernelConstruction* ctx) : OpKernel(ctx) {}
+
+  void Compute(OpKernelContext* ctx) override {
+    const Tensor &x_proj = ctx->input(0), &keep = ctx->input(1), &w = ctx->input(2),
+                 &peep = ctx->input(3), &steps = ctx->input(4);
+    OP_REQUIRES_OK(ctx, check(x_proj, 3, "x_proj"));
+    OP_REQUIRES_OK(ctx, check(w, 2, "w"));
+    OP_REQUIRES_OK(ctx, check(steps, 0, "steps"));
+    const Dims d{steps.scalar<int32_t>()(), int(x_proj.dim_size(0)), int(x_proj.dim_size(1)),
+                 int(w.dim_size(0))};
+    OP_REQUIRES(ctx, x_proj.dim_size(2) == 4 * d.hidden && w.dim_size(1) == 4 * d.hidden &&
+                     peep.NumElements() == 3 * d.hidden && keep.NumElements() == d.size * d.batch,
+                InvalidArgument("inconsistent shapes: x_proj ", x_proj.shape().DebugString(),
+                                ", w ", w.shape().DebugString(), ", peep ",
+                                peep.shape().DebugString(), ", keep ",
+                                keep.shape().DebugString()));
+    OP_REQUIRES(ctx, d.steps >= 0 && d.steps <= d.size,
+                InvalidArgument("steps ", d.steps, " outside 0..", d.size));
+    float* out[6];
+    for (int k = 0; k < 6; ++k) {
+      Tensor* t = nullptr;
+      OP_REQUIRES_OK(ctx, ctx->allocate_output(k, TensorShape({d.size, d.batch, d.hidden}), &t));
+      out[k] = t->flat<float>().data();
+      std::fill(out[k] + size_t(d.steps) * d.batch * d.hidden, out[k] + t->NumElements(), 0.0f);
+    }
+    run(ctx, d, x_proj.flat<float>().data(), keep.flat<float>().data(), w.flat<T>().data(),
+        peep.flat<float>().data(), out);
+  }
+
+ private:
+  void run(OpKernelContext* ctx, const Dims& d, const float* x_proj, const float* keep,
+           const T* w, const float* peep, float* out[6]);
+};
+
+template <>
+void ForwardOp<float>::run(OpKernelContext* ctx, const Dims& d, const float* x_proj,
+                           const float* keep, const float* w, const float* peep, float* out[6]) {
+  forward<Fp32Panels>(ctx, d, x_proj, keep, w, peep, out);
+}
+
+template <typename T>
+class BackwardOp : public OpKernel {
+ public:
+  explicit BackwardOp(OpKernelConstruction* ctx) : OpKernel(ctx) {}
+
+  void Compute(OpKernelContext* ctx) override {
+    const Tensor &dh_out = ctx->input(0), &keep = ctx->input(1), &c_prev = ctx->input(7),
+                 &w = ctx->input(8), &peep = ctx->input(9), &steps = ctx->input(10);
+    OP_REQUIRES_OK(ctx, check(dh_out, 3, "dh_out"));
+    OP_REQUIRES_OK(ctx, check(w, 2, "w"));
+    OP_REQUIRES_OK(ctx, check(steps, 0, "steps"));
+    const Dims d{steps.scalar<int32_t>()(), int(dh_out.dim_size(0)), int(dh_out.dim_size(1)),
+                 int(w.dim_size(0))};
+    OP_REQUIRES(ctx, dh_out.dim_size(2) == d.hidden && w.dim_size(1) == 4 * d.hidden &&
+                     peep.NumElements() == 3 * d.hidden && keep.NumElements() == d.size * d.batch,
+                InvalidArgument("inconsistent shapes: dh_out ", dh_out.shape().DebugString(),
+                                ", w ", w.shape().DebugString()));
+    const float* state[5];
+    for (int k = 0; k < 5; ++k) {
+      OP_REQUIRES(ctx, ctx->input(2 + k).shape() == dh_out.shape(),
+                  InvalidArgument("state ", k, " has shape ",
+                                  ctx->input(2 + k).shape().DebugString()));
+      state[k] = ctx->input(2 + k).flat<float>().data();
+    }
+    OP_REQUIRES(ctx, c_prev.shape() == dh_out.shape(), InvalidArgument("c_prev's shape"));
+    OP_REQUIRES(ctx, d.steps >= 0 && d.steps <= d.size,
+                InvalidArgument("steps ", d.steps, " outside 0..", d.size));
+    Tensor* dz = nullptr;
+    OP_REQUIRES_OK(ctx, ctx->allocate_output(0, TensorShape({d.size, d.batch, 4 * d.hidden}),
+                                             &dz));
+    float* out = dz->flat<float>().data();
+    std::fill(out + size_t(d.steps) * d.batch * 4 * d.hidden, out + dz->NumElements(), 0.0f);
+    run(ctx, d, dh_out.flat<float>().data(), keep.flat<float>().data(), state,
+        c_prev.flat<float>().data(), w.flat<T>().data(), peep.flat<float>().data(), out);
+  }
+
+ private:
+  void run(OpKernelContext* ctx, const Dims& d, const float* dh_out, const float* keep,
+           const float* state[5], const float* c_prev, const T* w, const float* peep,
+           float* dz);
+};
+
+template <>
+void BackwardOp<float>::run(OpKernelContext* ctx, const Dims& d, const float* dh_out,
+                            const float* keep, const float* state[5], const float* c_prev,
+                            const float* w, const float* peep, float* dz) {
+  backward<Fp32Panels>(ctx, d, dh_out, keep, state, c_prev, w, peep, dz);
+}
+
+#if defined(__AVX512BF16__)
+template <>
+void ForwardOp<bfloat16>::run(OpKernelContext* ctx, const Dims& d, const float* x_proj,
+                              const float* keep, const bfloat16* w, const float* peep,
+                              float* out[6]) {
+  forward<Bf16Panels>(ctx, d, x_proj, keep, w, peep, out);
+}
+
+template <>
+void BackwardOp<bfloat16>::run(OpKernelContext* ctx, const Dims& d, const float* dh_out,
+                               const float* keep, const float* state[5], const float* c_prev,
+                               const bfloat16* w, const float* peep, float* dz) {
+  backward<Bf16Panels>(ctx, d, dh_out, keep, state, c_prev, w, peep, dz);
+}
+#define MTRNN_WEIGHT_TYPES "T: {float, bfloat16}"
+#else
+#define MTRNN_WEIGHT_TYPES "T: {float}"
+#endif
+
+tensorflow::Status same_as_input(tensorflow::shape_inference::InferenceContext* c, int outputs) {
+  for (int k = 0; k < outputs; ++k) c->set_output(k, c->input(0));
+  return tensorflow::OkStatus();
+}
+
+}  // namespace
+
+REGISTER_OP("MtrnnLstmForward")
+    .Attr(MTRNN_WEIGHT_TYPES)
+    .Input("x_proj: float")
+    .Input("keep: float")
+    .Input("w: T")
+    .Input("peep: float")
+    .Input("steps: int32")
+    .Output("h: float")
+    .Output("c: float")
+    .Output("g: float")
+    .Output("i: float")
+    .Output("f: float")
+    .Output("o: float")
+    .SetShapeFn([](tensorflow::shape_inference::InferenceContext* c) {
+      tensorflow::shape_inference::ShapeHandle x = c->input(0), out;
+      TF_RETURN_IF_ERROR(c->WithRank(x, 3, &x));
+      TF_RETURN_IF_ERROR(
+          c->ReplaceDim(x, 2, c->Dim(c->input(2), 0), &out));
+      for (int k = 0; k < 6; ++k) c->set_output(k, out);
+      return tensorflow::OkStatus();
+    });
+
+REGISTER_OP("MtrnnLstmBackward")
+    .Attr(MTRNN_WEIGHT_TYPES)
+    .Input("dh_out: float")
+    .Input("keep: float")
+    .Input("c: float")
+    .Input("g: float")
+    .Input("i: float")
+    .Input("f: float")
+    .Input("o: float")
+    .Input("c_prev: float")
+    .Input("w: T")
+    .Input("peep: float")
+    .Input("steps: int32")
+    .Output("dz: float")
+    .SetShapeFn([](tensorflow::shape_inference::InferenceContext* c) {
+      tensorflow::shape_inference::ShapeHandle x = c->input(0), out;
+      TF_RETURN_IF_ERROR(c->WithRank(x, 3, &x));
+      TF_RETURN_IF_ERROR(c->ReplaceDim(x, 2, c->Dim(c->input(8), 1), &out));
+      c->set_output(0, out);
+      return tensorflow::OkStatus();
+    });
+
+REGISTER_KERNEL_BUILDER(
+    Name("MtrnnLstmForward").Device(tensorflow::DEVICE_CPU).TypeConstraint<float>("T")
+        .HostMemory("steps"),
+    ForwardOp<float>);
+REGISTER_KERNEL_BUILDER(
+    Name("MtrnnLstmBackward").Device(tensorflow::DEVICE_CPU).TypeConstraint<float>("T")
+        .HostMemory("steps"),
+    BackwardOp<float>);
+#if defined(__AVX512BF16__)
+REGISTER_KERNEL_BUILDER(
+    Name("MtrnnLstmForward").Device(tensorflow::DEVICE_CPU).TypeConstraint<bfloat16>("T")
+        .HostMemory("steps"),
+    ForwardOp<bfloat16>);
+REGISTER_KERNEL_BUILDER(
+    Name("MtrnnLstmBackward").Device(tensorflow::DEVICE_CPU).TypeConstraint<bfloat16>("T")
+        .HostMemory("steps"),
+    BackwardOp<bfloat16>);
+#endif

@@ -1,0 +1,85 @@
+"""The fused C++ loops (``loops = "fused"``): a run trains as on the graph loops; where they cannot
+be built, the graph loops run after one line saying why, and a failed build leaves nothing."""
+import json
+import os
+import shutil
+from dataclasses import replace
+
+import pytest
+
+from baseline.builder import train_baseline
+from baseline.config import RunConfig
+from jigsaws_tools.dataset import DataConfig
+from rnn_seg import lstm
+from rnn_seg.kernels import build
+from rnn_seg.lstm import EncoderConfig, RecurrentEncoder
+from rnn_seg.optim import OptimConfig
+from rnn_seg.trainer import TrainConfig
+from tests.fused_loops import needs_fused
+
+import tensorflow as tf
+
+
+def _run(data_dir, out, loops):
+    config = RunConfig(data=DataConfig(str(data_dir)), test_user="B",
+                       encoder=EncoderConfig(hidden=32, loops=loops),
+                       optim=OptimConfig(total=6, decay_start=4, decay_every=100),
+                       train=TrainConfig(seed=0, eval_points=()))
+    train_baseline(config, out, log=lambda m: None)
+    recorded = json.loads((out / "config.json").read_text())
+    assert recorded["provenance"]["loops"] == loops               # those the process ran
+    return (json.loads((out / "metrics.json").read_text())["mean"]["gesture"],
+            recorded["run"]["encoder"]["loops"])
+
+
+@needs_fused
+def test_a_seeded_run_on_the_fused_loops_scores_as_on_the_graph_loops(synth_dir, tmp_path):
+    """Model A, 6 epochs on the synthetic release, same seed: the two paths differ only in
+    float32 rounding, so the held-out scores agree closely; the run's config names its loops."""
+    graph, graph_loops = _run(synth_dir, tmp_path / "graph", "graph")
+    fused, fused_loops = _run(synth_dir, tmp_path / "fused", "fused")
+    assert (graph_loops, fused_loops) == ("graph", "fused")
+    for metric in ("accuracy", "edit", "f1@10"):
+        assert fused[metric] == pytest.approx(graph[metric], abs=1.0), metric
+
+
+@pytest.mark.skipif(shutil.which(os.environ.get("CXX") or "g++") is None,
+                    reason="no C++ compiler: the fused loops' tests are skipped")
+def test_the_fused_loops_build_wherever_a_compiler_is():
+    """With a compiler present, a failing build is a bug, not a reason to skip (CI checks it)."""
+    assert build.unavailable("fp32") is None
+    if lstm.native_bf16() and "avx512_bf16" in lstm.cpu_flags():
+        assert build.unavailable("bf16") is None
+
+
+def test_unbuildable_fused_loops_fall_back_to_the_graph_loops_after_one_line(monkeypatch, capsys):
+    reason = "no C++ compiler: 'g++' not found (a test's reason)"
+    monkeypatch.setattr(lstm, "_fused_unavailable", lambda precision: reason)
+    config = EncoderConfig(hidden=8, loops="fused")
+    encoders = [RecurrentEncoder(3, config, tf.random.Generator.from_seed(0)) for _ in range(2)]
+    assert [e.config for e in encoders] == [replace(config, loops="graph")] * 2
+    lines = capsys.readouterr().err.splitlines()
+    assert lines == [f"fused LSTM loops unavailable ({reason}): running the graph loops"]
+
+
+@pytest.mark.parametrize("compiler, message", [("no-such-compiler-49", r"no C\+\+ compiler"),
+                                               ("false", "failed")])
+def test_a_failed_build_says_why_and_leaves_nothing(tmp_path, monkeypatch, compiler, message):
+    monkeypatch.setenv("CXX", compiler)
+    with pytest.raises(build.KernelUnavailable, match=message):
+        build.build(tmp_path / "kernels" / "lstm_loops-x.so")
+    assert [p for p in tmp_path.rglob("*") if p.is_file()] == []
+
+
+def test_the_cache_is_kept_per_tensorflow_version(tmp_path, monkeypatch):
+    monkeypatch.setenv("JIGSAWS_CACHE_DIR", str(tmp_path))
+    path = build.library_path()
+    assert path.parent == tmp_path / "kernels" / f"tf-{tf.__version__}"
+
+
+def test_a_grid_refuses_to_stack_fused_loops(tmp_path, capsys):
+    from multitask.grid.cli import main as grid_main
+
+    code = grid_main(["--preset", "quick", "--data-dir", "synthetic", "--out", str(tmp_path),
+                      "--loops", "fused", "--stack", "2"])
+    assert code == 2 and "--stack 1 with loops fused" in capsys.readouterr().err
