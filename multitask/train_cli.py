@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
+from typing import Callable
 
 from baseline.config import RunConfig
 from baseline.options import add_run_arguments, run_config_from_args
@@ -49,6 +51,11 @@ def build_parser(variant_name: str = DEFAULT_VARIANT) -> argparse.ArgumentParser
                              "per stage): summed (the paper's MBCE) or averaged (default: "
                              f"{HeadConfig.ordinal_loss})")
     add_run_arguments(parser, variant.optim(), variant.eval_points())
+    parser.add_argument("--mlflow", metavar="URI",
+                        help="also log the run to MLflow once it finishes: settings, the "
+                             "metrics of every history.csv row, final scores "
+                             "(sqlite:///mlflow.db, http://host:5000, ...; needs "
+                             "pip install -e '.[mlflow]'; default: none)")
     return parser
 
 
@@ -59,14 +66,14 @@ def main(argv: list[str] | None = None) -> int:
     variant = get_variant(known.variant)
     parser = build_parser(variant.name)
     args = parser.parse_args(argv)
-    unused = _unused_options(args, variant)
+    unused = unused_options(args, variant)
     if unused:
         parser.refuse(unused)
     set_command([PROG, *(sys.argv[1:] if argv is None else argv)])
     return run_command(PROG, args.verbose, lambda: _train(args, variant))
 
 
-def _unused_options(args: argparse.Namespace, variant: Variant) -> str | None:
+def unused_options(args: argparse.Namespace, variant: Variant) -> str | None:
     """Why an option given does not apply to the run asked for (it would be silently ignored):
     GradNorm's without ``--weighting gradnorm``, ``--ordinal-loss`` without an ordered head."""
     gradnorm = [o for o, v in (("--alpha", args.alpha), ("--weight-lr", args.weight_lr),
@@ -79,34 +86,60 @@ def _unused_options(args: argparse.Namespace, variant: Variant) -> str | None:
     return None
 
 
-def _train(args: argparse.Namespace, variant: Variant) -> int:
-    """Configure (no data read), take the run folder's lock, train; returns the exit code."""
-    import_tensorflow()
-    from baseline.launch import run_training
+def configure_run(args: argparse.Namespace, variant: Variant, log: Callable[[str], None]
+                  ) -> tuple[RunConfig, GradNormConfig, HeadConfig]:
+    """The run's configurations from parsed options (no data read; TensorFlow's threads set),
+    said in ``log``; a bad value is a ``ValueError``."""
     from rnn_seg.threads import configure_threads
 
-    from .models.fold_run import check_weighting, train_variant
+    from .models.fold_run import check_weighting
 
-    def configure() -> tuple[RunConfig, GradNormConfig, HeadConfig]:
-        config = run_config_from_args(args, variant.optim(), variant.eval_points())
-        gradnorm = GradNormConfig(**_given(alpha=args.alpha, learning_rate=args.weight_lr,
-                                           relative_rate=args.relative_rate))
-        heads = HeadConfig(**_given(ordinal_loss=args.ordinal_loss))
-        check_weighting(variant, args.weighting)
-        configure_threads(args.threads, args.hidden, args.precision,
-                          bidirectional=args.direction == "bidirectional")
-        print(f"variant: {variant.name} ({args.weighting})\n{config.describe()}", flush=True)
-        return config, gradnorm, heads
+    config = run_config_from_args(args, variant.optim(), variant.eval_points())
+    gradnorm = GradNormConfig(**_given(alpha=args.alpha, learning_rate=args.weight_lr,
+                                       relative_rate=args.relative_rate))
+    heads = HeadConfig(**_given(ordinal_loss=args.ordinal_loss))
+    check_weighting(variant, args.weighting)
+    configure_threads(args.threads, args.hidden, args.precision,
+                      bidirectional=args.direction == "bidirectional")
+    log(f"variant: {variant.name} ({args.weighting})\n{config.describe()}")
+    return config, gradnorm, heads
+
+
+def log_to_mlflow(tracker, run_dir: Path, log: Callable[[str], None]) -> None:
+    """Log the finished run in ``run_dir`` with ``tracker`` (``rnn_seg.runs.tracking``) and say
+    where; a failure is a warning line (the run itself is complete)."""
+    try:
+        tracker.log_run(run_dir)
+    except Exception as error:                        # MLflow's errors have no common base
+        log(f"warning: the run was not logged to MLflow at {tracker.uri}: "
+            f"{type(error).__name__}: {error}")
+        return
+    log(f"mlflow: {run_dir} logged to {tracker.uri}")
+
+
+def _train(args: argparse.Namespace, variant: Variant) -> int:
+    """Configure (no data read), take the run folder's lock, train; returns the exit code."""
+    from rnn_seg.runs.tracking import Tracker
+
+    tracker = Tracker(args.mlflow) if args.mlflow else None      # checked before any work
+    import_tensorflow()
+    from baseline.launch import run_training
+
+    from .models.fold_run import train_variant
+
+    def say(message: str) -> None:
+        print(message, flush=True)
 
     def train(configs: tuple[RunConfig, GradNormConfig, HeadConfig]) -> dict:
         config, gradnorm, heads = configs
-        return train_variant(variant, args.weighting, config, args.out, gradnorm,
-                             log=lambda m: print(m, flush=True), heads=heads,
-                             restart=args.restart)
+        return train_variant(variant, args.weighting, config, args.out, gradnorm, log=say,
+                             heads=heads, restart=args.restart)
 
-    code, result = run_training(PROG, args.out, configure, train)
+    code, result = run_training(PROG, args.out, lambda: configure_run(args, variant, say), train)
     if result is None:
         return code
+    if tracker is not None:
+        log_to_mlflow(tracker, args.out, say)
     summary = "; ".join(f"{task}: accuracy {m['accuracy']:.1f}, edit {m['edit']:.1f}, "
                         f"F1@10 {m['f1@10']:.1f}" + (f", MAE {m['mae_normalised_rounded']:.1f}"
                                                      if "mae_normalised_rounded" in m else "")
