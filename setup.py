@@ -52,6 +52,7 @@ setup(
         "scipy>=1.17,<2",
         "pandas>=3.1,<4",
         "matplotlib>=3.11,<4",
+        "rich>=15,<16",             # the grid's live progress (Keras needs it too)
     ],
     extras_require={
         # Dask distributed: runs the grid's jobs on a cluster (multitask-grid --scheduler)

@@ -91,3 +91,30 @@ def test_an_unusable_tracking_uri_stops_before_any_work(tmp_path, capsys, monkey
     assert code == 2 and len(err.splitlines()) == 1 and "multitask-train: error:" in err
     assert ("--mlflow" in err or "MLflow is not installed" in err)
     assert not (tmp_path / "run").exists()
+
+
+@needs_mlflow
+def test_a_grid_is_a_parent_run_with_its_runs_nested_under_it(synth_dir, tmp_path,
+                                                               monkeypatch):
+    from mlflow.tracking import MlflowClient
+
+    from multitask.grid.cli import main as grid_main
+
+    monkeypatch.setenv("MLFLOW_ALLOW_FILE_STORE", "true")
+    monkeypatch.setenv("MLFLOW_EXPERIMENT_NAME", "grids")
+    spec = tmp_path / "spec.toml"
+    spec.write_text(f'preset = "quick"\ndata_dir = "{synth_dir}"\ntest_users = ["B"]\n'
+                    'hidden = 8\nepochs = 2\n[[experiments]]\nvariants = ["A", "APc"]\n')
+    uri = (tmp_path / "mlruns").as_uri()
+    command = ["--spec", str(spec), "--out", str(tmp_path / "grid"), "--mlflow", uri]
+    assert grid_main(command) == 0
+    assert grid_main(command) == 0                          # all finished: nothing new
+    client = MlflowClient(tracking_uri=uri)
+    runs = client.search_runs([client.get_experiment_by_name("grids").experiment_id])
+    parents = [r for r in runs if "mtrnn.grid_dir" in r.data.tags]
+    assert len(parents) == 1 and parents[0].info.status == "FINISHED"
+    assert parents[0].data.params["hidden"] == "8"
+    children = [r for r in runs if r.data.tags.get("mlflow.parentRunId")
+                == parents[0].info.run_id]
+    assert sorted(r.data.params["variant"] for r in children) == ["A", "APc"]
+    assert len(runs) == 3 and all("final.gesture.accuracy" in r.data.metrics for r in children)
