@@ -206,6 +206,10 @@ def test_tables_command_draws_curves_and_the_chosen_trial(tmp_path, capsys):
     assert tables_main([str(grid), "--out", str(out), "--curves",
                         "--example-trial", "Suturing_C002"]) == 0
     assert len(list((out / "figures" / "curves").glob("*.pdf"))) == 7
+    said = capsys.readouterr().err.splitlines()          # off a terminal: a line per figure
+    assert "multitask-tables: figure 1: per_gesture_accuracy" in said
+    assert "multitask-tables: drawing the training curves of 7 configurations" in said
+    assert sum(": figure " in line for line in said) == 6 + 7
     for name in ("per_gesture_accuracy", "segmentation_example", "progress_example",
                  "fold_accuracy", "gesture_vs_progress", "gradnorm_weights"):
         assert (out / "figures" / f"{name}.png").stat().st_size > 0

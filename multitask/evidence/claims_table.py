@@ -13,6 +13,7 @@ import pandas as pd
 
 from rnn_seg.runs.folder import write_atomic, write_json
 
+from . import drawing
 from .claims import (FRAME_ACCURACY_MARGIN, MIN_PAIRS, POWER_DECIMALS, Claim, evaluate,
                      smallest_adjusted_p)
 from .latex import escape, number, requires
@@ -48,6 +49,7 @@ def write_claims(runs: pd.DataFrame, out: Path, config: StatsConfig = StatsConfi
         The paths of ``claims.csv``, ``claims.tex``, ``claims_note.tex`` and
         ``claims_config.json``.
     """
+    drawing.say("testing the paper's claims (paired tests, power simulations)")
     table = evaluate(runs, claims, config)
     paths = [out / "claims.csv", out / "claims.tex", out / "claims_note.tex",
              out / "claims_config.json"]

@@ -23,6 +23,7 @@ from jigsaws_tools.plots import PAGE_INCHES, figure_style  # noqa: E402
 from rnn_seg.config import unit_name  # noqa: E402
 from rnn_seg.runs.logs import read_log  # noqa: E402
 
+from . import drawing  # noqa: E402
 from .collect import key_from_path  # noqa: E402
 from .figures import save  # noqa: E402
 from ..grid.spec import RunKey  # noqa: E402
@@ -43,6 +44,7 @@ def training_curves(grid_dir: Path | str, out_dir: Path) -> list[Path]:
         configs.setdefault((key.annotations, key.direction, key.config_name), []).append(
             (key, read_log(path)))
     written = []
+    drawing.say(f"drawing the training curves of {len(configs)} configurations")
     for (labels, direction, config), runs in configs.items():
         fig = curves_figure(runs, f"{config}, {labels} annotations, {direction}")
         written += save(fig, out_dir, f"{labels}-{direction}-{config}")

@@ -40,6 +40,7 @@ from jigsaws_tools.task_definition import load_task  # noqa: E402
 from rnn_seg.runs.folder import read_json  # noqa: E402
 
 from ..grid.archive import kept_predictions  # noqa: E402
+from . import drawing  # noqa: E402
 from ..grid.spec import RunKey  # noqa: E402
 from .collect import grid_task_name  # noqa: E402
 from .paired import ConfigId  # noqa: E402
@@ -79,6 +80,7 @@ def save(fig: plt.Figure, out_dir: Path, name: str) -> list[Path]:
         fig.savefig(path, dpi=150, bbox_inches="tight", pad_inches=0.02,
                     metadata={"CreationDate": None} if path.suffix == ".pdf" else None)
     plt.close(fig)
+    drawing.drew(name)
     return paths
 
 
