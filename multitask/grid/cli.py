@@ -181,6 +181,9 @@ def _run(args: argparse.Namespace) -> int:
             if tracker is not None:
                 tracker.start_grid(args.out, spec_payload(spec))
                 after_run = partial(_track, tracker, log)
+                for key in keys:                 # finished before: logged unless they were
+                    if is_finished(args.out / key.path()):
+                        after_run(args.out / key.path())
             failed = run_grid(spec, keys, args.out, args.workers, args.scheduler, args.threads,
                               args.stack, log=log, after_job=after_job, after_run=after_run,
                               live=console if console.is_terminal else None)
