@@ -59,7 +59,8 @@ def test_a_finished_run_is_logged_to_mlflow_once(synth_dir, tmp_path, monkeypatc
 
     monkeypatch.setenv("MLFLOW_ALLOW_FILE_STORE", "true")          # MLflow 3's file store
     uri = (tmp_path / "mlruns").as_uri()
-    command = ["--variant", "APc", "--data-dir", str(synth_dir), "--out", str(tmp_path / "run"),
+    command = ["--variant", "APc", "--weighting", "gradnorm", "--data-dir", str(synth_dir),
+               "--out", str(tmp_path / "run"),
                "--hidden", "8", "--epochs", "2", "--eval-at", "1,2", "--test-user", "C",
                "--no-plots", "--mlflow", uri]
     assert train_main(command) == 0
@@ -77,6 +78,9 @@ def test_a_finished_run_is_logged_to_mlflow_once(synth_dir, tmp_path, monkeypatc
     assert [m.step for m in losses] == list(history.sweep)
     assert [m.value for m in losses] == pytest.approx(list(history.loss_gesture))
     assert [m.value for m in client.get_metric_history(run.info.run_id, "epoch")] == [1, 2]
+    weights = pd.read_csv(tmp_path / "run" / "gradnorm.csv")
+    assert [m.value for m in client.get_metric_history(
+        run.info.run_id, "gradnorm.w_end_progress")] == pytest.approx(list(weights.w_end_progress))
     metrics = pd.read_json(tmp_path / "run" / "metrics.json", typ="series")["mean"]
     assert run.data.metrics["final.gesture.accuracy"] == pytest.approx(
         metrics["gesture"]["accuracy"])

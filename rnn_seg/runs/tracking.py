@@ -10,6 +10,7 @@ resumed is logged once, whole:
   ``data_fingerprint``, ``settings_hash``; a value longer than MLflow takes is cut);
 * every ``history.csv`` row as metrics at step = its sweep count: ``epoch`` (or ``sweep``), the
   learning rate, each task's loss, the test scores where the row has them, seconds per unit;
+  a GradNorm run's ``gradnorm.csv`` rows too, as ``gradnorm.<column>`` (``gradnorm.w_end_gesture``);
 * its final scores (``metrics.json``'s mean over the evaluation points) as ``final.<task>.<score>``
   (``final.gesture.accuracy``, ``final.gesture.f1_10`` for F1@10: MLflow names take no ``@``).
 
@@ -31,7 +32,7 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any, Iterator
 
-from .folder import CONFIG, HISTORY, is_finished, read_json
+from .folder import CONFIG, GRADNORM_LOG, HISTORY, is_finished, read_json
 
 DEFAULT_EXPERIMENT = "mtrnn-jigsaws"
 INSTALL = 'MLflow is not installed: pip install -e ".[mlflow]" (or pip install mlflow-skinny)'
@@ -106,8 +107,9 @@ class Tracker:
         run_id = run.info.run_id
         self._log(run_id, params={k: v for k, v in _flat(config).items()
                                   if not k.startswith("provenance.")})
-        self._log(run_id, metrics=list(_history_metrics(run_dir / HISTORY, started))
-                  + _final_metrics(read_json(run_dir / "metrics.json")))
+        self._log(run_id, metrics=[*_csv_metrics(run_dir / HISTORY, started),
+                                   *_csv_metrics(run_dir / GRADNORM_LOG, started, "gradnorm."),
+                                   *_final_metrics(read_json(run_dir / "metrics.json"))])
         self.client.set_terminated(run_id, "FINISHED")
         return run_id
 
@@ -177,20 +179,24 @@ def _run_name(run_dir: Path, config: dict) -> str:
     return run_dir.name
 
 
-def _history_metrics(path: Path, started: int) -> Iterator:
-    """One metric per filled cell of ``history.csv``: step = the row's sweep, time = the run's
-    start plus the row's elapsed seconds; ``epoch`` (or ``sweep``) = the row's unit count."""
+def _csv_metrics(path: Path, started: int, prefix: str = "") -> Iterator:
+    """One metric per filled cell of a CSV log (``history.csv``, ``gradnorm.csv``; none if the
+    run has not this log): step = the row's sweep, time = the run's start plus the row's elapsed
+    seconds where it has them; ``history.csv``'s ``epoch`` (or ``sweep``) = the row's units."""
     from mlflow.entities import Metric
 
+    if not path.is_file():
+        return
     with open(path, newline="") as file:
         for row in csv.DictReader(file):
             step = int(row["sweep"])
             stamp = started + int(1000 * float(row.get("elapsed_seconds") or 0))
-            unit = "sweep" if row.get("unit") == "sweeps" else "epoch"
-            yield Metric(unit, float(row["n"]), stamp, step)
+            if "n" in row and not prefix:
+                unit = "sweep" if row.get("unit") == "sweeps" else "epoch"
+                yield Metric(unit, float(row["n"]), stamp, step)
             for column, cell in row.items():
                 if column not in _STEP_COLUMNS and cell not in ("", None):
-                    yield Metric(metric_name(column), float(cell), stamp, step)
+                    yield Metric(metric_name(prefix + column), float(cell), stamp, step)
 
 
 def _final_metrics(saved: dict) -> list:
