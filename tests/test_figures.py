@@ -206,7 +206,7 @@ def test_tables_command_draws_curves_and_the_chosen_trial(tmp_path, capsys):
     assert tables_main([str(grid), "--out", str(out), "--curves",
                         "--example-trial", "Suturing_C002"]) == 0
     assert len(list((out / "figures" / "curves").glob("*.pdf"))) == 7
-    said = capsys.readouterr().err.splitlines()          # off a terminal: a line per figure
+    said = capsys.readouterr().out.splitlines()          # off a terminal: a line per figure
     assert "multitask-tables: figure 1: per_gesture_accuracy" in said
     assert "multitask-tables: drawing the training curves of 7 configurations" in said
     assert sum(": figure " in line for line in said) == 6 + 7

@@ -1,12 +1,12 @@
 """What ``multitask-tables`` is making, said while it works (a minute for ``--curves`` at the
 paper's size): the slow steps (the claims' power simulations) and every figure saved
-(``figures.save``) are named on standard error, as a transient
-status line on a terminal (``rich``) and as a plain line per figure elsewhere (a file, a pipe, a
-batch job's log). Only within ``shown`` (the command's); library calls draw silently.
+(``figures.save``) are named on standard output, as the grid's and training's progress is
+(standard error stays for warnings and errors): a transient status line on a terminal
+(``rich``), a plain line per figure elsewhere (a file, a pipe, a batch job's log). Only within
+``shown`` (the command's); library calls draw silently.
 """
 from __future__ import annotations
 
-import sys
 from contextlib import contextmanager
 from typing import Iterator
 
@@ -16,7 +16,7 @@ class _Reporter:
         from rich.console import Console
 
         self.prog, self.count = prog, 0
-        self.console = Console(stderr=True)
+        self.console = Console()
         self.status = (self.console.status("drawing figures") if self.console.is_terminal
                        else None)
 
@@ -24,7 +24,7 @@ class _Reporter:
         if self.status is not None:
             self.status.update(f"{self.prog}: {message}")
         else:
-            print(f"{self.prog}: {message}", file=sys.stderr, flush=True)
+            print(f"{self.prog}: {message}", flush=True)
 
 
 _reporter: _Reporter | None = None
