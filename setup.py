@@ -54,11 +54,14 @@ setup(
         "scipy>=1.17,<2",
         "pandas>=3.1,<4",
         "matplotlib>=3.11,<4",
+        "rich>=15,<16",             # the grid's live progress (Keras needs it too)
     ],
     extras_require={
         # Dask distributed: runs the grid's jobs on a cluster (multitask-grid --scheduler)
         "dask": ["dask[distributed]>=2026.8"],
-        "test": ["pytest>=9,<10", "dask[distributed]>=2026.8"],
+        "test": ["pytest>=9,<10", "dask[distributed]>=2026.8", "mlflow-skinny>=3.17,<4"],
+        # MLflow's tracking client: multitask-train / multitask-grid --mlflow URI
+        "mlflow": ["mlflow-skinny>=3.17,<4"],
         # TensorBoard, to view what --tensorboard writes (training writes it without)
         "tensorboard": ["tensorboard>=2.21,<3"],
         # PyTorch, a peer bench/lstm_sweep.py times beside rnn_seg (pinned: numbers name one version)

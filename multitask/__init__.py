@@ -12,7 +12,7 @@ Four wings, one folder each (read the first file named in each):
 * ``inference/``: a trained run in use: loaded (**``trained_run.load_run``**), its predictions,
   streaming, evaluation, export, and ``multitask-predict`` / ``-evaluate`` / ``-export``.
 
-``train_cli`` is ``multitask-train``. Imports flow one way: ``models <- grid <- evidence`` and
+``train_cli`` is ``multitask-train``, ``training.train`` the same from Python. Imports flow one way: ``models <- grid <- evidence`` and
 ``models <- inference <- evidence``; ``models`` imports no other wing, ``grid`` and ``inference``
 import only ``models``, ``evidence`` any of the three (``tests/test_packaging.py`` checks it).
 Outside the package, ``multitask`` imports ``jigsaws_tools``, ``rnn_seg`` and ``baseline``.
@@ -27,6 +27,7 @@ _PUBLIC = {
     "StreamingPredictor": "inference.streaming",
     "evaluate_run": "inference.evaluation",
     "export_run": "inference.export",
+    "train": "training",
     "train_variant": "models.fold_run",
     "variant_trainer": "models.fold_run",
     "GradNormConfig": "models.config",

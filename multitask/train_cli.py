@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
+from typing import Callable
 
 from baseline.config import RunConfig
 from baseline.options import add_run_arguments, run_config_from_args
@@ -49,6 +51,11 @@ def build_parser(variant_name: str = DEFAULT_VARIANT) -> argparse.ArgumentParser
                              "per stage): summed (the paper's MBCE) or averaged (default: "
                              f"{HeadConfig.ordinal_loss})")
     add_run_arguments(parser, variant.optim(), variant.eval_points())
+    parser.add_argument("--mlflow", metavar="URI",
+                        help="also log the run to MLflow once it finishes: settings, the "
+                             "metrics of every history.csv row, final scores "
+                             "(sqlite:///mlflow.db, http://host:5000, ...; needs "
+                             "pip install -e '.[mlflow]'; default: none)")
     return parser
 
 
@@ -59,14 +66,14 @@ def main(argv: list[str] | None = None) -> int:
     parser = build_parser(known.variant if known.variant in VARIANTS else DEFAULT_VARIANT)
     args = parser.parse_args(argv)                     # refuses an unknown variant
     variant = get_variant(args.variant)
-    unused = _unused_options(args, variant)
+    unused = unused_options(args, variant)
     if unused:
         parser.refuse(unused)
     set_command([PROG, *(sys.argv[1:] if argv is None else argv)])
     return run_command(PROG, args.verbose, lambda: _train(args, variant))
 
 
-def _unused_options(args: argparse.Namespace, variant: Variant) -> str | None:
+def unused_options(args: argparse.Namespace, variant: Variant) -> str | None:
     """Why an option given does not apply to the run asked for (it would be silently ignored):
     GradNorm's without ``--weighting gradnorm``, ``--ordinal-loss`` without an ordered head."""
     gradnorm = [o for o, v in (("--alpha", args.alpha), ("--weight-lr", args.weight_lr),
@@ -84,36 +91,66 @@ def weighting(args: argparse.Namespace) -> str:
     return args.weighting or WEIGHTINGS[0]
 
 
+def configure_run(args: argparse.Namespace, variant: Variant, log: Callable[[str], None]
+                  ) -> tuple[RunConfig, GradNormConfig, HeadConfig]:
+    """The run's configurations from parsed options (no data read, no TensorFlow), the model's
+    full name (its weighting included) and the configuration said in ``log``; a bad value is a
+    ``ValueError``."""
+    gradnorm = GradNormConfig(**_given(alpha=args.alpha, learning_rate=args.weight_lr,
+                                       relative_rate=args.relative_rate))
+    heads = HeadConfig(**_given(ordinal_loss=args.ordinal_loss))
+    check_weighting(variant, weighting(args))
+    config = run_config_from_args(args, variant.optim(), variant.eval_points())
+    log(f"model: {variant.full_name(weighting(args), gradnorm, args.weighting is not None)}"
+        f"\n{config.describe()}")
+    return config, gradnorm, heads
+
+
+def train_configured(args: argparse.Namespace, variant: Variant,
+                     configs: tuple[RunConfig, GradNormConfig, HeadConfig],
+                     log: Callable[[str], None]) -> dict:
+    """Train the run ``configure_run`` configured (TensorFlow's threads set first); its
+    metrics."""
+    from rnn_seg.threads import configure_threads
+
+    from .models.fold_run import train_variant
+
+    config, gradnorm, heads = configs
+    configure_threads(args.threads, args.hidden, args.precision,
+                      bidirectional=args.direction == "bidirectional")
+    return train_variant(variant, weighting(args), config, args.out, gradnorm, log=log,
+                         heads=heads, restart=args.restart)
+
+
+def log_to_mlflow(tracker, run_dir: Path, log: Callable[[str], None]) -> None:
+    """Log the finished run in ``run_dir`` with ``tracker`` (``rnn_seg.runs.tracking``) and say
+    where; a failure is a warning line (the run itself is complete)."""
+    try:
+        tracker.log_run(run_dir)
+    except Exception as error:                        # MLflow's errors have no common base
+        log(f"warning: the run was not logged to MLflow at {tracker.uri}: "
+            f"{type(error).__name__}: {error}")
+        return
+    log(f"mlflow: {run_dir} logged to {tracker.uri}")
+
+
 def _train(args: argparse.Namespace, variant: Variant) -> int:
     """Configure (no data read, no TensorFlow), take the run folder's lock, train; returns the
     exit code. The model's full name, its weighting included, is the first line printed."""
     from baseline.launch import run_training
+    from rnn_seg.runs.tracking import Tracker
 
-    def configure() -> tuple[RunConfig, GradNormConfig, HeadConfig]:
-        gradnorm = GradNormConfig(**_given(alpha=args.alpha, learning_rate=args.weight_lr,
-                                           relative_rate=args.relative_rate))
-        heads = HeadConfig(**_given(ordinal_loss=args.ordinal_loss))
-        check_weighting(variant, weighting(args))
-        config = run_config_from_args(args, variant.optim(), variant.eval_points())
-        print(f"model: {variant.full_name(weighting(args), gradnorm, args.weighting is not None)}"
-              f"\n{config.describe()}", flush=True)
-        return config, gradnorm, heads
+    tracker = Tracker(args.mlflow) if args.mlflow else None      # checked before any work
 
-    def train(configs: tuple[RunConfig, GradNormConfig, HeadConfig]) -> dict:
-        from rnn_seg.threads import configure_threads
+    def say(message: str) -> None:
+        print(message, flush=True)
 
-        from .models.fold_run import train_variant
-
-        config, gradnorm, heads = configs
-        configure_threads(args.threads, args.hidden, args.precision,
-                          bidirectional=args.direction == "bidirectional")
-        return train_variant(variant, weighting(args), config, args.out, gradnorm,
-                             log=lambda m: print(m, flush=True), heads=heads,
-                             restart=args.restart)
-
-    code, result = run_training(PROG, args.out, configure, train)
+    code, result = run_training(PROG, args.out, lambda: configure_run(args, variant, say),
+                                lambda configs: train_configured(args, variant, configs, say))
     if result is None:
         return code
+    if tracker is not None:
+        log_to_mlflow(tracker, args.out, say)
     summary = "; ".join(f"{task}: accuracy {m['accuracy']:.1f}, edit {m['edit']:.1f}, "
                         f"F1@10 {m['f1@10']:.1f}" + (f", MAE {m['mae_normalised_rounded']:.1f}"
                                                      if "mae_normalised_rounded" in m else "")

@@ -11,11 +11,13 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from jigsaws_tools.plots import (LEGEND_ROW_INCHES, Ribbon, draw_ribbon,  # noqa: E402
-                                 layout_with_legends, save_png, task_colours)
+                                 figure_style, layout_with_legends, legend_rows, save_png,
+                                 task_colours)
 
 from .tasks import Task  # noqa: E402
 
 
+@figure_style
 def plot_sequence(title: str, tasks: Sequence[Task], true: dict[str, np.ndarray],
                   pred: dict[str, np.ndarray], path: Path | str, sample_hz: float) -> Path:
     """Save truth/prediction ribbons and ordered tasks' stage lines, over time in seconds, with
@@ -39,7 +41,8 @@ def plot_sequence(title: str, tasks: Sequence[Task], true: dict[str, np.ndarray]
     lines = [t for t in tasks if t.ordered]
     heights = [0.35] * len(ribbons) + [1.6] * len(lines)
     fig, axes = plt.subplots(len(heights), 1, sharex=True, squeeze=False,
-                             figsize=(10, sum(heights) + 0.9 + LEGEND_ROW_INCHES * len(tasks)),
+                             figsize=(10, sum(heights) + 0.9
+                                      + LEGEND_ROW_INCHES * legend_rows(ribbons)),
                              gridspec_kw={"height_ratios": heights})
     axes = axes[:, 0]
     for ax, ribbon in zip(axes, ribbons):
@@ -50,8 +53,8 @@ def plot_sequence(title: str, tasks: Sequence[Task], true: dict[str, np.ndarray]
                 alpha=0.8)
         ax.set_yticks(range(task.num_classes), task.class_names)
         ax.set_ylabel(task.name)
-        ax.legend(fontsize=7, loc="upper left", ncol=2)
-    axes[0].set_title(title, fontsize=9)
+        ax.legend(loc="upper left", ncol=2)
+    axes[0].set_title(title)
     axes[-1].set_xlabel("time [s]")
     layout_with_legends(fig, ribbons)
     return save_png(fig, path, dpi=100)

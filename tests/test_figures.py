@@ -116,7 +116,7 @@ def test_example_figures_take_the_chosen_trial_and_show_seconds(grid, captured):
     end = segmentation.axes[-1].get_xlim()[1]
     assert end == pytest.approx((predictions.frame.iloc[-1] - 1 + 6) / 30)
     progress = captured["progress_example"].axes[0]
-    assert "Suturing_D003" in progress.get_title()
+    assert "Suturing_D003" in progress.get_legend().get_title().get_text()
     assert any("APr" in t.get_text() for t in progress.get_legend().get_texts())
     assert figures.example_trial(grid, folds) == ("Suturing_B001", "B")
     with pytest.raises(ValueError, match="Suturing_Z001.*Suturing_B001"):
@@ -130,12 +130,46 @@ def test_fold_letters_label_the_points_apart_and_a_stands_beside_apoc(grid, capt
     (per_model,), (scatter,) = captured["fold_accuracy"].axes, captured["gesture_vs_progress"].axes
     assert [t.get_text() for t in per_model.get_xticklabels()] == sorted(FOLDS)
     assert [t.get_text() for t in per_model.get_legend().get_texts()][0] == "A"
-    labels = scatter.texts
-    assert sorted(t.get_text() for t in labels) == sorted(FOLDS)
-    assert min(t.get_fontsize() for t in labels) >= 8
-    places = np.array([t.get_position() for t in labels])         # axes fractions
-    apart = np.abs(places[:, None, :] - places[None, :, :]).max(axis=2) >= 0.07
-    assert apart[~np.eye(len(places), dtype=bool)].all()
+    assert sorted(t.get_text() for t in scatter.texts) == sorted(FOLDS)
+    assert min(t.get_fontsize() for t in scatter.texts) >= 8
+    _assert_labels_clear(scatter)
+
+
+@pytest.mark.parametrize("points", [
+    {"B": (85.0, 87.9), "I": (84.7, 87.85), "F": (88.2, 89.1), "E": (89.0, 89.3),
+     "G": (81.7, 87.7), "C": (91.0, 91.5), "H": (89.8, 93.8), "D": (72.0, 81.9)},   # real grid's
+    {f: (80 + 0.05 * k, 80 + 0.05 * k) for k, f in enumerate(FOLDS)},              # a clump
+])
+def test_fold_labels_overlap_no_point_and_no_other_label(points):
+    fig, ax = plt.subplots(figsize=(3.5, 2.9))
+    x, y = (np.array([p[i] for p in points.values()]) for i in (0, 1))
+    ax.scatter(x, y, s=figures.MARKER_PT ** 2)
+    ax.set_xlim(*figures._padded(x))
+    ax.set_ylim(*figures._padded(y))
+    fig.tight_layout()
+    figures._label_points(ax, x, y, list(points), figures.MARKER_PT)
+    assert sorted(t.get_text() for t in ax.texts) == sorted(points)
+    if len(set(np.round(x))) > 1:                 # points far enough apart for every near place
+        assert not any(t.arrow_patch for t in ax.texts)
+    _assert_labels_clear(ax)
+
+
+def _assert_labels_clear(ax: plt.Axes) -> None:
+    """No label of ``ax`` overlaps another label or a marker of its scatter plot, and each lies
+    inside the axes."""
+    fig = ax.figure
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    boxes = [t.get_window_extent(renderer) for t in ax.texts]
+    frame = ax.get_window_extent(renderer)
+    radius = figures.MARKER_PT / 2 * fig.dpi / 72
+    markers = ax.transData.transform(ax.collections[0].get_offsets())
+    for k, box in enumerate(boxes):
+        assert frame.x0 <= box.x0 and box.x1 <= frame.x1 and frame.y0 <= box.y0 <= box.y1 <= frame.y1
+        assert not any(box.overlaps(other) for other in boxes[k + 1:]), ax.texts[k].get_text()
+        for mx, my in markers:
+            assert not (box.x0 < mx + radius and mx - radius < box.x1
+                        and box.y0 < my + radius and my - radius < box.y1), ax.texts[k].get_text()
 
 
 def test_gradnorm_panels_in_the_paper_order_on_one_epoch_axis(grid, captured):
@@ -172,6 +206,10 @@ def test_tables_command_draws_curves_and_the_chosen_trial(tmp_path, capsys):
     assert tables_main([str(grid), "--out", str(out), "--curves",
                         "--example-trial", "Suturing_C002"]) == 0
     assert len(list((out / "figures" / "curves").glob("*.pdf"))) == 7
+    said = capsys.readouterr().out.splitlines()          # off a terminal: a line per figure
+    assert "multitask-tables: figure 1: per_gesture_accuracy" in said
+    assert "multitask-tables: drawing the training curves of 7 configurations" in said
+    assert sum(": figure " in line for line in said) == 6 + 7
     for name in ("per_gesture_accuracy", "segmentation_example", "progress_example",
                  "fold_accuracy", "gesture_vs_progress", "gradnorm_weights"):
         assert (out / "figures" / f"{name}.png").stat().st_size > 0
@@ -253,3 +291,44 @@ def test_predictions_of_earlier_versions_are_read_into_the_one_format(tmp_path):
     assert table.progress.tolist() == ["reach", "position", "position"]
     assert table.progress_true.tolist() == ["reach", "reach", "position"]
     np.testing.assert_allclose(table.time_s, [0, 0.2, 0.4])
+
+
+#: Figures meant for one column of a two-column paper; every other figure spans the page.
+COLUMN_FIGURES = {"fold_accuracy", "gesture_vs_progress"}
+
+
+def test_every_pdf_has_truetype_fonts_and_fits_a_column_or_the_page_at_8_pt(tmp_path):
+    """What IEEE PDF eXpress and a reader of the printed page check: no Type 3 font, a page no
+    wider than the column (3.5 in) or the text (7.16 in) it is meant for, so that it prints at
+    its own size, and text of 8 pt or larger (mathtext sub- and superscripts are 0.7 of it)."""
+    from jigsaws_tools.plots import COLUMN_INCHES, MIN_TEXT_PT, PAGE_INCHES
+    from multitask.evidence.confusion import write_per_class
+    from multitask.evidence.width import write_width
+    from tests.pdf_pages import read_pdf_page
+
+    grid = write_fake_grid(tmp_path / "grid", seeds=(0,), per_class=True, experiments=(
+        Experiment(("A", "APr", "APc", "APoc"), ("fixed", "gradnorm")),))
+    narrow = write_fake_grid(tmp_path / "h8", seeds=(0,), hidden=8, experiments=(
+        Experiment(("A",)), Experiment(("APoc",), ("gradnorm",))))
+    out = tmp_path / "figures"
+    runs = run_rows(grid)[0]
+    folds = per_fold(runs)
+    figures.all_figures(grid, folds, out, figures.example_trial(grid, folds))
+    write_per_class(grid, runs, folds, tmp_path, figures=True)
+    curves.training_curves(narrow, out / "curves")
+    write_width([grid, narrow], out)
+    pdfs = sorted(out.rglob("*.pdf"))
+    assert {p.stem for p in pdfs} >= {
+        "per_gesture_accuracy", "segmentation_example", "progress_example", "fold_accuracy",
+        "gesture_vs_progress", "gradnorm_weights", "confusion", "width", "revised-bidirectional-A"
+        "-fixed", "revised-bidirectional-APoc-gradnorm"}
+    for pdf in pdfs:
+        page = read_pdf_page(pdf)
+        assert page.font_subtypes and "Type3" not in page.font_subtypes, pdf.name
+        assert page.width_in <= (COLUMN_INCHES if pdf.stem in COLUMN_FIGURES
+                                 else PAGE_INCHES) + 0.005, (pdf.name, page.width_in)
+        sizes = set(page.text_sizes_pt)
+        full = {s for s in sizes if s >= MIN_TEXT_PT}
+        scripts = sizes - full
+        assert full and all(any(abs(s - 0.7 * f) < 0.05 for f in full) for s in scripts), (
+            pdf.name, sorted(sizes))

@@ -28,7 +28,8 @@ def tables(tmp_path_factory) -> dict[str, Path]:
     for flags, suffix in (([], ""), (["--ours-only"], "_ours")):
         out = grid / f"tables{suffix}"
         assert tables_main([str(grid), "--no-figures", "--out", str(out)] + flags) == 0
-        written.update({f"{p.stem}{suffix}": p for p in sorted(out.glob("*.tex"))})
+        written.update({f"{p.stem}{suffix}": p for p in sorted(out.glob("*.tex"))
+                        if p.stem != "claims_note"})          # a paragraph, not a table
     return written
 
 
@@ -43,6 +44,17 @@ def paper_tables(tables) -> dict[str, Path]:
 def test_every_table_is_written(tables):
     assert set(tables) == {f"{name}{suffix}" for suffix in ("", "_ours")
                            for name in (*PAPER_TABLES, "claims")}
+
+
+def test_claims_caption_is_short_and_its_method_is_in_the_note_beside_it(tables):
+    caption = re.search(r"\\caption\{(.*)\}\n", tables["claims"].read_text()).group(1)
+    assert len(caption[:caption.index(" Data:")]) < 400            # the budget sentence aside
+    assert "sign vectors" not in caption and "Subscripts" not in caption
+    note = tables["claims"].with_name("claims_note.tex").read_text()
+    assert r"\ref{tab:claims}" in note and "\\caption" not in note
+    for words in ("sign-flip test over all $2^n$ sign vectors", "Holm's correction", "Verdict",
+                  "Power", "Subscripts", "fwd.: forward LSTM"):
+        assert words in note, words
 
 
 def test_tables_name_their_packages_and_never_scale(tables):
@@ -133,6 +145,8 @@ needs_pdflatex = pytest.mark.skipif(
 def test_every_table_compiles_in_a_minimal_article(tables, tmp_path):
     for name, path in tables.items():
         tex = path.read_text()
+        if name.startswith("claims"):                         # and the note beneath it
+            tex += path.with_name("claims_note.tex").read_text()
         document = "\n".join([r"\documentclass{article}", *required_packages(tex),
                               r"\begin{document}", tex, r"\end{document}", ""])
         _pdflatex(tmp_path, name, document)

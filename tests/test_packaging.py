@@ -146,3 +146,15 @@ def test_the_import_rule_refuses_an_upward_import():
     assert _upward_imports("rnn_seg.runs.lock", "import multitask.models") == [
         "rnn_seg.runs.lock imports multitask.models"]
     assert not _upward_imports("multitask.evidence.cli", "from ..grid.archive import a")
+
+
+def test_every_pip_install_builds_through_the_declared_build_system():
+    """pyproject.toml names setuptools' PEP 517 backend (PEP 660 editable installs from 64 on),
+    so that ``pip install -e .`` and ``pip install -e ".[test]"`` take one code path."""
+    import tomllib
+
+    build = tomllib.loads((ROOT / "pyproject.toml").read_text())["build-system"]
+    assert build["build-backend"] == "setuptools.build_meta"
+    assert "setuptools>=64" in build["requires"]
+    extras = re.search(r"extras_require=\{(.*?)\n    \}", (ROOT / "setup.py").read_text(), re.S)
+    assert '"mlflow": ["mlflow-skinny' in extras.group(1)

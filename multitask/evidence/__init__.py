@@ -9,10 +9,11 @@
 * ``figures``, ``curves``: the paper's figures and training curves; ``confusion``: per-gesture
   precision, recall, F1 and confusion matrices;
 * ``paired``: paired statistics over folds and seeds; ``claims``: the paper's claims as data,
-  tested with them; ``claims_table``: ``claims.csv`` and ``claims.tex``;
+  tested with them; ``claims_table``: ``claims.csv``, ``claims.tex`` and its method note
+  ``claims_note.tex``;
 * ``width``: the width study, model A against APoc across grids of several LSTM widths;
 * ``standalone``: tables of runs trained one by one; ``tasks``: the JIGSAWS tasks side by side;
-* ``cli``: ``multitask-tables``.
+* ``cli``: ``multitask-tables``; ``drawing``: what it is making, said while it works.
 
 May import every other wing of ``multitask`` (``models``, ``grid``, ``inference``); none of them
 imports this one.

@@ -1,6 +1,8 @@
 """The claims table as files: ``claims.csv`` (every column of ``claims.COLUMNS``), ``claims.tex``
-(booktabs ``table*`` floats at text width for a two-column paper, each at most a page high) and
-``claims_config.json`` (the statistics' settings)."""
+(booktabs ``table*`` floats at text width for a two-column paper, each at most a page high,
+under a short caption), ``claims_note.tex`` (the method, the verdicts' rules and the
+abbreviations: a paragraph to include beneath the table or in an appendix, where a caption of
+13 lines held them) and ``claims_config.json`` (the statistics' settings)."""
 from __future__ import annotations
 
 import re
@@ -11,6 +13,7 @@ import pandas as pd
 
 from rnn_seg.runs.folder import write_atomic, write_json
 
+from . import drawing
 from .claims import (FRAME_ACCURACY_MARGIN, MIN_PAIRS, POWER_DECIMALS, Claim, evaluate,
                      smallest_adjusted_p)
 from .latex import escape, number, requires
@@ -32,7 +35,7 @@ _TASK_PREFIXES = {"A": "", "P": "Progress "}
 
 def write_claims(runs: pd.DataFrame, out: Path, config: StatsConfig = StatsConfig(),
                  claims: tuple[Claim, ...] | None = None, budget: str = "") -> list[Path]:
-    """Evaluate the claims on ``runs`` and write the three files into ``out``.
+    """Evaluate the claims on ``runs`` and write the four files into ``out``.
 
     Args:
         runs: one row per finished run (``collect.run_rows``).
@@ -43,13 +46,17 @@ def write_claims(runs: pd.DataFrame, out: Path, config: StatsConfig = StatsConfi
             (``captions.RunsDescription.sentence``); empty = not stated.
 
     Returns:
-        The paths of ``claims.csv``, ``claims.tex`` and ``claims_config.json``.
+        The paths of ``claims.csv``, ``claims.tex``, ``claims_note.tex`` and
+        ``claims_config.json``.
     """
+    drawing.say("testing the paper's claims (paired tests, power simulations)")
     table = evaluate(runs, claims, config)
-    paths = [out / "claims.csv", out / "claims.tex", out / "claims_config.json"]
+    paths = [out / "claims.csv", out / "claims.tex", out / "claims_note.tex",
+             out / "claims_config.json"]
     write_atomic(paths[0], table.to_csv(index=False, float_format="%.4f"))
     write_atomic(paths[1], claims_latex(table, config, budget))
-    write_json(paths[2], {
+    write_atomic(paths[2], claims_note(table, config))
+    write_json(paths[3], {
         "statistics": asdict(config), "method": config.method,
         "test": "two-sided exact sign-flip test of the mean per-fold difference, every one of the "
                 f"2^n sign vectors (n <= {MAX_EXACT_FOLDS}); interval: the shifts it does not "
@@ -152,14 +159,32 @@ def _bound(value: float, margin: float = 0.0) -> str:
 
 
 def _caption(table: pd.DataFrame, config: StatsConfig, budget: str) -> str:
-    """What is compared and how, the verdicts' rules, and ``budget``. Claims without a published
-    difference (the conjecture on another task) leave out what describes the paper's tables."""
+    """What is compared, in two sentences, and ``budget``; the method is in ``claims_note``."""
+    spread = _spread(table)
+    return (f"{_subject(table)} tested on our runs, one family per quoted sentence: mean "
+            f"per-fold paired differences in percentage points{spread}, exact sign-flip tests, "
+            "Holm's correction within each family. Method, verdicts and abbreviations: the "
+            "note to this table." + (f" {budget}" if budget else ""))
+
+
+def _spread(table: pd.DataFrame) -> str:
+    """`` over 8 LOUO folds, 3 seed(s) per model and fold``, empty without folds."""
     folds, seeds = table.folds.dropna(), table.seeds.dropna()
-    spread = ("" if folds.empty else
-              f" over {_span(folds)} LOUO folds, {_span(seeds)} seed(s) per model and fold")
+    return ("" if folds.empty else
+            f" over {_span(folds)} LOUO folds, {_span(seeds)} seed(s) per model and fold")
+
+
+def _subject(table: pd.DataFrame) -> str:
+    return ("The paper's claims" if table.paper_diff.notna().any()
+            else "The paper's conjecture (no published result)")
+
+
+def claims_note(table: pd.DataFrame, config: StatsConfig = StatsConfig()) -> str:
+    """``claims_note.tex``: how Table~\\ref{tab:claims} (``claims_latex``) was computed and read,
+    as one paragraph; claims without a published difference (the conjecture on another task)
+    leave out what describes the paper's tables."""
+    spread = _spread(table)
     published = table.paper_diff.notna().any()
-    subject = ("The paper's claims" if published
-               else "The paper's conjecture (no published result)")
     paper_column = (" Paper: the same difference in the paper's tables, $^\\ast$ where it lies "
                     "outside our interval." if published else "")
     power = (" Power: the probability of the claimed verdict before the correction if the fold "
@@ -168,7 +193,10 @@ def _caption(table: pd.DataFrame, config: StatsConfig, budget: str) -> str:
     alpha = f"{config.alpha:g}"
     limits = _limits(table, config)
     return (
-        f"{subject} tested on our runs, one family per quoted sentence. Differences in "
+        "% The method of the claims table (claims.tex, multitask-tables): \\input this file "
+        "beneath the table or in an appendix.\n"
+        f"\\noindent\\textbf{{Notes to Table~\\ref{{tab:claims}}.}} {_subject(table)} tested "
+        "on our runs, one family per quoted sentence. Differences in "
         f"percentage points: the mean of per-fold paired differences{spread} (seeds averaged "
         f"within a fold).{paper_column} {_level(config)} CI and $p$: the exact sign-flip test "
         "over all $2^n$ sign vectors of the $n$ folds, and the interval that inverts it (it "
@@ -183,8 +211,7 @@ def _caption(table: pd.DataFrame, config: StatsConfig, budget: str) -> str:
         "original labels; fwd.: forward LSTM."
         + (" ``Best'': ours against our strongest other model, the paper's against its "
            "runner-up. The paper's Tables II and III baselines are DiPietro et al.'s published "
-           "numbers." if published else "")
-        + (f" {budget}" if budget else ""))
+           "numbers." if published else "") + "\n")
 
 
 def _limits(table: pd.DataFrame, config: StatsConfig) -> str:

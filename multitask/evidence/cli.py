@@ -388,11 +388,14 @@ def _run(args: argparse.Namespace) -> None:
         print(_compare(args.grid_dir, args.compare, args.minus, args.metric,
                        args.allow_incomplete, seeds, args.finished_only))
         return
+    from . import drawing
+
     out = args.out or args.grid_dir / "tables"
     check_output_folder(out, PROG, may_hold=True)   # beside grids, never in a run or grid's runs
     manifest = WIDTH_MANIFEST if args.widths else MANIFEST
     kept = () if args.widths else _left_alone(args)
-    with staged_outputs(out, manifest, PROG, args.overwrite, kept=kept) as staging:
+    with staged_outputs(out, manifest, PROG, args.overwrite, kept=kept) as staging, \
+            drawing.shown(PROG):
         if args.widths:
             from .width import write_width
 

@@ -15,6 +15,7 @@ scores archive) have neither: ``write_per_class`` then writes nothing and says s
 """
 from __future__ import annotations
 
+import math
 import sys
 from pathlib import Path
 
@@ -25,6 +26,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from jigsaws_tools.plots import PAGE_INCHES, figure_style  # noqa: E402
 from rnn_seg.runs.folder import read_json, write_atomic  # noqa: E402
 
 from ..grid.spec import RunKey  # noqa: E402
@@ -98,10 +100,11 @@ def row_normalised(counts: np.ndarray) -> np.ndarray:
         return np.where(totals > 0, 100.0 * counts / totals, np.nan)
 
 
+@figure_style
 def confusion_figure(matrices: dict[str, tuple[tuple[str, ...], np.ndarray]], out_dir: Path
                      ) -> list[Path]:
-    """Row-normalised confusion matrices side by side, one panel per configuration, gesture
-    names on both axes and each cell's percentage written in it.
+    """Row-normalised confusion matrices, one panel per configuration, two a row across a page,
+    gesture names on both axes and each cell's percentage written in it.
 
     Args:
         matrices: ``{configuration: (classes, [K, K] counts)}`` (``summed_confusion``).
@@ -110,23 +113,29 @@ def confusion_figure(matrices: dict[str, tuple[tuple[str, ...], np.ndarray]], ou
     Returns:
         ``confusion.png`` and ``.pdf``.
     """
-    fig, axes = plt.subplots(1, len(matrices), figsize=(4.4 * len(matrices) + 0.8, 4.4),
-                             squeeze=False, constrained_layout=True)
-    for ax, (config, (classes, counts)) in zip(axes[0], matrices.items()):
+    columns = min(2, len(matrices))
+    rows = math.ceil(len(matrices) / columns)
+    fig, axes = plt.subplots(rows, columns, squeeze=False, constrained_layout=True,
+                             figsize=(PAGE_INCHES if columns > 1 else PAGE_INCHES / 2 + 0.6,
+                                      3.5 * rows))
+    for ax in axes.flat[len(matrices):]:
+        ax.remove()
+    for ax, (config, (classes, counts)) in zip(axes.flat, matrices.items()):
         shares = row_normalised(counts)
         image = ax.imshow(np.ma.masked_invalid(shares), cmap="Blues", vmin=0, vmax=100)
         for (i, j), value in np.ndenumerate(shares):
             if np.isfinite(value) and value >= 0.5:
-                ax.text(j, i, f"{value:.0f}", ha="center", va="center", fontsize=6,
+                ax.text(j, i, f"{value:.0f}", ha="center", va="center",
                         color="white" if value > 60 else "black")
         ticks = range(len(classes))
-        ax.set_xticks(ticks, classes, rotation=90, fontsize=7)
-        ax.set_yticks(ticks, classes, fontsize=7)
+        ax.set_xticks(ticks, classes, rotation=90)
+        ax.set_yticks(ticks, classes)
         ax.set_xlabel("predicted gesture")
-        ax.set_title(f"{label(config)} ({int(counts.sum())} predictions)",
-                     fontsize=9)
-    axes[0][0].set_ylabel("true gesture")
-    fig.colorbar(image, ax=axes[0].tolist(), shrink=0.8, label="share of the true gesture [%]")
+        ax.set_title(f"{label(config)}\n{int(counts.sum())} predictions")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("true gesture")
+    fig.colorbar(image, ax=list(axes.flat[:len(matrices)]), shrink=0.8,
+                 label="share of the true gesture [%]")
     return save(fig, out_dir, FIGURE)
 
 

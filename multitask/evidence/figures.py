@@ -31,8 +31,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from jigsaws_tools.plots import (Ribbon, draw_ribbon, layout_with_legends,  # noqa: E402
-                                 task_colours)
+from jigsaws_tools.plots import (COLUMN_INCHES, LEGEND_ROW_INCHES, PAGE_INCHES,  # noqa: E402
+                                 Ribbon, draw_ribbon, figure_style, layout_with_legends,
+                                 legend_rows, task_colours)
 from jigsaws_tools.release import KINEMATICS_HZ  # noqa: E402
 from jigsaws_tools.task_definition import load_task  # noqa: E402
 
@@ -40,6 +41,7 @@ from rnn_seg.runs.folder import read_json  # noqa: E402
 from rnn_seg.runs.logs import read_log  # noqa: E402
 
 from ..grid.archive import kept_predictions  # noqa: E402
+from . import drawing  # noqa: E402
 from ..grid.spec import RunKey  # noqa: E402
 from .collect import grid_task_name  # noqa: E402
 from .paired import ConfigId  # noqa: E402
@@ -59,9 +61,11 @@ WEIGHT_LINES = {"gesture weight $w_1$": ("w_end_gesture", "tab:blue"),
                 "progress weight $w_2$": ("w_end_progress", "tab:red")}
 
 
+@figure_style
 def save(fig: plt.Figure, out_dir: Path, name: str) -> list[Path]:
     """Write ``fig`` as ``<name>.png`` (150 dpi) and ``<name>.pdf`` and close it; the PDF without
-    its creation date, so that the same evidence draws the same bytes.
+    its creation date, so that the same evidence draws the same bytes, and with TrueType fonts
+    (``jigsaws_tools.plots.FIGURE_STYLE``).
 
     Args:
         fig: the figure.
@@ -74,9 +78,10 @@ def save(fig: plt.Figure, out_dir: Path, name: str) -> list[Path]:
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = [out_dir / f"{name}.{ext}" for ext in ("png", "pdf")]
     for path in paths:
-        fig.savefig(path, dpi=150, bbox_inches="tight",
+        fig.savefig(path, dpi=150, bbox_inches="tight", pad_inches=0.02,
                     metadata={"CreationDate": None} if path.suffix == ".pdf" else None)
     plt.close(fig)
+    drawing.drew(name)
     return paths
 
 
@@ -92,6 +97,7 @@ def label(config: str) -> str:
     return text
 
 
+@figure_style
 def per_gesture_accuracy(folds: pd.DataFrame, gestures: Sequence[str], out_dir: Path
                          ) -> list[Path]:
     """Grouped bars, one per compared model: each gesture's accuracy (percent), mean over the
@@ -111,7 +117,7 @@ def per_gesture_accuracy(folds: pd.DataFrame, gestures: Sequence[str], out_dir: 
     rows = {c: r for c in COMPARED if not (r := ConfigId.parse(c).select(folds)).empty}
     if not rows or not gestures:
         return []
-    fig, ax = plt.subplots(figsize=(8, 3.0))
+    fig, ax = plt.subplots(figsize=(PAGE_INCHES, 2.8))
     width = 0.8 / len(rows)
     x = np.arange(len(gestures))
     for k, (config, table) in enumerate(rows.items()):
@@ -125,17 +131,16 @@ def per_gesture_accuracy(folds: pd.DataFrame, gestures: Sequence[str], out_dir: 
         for position, value in zip(at, mean):
             if np.isnan(value) or value == 0:       # absent everywhere / never recognised
                 ax.text(position, 1.5, "n/a" if np.isnan(value) else "0", ha="center",
-                        va="bottom", fontsize=6, rotation=90, color="0.35")
+                        va="bottom", rotation=90, color="0.35")
     occurs = next(iter(rows.values())).reindex(
         columns=[f"gesture_accuracy_{g}" for g in gestures]).notna().sum().to_numpy()
     total = len(next(iter(rows.values())))
     ax.set_xticks(x, [g if n == total else f"{g}\n{n} of {total}\nfolds"
-                      for g, n in zip(gestures, occurs)], fontsize=8)
+                      for g, n in zip(gestures, occurs)])
     ax.set_ylabel("accuracy [%]")
     ax.set_ylim(0, 103)                          # room for the caps of bars reaching 100
     ax.set_yticks(range(0, 101, 20))
-    ax.legend(fontsize=8, ncol=len(rows), loc="lower center", bbox_to_anchor=(0.5, 1.0),
-              frameon=False)
+    ax.legend(ncol=len(rows), loc="lower center", bbox_to_anchor=(0.5, 1.0), frameon=False)
     return save(fig, out_dir, "per_gesture_accuracy")
 
 
@@ -214,6 +219,7 @@ def _seconds(predictions: pd.DataFrame) -> np.ndarray:
     return predictions.time_s.to_numpy()
 
 
+@figure_style
 def segmentation_example(grid_dir: Path, trial: str, fold: str, out_dir: Path) -> list[Path]:
     """Ribbons of ground truth, A and APoc for one test trial, over time in seconds.
 
@@ -236,15 +242,17 @@ def segmentation_example(grid_dir: Path, trial: str, fold: str, out_dir: Path) -
     ribbons = [Ribbon("ground truth", _indices(first.gesture_true, names), times, names, colours)]
     ribbons += [Ribbon(label(c), _indices(p.gesture, names), times, names, colours)
                 for c, p in runs.items()]
-    fig, axes = plt.subplots(len(ribbons), 1, figsize=(10, 2.2), sharex=True)
+    fig, axes = plt.subplots(len(ribbons), 1, sharex=True, figsize=(
+        PAGE_INCHES, 0.45 * len(ribbons) + 0.6 + LEGEND_ROW_INCHES * legend_rows(ribbons)))
     for ax, ribbon in zip(axes, ribbons):
         draw_ribbon(ax, ribbon)
     axes[-1].set_xlabel("time [s]")
-    axes[0].set_title(f"{trial}: gesture segmentation", fontsize=9)
+    axes[0].set_title(f"{trial}: gesture segmentation")
     layout_with_legends(fig, ribbons)
     return save(fig, out_dir, "segmentation_example")
 
 
+@figure_style
 def progress_example(grid_dir: Path, trial: str, fold: str, out_dir: Path) -> list[Path]:
     """True progress of one test trial (a wide grey band, so that it shows beneath the
     predictions) and the predictions over time in seconds: APr's raw regression output (a line),
@@ -254,7 +262,7 @@ def progress_example(grid_dir: Path, trial: str, fold: str, out_dir: Path) -> li
     runs = _trial_predictions(grid_dir, PROGRESS_RUNS, trial, fold)
     if not runs:
         return []
-    fig, ax = plt.subplots(figsize=(9, 3.0))
+    fig, ax = plt.subplots(figsize=(PAGE_INCHES, 2.8))
     first = next(iter(runs.values()))
     times = _seconds(first)
     names = load_task(grid_task_name(grid_dir)).stage_names
@@ -271,18 +279,19 @@ def progress_example(grid_dir: Path, trial: str, fold: str, out_dir: Path) -> li
     ax.set_ylabel("progress stage")
     ax.set_xlabel("time [s]")
     ax.set_xlim(times[0], times[-1])
-    ax.set_title(f"{trial}: progress prediction", fontsize=9)
-    ax.legend(fontsize=8, loc="upper left", framealpha=0.9)
+    ax.legend(loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=2, frameon=False,
+              title=f"{trial}: progress prediction")        # above the axes, clear of the lines
     return save(fig, out_dir, "progress_example")
 
 
+@figure_style
 def fold_accuracy(folds: pd.DataFrame, out_dir: Path) -> list[Path]:
     """Per fold (test user), the gesture accuracy of each compared model, A beside APoc: where
     the folds differ, and whether the models move together across them."""
     compared = {c: t for c in COMPARED if not (t := ConfigId.parse(c).select(folds)).empty}
     if not compared or "gesture_accuracy" not in folds:
         return []
-    fig, ax = plt.subplots(figsize=(5.2, 3.4))
+    fig, ax = plt.subplots(figsize=(COLUMN_INCHES, 2.9))
     letters = sorted(set().union(*(t.fold for t in compared.values())))
     width = 0.8 / len(compared)
     for k, (config, table) in enumerate(compared.items()):
@@ -291,12 +300,13 @@ def fold_accuracy(folds: pd.DataFrame, out_dir: Path) -> list[Path]:
     ax.set_xticks(range(len(letters)), letters)
     ax.set_xlabel("fold (test user)")
     ax.set_ylabel("gesture accuracy [%]")
-    ax.legend(fontsize=7, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=len(compared),
-              frameon=False, handletextpad=0.1, columnspacing=0.8)
+    ax.legend(loc="lower center", bbox_to_anchor=(0.5, 1.0), frameon=False,
+              handletextpad=0.1)
     fig.tight_layout()
     return save(fig, out_dir, "fold_accuracy")
 
 
+@figure_style
 def gesture_vs_progress(folds: pd.DataFrame, out_dir: Path) -> list[Path]:
     """The paper's Fig. 7: gesture against progress accuracy of one multi-task model, a point
     per fold labelled with its test user (APoc with GradNorm, else APoc with fixed weights, else
@@ -309,15 +319,22 @@ def gesture_vs_progress(folds: pd.DataFrame, out_dir: Path) -> list[Path]:
     if not two_task:
         return []
     points = ConfigId.parse(two_task[0]).select(both)
-    fig, ax = plt.subplots(figsize=(4.0, 3.4))
-    ax.scatter(points.gesture_accuracy, points.progress_accuracy, s=18, color="tab:green")
-    _label_points(ax, points.gesture_accuracy.to_numpy(), points.progress_accuracy.to_numpy(),
-                  list(points.fold))
+    fig, ax = plt.subplots(figsize=(COLUMN_INCHES, 2.9))
+    ax.scatter(points.gesture_accuracy, points.progress_accuracy, s=MARKER_PT ** 2,
+               color="tab:green")
     ax.set_xlabel("gesture accuracy [%]")
     ax.set_ylabel("progress accuracy [%]")
-    ax.set_title(label(two_task[0]), fontsize=9)
-    fig.tight_layout()
+    ax.set_title(label(two_task[0]))
+    ax.set_xlim(*_padded(points.gesture_accuracy.to_numpy()))
+    ax.set_ylim(*_padded(points.progress_accuracy.to_numpy()))
+    fig.tight_layout()                          # the labels' places are measured in this layout
+    _label_points(ax, points.gesture_accuracy.to_numpy(), points.progress_accuracy.to_numpy(),
+                  list(points.fold), MARKER_PT)
     return save(fig, out_dir, "gesture_vs_progress")
+
+
+#: Diameter of the points of ``gesture_vs_progress``, in points.
+MARKER_PT = 4.5
 
 
 def _padded(values: np.ndarray) -> tuple[float, float]:
@@ -326,27 +343,67 @@ def _padded(values: np.ndarray) -> tuple[float, float]:
     return values.min() - margin, values.max() + margin
 
 
+#: Where a point's label may go, tried in order: offsets from the point in points (1/72 in),
+#: with the label's alignment; then the same directions twice and three times as far.
+LABEL_PLACES = ((4, 3, "left", "bottom"), (4, -3, "left", "top"), (-4, 3, "right", "bottom"),
+                (-4, -3, "right", "top"), (0, 5, "center", "bottom"), (0, -5, "center", "top"),
+                (6, 0, "left", "center"), (-6, 0, "right", "center"))
+#: Room kept around a marker and between labels, in points.
+LABEL_CLEARANCE = 1.5
+
+
 def _label_points(ax: plt.Axes, x: np.ndarray, y: np.ndarray, texts: Sequence[str],
-                  gap: float = 0.07) -> None:
-    """Write ``texts`` beside the points ``(x, y)``, each moved down in steps of ``gap`` (a
-    fraction of the axes) until it is clear of the labels already written, with a thin line
-    to its point when moved."""
-    ax.set_xlim(*_padded(x))
-    ax.set_ylim(*_padded(y))
-    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
-    placed: list[tuple[float, float]] = []
+                  marker_pt: float) -> None:
+    """Write ``texts`` beside the points ``(x, y)`` (markers ``marker_pt`` points across), each at
+    the first place of ``LABEL_PLACES`` where it overlaps no marker, no label written before it
+    and stays inside the axes, farther out with a thin line to its point when no near place is
+    free (else where it overlaps least). Call once the axes' limits and the figure's layout are
+    final: places are measured as drawn."""
+    fig = ax.figure
+    renderer = fig.canvas.get_renderer()
+    to_pixels = fig.dpi / 72
+    frame = ax.get_window_extent(renderer)
+    centres = ax.transData.transform(np.column_stack([x, y]))
+    half = (marker_pt / 2 + LABEL_CLEARANCE) * to_pixels
+    taken = [(cx - half, cy - half, cx + half, cy + half) for cx, cy in centres]
     for i in np.argsort(-y):
-        fx, fy = (x[i] - x0) / (x1 - x0) + 0.02, (y[i] - y0) / (y1 - y0) + 0.02
-        start = fy
-        while any(abs(fx - px) < gap and abs(fy - py) < gap for px, py in placed):
-            fy -= gap
-        placed.append((fx, fy))
-        ax.annotate(texts[i], (x[i], y[i]), xytext=(fx, fy), textcoords="axes fraction",
-                    fontsize=9, va="bottom",
-                    arrowprops={"arrowstyle": "-", "lw": 0.5, "color": "0.5"}
-                    if fy != start else None)
+        text = ax.annotate(texts[i], (x[i], y[i]), textcoords="offset points", xytext=(0, 0))
+        best = None
+        for reach in (1, 2, 3):
+            for dx, dy, ha, va in LABEL_PLACES:
+                text.set(position=(dx * reach, dy * reach), ha=ha, va=va)
+                box = text.get_window_extent(renderer)
+                box = (box.x0, box.y0, box.x1, box.y1)
+                clash = sum(_overlap(box, other) for other in taken) + _outside(box, frame)
+                if best is None or clash < best[0]:
+                    best = (clash, (dx * reach, dy * reach, ha, va, reach), box)
+                if clash == 0:
+                    break
+            if best[0] == 0:
+                break
+        _, (dx, dy, ha, va, reach), box = best
+        text.remove()
+        ax.annotate(texts[i], (x[i], y[i]), textcoords="offset points", xytext=(dx, dy), ha=ha,
+                    va=va, arrowprops=None if reach == 1 else {
+                        "arrowstyle": "-", "lw": 0.5, "color": "0.5", "shrinkA": 0,
+                        "shrinkB": marker_pt / 2})
+        pad = LABEL_CLEARANCE * to_pixels
+        taken.append((box[0] - pad, box[1] - pad, box[2] + pad, box[3] + pad))
 
 
+def _overlap(a: tuple[float, ...], b: tuple[float, ...]) -> float:
+    """Area shared by two boxes ``(x0, y0, x1, y1)``."""
+    return (max(0.0, min(a[2], b[2]) - max(a[0], b[0]))
+            * max(0.0, min(a[3], b[3]) - max(a[1], b[1])))
+
+
+def _outside(box: tuple[float, ...], frame) -> float:
+    """Area of ``box`` outside the axes' ``frame``, weighted to count as a clash."""
+    inside = _overlap(box, (frame.x0, frame.y0, frame.x1, frame.y1))
+    return 10 * ((box[2] - box[0]) * (box[3] - box[1]) - inside)
+
+
+@figure_style
 def gradnorm_weights(grid_dir: Path, out_dir: Path) -> list[Path]:
     """Task weights over training of every GradNorm run of seed 0 (a thin line per fold), one
     panel per variant in the paper's order (APr, APc, APoc) on a common epoch axis; each panel
@@ -356,7 +413,7 @@ def gradnorm_weights(grid_dir: Path, out_dir: Path) -> list[Path]:
     panels = {v: logs for v, logs in panels.items() if logs}
     if not panels:
         return []
-    fig, axes = plt.subplots(1, len(panels), figsize=(3.3 * len(panels), 2.9), squeeze=False,
+    fig, axes = plt.subplots(1, len(panels), figsize=(PAGE_INCHES, 2.5), squeeze=False,
                              sharex=True, sharey=True)
     for ax, (variant, logs) in zip(axes[0], panels.items()):
         for log in logs:
@@ -365,15 +422,15 @@ def gradnorm_weights(grid_dir: Path, out_dir: Path) -> list[Path]:
                 ax.plot(frame.unit, frame[column], color=colour, alpha=0.35, lw=1)
         alpha = read_json(logs[0].parent / "config.json").get("gradnorm", {}).get("alpha")
         detail = "" if alpha is None else rf", $\alpha = {alpha:g}$"
-        ax.set_title(f"{variant} (GradNorm{detail})", fontsize=9)
+        ax.set_title(f"{variant} (GradNorm{detail})")
         ax.set_xlabel("epoch")
     axes[0][0].set_ylabel("task weight")
     handles = [plt.Line2D([], [], color=colour, label=name)
                for name, (_, colour) in WEIGHT_LINES.items()]
     fig.tight_layout()
-    fig.legend(handles=handles, fontsize=8, ncol=len(handles), loc="lower center",
-               bbox_to_anchor=(0.5, 1.0), frameon=False, title="one line per fold",
-               title_fontsize=8)                # above the panels, clear of every line
+    fig.legend(handles=handles, ncol=len(handles), loc="lower center",
+               bbox_to_anchor=(0.5, 1.0), frameon=False,
+               title="one line per fold")       # above the panels, clear of every line
     return save(fig, out_dir, "gradnorm_weights")
 
 

@@ -48,6 +48,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from jigsaws_tools.dataset import DataConfig  # noqa: E402
+from jigsaws_tools.plots import PAGE_INCHES, figure_style  # noqa: E402
 from jigsaws_tools.task_definition import PAPER_TASK  # noqa: E402
 from rnn_seg.runs.folder import CONFIG, is_finished, read_json  # noqa: E402
 
@@ -227,13 +228,14 @@ def _paper(model: str, metric: str, part: WidthEvidence) -> float | None:
     return TABLE_1[MODELS[model].label][metric][0]
 
 
+@figure_style
 def width_figure(table: pd.DataFrame, out_dir: Path) -> list[Path]:
     """``width.png`` / ``.pdf``: one column per metric, against width (log2 axis, each width's
     seed count under its tick). Top row: mean and standard deviation over folds of A and APoc
     (side by side), the paper's values at 1024 as open diamonds. Bottom row: APoc - A paired
     over folds with its 95 % interval, the paper's difference at 1024 as an open diamond, and
     a line at zero. One legend above the panels."""
-    fig, axes = plt.subplots(2, len(METRICS), figsize=(3.2 * len(METRICS), 5.0), sharex=True,
+    fig, axes = plt.subplots(2, len(METRICS), figsize=(PAGE_INCHES, 4.4), sharex=True,
                              height_ratios=(3, 2))
     for column, (metric, title) in enumerate(METRICS.items()):
         rows = table[table.metric == metric]
@@ -248,7 +250,7 @@ def width_figure(table: pd.DataFrame, out_dir: Path) -> list[Path]:
         ax.set_xlabel("LSTM units per direction")
     fig.tight_layout()
     handles = sorted(zip(*axes[0, 0].get_legend_handles_labels()), key=lambda h: "paper" in h[1])
-    fig.legend(*zip(*handles), loc="lower center", ncol=4, fontsize=8, frameon=False,
+    fig.legend(*zip(*handles), loc="lower center", ncol=2, frameon=False,
                bbox_to_anchor=(0.5, 1.0))
     return save(fig, out_dir, "width")
 

@@ -9,6 +9,12 @@ Re-running the same command skips finished runs and resumes interrupted ones; ta
 with the differences unless ``--restart``. One grid process per folder (a lock); Ctrl-C stops
 every run at once, resumably.
 
+While it trains, the grid shows runs done / running / queued, each running run's epoch and ETA
+and the grid's ETA: a live panel on a terminal, else a status line a minute when it changed
+(``multitask.grid.progress``); a worker that dies is named, and its runs re-queued.
+``--mlflow URI`` logs the grid to MLflow as a parent run and each run as it finishes
+(``rnn_seg.runs.tracking``).
+
 ``--archive DIR`` keeps the grid's scores archive (``multitask.grid.archive``; what
 ``multitask-tables GRID --archive DIR`` writes) up to date: written once before training, which
 checks that DIR may hold it, and again after every job whose runs finished. A grid on scratch
@@ -78,6 +84,10 @@ def build_parser() -> argparse.ArgumentParser:
                         help="keep the grid's scores archive in DIR up to date: before training "
                              "and after every finished job (default: none; multitask-tables "
                              "GRID --archive DIR writes it once)")
+    parser.add_argument("--mlflow", metavar="URI",
+                        help="also log the grid to MLflow: a parent run (the spec) and each run "
+                             "as it finishes, nested under it (settings, per-epoch metrics, "
+                             "final scores; needs pip install -e '.[mlflow]'; default: none)")
     parser.add_argument("--dry-run", action="store_true",
                         help="list the runs still to run, in the order they run, and stop")
     parser.add_argument("--restart", action="store_true",
@@ -149,26 +159,47 @@ def _run(args: argparse.Namespace) -> int:
         print(f"{len(keys)} runs, {len(keys) - len(pending)} already finished, "
               f"{len(pending)} to run")
         return 0
+    tracker = None
+    if args.mlflow:
+        from rnn_seg.runs.tracking import Tracker
+        tracker = Tracker(args.mlflow)                       # checked before any work
     import_tensorflow()          # quietly: checking run folders builds the runs' tasks
+    from rich.console import Console
+
     from .executors import run_grid
     from .record import prepare_grid
+    from .spec import spec_payload
 
     def log(message: str) -> None:
         print(message, flush=True)
 
+    console = Console()
+    status = "FAILED"
     try:
         with hold_folder(args.out, "grid folder"):
             prepare_grid(args.out, spec, keys, args.restart, log)
-            after_job = None
+            after_job = after_run = None
             if args.archive:
                 _archive(args.out, args.archive, log)          # an error here stops the grid
                 after_job = partial(_archive, args.out, args.archive, log, warn=True)
+            if tracker is not None:
+                tracker.start_grid(args.out, spec_payload(spec))
+                after_run = partial(_track, tracker, log)
+                for key in keys:                 # finished before: logged unless they were
+                    if is_finished(args.out / key.path()):
+                        after_run(args.out / key.path())
             failed = run_grid(spec, keys, args.out, args.workers, args.scheduler, args.threads,
-                              args.stack, log=log, after_job=after_job)
+                              args.stack, log=log, after_job=after_job, after_run=after_run,
+                              live=console if console.is_terminal else None)
+            status = "FAILED" if failed else "FINISHED"
     except KeyboardInterrupt:
+        status = "KILLED"
         print(f"{PROG}: interrupted: queued runs cancelled, running ones stopped; run the same "
               "command again to resume", file=sys.stderr)
         return 130
+    finally:
+        if tracker is not None:
+            tracker.end_grid(status)
     if failed:
         print(f"{PROG}: {len(failed)} run(s) failed (re-run to retry):", file=sys.stderr)
         for key, message in failed:
@@ -176,6 +207,16 @@ def _run(args: argparse.Namespace) -> int:
         return 1
     print(f"grid complete: {len(keys)} runs in {args.out}; tables: multitask-tables {args.out}")
     return 0
+
+
+def _track(tracker, log: Callable[[str], None], run_dir: Path) -> None:
+    """Log a run that finished to MLflow (``rnn_seg.runs.tracking``); a failure is a warning
+    line, and training goes on."""
+    try:
+        tracker.log_run(run_dir)
+    except Exception as error:                        # MLflow's errors have no common base
+        log(f"[grid] warning: {run_dir} was not logged to MLflow at {tracker.uri}: "
+            f"{type(error).__name__}: {error}")
 
 
 def _archive(out: Path, dest: Path, log: Callable[[str], None], warn: bool = False) -> None:

@@ -3,9 +3,12 @@
 Each job is ``job.run_job`` on a group of up to ``stack`` run directories of one configuration
 (trained together in one vectorised step, ``rnn_seg.stack``; 1 = each run alone); finished runs
 (``finished.json``) are skipped, interrupted ones resume from their checkpoints inside the job.
-Progress lines give done/total and an ETA: the wall time per epoch of the runs finished in this
-invocation times the epochs left (runs differ: Pr 80 epochs, APoc 180 at the converged preset;
-a run resumed from a checkpoint counts only the epochs after it).
+What the grid shows meanwhile (runs done / running / queued, epochs, ETAs) is
+``progress.Progress``'s, read from the run folders. A worker that dies is named and its runs
+re-queued (they resume from their checkpoints): a local worker process that ends abruptly breaks
+its pool, and the jobs that had not finished run again on a fresh one, each at most
+``MAX_WORKER_LOSSES`` times; on Dask the scheduler re-queues them (its ``allowed-failures``) and
+the grid says which worker left and with which runs.
 
 Local workers die with the grid process (``PR_SET_PDEATHSIG`` on Linux, a watchdog thread
 elsewhere) and ignore Ctrl-C: on Ctrl-C the grid cancels the queued jobs, stops the running ones
@@ -21,9 +24,10 @@ import signal
 import sys
 import threading
 import time
+from collections import Counter
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import asdict
-from datetime import timedelta
 from pathlib import Path
 from typing import Callable
 
@@ -32,42 +36,14 @@ from rnn_seg.runs.folder import is_finished, trained_units
 from rnn_seg.threads import thread_plan
 
 from .job import run_job
+from .progress import STATUS_EVERY, Progress
 from .spec import GridSpec, RunKey, job_groups, schedule_epochs, spec_payload
 
 Log = Callable[[str], None]
 
-
-class Progress:
-    """Counts runs and prints one line per finished run. The ETA is the wall time per unit of
-    work finished in this invocation (parallelism included) times the work left; a run's work
-    is its ``weights`` entry (its schedule's epochs), one per run to train. ``after_job`` is
-    called after every job that trained a run to the end (e.g. to archive the grid)."""
-
-    def __init__(self, total: int, already: int, log: Log, weights: dict[RunKey, float],
-                 clock: Callable[[], float] = time.monotonic,
-                 after_job: Callable[[], None] | None = None):
-        self.total, self.done, self.log, self.clock = total, already, log, clock
-        self.weights, self.started, self.after_job = weights, clock(), after_job
-        self.work_left, self.work_done = float(sum(weights.values())), 0.0
-        self.failed: list[tuple[RunKey, str]] = []
-
-    def finished_group(self, keys: list[RunKey], error: BaseException | None = None) -> None:
-        for key in keys:
-            self.finished(key, error)
-        if self.after_job and not error:
-            self.after_job()
-
-    def finished(self, key: RunKey, error: BaseException | None = None) -> None:
-        self.done += 1
-        work = self.weights[key]
-        self.work_done, self.work_left = self.work_done + work, max(0.0, self.work_left - work)
-        if error:
-            self.failed.append((key, f"{type(error).__name__}: {error}"))
-        eta = (timedelta(seconds=round((self.clock() - self.started) / self.work_done
-                                       * self.work_left))
-               if self.work_done else "unknown")      # only runs with nothing left to train yet
-        status = f"FAILED: {self.failed[-1][1]}" if error else "finished"
-        self.log(f"[grid] {self.done}/{self.total} done, ETA {eta} | {key.path()} {status}")
+#: Times a job may lose its local worker process before it counts as failed (Dask's default
+#: ``allowed-failures`` is the same).
+MAX_WORKER_LOSSES = 3
 
 
 #: Jobs a local worker process runs before a fresh one replaces it (when every job of the grid
@@ -77,8 +53,9 @@ JOBS_PER_WORKER = 16
 
 def run_grid(spec: GridSpec, keys: list[RunKey], out: Path, workers: int = 1,
              scheduler: str | None = None, cores_per_job: int = 0, stack: int = 1,
-             log: Log = print, after_job: Callable[[], None] | None = None
-             ) -> list[tuple[RunKey, str]]:
+             log: Log = print, after_job: Callable[[], None] | None = None,
+             after_run: Callable[[Path], None] | None = None, live=None,
+             status_every: float = STATUS_EVERY) -> list[tuple[RunKey, str]]:
     """Run every unfinished run of ``keys`` under ``out``. Check the folders first
     (``record.prepare_grid``): a finished run counts as done here.
 
@@ -93,6 +70,9 @@ def run_grid(spec: GridSpec, keys: list[RunKey], out: Path, workers: int = 1,
         stack: runs of one configuration per job, trained in one vectorised step.
         log: where the progress lines go.
         after_job: called in this process after each job whose runs finished.
+        after_run: called in this process with the folder of each run trained to the end.
+        live: a ``rich`` console to show the grid's state on (a terminal); None = plain status
+            lines every ``status_every`` seconds (``progress.Progress``).
 
     Returns:
         The failures, ``(key, "ExceptionType: message")`` each.
@@ -108,13 +88,16 @@ def run_grid(spec: GridSpec, keys: list[RunKey], out: Path, workers: int = 1,
     groups = job_groups(pending, stack, grid=keys)
     progress = Progress(len(keys), len(keys) - len(pending), log,
                         {key: _epochs_left(spec, key, out) for key in pending},
-                        after_job=after_job)
+                        after_job=after_job, out=out, after_run=after_run, live=live,
+                        epochs={key: float(schedule_epochs(spec, key)) for key in pending},
+                        status_every=status_every)
     if scheduler:
         _run_dask(payload, groups, out, scheduler, cores_per_job or 1, progress)
     else:
         cores = cores_per_job or max(1, (os.cpu_count() or 1) // workers)
-        _run_local(payload, groups, out, workers, cores, progress,
-                   jobs_per_worker(spec, groups, cores))
+        with progress.watching():
+            _run_local(payload, groups, out, workers, cores, progress,
+                       jobs_per_worker(spec, groups, cores))
     return progress.failed
 
 
@@ -139,36 +122,92 @@ def _job_args(payload: dict, group: list[RunKey], out: Path, cores: int) -> tupl
 
 def _run_local(payload: dict, groups: list[list[RunKey]], out: Path, workers: int, cores: int,
                progress: Progress, jobs_per_worker: int) -> None:
+    """Run ``groups`` on local worker processes (``_run_pools``); the jobs a dead worker broke
+    off run again on fresh ones, each at most ``MAX_WORKER_LOSSES`` times, after which its runs
+    count as failed."""
+    losses: Counter[int] = Counter()
+    queue = list(range(len(groups)))
+    while queue:
+        lost, cause = _run_pools(payload, [groups[i] for i in queue], out, workers, cores,
+                                 progress, jobs_per_worker)
+        queue = [queue[i] for i in lost]
+        losses.update(queue)
+        given_up = [i for i in queue if losses[i] >= MAX_WORKER_LOSSES]
+        queue = [i for i in queue if losses[i] < MAX_WORKER_LOSSES]
+        if queue:
+            progress.worker_lost(cause, [key for i in queue for key in groups[i]])
+        for i in given_up:
+            progress.finished_group(groups[i], WorkerLost(
+                f"its worker process died {MAX_WORKER_LOSSES} times (the last: {cause})"))
+
+
+class WorkerLost(RuntimeError):
+    """A job's worker ended before the job did, too many times."""
+
+
+def _run_pools(payload: dict, groups: list[list[RunKey]], out: Path, workers: int, cores: int,
+               progress: Progress, jobs_per_worker: int) -> tuple[list[int], str]:
     """Local worker processes, each running up to ``jobs_per_worker`` jobs in turn before a fresh
     one replaces it: TensorFlow starts once per worker and compiled loops are reused, while a
     job's results do not depend on the jobs before it in its process (tested), and whatever
     TensorFlow keeps from one job to the next stays bounded. Workers that run several jobs come
     in a fresh pool for every ``workers * jobs_per_worker`` jobs: a pool that replaces its own
     workers after more than one job (``max_tasks_per_child`` > 1) can stop starting them before
-    Python 3.13 (CPython issue 115634), and the grid would wait forever."""
+    Python 3.13 (CPython issue 115634), and the grid would wait forever.
+
+    Returns:
+        The indices into ``groups`` of the jobs a worker's death broke off (none ran after it
+        in the same pool), and what ended that worker.
+    """
     if jobs_per_worker == 1:
-        _run_pool(payload, groups, out, workers, cores, progress, max_tasks_per_child=1)
-        return
+        return _run_pool(payload, groups, out, workers, cores, progress, max_tasks_per_child=1)
     chunk = workers * jobs_per_worker
+    lost, cause = [], ""
     for start in range(0, len(groups), chunk):
-        _run_pool(payload, groups[start:start + chunk], out, workers, cores, progress)
+        broken, why = _run_pool(payload, groups[start:start + chunk], out, workers, cores,
+                                progress)
+        lost += [start + i for i in broken]
+        cause = why or cause
+    return lost, cause
 
 
 def _run_pool(payload: dict, groups: list[list[RunKey]], out: Path, workers: int, cores: int,
-              progress: Progress, max_tasks_per_child: int | None = None) -> None:
-    """Run ``groups`` on one pool of ``workers`` fresh processes (``run_job`` each)."""
+              progress: Progress, max_tasks_per_child: int | None = None
+              ) -> tuple[list[int], str]:
+    """Run ``groups`` on one pool of ``workers`` fresh processes (``run_job`` each); returns the
+    indices of the jobs broken off by a worker that died, and how it ended."""
     pool = ProcessPoolExecutor(workers, mp_context=multiprocessing.get_context("spawn"),
                                max_tasks_per_child=max_tasks_per_child, initializer=_init_worker,
                                initargs=(os.getpid(),))
+    lost = []
     try:
-        futures = {pool.submit(run_job, *_job_args(payload, group, out, cores)): group
-                   for group in groups}
+        futures = {pool.submit(run_job, *_job_args(payload, group, out, cores)): i
+                   for i, group in enumerate(groups)}
+        processes, ended = pool._processes, []      # the pool's own dict (no public API)
         for future in as_completed(futures):
-            progress.finished_group(futures[future], future.exception())
+            error = future.exception()
+            if isinstance(error, BrokenProcessPool):
+                ended = ended or list((processes or {}).values())
+                lost.append(futures[future])
+            else:
+                progress.finished_group(groups[futures[future]], error)
     except BaseException:
         _stop_pool(pool)
         raise
     pool.shutdown()
+    return sorted(lost), (_how_ended(ended) if lost else "")
+
+
+def _how_ended(processes: list) -> str:
+    """``local worker process 1234 (killed by SIGKILL)``: the first that died of other causes
+    than the pool's own termination of the rest after it."""
+    for process in processes:
+        code = process.exitcode
+        if code not in (None, 0, -signal.SIGTERM):
+            how = (f"killed by {signal.Signals(-code).name}" if code < 0
+                   else f"exit code {code}")
+            return f"local worker process {process.pid} ({how})"
+    return "a local worker process (ended abruptly)"
 
 
 def _stop_pool(pool: ProcessPoolExecutor) -> None:
@@ -213,9 +252,38 @@ def _run_dask(payload: dict, groups: list[list[RunKey]], out: Path, address: str
                                  key=f"runs-{'-'.join(map(str, asdict(group[0]).values()))}"
                                      f"-x{len(group)}"): group
                    for group in groups}
+        workers = DaskWorkers(client, {f.key: g for f, g in futures.items()}, progress)
         try:
-            for future in dask_completed(futures):
-                progress.finished_group(futures[future], future.exception())
+            with progress.watching(workers.check):
+                for future in dask_completed(futures):
+                    progress.finished_group(futures[future], future.exception())
         except BaseException:
             client.cancel(list(futures))
             raise
+
+
+class DaskWorkers:
+    """Watches a Dask cluster's workers for the grid: when one leaves while it trains some of
+    the grid's jobs, says which worker and which runs (the scheduler re-queues them).
+
+    Args:
+        client: the grid's ``dask.distributed.Client``.
+        jobs: the grid's runs by their job's task key.
+        progress: where it is said (``Progress.worker_lost``).
+    """
+
+    def __init__(self, client, jobs: dict[str, list[RunKey]], progress: Progress):
+        self.client, self.jobs, self.progress = client, jobs, progress
+        self.workers = set(client.scheduler_info(n_workers=-1)["workers"])
+        self.processing: dict[str, list[str]] = {}
+
+    def check(self) -> None:
+        """Compare the workers with those of the last check (called every few seconds)."""
+        workers = set(self.client.scheduler_info(n_workers=-1)["workers"])
+        for worker in sorted(self.workers - workers):
+            runs = [key for job in self.processing.get(worker, ()) if job in self.jobs
+                    for key in self.jobs[job]]
+            self.progress.worker_lost(f"Dask worker {worker}", runs)
+        self.workers = workers
+        self.processing = {w: [str(job) for job in jobs]
+                           for w, jobs in self.client.processing().items()}

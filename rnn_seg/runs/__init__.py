@@ -6,6 +6,7 @@ weights in step.
 * ``settings``: what a folder is checked against (the settings hash);
 * ``checkpoints``: save, fall back, prune, ``restore_weights``;
 * ``logs``: the per-unit CSV logs (``history.csv``), a fixed column set, repaired at resume;
+* ``tracking``: finished runs logged to MLflow (optional; MLflow imported only there);
 * ``outputs``: where a command may write (never over a run or a grid); ``publish``: an output
   replaced all or nothing (a folder swapped whole, or journalled moves the next call finishes);
   ``manifest``: a command's files in a folder it shares (all at once, listed, never over yours);

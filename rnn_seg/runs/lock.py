@@ -78,6 +78,30 @@ def hold_folder(folder: Path | str, what: str = "run folder",
             _release(folder / lock_file, _held.pop(key))
 
 
+def appears_held(folder: Path | str) -> bool:
+    """Whether a process seems to hold ``folder``'s lock, read without touching the lock (a
+    flock taken to test it could refuse the holder-to-be): the lock file exists and names a
+    process that lives, or one on another host (which cannot be asked). For progress displays,
+    never for deciding who may write."""
+    try:
+        fields = (Path(folder) / LOCK_FILE).read_text(errors="replace").split()
+    except OSError:
+        return False
+    if not fields:                            # just created, its holder not written yet
+        return True
+    if len(fields) != 3 or not fields[0].isdigit():
+        return False
+    if fields[1] != socket.gethostname():
+        return True
+    try:
+        os.kill(int(fields[0]), 0)
+    except ProcessLookupError:
+        return False
+    except OSError:                           # alive, owned by another user
+        return True
+    return True
+
+
 def _take(folder: Path, what: str, lock_file: str) -> _Hold:
     """Create ``folder`` if need be and lock it; again while another process's release removes
     the lock file or a folder on its way (between our ``mkdir`` and ``open``, or ``open`` and

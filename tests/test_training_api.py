@@ -1,0 +1,123 @@
+"""``multitask.train`` (the Python training API) and ``--mlflow`` (runs logged to MLflow): the
+API trains as the command does and returns the loaded run; a misspelt setting is named with the
+nearest; a finished run reaches an MLflow file store with its settings, one metric per
+history.csv row and column, and its final scores, once however often the command runs; a grid is
+one parent run with its runs nested under it."""
+from __future__ import annotations
+
+import importlib.util
+
+import pandas as pd
+import pytest
+
+import multitask
+from multitask.train_cli import main as train_main
+
+TINY = {"hidden": 8, "epochs": 1, "test_user": "C", "no_plots": True}
+
+needs_mlflow = pytest.mark.skipif(importlib.util.find_spec("mlflow") is None,
+                                  reason="MLflow is not installed (pip install -e '.[mlflow]')")
+
+
+def test_train_returns_the_loaded_run_as_the_command_trains_it(synth_dir, tmp_path):
+    lines = []
+    run = multitask.train(variant="APoc", weighting="gradnorm", data_dir=synth_dir,
+                          out=tmp_path / "api", log=lines.append, **TINY)
+    assert (run.variant, run.run_dir, run.config.encoder.hidden) == ("APoc", tmp_path / "api", 8)
+    assert lines[0].startswith("variant: APoc (gradnorm)")
+    assert [t.name for t in run.tasks] == ["gesture", "progress"]
+    assert train_main(["--variant", "APoc", "--weighting", "gradnorm", "--data-dir",
+                       str(synth_dir), "--out", str(tmp_path / "cli"), "--hidden", "8",
+                       "--epochs", "1", "--test-user", "C", "--no-plots"]) == 0
+    for name in ("history.csv", "gradnorm.csv"):       # the same run, loss for loss
+        api, cli = (pd.read_csv(tmp_path / side / name) for side in ("api", "cli"))
+        pd.testing.assert_frame_equal(api.filter(like="loss"), cli.filter(like="loss"))
+    again = multitask.train(variant="APoc", weighting="gradnorm", data_dir=synth_dir,
+                            out=tmp_path / "api", log=lines.append, **TINY)
+    assert again.checkpoint == run.checkpoint and run.finished and "already finished" in lines[-1]
+
+
+@pytest.mark.parametrize("settings,message", [
+    ({"hiden": 8}, "no setting 'hiden'; did you mean 'hidden'?"),
+    ({"hidden": 0}, "argument --hidden"),
+    ({"variant": "APx"}, "argument --variant: invalid choice: 'APx'"),
+    ({"variant": "A", "weighting": "gradnorm"}, "GradNorm needs two tasks"),
+    ({"alpha": 2.0}, "--alpha is a GradNorm setting"),
+    ({"monitor_train": "yes"}, "monitor_train: True or False"),
+    ({"help": True}, "no setting 'help'"),
+])
+def test_a_bad_setting_is_a_value_error_before_any_work(settings, message, tmp_path):
+    with pytest.raises(ValueError, match=message.replace("?", r"\?")):
+        multitask.train(out=tmp_path / "run", synthetic=True, log=None, **settings)
+    assert not (tmp_path / "run").exists()
+
+
+@needs_mlflow
+def test_a_finished_run_is_logged_to_mlflow_once(synth_dir, tmp_path, monkeypatch, capsys):
+    from mlflow.tracking import MlflowClient
+
+    monkeypatch.setenv("MLFLOW_ALLOW_FILE_STORE", "true")          # MLflow 3's file store
+    uri = (tmp_path / "mlruns").as_uri()
+    command = ["--variant", "APc", "--weighting", "gradnorm", "--data-dir", str(synth_dir),
+               "--out", str(tmp_path / "run"),
+               "--hidden", "8", "--epochs", "2", "--eval-at", "1,2", "--test-user", "C",
+               "--no-plots", "--mlflow", uri]
+    assert train_main(command) == 0
+    assert f"logged to {uri}" in capsys.readouterr().out
+    assert train_main(command) == 0                                # finished: not logged twice
+    client = MlflowClient(tracking_uri=uri)
+    experiment = client.get_experiment_by_name("mtrnn-jigsaws")
+    runs = client.search_runs([experiment.experiment_id])
+    assert len(runs) == 1
+    run = runs[0]
+    assert run.data.params["variant"] == "APc" and run.data.params["run.encoder.hidden"] == "8"
+    assert run.data.params["run.test_user"] == "C"
+    history = pd.read_csv(tmp_path / "run" / "history.csv")
+    losses = client.get_metric_history(run.info.run_id, "loss_gesture")
+    assert [m.step for m in losses] == list(history.sweep)
+    assert [m.value for m in losses] == pytest.approx(list(history.loss_gesture))
+    assert [m.value for m in client.get_metric_history(run.info.run_id, "epoch")] == [1, 2]
+    weights = pd.read_csv(tmp_path / "run" / "gradnorm.csv")
+    assert [m.value for m in client.get_metric_history(
+        run.info.run_id, "gradnorm.w_end_progress")] == pytest.approx(list(weights.w_end_progress))
+    metrics = pd.read_json(tmp_path / "run" / "metrics.json", typ="series")["mean"]
+    assert run.data.metrics["final.gesture.accuracy"] == pytest.approx(
+        metrics["gesture"]["accuracy"])
+    assert run.data.metrics["final.gesture.f1_10"] == pytest.approx(metrics["gesture"]["f1@10"])
+
+
+def test_an_unusable_tracking_uri_stops_before_any_work(tmp_path, capsys, monkeypatch):
+    monkeypatch.delenv("MLFLOW_ALLOW_FILE_STORE", raising=False)
+    code = train_main(["--synthetic", "--out", str(tmp_path / "run"), "--mlflow",
+                       (tmp_path / "mlruns").as_uri()])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1 and "multitask-train: error:" in err
+    assert ("--mlflow" in err or "MLflow is not installed" in err)
+    assert not (tmp_path / "run").exists()
+
+
+@needs_mlflow
+def test_a_grid_is_a_parent_run_with_its_runs_nested_under_it(synth_dir, tmp_path,
+                                                               monkeypatch):
+    from mlflow.tracking import MlflowClient
+
+    from multitask.grid.cli import main as grid_main
+
+    monkeypatch.setenv("MLFLOW_ALLOW_FILE_STORE", "true")
+    monkeypatch.setenv("MLFLOW_EXPERIMENT_NAME", "grids")
+    spec = tmp_path / "spec.toml"
+    spec.write_text(f'preset = "quick"\ndata_dir = "{synth_dir}"\ntest_users = ["B"]\n'
+                    'hidden = 8\nepochs = 2\n[[experiments]]\nvariants = ["A"]\n')
+    uri = (tmp_path / "mlruns").as_uri()
+    command = ["--spec", str(spec), "--out", str(tmp_path / "grid")]
+    assert grid_main(command) == 0                          # trained without MLflow first
+    assert grid_main(command + ["--mlflow", uri]) == 0      # its finished runs logged now
+    client = MlflowClient(tracking_uri=uri)
+    runs = client.search_runs([client.get_experiment_by_name("grids").experiment_id])
+    parents = [r for r in runs if "mtrnn.grid_dir" in r.data.tags]
+    assert len(parents) == 1 and parents[0].info.status == "FINISHED"
+    assert parents[0].data.params["hidden"] == "8"
+    children = [r for r in runs if r.data.tags.get("mlflow.parentRunId")
+                == parents[0].info.run_id]
+    assert [r.data.params["variant"] for r in children] == ["A"]
+    assert len(runs) == 2 and all("final.gesture.accuracy" in r.data.metrics for r in children)
