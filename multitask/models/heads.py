@@ -119,6 +119,10 @@ class OrdinalProgress(Task):
     def scores_tf(self, outputs):
         return tf.sigmoid(outputs)
 
+    def log_scores_tf(self, outputs):
+        """log sigma of every output: "progress has reached this stage", in log-probability."""
+        return tf.math.log_sigmoid(outputs)
+
     def decode_tf(self, outputs):
         """``ordinal_decode`` of the sigmoid outputs."""
         below = self.scores_tf(outputs) < 0.5
