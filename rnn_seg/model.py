@@ -7,7 +7,7 @@ import tensorflow as tf
 
 from .config import EncoderConfig
 from .dense import Dense, DenseParams
-from .encoders import PADDED, build_encoder, layout, shared_variables
+from .encoders.registry import PADDED, build_encoder, layout, shared_variables
 from .encoders.config import EDTCNConfig, MSTCNConfig
 from .tasks import Task
 
