@@ -2,7 +2,7 @@
 
 One stage, for ``layers`` L, ``filters`` F, kernel k and dropout p (``MSTCNConfig``)::
 
-    x = conv_1(x)                                                  F maps
+    x = conv_1(x) * valid                                          F maps
     for l = 0..L-1:   x = (x + drop_p(conv_1(relu(conv_k,2^l(x))))) * valid
     outputs = {task: Dense_task(x) * valid}                        one head per task
 
@@ -58,7 +58,7 @@ class DilatedStage(tf.Module):
               dropout_seeds: tf.Tensor | None) -> tf.Tensor:
         """``x`` ``[B, T, C_in]``, ``mask`` ``[B, T, 1]`` float32, ``dropout_seeds`` one row per
         layer (None = no dropout) -> ``[B, T, filters]``."""
-        x = conv(x, params["input"])
+        x = conv(x, params["input"]) * mask
         for l, (dilated, pointwise) in enumerate(zip(params["dilated"], params["pointwise"])):
             branch = tf.nn.relu(conv(x, dilated, 2 ** l, self.config.causal))
             branch = conv(branch, pointwise)
