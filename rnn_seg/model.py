@@ -92,7 +92,8 @@ class SegmentationModel(tf.Module):
     def _require_recurrent(self) -> None:
         if self.padded:
             raise ValueError(f"only an LSTM encoder runs one sample at a time; this model's is "
-                             f"{self.encoder.config.kind} (predict whole recordings instead)")
+                             f"{self.encoder.config.kind}: predict whole recordings (without "
+                             "--stream; a causal TCN's output at a sample reads only the past)")
 
     def apply(self, params: ModelParams, inputs: tf.Tensor, resets: tf.Tensor,
               dropout_seeds: tf.Tensor | None = None, valid: tf.Tensor | None = None
