@@ -26,7 +26,8 @@ from rnn_seg.encoders.ms_tcn import smoothing, stage_loss
 from rnn_seg.model import SegmentationModel
 from rnn_seg.optim import ADAM_BETAS, ADAM_EPSILON, RMSPROP_EPSILON, RMSPROP_RHO, build_optimizer
 from rnn_seg.tasks import SoftmaxClassification
-from rnn_seg.trainer import SequenceSet
+from rnn_seg.stack import TrainerStack
+from rnn_seg.trainer import SequenceSet, Trainer
 
 F, T = 6, 45
 GESTURES = SoftmaxClassification("gesture", list("abcd"))
@@ -316,3 +317,29 @@ def test_a_config_without_encoder_kind_is_an_lstm():
     assert from_jsonable(EncoderConfig, lstm).kind == "lstm"
     tcn = to_jsonable(RunConfig(DataConfig("d"), encoder=MSTCNConfig()))
     assert from_jsonable(RunConfig, tcn).encoder == MSTCNConfig()
+
+
+def _lone_or_stacked(folder, seed, config):
+    rng = np.random.default_rng(seed)
+    inputs = [rng.normal(size=(int(rng.integers(20, 40)), F)).astype(np.float32)
+              for _ in range(6)]
+    data = SequenceSet([f"s{i}" for i in range(6)], inputs,
+                       {"gesture": [(x[:, 0] > 0).astype(int) for x in inputs]})
+    optim = OptimConfig(optimizer="adam", learning_rate=1e-2, clip_norm=0.0, unit="sweeps",
+                        total=4, decay_start=4)
+    return Trainer(SegmentationModel(F, config, [GESTURES], seed), [GESTURES], optim,
+                   TrainConfig(batch_size=3, eval_points=(4,), plots="none", seed=seed), data,
+                   data, folder, {}, 5.0, log=lambda m: None)
+
+
+@pytest.mark.parametrize("kind", ["ed-tcn", "ms-tcn"])
+def test_a_tcn_trains_in_a_stack_as_alone(tmp_path, kind):
+    """Members' sweeps padded to the longest (``rnn_seg.stack``), dropout included."""
+    lone = [_lone_or_stacked(tmp_path / f"lone{s}", s, _small(kind)) for s in (0, 1)]
+    for trainer in lone:
+        trainer.run()
+    stacked = [_lone_or_stacked(tmp_path / f"stack{s}", s, _small(kind)) for s in (0, 1)]
+    TrainerStack(stacked).run()
+    for a, b in zip(lone, stacked):
+        for x, y in zip(a.variables, b.variables):
+            np.testing.assert_allclose(y.numpy(), x.numpy(), atol=2e-5)

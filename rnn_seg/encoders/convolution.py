@@ -71,12 +71,17 @@ def dropout(x: tf.Tensor, rate: float, seed: tf.Tensor | None, spatial: bool = F
             ) -> tf.Tensor:
     """Inverted dropout of ``[B, T, C]`` at ``rate``: elementwise, or ``spatial`` (one mask per
     sequence and channel, whole channels dropped, Keras's ``SpatialDropout1D``); ``seed``
-    ``[2]`` int64 stateless seed, None = no dropout."""
+    ``[2]`` int64 stateless seed, None = no dropout. Elementwise masks are drawn in time-major
+    order, so a sweep padded at the end keeps every valid step's mask (``rnn_seg.stack``)."""
     if seed is None or rate <= 0.0:
         return x
-    shape = tf.shape(x)
-    noise = tf.stack([shape[0], 1, shape[2]]) if spatial else None
-    return tf.nn.experimental.stateless_dropout(x, rate=rate, seed=seed, noise_shape=noise)
+    if spatial:
+        shape = tf.shape(x)
+        return tf.nn.experimental.stateless_dropout(
+            x, rate=rate, seed=seed, noise_shape=tf.stack([shape[0], 1, shape[2]]))
+    time_major = tf.transpose(x, [1, 0, 2])
+    dropped = tf.nn.experimental.stateless_dropout(time_major, rate=rate, seed=seed)
+    return tf.transpose(dropped, [1, 0, 2])
 
 
 def pad_to_multiple(x: tf.Tensor, multiple: int) -> tf.Tensor:
