@@ -315,8 +315,12 @@ def test_a_config_without_encoder_kind_is_an_lstm():
     lstm = to_jsonable(EncoderConfig())
     assert "kind" not in lstm                              # old records and hashes unchanged
     assert from_jsonable(EncoderConfig, lstm).kind == "lstm"
-    tcn = to_jsonable(RunConfig(DataConfig("d"), encoder=MSTCNConfig()))
-    assert from_jsonable(RunConfig, tcn).encoder == MSTCNConfig()
+    for config in (MSTCNConfig(), EDTCNConfig(causal=True)):
+        tcn = to_jsonable(RunConfig(DataConfig("d"), encoder=config))
+        assert from_jsonable(RunConfig, tcn).encoder == config
+    tcn["encoder"]["kind"] = "tcn"
+    with pytest.raises(ValueError, match="run.encoder.kind: expected one of"):
+        from_jsonable(RunConfig, tcn, "run")
 
 
 def _lone_or_stacked(folder, seed, config):
