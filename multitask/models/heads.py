@@ -1,7 +1,7 @@
 """Progress heads: regression (MAE), classification (softmax) and ordered classification (sigmoid).
 
-Each reads the shared ``2H`` BiLSTM features through its own fully connected layer (built by
-``rnn_seg.model``); here are their targets, losses and decoding. Progress stages are
+Each reads the encoder's shared features (``2H`` of the BiLSTM) through its own fully connected
+layer (built by ``rnn_seg.model``); here are their targets, losses and decoding. Progress stages are
 ``0..K-1``, the task's (``TaskDefinition.stage_names``; for the paper's Suturing, the default:
 reach, position, push, pull, drop), and the heads' class names are the stages' names.
 """

@@ -29,7 +29,8 @@ from ..tasks import Task, step_mean
 from .config import MSTCNConfig
 from .convolution import Conv, ConvParams, conv, dropout, mask_of
 
-StageParams = dict[str, object]   # "input": ConvParams, "dilated"/"pointwise": [ConvParams] per layer
+#: A stage's weights: "input" ConvParams, "dilated" and "pointwise" one ConvParams per layer.
+StageParams = dict[str, object]
 
 
 class DilatedStage(tf.Module):
