@@ -153,7 +153,9 @@ def _grid_data(grid_dir: Path, annotations: str):
 
 def with_time_baseline(frame: pd.DataFrame, grid_dir: Path, table) -> pd.DataFrame:
     """``frame`` (a comparison table, ``tables.paper_comparison``) with the time-only rows
-    (``time_baseline_rows``) after its models' rows when it reports progress."""
+    (``time_baseline_rows``) after its models' rows when one of them reports progress."""
+    if not frame.metric.str.startswith("progress_").any():
+        return frame
     extra = time_baseline_rows(grid_dir, table, frame.columns)
     if extra.empty:
         return frame
