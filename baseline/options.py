@@ -9,8 +9,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from jigsaws_tools.cli.arg_types import (momentum, non_negative_int, positive_float, positive_int,
-                                         positive_int_list, probability, thread_count)
+from jigsaws_tools.cli.arg_types import (momentum, non_negative_float, non_negative_int,
+                                         positive_float, positive_int, positive_int_list,
+                                         probability, thread_count)
 from jigsaws_tools.dataset import DataConfig, check_format_fits
 from jigsaws_tools.preprocessing import PreprocessConfig
 from jigsaws_tools.release import require_layout, require_user
@@ -26,17 +27,19 @@ from .config import DIRECTIONS, RunConfig
 
 
 def add_run_arguments(parser: argparse.ArgumentParser, optim: OptimConfig,
-                      eval_points: tuple[int, ...] = TrainConfig.eval_points) -> None:
+                      eval_points: tuple[int, ...] = TrainConfig.eval_points,
+                      batch_size: int = TrainConfig.batch_size) -> None:
     """Options shared by every training CLI.
 
     Args:
         parser: the command's parser; the options go into groups data, model, optimisation, run.
         optim: the schedule whose values the options show as defaults (a variant's).
         eval_points: the default evaluation points shown by ``--eval-at``, in epochs.
+        batch_size: the default of ``--batch-size`` (an encoder's).
     """
     _add_data_options(parser)
     _add_model_options(parser.add_argument_group("model"))
-    _add_optimisation_options(parser.add_argument_group("optimisation"), optim)
+    _add_optimisation_options(parser.add_argument_group("optimisation"), optim, batch_size)
     _add_run_options(parser.add_argument_group("run"), eval_points)
 
 
@@ -75,7 +78,8 @@ def _add_model_options(model: argparse._ArgumentGroup) -> None:
                             "to float32 rounding; docs/PERFORMANCE.md)")
 
 
-def _add_optimisation_options(opt: argparse._ArgumentGroup, optim: OptimConfig) -> None:
+def _add_optimisation_options(opt: argparse._ArgumentGroup, optim: OptimConfig,
+                              batch_size: int) -> None:
     """The schedule's options (``OptimConfig``, defaults from ``optim``) and the batch size."""
     length = opt.add_mutually_exclusive_group()
     length.add_argument("--epochs", type=positive_int, metavar="N",
@@ -94,9 +98,10 @@ def _add_optimisation_options(opt: argparse._ArgumentGroup, optim: OptimConfig) 
                      help="initial learning rate")
     opt.add_argument("--momentum", type=momentum, default=optim.momentum, metavar="M",
                      help="SGD momentum in [0, 1); 0 = plain gradient descent")
-    opt.add_argument("--clip-norm", type=positive_float, default=optim.clip_norm, metavar="C",
-                     help="clip all gradients together to this global norm")
-    opt.add_argument("--batch-size", type=positive_int, default=TrainConfig.batch_size,
+    opt.add_argument("--clip-norm", type=non_negative_float, default=optim.clip_norm,
+                     metavar="C", help="clip all gradients together to this global norm (0: no "
+                                       f"clipping; optimiser: {optim.optimizer})")
+    opt.add_argument("--batch-size", type=positive_int, default=batch_size,
                      metavar="B", help="sequences per sweep")
 
 
@@ -199,16 +204,19 @@ def _schedule_from_args(args: argparse.Namespace,
                         optim: OptimConfig) -> tuple[OptimConfig, bool]:
     """The schedule the options ask for, and whether it keeps ``optim``'s length in epochs
     (then ``optim``'s decay start and evaluation points still apply; otherwise the decay starts
-    after 2/3 of the length unless ``--decay-start`` says otherwise)."""
+    after 2/3 of the length unless ``--decay-start`` says otherwise, or never for a constant
+    ``optim``, a temporal-convolution encoder's)."""
     if args.sweeps is not None:
         unit, total = "sweeps", args.sweeps
     else:
         unit, total = "epochs", optim.total if args.epochs is None else args.epochs
     default_length = unit == "epochs" and total == optim.total
+    constant = optim.decay_start >= optim.total          # a schedule without decay keeps none
     decay_start = args.decay_start if args.decay_start is not None else (
-        optim.decay_start if default_length else (2 * total) // 3)
+        optim.decay_start if default_length else total if constant else (2 * total) // 3)
     schedule = OptimConfig(learning_rate=args.lr, momentum=args.momentum,
-                           clip_norm=args.clip_norm, unit=unit, total=total,
+                           clip_norm=args.clip_norm, optimizer=optim.optimizer, unit=unit,
+                           total=total,
                            decay_start=decay_start, decay_every=args.decay_every,
                            decay_factor=args.decay_factor)
     return schedule, default_length

@@ -1,11 +1,13 @@
 """``multitask-train``: train one of A, APr, APc, APoc, Pr, Pc, Poc on one LOUO fold.
 
-``--help`` shows the defaults of the chosen ``--variant`` (each has the paper's optimiser).
+``--help`` shows the defaults of the chosen ``--variant`` (each has the paper's optimiser) and
+``--encoder`` (a temporal-convolution encoder has its reference's, for every variant).
 """
 from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
 from pathlib import Path
 from typing import Callable
 
@@ -13,10 +15,12 @@ from baseline.config import RunConfig
 from baseline.options import add_run_arguments, run_config_from_args
 from jigsaws_tools.cli.arg_types import non_negative_float, positive_float
 from jigsaws_tools.cli.common import command_parser, run_command
+from rnn_seg.config import EncoderConfig
+from rnn_seg.encoders.config import ENCODERS, encoder_config
 from rnn_seg.runs.provenance import set_command
 
 from .models.config import ORDINAL_LOSSES, RELATIVE_RATES, WEIGHTINGS, GradNormConfig, HeadConfig
-from .models.variants import VARIANTS, Variant, check_weighting, get_variant
+from .models.variants import VARIANTS, Variant, batch_size, check_weighting, get_variant
 
 PROG = "multitask-train"
 DEFAULT_VARIANT = "APc"
@@ -29,11 +33,27 @@ def add_variant_argument(parser: argparse.ArgumentParser) -> None:
                              "Poc = progress only")
 
 
-def build_parser(variant_name: str = DEFAULT_VARIANT) -> argparse.ArgumentParser:
-    """The parser, its schedule defaults those of variant ``variant_name``."""
+#: The LSTM's options (``EncoderConfig``): refused with a temporal-convolution encoder.
+LSTM_OPTIONS = {"hidden": "--hidden", "layers": "--layers", "keep_prob": "--keep-prob",
+                "init_scale": "--init-scale", "reset_mode": "--reset-mode",
+                "precision": "--precision", "loops": "--loops"}
+
+
+def add_encoder_argument(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--encoder", choices=ENCODERS, default=ENCODERS[0],
+                        help="the shared encoder: DiPietro's peephole BiLSTM (the paper's), Lea "
+                             "et al.'s ED-TCN or Farha & Gall's MS-TCN, each with its "
+                             "reference's settings and optimiser (docs/REPRODUCTION.md); "
+                             "--direction forward makes a TCN's convolutions causal")
+
+
+def build_parser(variant_name: str = DEFAULT_VARIANT, encoder: str = ENCODERS[0]
+                 ) -> argparse.ArgumentParser:
+    """The parser, its schedule defaults those of variant ``variant_name`` on ``encoder``."""
     variant = get_variant(variant_name)
     parser = command_parser(PROG, __doc__)
     add_variant_argument(parser)
+    add_encoder_argument(parser)
     parser.add_argument("--weighting", choices=WEIGHTINGS, default=None,
                         help="task loss weights: fixed w1 = w2 = 1, or GradNorm (two-task "
                              f"variants only; the paper's) (default: {WEIGHTINGS[0]})")
@@ -50,7 +70,10 @@ def build_parser(variant_name: str = DEFAULT_VARIANT) -> argparse.ArgumentParser
                         help="the ordered progress head's cross-entropy over its outputs (one "
                              "per stage): summed (the paper's MBCE) or averaged (default: "
                              f"{HeadConfig.ordinal_loss})")
-    add_run_arguments(parser, variant.optim(), variant.eval_points())
+    add_run_arguments(parser, variant.optim(encoder), variant.eval_points(encoder),
+                      batch_size(encoder))
+    if encoder != "lstm":                       # given or not: None unless given (refused)
+        parser.set_defaults(**{name: None for name in LSTM_OPTIONS})
     parser.add_argument("--mlflow", metavar="URI",
                         help="also log the run to MLflow once it finishes: settings, the "
                              "metrics of every history.csv row, final scores "
@@ -60,10 +83,12 @@ def build_parser(variant_name: str = DEFAULT_VARIANT) -> argparse.ArgumentParser
 
 
 def main(argv: list[str] | None = None) -> int:
-    pre = argparse.ArgumentParser(add_help=False)      # the variant whose defaults --help shows
+    pre = argparse.ArgumentParser(add_help=False)      # whose defaults --help shows
     pre.add_argument("--variant", default=DEFAULT_VARIANT)
+    pre.add_argument("--encoder", default=ENCODERS[0])
     known, _ = pre.parse_known_args(argv)
-    parser = build_parser(known.variant if known.variant in VARIANTS else DEFAULT_VARIANT)
+    parser = build_parser(known.variant if known.variant in VARIANTS else DEFAULT_VARIANT,
+                          known.encoder if known.encoder in ENCODERS else ENCODERS[0])
     args = parser.parse_args(argv)                     # refuses an unknown variant
     variant = get_variant(args.variant)
     unused = unused_options(args, variant)
@@ -83,6 +108,11 @@ def unused_options(args: argparse.Namespace, variant: Variant) -> str | None:
     if args.ordinal_loss is not None and variant.progress != "oc":
         return (f"--ordinal-loss applies to an ordered progress head (APoc, Poc), not to "
                 f"variant {variant.name}")
+    if args.encoder != "lstm":
+        given = [option for name, option in LSTM_OPTIONS.items() if getattr(args, name) is not None]
+        if given:
+            return (f"{given[0]} is an LSTM setting; the {args.encoder} encoder has its "
+                    "reference's (docs/REPRODUCTION.md): leave it out, or use --encoder lstm")
     return None
 
 
@@ -100,10 +130,24 @@ def configure_run(args: argparse.Namespace, variant: Variant, log: Callable[[str
                                        relative_rate=args.relative_rate))
     heads = HeadConfig(**_given(ordinal_loss=args.ordinal_loss))
     check_weighting(variant, weighting(args))
-    config = run_config_from_args(args, variant.optim(), variant.eval_points())
+    for name in LSTM_OPTIONS:                 # a TCN's: refused when given, so defaults
+        if getattr(args, name) is None:
+            setattr(args, name, getattr(EncoderConfig, name))
+    config = _with_encoder(args, run_config_from_args(args, variant.optim(args.encoder),
+                                                      variant.eval_points(args.encoder)))
+    encoder = "" if args.encoder == "lstm" else f", encoder {args.encoder}"
     log(f"model: {variant.full_name(weighting(args), gradnorm, args.weighting is not None)}"
-        f"\n{config.describe()}")
+        f"{encoder}\n{config.describe()}")
     return config, gradnorm, heads
+
+
+def _with_encoder(args: argparse.Namespace, config: RunConfig) -> RunConfig:
+    """``config`` with ``--encoder``'s configuration: a TCN's (causal for ``--direction
+    forward``) in place of the LSTM options' defaults."""
+    if args.encoder == "lstm":
+        return config
+    return replace(config, encoder=encoder_config(args.encoder,
+                                                  causal=args.direction == "forward"))
 
 
 def train_configured(args: argparse.Namespace, variant: Variant,
@@ -116,7 +160,7 @@ def train_configured(args: argparse.Namespace, variant: Variant,
     from .models.fold_run import train_variant
 
     config, gradnorm, heads = configs
-    configure_threads(args.threads, args.hidden, args.precision,
+    configure_threads(args.threads, config.encoder.hidden, config.encoder.precision,
                       bidirectional=args.direction == "bidirectional")
     return train_variant(variant, weighting(args), config, args.out, gradnorm, log=log,
                          heads=heads, restart=args.restart)

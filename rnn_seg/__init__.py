@@ -1,14 +1,17 @@
 """A generic engine for recurrent sequence segmentation: any task, any label set.
 
 Read first: ``trainer.Trainer`` (its docstring lists what one training sweep calls, in order),
-then ``model.SegmentationModel`` (a recurrent encoder shared by one dense head per task).
+then ``model.SegmentationModel`` (an encoder shared by one dense head per task).
 
 * ``config``: the encoder, optimiser and training dataclasses (no TensorFlow import);
 * ``lstm``: DiPietro et al.'s peephole LSTM with resets and its hand-written backward pass;
   ``kernels/``: its loops over time as compiled C++ ops (``loops = "fused"``, optional);
+* ``encoders/``: the encoder concept, the LSTM beside Lea et al.'s ED-TCN and Farha & Gall's
+  MS-TCN, chosen by the run's configuration;
 * ``model``, ``dense``: the encoder plus one head per ``tasks.Task``;
 * ``tasks``: what a head predicts (targets, loss, decoding);
-* ``sweeps``: batches of sequences wrapped to the longest; ``optim``: SGD and its schedule;
+* ``sweeps``: batches of sequences wrapped (or padded) to the longest; ``optim``: SGD, RMSprop,
+  Adam and the schedule;
 * ``trainer``: the training loop with checkpoints, resume and evaluation points;
 * ``stack``: several models trained in one vectorised step; ``threads``: the thread plan;
 * ``metrics``: accuracy, edit score and F1@k; ``plots``: per-sequence figures;

@@ -28,7 +28,11 @@ class EncoderConfig:
     #: How the loops run, not what they compute (``rnn_seg.lstm``'s docstring): left out of the
     #: settings a run folder is checked against (``rnn_seg.runs.settings``), like the thread plan.
     output_fields: ClassVar[tuple[str, ...]] = ("loops",)
+    #: Not recorded while it holds its default (``rnn_seg.runs.folder.to_jsonable``): runs written
+    #: before other encoders existed keep their settings; a record without it is an LSTM's.
+    unrecorded_defaults: ClassVar[tuple[str, ...]] = ("kind",)
 
+    kind: Literal["lstm"] = "lstm"  # the encoder (rnn_seg.encoders); TCNs have their own configs
     hidden: int = 1024
     layers: int = 1
     bidirectional: bool = True
@@ -40,6 +44,7 @@ class EncoderConfig:
                                     # the compiled C++ loops of rnn_seg.kernels
 
     def __post_init__(self):
+        require_choice("EncoderConfig.kind", self.kind, ("lstm",))
         require_number("EncoderConfig.hidden", self.hidden, integer=True, low=1)
         require_number("EncoderConfig.layers", self.layers, integer=True, low=1)
         require_bool("EncoderConfig.bidirectional", self.bidirectional)
@@ -56,6 +61,8 @@ class EncoderConfig:
 
 Unit = Literal["epochs", "sweeps"]
 UNITS = ("epochs", "sweeps")
+Optimizer = Literal["sgd", "rmsprop", "adam"]
+OPTIMIZERS = ("sgd", "rmsprop", "adam")
 
 
 def unit_name(unit: Unit) -> str:
@@ -66,11 +73,18 @@ def unit_name(unit: Unit) -> str:
 @dataclass(frozen=True)
 class OptimConfig:
     """Optimiser and schedule: constant ``learning_rate`` for ``decay_start`` units, then multiplied
-    by ``decay_factor`` every ``decay_every`` units, until ``total`` units."""
+    by ``decay_factor`` every ``decay_every`` units, until ``total`` units. ``optimizer``: SGD (with
+    ``momentum``; the paper's), or RMSprop / Adam with their references' constants
+    (``rnn_seg.optim``); ``clip_norm`` 0 = no clipping."""
+
+    #: Not recorded while it holds its default (``rnn_seg.runs.folder.to_jsonable``), so the
+    #: records of runs written before it existed stay the same.
+    unrecorded_defaults: ClassVar[tuple[str, ...]] = ("optimizer",)
 
     learning_rate: float = 1.0
     momentum: float = 0.0
     clip_norm: float = 1.0
+    optimizer: Optimizer = "sgd"
     unit: Unit = "epochs"
     total: int = 120
     decay_start: int = 80
@@ -80,7 +94,11 @@ class OptimConfig:
     def __post_init__(self):
         require_number("OptimConfig.learning_rate", self.learning_rate, low=0, open_low=True)
         require_number("OptimConfig.momentum", self.momentum, low=0, high=1, open_high=True)
-        require_number("OptimConfig.clip_norm", self.clip_norm, low=0, open_low=True)
+        require_number("OptimConfig.clip_norm", self.clip_norm, low=0)
+        require_choice("OptimConfig.optimizer", self.optimizer, OPTIMIZERS)
+        if self.momentum and self.optimizer != "sgd":
+            raise ValueError(f"OptimConfig.momentum applies to sgd, not {self.optimizer} (got "
+                             f"{self.momentum!r})")
         require_choice("OptimConfig.unit", self.unit, UNITS)
         require_number("OptimConfig.total", self.total, integer=True, low=1)
         require_number("OptimConfig.decay_start", self.decay_start, integer=True, low=0)

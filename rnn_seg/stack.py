@@ -140,17 +140,18 @@ def _require_same(a: Trainer, b: Trainer, what: str, key) -> None:
 
 
 def padded_batches(batches: Sequence[tuple]) -> tuple:
-    """Members' sweeps ``(inputs [B, T_k, F], resets [B, T_k], targets ([B, T_k, K_task], ...))``
-    -> ``(inputs [M, B, T, F], resets [M, B, T], targets (...), valid [M, B, T])`` tensors, every
-    sweep zero-padded at the end to the longest duration ``T``."""
-    duration = max(inputs.shape[1] for inputs, _, _ in batches)
+    """Members' sweeps ``(inputs [B, T_k, F], resets [B, T_k], targets ([B, T_k, K_task], ...),
+    valid [B, T_k] or None)`` (``Trainer.batch``) -> ``(inputs [M, B, T, F], resets [M, B, T],
+    targets (...), valid [M, B, T])`` tensors, every sweep zero-padded at the end to the longest
+    duration ``T``."""
+    duration = max(batch[0].shape[1] for batch in batches)
 
     def pad(arrays):
         return tf.constant(np.stack([np.pad(a, [(0, 0), (0, duration - a.shape[1])]
                                             + [(0, 0)] * (a.ndim - 2)) for a in arrays]))
 
-    inputs, resets, targets = zip(*batches)
-    valid = [np.ones(r.shape, bool) for r in resets]
+    inputs, resets, targets, valid = zip(*batches)
+    valid = [np.ones(r.shape, bool) if v is None else v for r, v in zip(resets, valid)]
     return pad(inputs), pad(resets), tuple(pad(y) for y in zip(*targets)), pad(valid)
 
 

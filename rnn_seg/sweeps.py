@@ -4,7 +4,8 @@ A sweep of ``B`` sequences has the duration of its longest member; every shorter
 repeated (numpy ``wrap`` padding) to fill it, and a reset flag marks the first step of every copy
 so the recurrent state restarts there. Sequences are drawn from an endless stream that visits all
 of them in a fresh random order on each pass, as in DiPietro et al.'s code. Wrapped steps count in
-the loss like any other, as they do there.
+the loss like any other, as they do there. A convolutional encoder's sweeps are padded with zeros
+instead (``pad_sweep``), the padding outside every loss (``rnn_seg.encoders``).
 """
 from __future__ import annotations
 
@@ -50,6 +51,14 @@ def make_sweep(seqs: Sequence[np.ndarray], duration: int | None = None) -> np.nd
     """Stack sequences ``[T_i, ...]`` into ``[B, duration, ...]``, wrapping shorter ones."""
     duration = duration or max(len(s) for s in seqs)
     return np.stack([wrap(s, duration) for s in seqs])
+
+
+def pad_sweep(seqs: Sequence[np.ndarray], duration: int | None = None) -> np.ndarray:
+    """Stack sequences ``[T_i, ...]`` into ``[B, duration, ...]``, zeros after each one's end
+    (the sweeps of a convolutional encoder, ``rnn_seg.encoders``)."""
+    duration = duration or max(len(s) for s in seqs)
+    return np.stack([np.pad(s, [(0, duration - len(s))] + [(0, 0)] * (s.ndim - 1))
+                     for s in seqs])
 
 
 def sweeps_per_epoch(num_seqs: int, batch_size: int) -> int:

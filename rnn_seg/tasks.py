@@ -62,6 +62,11 @@ class Task:
         """``decode`` as TensorFlow ops: ``[..., K]`` -> int64 ``[...]``."""
         raise NotImplementedError
 
+    def log_scores_tf(self, outputs: tf.Tensor) -> tf.Tensor | None:
+        """Log-probabilities ``[..., K]`` of the outputs, for losses on them (MS-TCN's
+        smoothing); None for a head without probabilities (a regression)."""
+        return None
+
     def score_columns(self) -> list[str]:
         return [f"p_{c}" for c in self.class_names]
 
@@ -93,6 +98,9 @@ class SoftmaxClassification(Task):
 
     def decode_tf(self, outputs):
         return tf.argmax(outputs, axis=-1)
+
+    def log_scores_tf(self, outputs):
+        return tf.nn.log_softmax(outputs, axis=-1)
 
 
 def step_mean(values: tf.Tensor, mask: tf.Tensor | None) -> tf.Tensor:

@@ -47,12 +47,12 @@ from .config import (PLOT_POINTS, PREDICTION_MODES, PlotPoints,  # noqa: F401 (r
 from .convergence import history_convergence
 from .runs.lock import hold_folder
 from .model import ModelParams, SegmentationModel
-from .optim import SGD, OptimConfig
+from .optim import OptimConfig, build_optimizer
 from .plots import plot_sequence
 from .runs.folder import (CONFIG, HISTORY, RUN_LOGS, clear_run_dir, is_finished, mark_finished,
                           point_dir, read_json, remove_temporary_files, write_atomic, write_json)
 from .runs.logs import append_csv_row, resume_log  # noqa: F401 (append_csv_row re-exported)
-from .sweeps import make_sweep, reset_flags, sweep_indices, sweeps_per_epoch
+from .sweeps import make_sweep, pad_sweep, reset_flags, sweep_indices, sweeps_per_epoch
 from .predictions import prediction_csv, prediction_table
 from .tasks import Task, task_metrics, task_scores
 from .runs.provenance import now, provenance
@@ -103,6 +103,8 @@ def predict(model: SegmentationModel, inputs: Sequence[np.ndarray], mode: Predic
     ``original`` reset mode the reverse direction of a shorter sequence then enters its last frames
     with the state of the wrapped copy after them. ``per_sequence``: each sequence alone, no
     wrapping. (Either way, ``original`` mode restarts the reverse state before each first frame.)
+    A model with a convolutional encoder (``model.padded``) always predicts each sequence alone:
+    its outputs do not depend on padding, and a wrapped sweep is not its input.
 
     Args:
         model: the model to run (its compiled ``infer`` pass).
@@ -112,7 +114,8 @@ def predict(model: SegmentationModel, inputs: Sequence[np.ndarray], mode: Predic
     Returns:
         ``{task name: one [T_i, K] float32 array per sequence}``, in the order of ``inputs``.
     """
-    groups = [list(range(len(inputs)))] if mode == "sweep" else [[i] for i in range(len(inputs))]
+    whole = mode == "sweep" and not model.padded
+    groups = [list(range(len(inputs)))] if whole else [[i] for i in range(len(inputs))]
     out: dict[str, list[np.ndarray]] = {name: [None] * len(inputs) for name in model.heads}
     for group in groups:
         lengths = [len(inputs[i]) for i in group]
@@ -140,7 +143,7 @@ class Trainer:
         compile()                           trace the training step and ``model.infer`` once
         for every sweep:
             step(sweep, lr)                 one training sweep (graph code):
-                batch(sweep)                    inputs, resets, targets of the sweep
+                batch(sweep)                    inputs, resets, targets (, valid) of the sweep
                 loss_gradients(...)             task losses and gradients
                                                                 [hook: per_task_gradients]
                 update(losses, grads, lr)       apply them, return what to log [hook: update]
@@ -170,7 +173,7 @@ class Trainer:
         self.sample_hz = sample_hz
         require_native_precision(model.encoder.config.precision)
         self.variables = tf.nest.flatten(model.params())      # the order of every gradient list
-        self.sgd = SGD(self.variables, optim.momentum, optim.clip_norm)
+        self.sgd = build_optimizer(self.variables, optim)     # checkpointed as "sgd" (any kind)
         self.dropout_rng = tf.random.Generator.from_seed(config.seed + 1_000_003)
         self.sweep = tf.Variable(0, dtype=tf.int64, trainable=False, name="sweep")
         self.sweeps_per_epoch = sweeps_per_epoch(len(train), config.batch_size)
@@ -234,44 +237,58 @@ class Trainer:
 
     def step(self, sweep: int, learning_rate: float) -> np.ndarray:
         """Train on sweep number ``sweep`` (no book-keeping); returns ``update``'s result."""
-        inputs, resets, targets = self.batch(sweep)
-        return self._train_step(tf.constant(inputs), tf.constant(resets),
-                                tuple(tf.constant(y) for y in targets),
-                                tf.constant(learning_rate, tf.float32)).numpy()
+        inputs, resets, targets, valid = self.batch(sweep)
+        args = [tf.constant(inputs), tf.constant(resets), tuple(tf.constant(y) for y in targets),
+                tf.constant(learning_rate, tf.float32)]
+        if valid is not None:
+            args.append(tf.constant(valid))
+        return self._train_step(*args).numpy()
 
     def _step_signature(self, train: SequenceSet) -> list:
         """Shapes of one sweep (any duration): traced once, never again."""
         features = train.inputs[0].shape[1]
         batch = self.config.batch_size
-        return [tf.TensorSpec([batch, None, features], tf.float32),
-                tf.TensorSpec([batch, None], tf.bool),
-                tuple(tf.TensorSpec([batch, None, t.num_outputs], tf.float32) for t in self.tasks),
-                tf.TensorSpec([], tf.float32)]
+        signature = [tf.TensorSpec([batch, None, features], tf.float32),
+                     tf.TensorSpec([batch, None], tf.bool),
+                     tuple(tf.TensorSpec([batch, None, t.num_outputs], tf.float32)
+                           for t in self.tasks),
+                     tf.TensorSpec([], tf.float32)]
+        if self.model.padded:
+            signature.append(tf.TensorSpec([batch, None], tf.bool))
+        return signature
 
     def compile(self) -> None:
         """Trace the training step and the evaluation pass (once per process)."""
         self._train_step.get_concrete_function()
         self.model.infer.get_concrete_function()
 
-    def _train_step_graph(self, inputs, resets, targets, learning_rate):
+    def _train_step_graph(self, inputs, resets, targets, learning_rate, valid=None):
         losses, grads = loss_gradients(self.model, self.tasks, self.per_task_gradients,
                                        self.model.params(), inputs, resets, targets,
-                                       self.dropout_seeds())
+                                       self.dropout_seeds(), valid)
         return self.update(losses, grads, learning_rate)
 
     def _on_log(self, done: int) -> None:
         """Called at every progress line (after ``done`` sweeps); for subclasses' own logs."""
 
-    def batch(self, sweep: int) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, ...]]:
-        """Training sweep ``sweep``: inputs ``[B, T, F]``, resets ``[B, T]`` and one target array
-        ``[B, T, K_task]`` per task, ``T`` the longest sequence's length (the others wrapped)."""
+    def batch(self, sweep: int) -> tuple[np.ndarray, np.ndarray, tuple[np.ndarray, ...],
+                                         np.ndarray | None]:
+        """Training sweep ``sweep``: inputs ``[B, T, F]``, resets ``[B, T]``, one target array
+        ``[B, T, K_task]`` per task and ``valid`` ``[B, T]``, ``T`` the longest sequence's
+        length. For a recurrent encoder the others are wrapped and ``valid`` is None; for a
+        convolutional one (``model.padded``) they are zero-padded at the end, ``valid`` marking
+        their steps (``rnn_seg.sweeps``)."""
         idx = sweep_indices(len(self.train), self.config.batch_size, self.config.seed, sweep)
         lengths = [len(self.train.inputs[i]) for i in idx]
         duration = max(lengths)
-        inputs = make_sweep([self.train.inputs[i] for i in idx], duration)
-        targets = tuple(make_sweep([self._targets[t.name][i] for i in idx], duration)
+        fill = pad_sweep if self.model.padded else make_sweep
+        inputs = fill([self.train.inputs[i] for i in idx], duration)
+        targets = tuple(fill([self._targets[t.name][i] for i in idx], duration)
                         for t in self.tasks)
-        return inputs, reset_flags(lengths, duration), targets
+        if not self.model.padded:
+            return inputs, reset_flags(lengths, duration), targets, None
+        valid = np.arange(duration)[None, :] < np.asarray(lengths)[:, None]
+        return inputs, reset_flags([duration] * len(idx), duration), targets, valid
 
     # -- the loop ------------------------------------------------------------------------------
     def run(self, restart: bool = False) -> dict:
@@ -597,7 +614,8 @@ def loss_gradients(model: SegmentationModel, tasks: Sequence[Task], per_task: bo
                    params: ModelParams, inputs: tf.Tensor, resets: tf.Tensor,
                    targets: Sequence[tf.Tensor], dropout_seeds: tf.Tensor,
                    valid: tf.Tensor | None = None) -> tuple[tf.Tensor, list[list[tf.Tensor]]]:
-    """Task losses of ``model`` run with weights ``params`` on one sweep, and their gradients.
+    """Task losses of ``model`` run with weights ``params`` on one sweep (``model.losses``), and
+    their gradients.
 
     A pure function of its arguments, so ``tf.vectorized_map`` can run it for several models'
     stacked weights at once (``rnn_seg.stack``).
@@ -622,8 +640,7 @@ def loss_gradients(model: SegmentationModel, tasks: Sequence[Task], per_task: bo
     flat = tf.nest.flatten(params)
     with tf.GradientTape(persistent=per_task, watch_accessed_variables=False) as tape:
         tape.watch(flat)
-        outputs = model.apply(params, inputs, resets, dropout_seeds, valid)
-        losses = tf.stack([t.loss(outputs[t.name], y, valid) for t, y in zip(tasks, targets)])
+        losses = model.losses(params, tasks, inputs, resets, targets, dropout_seeds, valid)
         objectives = tf.unstack(losses) if per_task else [tf.reduce_sum(losses)]
     return losses, [tape.gradient(y, flat, unconnected_gradients="zero") for y in objectives]
 

@@ -176,7 +176,10 @@ def test_table_csv_matches_the_per_fold_numbers(tiny_grid):
     tables_main([str(tiny_grid), "--no-figures"])
     folds = pd.read_csv(tiny_grid / "tables" / "per_fold.csv")
     table = pd.read_csv(tiny_grid / "tables" / "table1.csv")
-    for row in table.itertuples():
+    baseline = table[table.config == "time-offline"]            # the time-only progress row
+    assert set(baseline.metric) == {"progress_mae", "progress_accuracy", "progress_edit",
+                                    "progress_f1@10"} and set(baseline.folds) == {2}
+    for row in table[table.config != "time-offline"].itertuples():
         variant, weighting = row.config.rsplit("-", 1)
         values = folds[(folds.variant == variant) & (folds.weighting == weighting)][row.metric]
         assert len(values) == row.folds == 2
@@ -192,8 +195,9 @@ def test_latex_table_shape(tiny_grid):
         assert tex.count(rf"\begin{{{env}}}") == tex.count(rf"\end{{{env}}}") == 1
     assert tex.count("{") == tex.count("}")
     header = tex.split("\\toprule\n")[1].split(r"\midrule")[0].splitlines()
-    assert [c.strip() for c in header[0].removesuffix(r"\\").split("&")] == ["", "", "A", "APc"]
-    columns = 2 + 2                          # metric and side labels, then the models A and APc
+    assert [c.strip() for c in header[0].removesuffix(r"\\").split("&")] == [
+        "", "", "A", "APc", "Time only"]
+    columns = 2 + 3            # metric and side labels, the models A and APc, the time-only row
     rows = [line for line in tex.split(r"\midrule", 1)[1].split(r"\bottomrule")[0].splitlines()
             if line.endswith(r"\\") and r"\multicolumn" not in line]
     assert [row.split(" & ")[1] for row in rows[:3]] == ["Ours", "Paper", r"$\Delta$"]

@@ -102,7 +102,7 @@ def _two_task_trainer(tmp_path, alpha, seed=0, weight_lr=0.025, relative_rate="c
 
 def _direct_norms(trainer, sweep):
     """||grad_W (w_i L_i)|| with one tape per task, no dropout differences (keep_prob 1)."""
-    inputs, resets, targets = trainer.batch(sweep)
+    inputs, resets, targets, _ = trainer.batch(sweep)
     weights = trainer.weights.numpy()
     norms = []
     for i, task in enumerate(trainer.tasks):

@@ -91,7 +91,7 @@ def test_stack_refuses_members_that_differ(tmp_path):
 def test_padding_is_masked_out_of_the_losses():
     task = SoftmaxClassification("g", ["a", "b"])
     batches = [(np.ones((2, n, F), np.float32), np.zeros((2, n), bool),
-                (np.tile(np.eye(2, dtype=np.float32)[[0]], (2, n, 1)),)) for n in (3, 5)]
+                (np.tile(np.eye(2, dtype=np.float32)[[0]], (2, n, 1)),), None) for n in (3, 5)]
     inputs, resets, (targets,), valid = padded_batches(batches)
     assert inputs.shape == (2, 2, 5, F) and valid.numpy()[0].sum() == 6
     logits = tf.random.stateless_normal([2, 5, 2], [0, 1])

@@ -31,6 +31,7 @@ class RunsDescription:
     folds: tuple[str, ...]                   # the test users
     seeds: tuple[int, ...]
     hidden: tuple[int, ...] = ()             # LSTM widths
+    encoders: tuple[str, ...] = ()           # temporal-convolution encoders (rnn_seg.encoders)
     lengths: dict[int, tuple[str, ...]] = field(default_factory=dict)  # length -> its variants
     unit: str = "epochs"                     # of the lengths: "epochs" or "sweeps"
 
@@ -41,6 +42,7 @@ class RunsDescription:
         data.append(f"leave-one-user-out over {len(self.folds)} fold{'s' * (len(self.folds) != 1)} "
                     f"({', '.join(self.folds)})")
         models = [f"{', '.join(map(str, self.hidden))} hidden units"] if self.hidden else []
+        models += [f"{', '.join(self.encoders)} encoder"] if self.encoders else []
         models += [self._schedule()] if self.lengths else []
         models.append(f"{len(self.seeds)} seed{'s' * (len(self.seeds) != 1)} "
                       f"({', '.join(map(str, self.seeds))})")
@@ -74,7 +76,10 @@ def describe_runs(grid_dir: Path | str, runs: pd.DataFrame) -> RunsDescription:
         trials=len(trials),
         folds=tuple(sorted({key.fold for key in keys})),
         seeds=tuple(sorted({key.seed for key in keys})),
-        hidden=tuple(sorted({c["encoder"]["hidden"] for c in configs.values()})),
+        hidden=tuple(sorted({c["encoder"]["hidden"] for c in configs.values()
+                             if c["encoder"].get("kind", "lstm") == "lstm"})),
+        encoders=tuple(sorted({c["encoder"]["kind"].upper() for c in configs.values()
+                               if c["encoder"].get("kind", "lstm") != "lstm"})),
         lengths={n: tuple(sorted(v, key=list(VARIANTS).index)) for n, v in lengths.items()},
         unit=first["optim"]["unit"] if first else "epochs")
 

@@ -215,12 +215,14 @@ def _paper_tables(grid_dir: Path, runs, stats, out: Path, ours_only: bool) -> li
     from .captions import describe_runs
     from .tables import (PAPER_TABLES, ablation_caption, annotation_ablation, paper_best,
                          paper_caption, paper_comparison, table_runs, to_latex)
+    from .time_baseline import with_time_baseline
 
     written = []
     for table in PAPER_TABLES:
         frame = paper_comparison(stats, table)
         if frame.empty:
             continue
+        frame = with_time_baseline(frame, grid_dir, table)
         budget = describe_runs(grid_dir, table_runs(runs, frame, (table.annotations,),
                                                     table.direction)).sentence()
         written.append(_csv(frame, out / f"{table.name}.csv"))

@@ -144,7 +144,8 @@ def _run(args: argparse.Namespace) -> int:
     _check_grid_folder(args.out)
     keys = expand(spec, release_users(spec))
     budget = spec.budget
-    print(f"grid: task {spec.task}, preset {spec.preset}, H={budget.hidden}, "
+    size = f"H={budget.hidden}" if spec.encoder == "lstm" else f"encoder {spec.encoder}"
+    print(f"grid: task {spec.task}, preset {spec.preset}, {size}, "
           f"schedule {budget.describe_schedule()}, seeds {sorted({k.seed for k in keys})}, "
           f"data {spec.data_dir}", flush=True)
     if args.dry_run:

@@ -38,6 +38,7 @@ Example spec (every key optional)::
     loops = "graph"               # "xla" or "fused": the LSTM's loops compiled (not a setting)
     ordinal_loss = "sum"          # the ordered progress head's loss: "sum" (paper) or "mean"
     relative_rate = "chen"        # GradNorm's r_i: "chen" (ratio mean) or "paper" (loss mean)
+    encoder = "lstm"              # or "ed-tcn", "ms-tcn": their reference settings and schedule
 
     [[experiments]]
     variants = ["A", "APc"]
@@ -45,6 +46,12 @@ Example spec (every key optional)::
     annotations = ["revised"]
     directions = ["bidirectional"]
     seeds = [0, 1, 2]             # this experiment's seeds; default: the spec's
+
+A temporal-convolution ``encoder`` trains every variant with its reference's configuration,
+optimiser, batch size and length (``rnn_seg.encoders.config.SCHEDULES``), scaled only by the
+preset's ``schedule_scale`` (``quick``: 4x shorter), never by the LSTM-measured
+``schedule_factors``; ``hidden``, ``epochs``, ``schedule_factors``, ``precision`` and ``loops``,
+the LSTM's, are refused with it. ``directions = ["forward"]`` makes its convolutions causal.
 
 The keys ``data`` and ``folds`` of earlier versions are read as ``data_dir`` and ``test_users``,
 with a deprecation warning.
@@ -64,10 +71,11 @@ from jigsaws_tools.synth import SynthConfig, ensure_release
 from jigsaws_tools.task_definition import PAPER_TASK, TaskDefinition, load_task
 from jigsaws_tools.toml_files import read_toml
 from rnn_seg.config import LOOPS, PRECISIONS, EncoderConfig, TrainConfig
+from rnn_seg.encoders.config import ENCODERS, encoder_config
 from rnn_seg.validation import require_choice, require_number
 
 from ..models.config import ORDINAL_LOSSES, RELATIVE_RATES, WEIGHTINGS, GradNormConfig, HeadConfig
-from ..models.variants import MULTITASK_EVAL, VARIANTS, get_variant
+from ..models.variants import MULTITASK_EVAL, VARIANTS, batch_size, get_variant
 
 log = logging.getLogger(__name__)
 PAPER_EPOCHS = MULTITASK_EVAL[-1]
@@ -148,14 +156,18 @@ def run_config(spec: GridSpec, key: RunKey) -> RunConfig:
     """The ``RunConfig`` of one run: the variant's (scaled) paper schedule, the budget's size."""
     budget = spec.budget
     optim, points = _schedule(spec, key)
+    bidirectional = key.direction == "bidirectional"
+    encoder = (EncoderConfig(hidden=budget.hidden, bidirectional=bidirectional,
+                             precision=spec.precision, loops=spec.loops)
+               if spec.encoder == "lstm" else encoder_config(spec.encoder, not bidirectional))
     return RunConfig(
         data=DataConfig(str(spec.release_dir()), annotations=key.annotations,
                         task=spec.task_definition()),
         test_user=key.fold,
-        encoder=EncoderConfig(hidden=budget.hidden, bidirectional=key.direction == "bidirectional",
-                              precision=spec.precision, loops=spec.loops),
+        encoder=encoder,
         optim=optim,
-        train=TrainConfig(seed=key.seed, eval_points=points))
+        train=TrainConfig(seed=key.seed, eval_points=points,
+                          batch_size=batch_size(spec.encoder)))
 
 
 def schedule_epochs(spec: GridSpec, key: RunKey) -> int:
@@ -165,7 +177,11 @@ def schedule_epochs(spec: GridSpec, key: RunKey) -> int:
 
 def _schedule(spec: GridSpec, key: RunKey):
     """The run's optimiser schedule and evaluation points: its variant's paper schedule scaled by
-    the budget (``Variant.schedule``)."""
+    the budget (``Variant.schedule``); a TCN's reference schedule scaled by the preset's
+    ``schedule_scale`` only (module docstring)."""
+    if spec.encoder != "lstm":
+        return get_variant(key.variant).schedule(PRESETS[spec.preset].schedule_scale,
+                                                 spec.encoder)
     return get_variant(key.variant).schedule(spec.budget.scale_of(key.variant))
 
 
@@ -222,8 +238,10 @@ def spec_payload(spec: GridSpec) -> dict:
 def with_budget(spec: GridSpec) -> GridSpec:
     """``spec`` with its preset's budget written out (``hidden``, ``epochs``, ``seeds``,
     ``schedule_factors``), as grid.json records it: two specs of the same runs then read the
-    same."""
+    same. A TCN grid's budget is its seeds (its schedule is its encoder's)."""
     budget = spec.budget
+    if spec.encoder != "lstm":
+        return replace(spec, seeds=budget.seeds)
     return replace(spec, hidden=budget.hidden, seeds=budget.seeds,
                    epochs=round(budget.schedule_scale * PAPER_EPOCHS),
                    schedule_factors=dict(budget.schedule_factors))
@@ -319,10 +337,21 @@ class GridSpec:
     loops: str = EncoderConfig.loops
     ordinal_loss: str = HeadConfig.ordinal_loss
     relative_rate: str = GradNormConfig.relative_rate
+    encoder: str = ENCODERS[0]
     experiments: tuple[Experiment, ...] = PAPER_EXPERIMENTS
 
     def __post_init__(self):
         require_choice("preset", self.preset, PRESETS)
+        require_choice("encoder", self.encoder, ENCODERS)
+        if self.encoder != "lstm":
+            lstm_only = [name for name, value, default in (
+                ("hidden", self.hidden, None), ("epochs", self.epochs, None),
+                ("schedule_factors", self.schedule_factors, None),
+                ("precision", self.precision, EncoderConfig.precision),
+                ("loops", self.loops, EncoderConfig.loops)) if value != default]
+            if lstm_only:
+                raise ValueError(f"{lstm_only[0]} is an LSTM setting; encoder {self.encoder!r} "
+                                 "trains with its reference's (docs/REPRODUCTION.md)")
         require_choice("precision", self.precision, PRECISIONS)
         require_choice("loops", self.loops, LOOPS)
         require_choice("ordinal_loss", self.ordinal_loss, ORDINAL_LOSSES)

@@ -275,8 +275,10 @@ def load_run(path: Path | str, checkpoint: int | None = None) -> TrainedRun:
     run_dir = Path(path)
     config, saved = read_run_config(run_dir)
     variant, tasks = run_tasks(saved, config, str(run_dir / CONFIG_FILE))
-    model = SegmentationModel(len(feature_columns(config.data.feature_set)),
-                              replace(config.encoder, loops="graph"), tasks, config.train.seed)
+    encoder = (replace(config.encoder, loops="graph") if config.encoder.kind == "lstm"
+               else config.encoder)
+    model = SegmentationModel(len(feature_columns(config.data.feature_set)), encoder, tasks,
+                              config.train.seed)
     sweep = restore_weights(model, run_dir, sweep=checkpoint)
     run = TrainedRun(run_dir, config, variant, tuple(tasks), model, sweep,
                      saved.get("data_fingerprint"))

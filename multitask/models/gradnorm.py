@@ -4,7 +4,8 @@ Per training sweep, with task losses L_i and weights w_i:
 
 * the network is updated with the gradient of ``sum_i w_i L_i`` (weights held constant);
 * ``G_i = ||grad_W (w_i L_i)||_2`` on the shared weights ``W`` = every variable of the encoder's
-  last layer, both directions (the BiLSTM layer the heads read), ``G_bar = mean_i G_i``;
+  last layer, both directions (the BiLSTM layer the heads read; for a TCN its last layer the
+  heads read, ``shared_layer_variables``), ``G_bar = mean_i G_i``;
 * ``r_i = (L_i / L_i(0)) / mean_j (L_j / L_j(0))``, ``L_i(0)`` the losses of the first sweep
   (Chen et al.'s relative inverse training rate; ``relative_rate="paper"`` divides by the mean
   loss ``mean_j L_j`` instead, the paper's literal words, see docs/REPRODUCTION.md);
@@ -30,8 +31,10 @@ MIN_WEIGHT = 1e-3
 
 
 def shared_layer_variables(model) -> list[tf.Variable]:
-    """GradNorm's ``W``: the last encoder layer's variables of every direction."""
-    return [v for cells in model.encoder.cells.values() for v in cells[-1].trainable_variables]
+    """GradNorm's ``W``: the last layer both heads read (``SegmentationModel.shared_variables``:
+    the LSTM's last layer of every direction, ED-TCN's last decoder layer, MS-TCN's last stage's
+    last residual layer)."""
+    return model.shared_variables()
 
 
 class GradNormTrainer(Trainer):

@@ -1,7 +1,7 @@
 """Progress heads: regression (MAE), classification (softmax) and ordered classification (sigmoid).
 
-Each reads the shared ``2H`` BiLSTM features through its own fully connected layer (built by
-``rnn_seg.model``); here are their targets, losses and decoding. Progress stages are
+Each reads the encoder's shared features (``2H`` of the BiLSTM) through its own fully connected
+layer (built by ``rnn_seg.model``); here are their targets, losses and decoding. Progress stages are
 ``0..K-1``, the task's (``TaskDefinition.stage_names``; for the paper's Suturing, the default:
 reach, position, push, pull, drop), and the heads' class names are the stages' names.
 """
@@ -118,6 +118,10 @@ class OrdinalProgress(Task):
 
     def scores_tf(self, outputs):
         return tf.sigmoid(outputs)
+
+    def log_scores_tf(self, outputs):
+        """log sigma of every output: "progress has reached this stage", in log-probability."""
+        return tf.math.log_sigmoid(outputs)
 
     def decode_tf(self, outputs):
         """``ordinal_decode`` of the sigmoid outputs."""

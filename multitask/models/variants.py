@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 from jigsaws_tools.task_definition import SUTURING, TaskDefinition
 from rnn_seg.config import OptimConfig, TrainConfig
+from rnn_seg.encoders.config import SCHEDULES, EncoderKind
 
 from .config import WEIGHTINGS, GradNormConfig, HeadConfig
 
@@ -81,22 +82,31 @@ class Variant:
         return fixed if weighting_given else (f"{fixed} (the default; --weighting gradnorm for "
                                               "the paper's GradNorm)")
 
-    def optim(self) -> OptimConfig:
-        """The paper's optimiser and schedule for this variant."""
+    def optim(self, encoder: EncoderKind = "lstm") -> OptimConfig:
+        """The paper's optimiser and schedule for this variant on the LSTM; on a temporal
+        convolutional ``encoder``, that encoder's reference one, the same for every variant
+        (``rnn_seg.encoders.config.SCHEDULES``, docs/REPRODUCTION.md)."""
+        if encoder != "lstm":
+            return SCHEDULES[encoder].optim
         base = _MULTITASK[self.progress] if self.progress else OptimConfig()
         if self.gestures:
             return base
         return replace(base, total=base.total - SINGLE_TASK_SHIFT,
                        decay_start=base.decay_start - SINGLE_TASK_SHIFT)
 
-    def eval_points(self) -> tuple[int, ...]:
+    def eval_points(self, encoder: EncoderKind = "lstm") -> tuple[int, ...]:
+        """The evaluation epochs of ``optim(encoder)``."""
+        if encoder != "lstm":
+            return SCHEDULES[encoder].eval_points
         shift = 0 if self.gestures else SINGLE_TASK_SHIFT
         return tuple(p - shift for p in MULTITASK_EVAL)
 
-    def schedule(self, scale: float = 1.0) -> tuple[OptimConfig, tuple[int, ...]]:
-        """The paper's optimiser and evaluation epochs with every epoch count (length, decay
-        start and interval, evaluation points) multiplied by ``scale`` and rounded half up."""
-        optim, points = self.optim(), self.eval_points()
+    def schedule(self, scale: float = 1.0, encoder: EncoderKind = "lstm"
+                 ) -> tuple[OptimConfig, tuple[int, ...]]:
+        """The optimiser and evaluation epochs (``optim``, ``eval_points``) with every epoch
+        count (length, decay start and interval, evaluation points) multiplied by ``scale`` and
+        rounded half up."""
+        optim, points = self.optim(encoder), self.eval_points(encoder)
         if scale == 1.0:
             return optim, points
 
@@ -127,3 +137,8 @@ def get_variant(name: str) -> Variant:
         return VARIANTS[name]
     except KeyError:
         raise ValueError(f"unknown variant {name!r}; choose one of {', '.join(VARIANTS)}") from None
+
+
+def batch_size(encoder: EncoderKind = "lstm") -> int:
+    """Sequences per sweep: DiPietro's 5 for the LSTM, the reference's for a TCN."""
+    return TrainConfig.batch_size if encoder == "lstm" else SCHEDULES[encoder].batch_size

@@ -114,6 +114,9 @@ def _from_jsonable(tp: Any, value: Any, where: str) -> Any:
     if origin in (Union, types.UnionType):
         if value is None and type(None) in args:
             return None
+        chosen = _by_kind(args, value, where)
+        if chosen is not None:
+            return _dataclass_from_jsonable(chosen, value, where)
         errors = []
         for option in (a for a in args if a is not type(None)):
             try:
@@ -138,6 +141,26 @@ def _from_jsonable(tp: Any, value: Any, where: str) -> Any:
         return {k: _from_jsonable(args[1] if args else Any, v, f"{where}.{k}")
                 for k, v in value.items()}
     return _scalar_from_jsonable(tp, value, where)
+
+
+def _by_kind(options: tuple, value: Any, where: str) -> type | None:
+    """The dataclass among ``options`` that ``value``'s ``kind`` names, when every option is a
+    dataclass with a ``kind`` default (e.g. the encoders' configurations): an absent ``kind`` is
+    the first option's (a record written before the others existed). None when the options are
+    not such a family; a ``ConfigError`` for a ``kind`` none of them has."""
+    kinds = {}
+    for option in options:
+        fields = {f.name: f for f in dataclasses.fields(option)} if (
+            dataclasses.is_dataclass(option)) else {}
+        if "kind" not in fields or fields["kind"].default is dataclasses.MISSING:
+            return None
+        kinds[fields["kind"].default] = option
+    if not isinstance(value, dict):
+        return None
+    kind = value.get("kind", next(iter(kinds)))
+    if kind not in kinds:
+        raise ConfigError(f"{where}.kind", f"expected one of {', '.join(map(repr, kinds))}", kind)
+    return kinds[kind]
 
 
 def _scalar_from_jsonable(tp: Any, value: Any, where: str) -> Any:

@@ -1,0 +1,165 @@
+"""The encoders' configurations and each temporal-convolution encoder's reference schedule.
+
+Plain frozen dataclasses without TensorFlow, like ``rnn_seg.config`` (which holds the LSTM's
+``EncoderConfig``). A run's ``RunConfig.encoder`` is one of the three; its ``kind`` names it
+(``"lstm"``, ``"ed-tcn"``, ``"ms-tcn"``) and is what ``--encoder`` and a grid spec's ``encoder``
+key choose. The settings follow each architecture's paper and code, adapted to the engine's
+5 Hz samples by one rule: a kernel keeps its length in seconds, a receptive field its span in
+seconds (docs/REPRODUCTION.md, "Temporal-convolution encoders", gives every value's source).
+
+Every configuration offers what the engine reads of any encoder: ``output_size`` (features per
+time step), ``bidirectional`` (False = online: a forward LSTM, or causal convolutions),
+``hidden`` (the widest layer, for the thread plan), ``precision`` and ``loops`` (the LSTM's
+options; a TCN always runs float32 TensorFlow ops).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar, Literal
+
+from ..config import EncoderConfig, OptimConfig
+from ..validation import require_bool, require_number
+
+EncoderKind = Literal["lstm", "ed-tcn", "ms-tcn"]
+ENCODERS = ("lstm", "ed-tcn", "ms-tcn")
+
+#: Samples per second of every model input (``jigsaws_tools.preprocessing``).
+MODEL_HZ = 5.0
+
+
+def samples(seconds: float, hz: float = MODEL_HZ) -> int:
+    """A duration in seconds as a whole number of samples at ``hz`` (at least 1)."""
+    return max(1, round(seconds * hz))
+
+
+class _Convolutional:
+    """What the engine reads of any encoder, for the temporal-convolution ones."""
+
+    precision: ClassVar[str] = "fp32"
+    loops: ClassVar[str] = "graph"
+
+    @property
+    def bidirectional(self) -> bool:
+        """Offline (non-causal convolutions) or online (causal)."""
+        return not self.causal
+
+
+@dataclass(frozen=True)
+class EDTCNConfig(_Convolutional):
+    """Lea et al.'s (CVPR 2017) encoder-decoder TCN, their JIGSAWS configuration at 5 Hz.
+
+    Encoder: per entry of ``filters`` a temporal convolution of ``kernel`` samples, spatial
+    dropout (whole channels) at rate ``dropout``, ReLU, normalisation by the step's largest
+    activation, max pooling by 2; decoder: the mirror image, upsampling by 2 before each
+    convolution. ``[B, T, F]`` -> ``[B, T, filters[0]]``.
+    """
+
+    kind: Literal["ed-tcn"] = "ed-tcn"
+    filters: tuple[int, ...] = (64, 96)     # per encoder layer; the decoder runs them backwards
+    kernel: int = samples(2.0)              # 2.0 s: Lea et al.'s 20 samples at 10 Hz
+    dropout: float = 0.3                    # spatial dropout rate (whole channels)
+    causal: bool = False
+
+    def __post_init__(self):
+        if not isinstance(self.filters, tuple) or not self.filters:
+            raise ValueError(f"EDTCNConfig.filters must be a non-empty list of integers >= 1 "
+                             f"(got {self.filters!r})")
+        for width in self.filters:
+            require_number("EDTCNConfig.filters", width, integer=True, low=1)
+        require_number("EDTCNConfig.kernel", self.kernel, integer=True, low=1)
+        require_number("EDTCNConfig.dropout", self.dropout, low=0, high=1, open_high=True)
+        require_bool("EDTCNConfig.causal", self.causal)
+
+    @property
+    def output_size(self) -> int:
+        return self.filters[0]
+
+    @property
+    def hidden(self) -> int:
+        return max(self.filters)
+
+
+@dataclass(frozen=True)
+class MSTCNConfig(_Convolutional):
+    """Farha & Gall's (CVPR 2019) multi-stage TCN at 5 Hz.
+
+    ``stages`` stages of ``layers`` dilated residual layers (kernel ``kernel``, dilation
+    ``2**l``, ``filters`` maps, dropout ``dropout`` on each residual branch); every stage after
+    the first reads the previous stage's predictions of every head. Each stage's loss adds
+    ``smoothing_weight`` times the truncated MSE of its log-probabilities between neighbouring
+    steps, truncated at ``smoothing_tau`` (``rnn_seg.encoders.ms_tcn``).
+    """
+
+    kind: Literal["ms-tcn"] = "ms-tcn"
+    stages: int = 4
+    layers: int = 8            # receptive field 511 samples = 102 s, the original's 2047 at 15 Hz
+    filters: int = 64
+    kernel: int = 3
+    dropout: float = 0.5
+    smoothing_weight: float = 0.15
+    smoothing_tau: float = 4.0
+    causal: bool = False
+
+    def __post_init__(self):
+        require_number("MSTCNConfig.stages", self.stages, integer=True, low=1)
+        require_number("MSTCNConfig.layers", self.layers, integer=True, low=1)
+        require_number("MSTCNConfig.filters", self.filters, integer=True, low=1)
+        require_number("MSTCNConfig.kernel", self.kernel, integer=True, low=2)
+        require_number("MSTCNConfig.dropout", self.dropout, low=0, high=1, open_high=True)
+        require_number("MSTCNConfig.smoothing_weight", self.smoothing_weight, low=0)
+        require_number("MSTCNConfig.smoothing_tau", self.smoothing_tau, low=0, open_low=True)
+        require_bool("MSTCNConfig.causal", self.causal)
+
+    @property
+    def output_size(self) -> int:
+        return self.filters
+
+    @property
+    def hidden(self) -> int:
+        return self.filters
+
+    @property
+    def receptive_field(self) -> int:
+        """Samples one stage sees: ``1 + (kernel - 1) * (2**layers - 1)``."""
+        return 1 + (self.kernel - 1) * (2 ** self.layers - 1)
+
+
+AnyEncoderConfig = EncoderConfig | EDTCNConfig | MSTCNConfig
+
+
+@dataclass(frozen=True)
+class Schedule:
+    """An encoder's reference training: optimiser, evaluation points (epochs), batch size."""
+
+    optim: OptimConfig
+    eval_points: tuple[int, ...]
+    batch_size: int
+
+
+def _relative_points(total: int) -> tuple[int, ...]:
+    """The paper's evaluation points 100, 110, 120 of 120 epochs, at the same fractions of
+    ``total`` epochs (rounded half up)."""
+    return tuple(sorted({max(1, int(total * p / 120 + 0.5)) for p in (100, 110, 120)}))
+
+
+def _constant(optimizer: str, learning_rate: float, epochs: int) -> OptimConfig:
+    """A constant learning rate for ``epochs`` epochs, no clipping (as both references)."""
+    return OptimConfig(optimizer=optimizer, learning_rate=learning_rate, clip_norm=0.0,
+                       total=epochs, decay_start=epochs)
+
+
+#: Lea et al.'s code: RMSprop (Keras defaults, lr 1e-3), 200 epochs, batches of 8 trials;
+#: Farha & Gall's: Adam lr 5e-4, 50 epochs, one video per batch.
+SCHEDULES = {
+    "ed-tcn": Schedule(_constant("rmsprop", 1e-3, 200), _relative_points(200), 8),
+    "ms-tcn": Schedule(_constant("adam", 5e-4, 50), _relative_points(50), 1),
+}
+
+
+def encoder_config(kind: EncoderKind, causal: bool = False) -> EDTCNConfig | MSTCNConfig:
+    """The reference configuration of a temporal-convolution encoder, causal (online) or not."""
+    if kind == "ed-tcn":
+        return EDTCNConfig(causal=causal)
+    if kind == "ms-tcn":
+        return MSTCNConfig(causal=causal)
+    raise ValueError(f"encoder must be one of {', '.join(ENCODERS[1:])} here (got {kind!r})")
