@@ -121,7 +121,11 @@ def _swap_in(staging: Path, target: Path) -> None:
     aside = target.with_name(f".{target.name}.{secrets.token_hex(4)}.old.tmp")
     os.rename(target, aside)
     step("swap aside")
-    os.rename(staging, target)
+    try:
+        os.rename(staging, target)
+    except OSError:
+        os.rename(aside, target)            # the old one back at once
+        raise
     step("remove old")
     shutil.rmtree(aside)
 
