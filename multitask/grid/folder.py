@@ -80,7 +80,11 @@ def run_key(run: str) -> RunKey:
     if not seed.startswith("seed") or not seed[4:].isdigit() or not seed[4:].isascii():
         raise ValueError(f"{run!r}: {seed!r} is not seed<k>, so this is not a run's place, "
                          f"{shape}")
-    return RunKey(annotations, direction, variant, weighting, int(seed[4:]), fold)
+    key = RunKey(annotations, direction, variant, weighting, int(seed[4:]), fold)
+    if key.path().as_posix() != run:
+        raise ValueError(f"{run!r} is not written as a run's place is, "
+                         f"{key.path().as_posix()!r}")
+    return key
 
 
 def _under_runs(run: str) -> bool:

@@ -62,7 +62,7 @@ def variant_record(variant: Variant, weighting: Weighting, config: RunConfig,
 #: every record, so never taken from ``RunConfig``'s defaults (an older record may lack a field
 #: added since, which then holds its default).
 IDENTITY = ("test_user", "train.seed", "data.annotations", "encoder.bidirectional",
-            "encoder.hidden", "optim.unit", "optim.total")
+            "encoder.hidden", "optim.total")
 
 
 @dataclass(frozen=True)
@@ -122,8 +122,8 @@ def read_run_record(run_dir: Path) -> RunRecord:
             raise RunFolderError(f"{path}: run.{field}: missing; every run records it")
     try:
         config = from_jsonable(RunConfig, _upgraded(saved["run"]), f"{path}: run")
-        variant = _choice(saved, "variant", VARIANTS, "A", path)
-        weighting = _choice(saved, "weighting", WEIGHTINGS, "fixed", path)
+        variant = _choice(saved, "variant", VARIANTS, "A")
+        weighting = _choice(saved, "weighting", WEIGHTINGS, "fixed")
         check_weighting(VARIANTS[variant], weighting)
         gradnorm = from_jsonable(GradNormConfig, saved.get("gradnorm", {}), f"{path}: gradnorm")
         heads = from_jsonable(HeadConfig, saved.get("heads", {}), f"{path}: heads")
@@ -153,12 +153,12 @@ def _holds(tree: dict, keys: list[str]) -> bool:
     return True
 
 
-def _choice(saved: dict, name: str, allowed, default: str, path: Path) -> str:
-    """``saved[name]``, one of ``allowed`` (``default`` when absent)."""
+def _choice(saved: dict, name: str, allowed, default: str) -> str:
+    """``saved[name]``, one of ``allowed`` (``default`` when absent); a ``ValueError`` naming
+    ``name`` otherwise."""
     value = saved.get(name, default)
     if not isinstance(value, str) or value not in allowed:
-        raise RunFolderError(f"{path}: {name}: expected one of {', '.join(allowed)} "
-                             f"(value: {value!r})")
+        raise ValueError(f"{name}: expected one of {', '.join(allowed)} (value: {value!r})")
     return value
 
 
