@@ -61,7 +61,8 @@ def write_claims(runs: pd.DataFrame, out: Path, config: StatsConfig = StatsConfi
         "test": "two-sided exact sign-flip test of the mean per-fold difference, every one of the "
                 f"2^n sign vectors (n <= {MAX_EXACT_FOLDS}); interval: the shifts it does not "
                 "reject",
-        "families": "the claims of one quoted sentence (claim id prefix); Holm within each",
+        "families": "the claims of one quoted sentence (claim id prefix); Holm within each, "
+                    "over its declared size (claims not tested count as p = 1)",
         "power": "probability of the claimed verdict before the family's correction, fold "
                  "differences normal with the paper's mean and our sd; simulated once per number "
                  f"of folds, reported to {POWER_DECIMALS} decimals",
@@ -201,7 +202,8 @@ def claims_note(table: pd.DataFrame, config: StatsConfig = StatsConfig()) -> str
         f"within a fold).{paper_column} {_level(config)} CI and $p$: the exact sign-flip test "
         "over all $2^n$ sign vectors of the $n$ folds, and the interval that inverts it (it "
         f"excludes 0 exactly when $p \\le {alpha}$); $p_\\mathrm{{Holm}}$: Holm's correction "
-        f"within the family. Verdict: reproduced / contradicted when $p_\\mathrm{{Holm}} \\le "
+        "within the family, over all its claims (a claim not tested counts as $p = 1$). "
+        f"Verdict: reproduced / contradicted when $p_\\mathrm{{Holm}} \\le "
         f"{alpha}$ with the claimed / the opposite sign, inconclusive otherwise; for "
         "$|\\Delta| \\le$ margin, $p$ of the hypothesis our mean lies against (reproduced: the "
         "CI lies inside the margin; contradicted: beyond it); none below "

@@ -20,6 +20,8 @@ metrics when the grid's data can be read (the labels are needed; the runs' archi
 """
 from __future__ import annotations
 
+import math
+
 import sys
 from pathlib import Path
 from typing import Literal, Sequence
@@ -127,7 +129,8 @@ def time_baseline_rows(grid_dir: Path, table, columns: Sequence[str]) -> pd.Data
     folds = fold_scores(dataset, users, "offline")
     rows = [{"model": LABELS["offline"], "config": "time-offline", "metric": m,
              "left_mean": float(folds[m].mean()), "left_std": float(folds[m].std(ddof=1)),
-             "right_mean": None, "right_std": None, "diff": None, "folds": len(folds)}
+             "right_mean": math.nan, "right_std": math.nan, "diff": math.nan,
+             "folds": len(folds)}
             for m in metrics]
     return pd.DataFrame(rows, columns=list(columns))
 
