@@ -169,8 +169,8 @@ def observed_steps(monkeypatch, place: Path, copies: Path) -> list[tuple[str, Pa
 
 def test_tables_killed_at_any_step_over_an_earlier_output_are_all_old_or_all_new(
         fake_grid, tmp_path, monkeypatch):
-    """``multitask-tables --out`` over the tables of another call (the grid's 14 files; now
-    the 3 of its runs one by one, 11 to remove): at every step, once the next call has
+    """``multitask-tables --out`` over the tables of another call (the grid's 15 files; now
+    the 3 of its runs one by one, 12 to remove): at every step, once the next call has
     recovered, the folder holds one call's tables, whole, beside the user's README."""
     out = tmp_path / "results"
     out.mkdir()
@@ -180,7 +180,7 @@ def test_tables_killed_at_any_step_over_an_earlier_output_are_all_old_or_all_new
     taken = observed_steps(monkeypatch, out, tmp_path / "killed")
     assert tables_main([str(fake_grid / "runs"), "--out", str(out)]) == 0
     new = visible(out)
-    assert len(old) == 16 and len(new) == 5 and old != new
+    assert len(old) == 17 and len(new) == 5 and old != new
     assert len(taken) > 12
     for step, copy in taken:
         with hold_folder(copy, "output folder"):

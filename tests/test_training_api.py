@@ -24,7 +24,8 @@ def test_train_returns_the_loaded_run_as_the_command_trains_it(synth_dir, tmp_pa
     run = multitask.train(variant="APoc", weighting="gradnorm", data_dir=synth_dir,
                           out=tmp_path / "api", log=lines.append, **TINY)
     assert (run.variant, run.run_dir, run.config.encoder.hidden) == ("APoc", tmp_path / "api", 8)
-    assert lines[0].startswith("variant: APoc (gradnorm)")
+    assert lines[0].startswith("model: APoc (gestures + progress by ordered classification), "
+                               "GradNorm task weights")
     assert [t.name for t in run.tasks] == ["gesture", "progress"]
     assert train_main(["--variant", "APoc", "--weighting", "gradnorm", "--data-dir",
                        str(synth_dir), "--out", str(tmp_path / "cli"), "--hidden", "8",

@@ -136,9 +136,10 @@ def time_baseline_rows(grid_dir: Path, table, columns: Sequence[str]) -> pd.Data
 
 
 def _grid_data(grid_dir: Path, annotations: str):
-    """``(dataset, LOUO folds)`` of a grid: its record's data folder and task (or the task's
-    default folder when that one is gone), the folds its runs hold."""
-    from jigsaws_tools.dataset import DataConfig, default_data_dir, load_dataset
+    """``(dataset, LOUO folds)`` of a grid: its record's data folder and task, the folds its runs
+    hold; ``OSError`` when that folder is not here (or names the synthetic release, which a table
+    does not write)."""
+    from jigsaws_tools.dataset import DataConfig, load_dataset
     from jigsaws_tools.task_definition import load_task
 
     from ..grid.folder import read_record
@@ -146,9 +147,11 @@ def _grid_data(grid_dir: Path, annotations: str):
     record = read_record(grid_dir) or {}
     spec = record.get("spec", {})
     task = load_task(spec.get("task") or "Suturing")
-    data_dir = Path(spec.get("data_dir") or default_data_dir(task.name))
-    if not (data_dir / "transcriptions").is_dir():
-        data_dir = default_data_dir(task.name)
+    recorded = spec.get("data_dir")
+    data_dir = Path(recorded) if recorded and recorded != "synthetic" else None
+    if data_dir is None or not (data_dir / "transcriptions").is_dir():
+        # never another release in its place, and no synthetic one written by a table
+        raise OSError(f"the release the grid records ({recorded or 'none'}) is not here")
     users = sorted({Path(run).name for run in record.get("runs", [])})
     dataset = load_dataset(DataConfig(str(data_dir), annotations=annotations, task=task))
     return dataset, users or list(dataset.users)

@@ -61,8 +61,10 @@ def variant_record(variant: Variant, weighting: Weighting, config: RunConfig,
 #: Fields of config.json's ``run`` that place a run and that tables read (dotted): present in
 #: every record, so never taken from ``RunConfig``'s defaults (an older record may lack a field
 #: added since, which then holds its default).
-IDENTITY = ("test_user", "train.seed", "data.annotations", "encoder.bidirectional",
-            "encoder.hidden", "optim.total")
+IDENTITY = ("test_user", "train.seed", "data.annotations", "optim.total")
+#: What a run of each encoder kind records of its encoder besides (a record without a kind is
+#: the LSTM's, written before other encoders existed).
+ENCODER_IDENTITY = {"lstm": ("encoder.bidirectional", "encoder.hidden")}
 
 
 @dataclass(frozen=True)
@@ -117,7 +119,10 @@ def read_run_record(run_dir: Path) -> RunRecord:
         shown = saved.get("run") if isinstance(saved, dict) else saved
         raise RunFolderError(f"{path}: run: not a run's configuration (value: "
                              f"{str(shown)[:60]!r})")
-    for field in IDENTITY:
+    encoder = saved["run"].get("encoder")
+    kind = encoder.get("kind", "lstm") if isinstance(encoder, dict) else "lstm"
+    kind = kind if isinstance(kind, str) else ""        # a bad kind: from_jsonable names it
+    for field in (*IDENTITY, *ENCODER_IDENTITY.get(kind, ("encoder.kind",))):
         if not _holds(saved["run"], field.split(".")):
             raise RunFolderError(f"{path}: run.{field}: missing; every run records it")
     try:
