@@ -187,21 +187,21 @@ struct Fp32Panels {
 
   // forward: h W, W [H, 4H] row-major
   static Fp32Panels forward(const float* w, int hidden) {
-    Fp32Panels p{(hidden + kLanes - 1) / kLanes, hidden, nullptr};
-    p.data = aligned_zeros<float>(size_t(p.panels) * p.depth * 4 * kLanes);
-    for (int panel = 0; panel < p.panels; ++panel)
-      for (int k = 0; k < hidden; ++k)
-        for (int q = 0; q < 4; ++q)
-          for (int l = 0; l < kLanes; ++l) {
-            int unit = panel * kLanes + l;
-            if (unit < hidden)
-              p.at(panel, k)[q * kLanes + l] = w[size_t(k) * 4 * hidden + q * hidden + unit];
-          }
-    return p;
+    return packed(hidden, [&](int k, int q, int unit) {
+      return w[size_t(k) * 4 * hidden + q * hidden + unit];
+    });
   }
 
   // backward: dz W^T, four consecutive k per step of the panel
   static Fp32Panels backward(const float* w, int hidden) {
+    return packed(hidden, [&](int k, int q, int unit) {
+      return w[size_t(unit) * 4 * hidden + 4 * k + q];
+    });
+  }
+
+  // panel p, depth k, gate q, lane l <- weight(k, q, unit p * kLanes + l); zero past the units
+  template <class Weight>
+  static Fp32Panels packed(int hidden, Weight weight) {
     Fp32Panels p{(hidden + kLanes - 1) / kLanes, hidden, nullptr};
     p.data = aligned_zeros<float>(size_t(p.panels) * p.depth * 4 * kLanes);
     for (int panel = 0; panel < p.panels; ++panel)
@@ -209,8 +209,7 @@ struct Fp32Panels {
         for (int q = 0; q < 4; ++q)
           for (int l = 0; l < kLanes; ++l) {
             int unit = panel * kLanes + l;
-            if (unit < hidden)
-              p.at(panel, k)[q * kLanes + l] = w[size_t(unit) * 4 * hidden + 4 * k + q];
+            if (unit < hidden) p.at(panel, k)[q * kLanes + l] = weight(k, q, unit);
           }
     return p;
   }
