@@ -84,6 +84,9 @@ def test_evaluate_refuses_an_unknown_user_before_tensorflow(run_record, tmp_path
 @pytest.mark.parametrize("module, argv, suggestion", [
     ("multitask.train_cli", ["--hiden", "64", "--out", "x"], "did you mean --hidden?"),
     ("multitask.train_cli", ["--weigthing=gradnorm", "--out", "x"], "did you mean --weighting?"),
+    # the misspelling is named, not the required option it left out
+    ("multitask.train_cli", ["--ouut", "x"], "did you mean --out?"),
+    ("multitask.train_cli", ["--hiden", "64"], "did you mean --hidden?"),
     ("jigsaws_tools.cli.main", ["inspect", "--synthtic"], "did you mean --synthetic?"),
     ("multitask.inference.predict_cli", ["run", "x.txt", "--out", "o", "--no-plts"],
      "did you mean --no-plots?"),
@@ -94,6 +97,14 @@ def test_a_misspelt_option_gets_the_closest_one(module, argv, suggestion, capsys
     assert stop.value.code == 2
     err = capsys.readouterr().err.strip()
     assert suggestion in err and len(err.splitlines()) == 1, err
+
+
+def test_a_missing_required_option_without_a_misspelling_is_argparse_s_message(capsys):
+    """An abbreviation argparse accepts is no misspelling: the missing --out is named."""
+    with pytest.raises(SystemExit) as stop:
+        importlib.import_module("multitask.train_cli").main(["--hid", "64"])
+    assert stop.value.code == 2
+    assert "the following arguments are required: --out" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("module, argv, suggestion", [

@@ -134,15 +134,32 @@ class CommandParser(argparse.ArgumentParser):
     would give the value that follows an unknown option to such a positional argument."""
 
     def parse_known_args(self, args=None, namespace=None):
+        self._given = list(sys.argv[1:] if args is None else args)
         namespace, extras = super().parse_known_args(args, namespace)
-        unknown = next((m.group() for m in map(_OPTION.match, extras) if m), None)
-        if unknown:
-            self.refuse(f"{self.prog.split()[-1]} takes no {unknown} option"
-                        f"{self._did_you_mean(unknown)} (see {self.prog} --help)")
+        self._refuse_unknown(extras)
         for action in self._actions:
             if isinstance(action, _DeprecatedPositional):
                 action.resolve(self, namespace)
         return namespace, extras
+
+    def _refuse_unknown(self, words: Sequence[str]) -> None:
+        """Refuse the first of ``words`` that looks like an option this parser does not take."""
+        unknown = next((m.group() for m in map(_OPTION.match, words)
+                        if m and not self._takes(m.group())), None)
+        if unknown:
+            self.refuse(f"{self.prog.split()[-1]} takes no {unknown} option"
+                        f"{self._did_you_mean(unknown)} (see {self.prog} --help)")
+
+    def _takes(self, option: str) -> bool:
+        """Whether ``option`` is one of this parser's, or a prefix argparse reads as one."""
+        return any(known.startswith(option) for known in self._option_string_actions)
+
+    def error(self, message: str) -> NoReturn:
+        """argparse's error; a missing required argument is named after a misspelt option, which
+        is often why it is missing (``--ouut DIR``: did you mean --out?)."""
+        if message.startswith("the following arguments are required"):
+            self._refuse_unknown(getattr(self, "_given", ()))
+        super().error(message)
 
     def _check_value(self, action: argparse.Action, value: Any) -> None:
         """argparse's check of a value against ``action.choices`` (a subcommand's name too),
