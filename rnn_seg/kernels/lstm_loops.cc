@@ -230,8 +230,12 @@ struct Fp32Panels {
 
   // out[r][0..63]: forward, the 4 gates' sums for the panel's 16 units; backward, the sum over
   // the panel's 4 vectors in out[r][0..15].
+  // The sums stay in registers: written through acc_out every step, they would be stored after
+  // each multiply-add (acc_out may alias the rows, so the compiler keeps memory up to date),
+  // which halved the product's rate.
   template <int R, bool kBackward>
-  void product(const Rows& rows, int row0, int panel, v16 (*acc)[4]) const {
+  void product(const Rows& rows, int row0, int panel, v16 (*acc_out)[4]) const {
+    v16 acc[R][4];
     for (int r = 0; r < R; ++r)
       for (int q = 0; q < 4; ++q) acc[r][q] = v16{};
     const float* a[R];
@@ -255,8 +259,10 @@ struct Fp32Panels {
         }
       }
     }
-    if (kBackward)
-      for (int r = 0; r < R; ++r) acc[r][0] = (acc[r][0] + acc[r][1]) + (acc[r][2] + acc[r][3]);
+    for (int r = 0; r < R; ++r) {
+      if (kBackward) acc[r][0] = (acc[r][0] + acc[r][1]) + (acc[r][2] + acc[r][3]);
+      for (int q = 0; q < (kBackward ? 1 : 4); ++q) acc_out[r][q] = acc[r][q];
+    }
   }
 };
 
