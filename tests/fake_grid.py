@@ -32,7 +32,8 @@ def write_fake_grid(root: Path, seeds: tuple[int, ...] = (0, 1), hidden: int = 1
                     epochs: int = 12,
                     experiments: tuple[Experiment, ...] = PAPER_EXPERIMENTS,
                     schedule_factors: dict[str, float] | None = None,
-                    per_class: bool = False, fingerprint: str | None = None) -> Path:
+                    per_class: bool = False, fingerprint: str | None = None,
+                    precision: str = "fp32", loops: str = "graph", scores_seed: int = 0) -> Path:
     """Every run of a grid (default: the paper's, 22 configurations) over 8 folds and ``seeds``
     under ``root``; every variant at the paper's relative length unless ``schedule_factors``.
     ``per_class``: metrics.json holds per-class precision, recall, F1 and the confusion matrices
@@ -40,11 +41,12 @@ def write_fake_grid(root: Path, seeds: tuple[int, ...] = (0, 1), hidden: int = 1
     ``fingerprint``: every config.json records it as the data's, and grid.json records the spec,
     so that the tables check every run against it (fixed weightings and offline models only: a
     GradNorm or ordered head's settings are not written); without it, grid.json records no spec,
-    as an early version's."""
+    as an early version's. ``precision``, ``loops``: the execution path every config.json records;
+    ``scores_seed`` seeds the fake scores (another value: other scores)."""
     spec = GridSpec(data_dir=str(root / "data" / "Suturing"), seeds=seeds, hidden=hidden,
                     epochs=epochs, experiments=experiments,
-                    schedule_factors=schedule_factors or {})
-    rng = np.random.default_rng(0)
+                    schedule_factors=schedule_factors or {}, precision=precision, loops=loops)
+    rng = np.random.default_rng(scores_seed)
     keys = expand(spec, FOLDS)
     for key in keys:
         run_dir = root / key.path()

@@ -58,6 +58,15 @@ a part whose grid has not finished every run of its seeds is not analysed (no in
 
     multitask-tables --confirm results/confirm/plan.toml --out results/confirm
 
+``--reference GRID --margin POINTS`` compares an execution path instead (``execution``):
+GRID_DIR, every run finished, repeats configurations of the reference GRID on another path (the
+fused loops, bfloat16), all else equal; per configuration and score, the option minus the
+reference paired by fold, equivalent / different / inconclusive against the margin, and whether
+each model's comparison with A reads the same; ``execution*.csv`` in ``--out``.
+
+    multitask-tables results/precision/bf16 --reference results/grid --margin 2.0 \
+        --out results/precision/bf16-vs-fp32
+
 A folder of runs trained one by one (``multitask-train``, ``baseline-train``; no grid.json) gets
 ``runs.csv`` (with each run's folder), ``per_fold.csv`` and ``summary.csv``, and ``--compare``;
 each run's configuration, seed and fold come from its config.json (``standalone``).
@@ -91,6 +100,8 @@ MANIFEST = "tables.json"
 WIDTH_MANIFEST = "width.json"
 #: The same for a confirmatory analysis (``--confirm``).
 CONFIRM_MANIFEST = "confirm.json"
+#: The same for an execution path's comparison (``--reference``).
+EXECUTION_MANIFEST = "execution.json"
 
 
 def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: bool = False,
@@ -312,6 +323,13 @@ def build_parser() -> argparse.ArgumentParser:
                              "plan file says (results/confirm/plan.toml; its grids are named "
                              "in it, so no GRID_DIR): writes confirm.csv and "
                              "confirm_per_fold.csv to --out (default: none)")
+    parser.add_argument("--reference", type=Path, metavar="GRID",
+                        help="compare GRID_DIR's execution path (fused loops, bfloat16) with this "
+                             "grid's, paired by fold; needs --margin and --out; writes "
+                             "execution*.csv (default: none, write the tables)")
+    parser.add_argument("--margin", type=float, metavar="POINTS",
+                        help="with --reference: the equivalence margin in percentage points, "
+                             "e.g. 2.0 (required with --reference)")
     parser.add_argument("--allow-incomplete", action="store_true",
                         help="write tables although runs are missing, unfinished or unreadable, "
                              "marking the configurations concerned incomplete (default: refuse)")
@@ -337,6 +355,12 @@ def main(argv: list[str] | None = None) -> int:
         return run_command(PROG, args.verbose, lambda: _confirm(args))
     if args.grid_dir is None:
         parser.error("GRID_DIR is required (but with --confirm)")
+    if (args.reference is None) != (args.margin is None):
+        parser.error("--reference needs --margin, and --margin needs --reference")
+    if args.reference and (args.archive or args.widths or "--out" not in extra
+                           or set(extra) - {"--out", "--overwrite"}):
+        parser.error("--reference needs --out and takes no other option but --margin and "
+                     "--overwrite")
     if args.archive and extra:
         parser.error(f"--archive writes the archive alone: leave out {', '.join(extra)}")
     if args.widths and (args.archive or args.compare or "--out" not in extra
@@ -375,7 +399,8 @@ def _confirm(args: argparse.Namespace) -> None:
 
 
 def _run(args: argparse.Namespace) -> None:
-    for grid in (args.grid_dir, *(args.widths or ())):
+    for grid in (args.grid_dir, *(args.widths or ()), *([args.reference] if args.reference
+                                                          else [])):
         if not grid.is_dir():
             raise FileNotFoundError(f"{grid}: no such folder (a grid folder, a scores archive "
                                     "or a folder of runs)")
@@ -394,14 +419,19 @@ def _run(args: argparse.Namespace) -> None:
 
     out = args.out or args.grid_dir / "tables"
     check_output_folder(out, PROG, may_hold=True)   # beside grids, never in a run or grid's runs
-    manifest = WIDTH_MANIFEST if args.widths else MANIFEST
-    kept = () if args.widths else _left_alone(args)
+    manifest = (WIDTH_MANIFEST if args.widths else EXECUTION_MANIFEST if args.reference
+                else MANIFEST)
+    kept = () if args.widths or args.reference else _left_alone(args)
     with staged_outputs(out, manifest, PROG, args.overwrite, kept=kept) as staging, \
             drawing.shown(PROG):
         if args.widths:
             from .width import write_width
 
             written = write_width([args.grid_dir, *args.widths], staging, seeds)
+        elif args.reference:
+            from .execution import write_execution
+
+            written = write_execution(args.grid_dir, args.reference, args.margin, staging)
         else:
             written = write_tables(args.grid_dir, staging, figures=not args.no_figures,
                                    ours_only=args.ours_only, example_trial=args.example_trial,

@@ -82,7 +82,17 @@ def run_rows(grid_dir: Path | str, allow_incomplete: bool = False,
              seeds: tuple[int, ...] | None = None, finished_only: bool = False
              ) -> tuple[pd.DataFrame, list[str]]:
     """One row per usable run (key columns + metrics), and the problems found (see the module
-    docstring): ``IncompleteEvidence`` unless ``allow_incomplete``.
+    docstring): ``IncompleteEvidence`` unless ``allow_incomplete``. ``run_records`` with the
+    same arguments also returns each run's record."""
+    rows, problems, _ = run_records(grid_dir, allow_incomplete, seeds, finished_only)
+    return rows, problems
+
+
+def run_records(grid_dir: Path | str, allow_incomplete: bool = False,
+                seeds: tuple[int, ...] | None = None, finished_only: bool = False
+                ) -> tuple[pd.DataFrame, list[str], dict[Path, RunRecord]]:
+    """``run_rows``' rows and problems, and the record (config.json) of each run in the rows,
+    keyed by the run's folder (``grid_dir / run``).
 
     Args:
         grid_dir: output folder of ``multitask-grid``.
@@ -124,7 +134,8 @@ def run_rows(grid_dir: Path | str, allow_incomplete: bool = False,
         which = "" if seeds is None else f" of seed(s) {', '.join(map(str, seeds))}"
         raise IncompleteEvidence(f"{root}: no finished runs{which} under {root / 'runs'}"
                                  + "".join(f"\n  {line}" for line in left_out))
-    return pd.DataFrame(rows), problems + left_out
+    return pd.DataFrame(rows), problems + left_out, {root / run: record
+                                                     for run, record in records.items()}
 
 
 def recorded_runs(root: Path) -> tuple[list[Path], list[str]]:

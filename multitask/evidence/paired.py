@@ -326,21 +326,41 @@ def paired(runs: pd.DataFrame, contrast: Contrast, metric: str,
                          f"{', '.join(_scores(runs))} and the per-class scores "
                          "(<task>_<accuracy|precision|recall|f1>_<class>, e.g. "
                          "gesture_accuracy_G2)")
-    terms = contrast.terms()
-    sides = {side: _seed_values(runs, side, metric) for side in terms}
-    common = sorted(set.intersection(*(set(values) for values in sides.values())))
+    sides = {side.label: (coef, seed_values(runs, side, metric))
+             for side, coef in contrast.terms().items()}
+    return paired_sides(contrast.label, metric, sides, config)
+
+
+def paired_sides(label: str, metric: str, sides: dict[str, tuple[int, dict[str, np.ndarray]]],
+                 config: StatsConfig = StatsConfig()) -> PairedResult:
+    """Paired statistics of ``sum(coefficient x side)`` per fold over the folds every side has,
+    each side averaged over its seeds within a fold: ``paired``'s procedure for sides that need
+    not be configurations of one table (e.g. one configuration in two grids, ``execution``).
+
+    Args:
+        label: the contrast's name, e.g. ``fused A-fixed - reference A-fixed``.
+        metric: the metric the values are of.
+        sides: side name -> (coefficient +1 or -1, fold -> the side's values over its seeds).
+        config: the test's level and the power simulation's settings.
+
+    Raises:
+        NotPaired: the sides share no fold.
+    """
+    common = sorted(set.intersection(*(set(values) for _, values in sides.values())))
     if not common:
-        raise NotPaired(f"{contrast.label} on {metric}: the sides share no fold")
-    dropped = {fold: ", ".join(side.label for side, values in sides.items() if fold not in values)
-               for fold in sorted(set().union(*sides.values()) - set(common))}
-    differences = sum(coef * np.array([sides[side][f].mean() for f in common])
-                      for side, coef in terms.items())
-    counts = [len(sides[side][f]) for side in terms for f in common]
+        raise NotPaired(f"{label} on {metric}: the sides share no fold")
+    dropped = {fold: ", ".join(name for name, (_, values) in sides.items() if fold not in values)
+               for fold in sorted(set().union(*(values for _, values in sides.values()))
+                                  - set(common))}
+    differences = sum(coef * np.array([values[f].mean() for f in common])
+                      for coef, values in sides.values())
+    counts = [len(values[f]) for _, values in sides.values() for f in common]
     return PairedResult(
-        contrast=contrast.label, metric=metric, folds=tuple(common),
+        contrast=label, metric=metric, folds=tuple(common),
         differences=tuple(float(d) for d in differences), dropped=dropped,
         seeds=(min(counts), max(counts)),
-        seed_variance=_seed_variance([[sides[side][f] for f in common] for side in terms]),
+        seed_variance=_seed_variance([[values[f] for f in common]
+                                      for _, values in sides.values()]),
         config=config)
 
 
@@ -364,7 +384,7 @@ def config_labels(runs: pd.DataFrame) -> list[str]:
     return sorted(ConfigId(*c).label for c in configs.itertuples(index=False))
 
 
-def _seed_values(runs: pd.DataFrame, side: ConfigId, metric: str) -> dict[str, np.ndarray]:
+def seed_values(runs: pd.DataFrame, side: ConfigId, metric: str) -> dict[str, np.ndarray]:
     """Fold -> the side's values over its seeds (NaNs left out)."""
     rows = side.select(runs)
     if rows.empty:

@@ -1,0 +1,233 @@
+"""Does an execution path change what a grid says? A grid against its reference, paired by fold.
+
+An execution path computes the same model with other roundings: the fused C++ loops
+(``loops = "fused"``, ``rnn_seg.kernels``), bfloat16 products (``precision = "bf16"``). The
+option's grid repeats configurations of a reference grid (e.g. the committed float32 grid
+``results/grid``) on another path; this module says, per configuration and score, by how much the
+path moves the scores, and whether a model comparison reads the same (``results/precision/PLAN.md``
+is the plan it runs).
+
+Evidence: every run the option's grid records must have finished (no interim look); the reference
+must hold, for each of the option's configurations, finished runs of the same seeds on the same
+folds. The runs of both grids must agree on every setting that changes a result but the
+precision (``pooling.pool`` with ``varying=EXECUTION``); the loops, which are not such a setting,
+are read from each run's ``config.json`` and must be one path per grid. Nothing else may differ:
+a reference of another width, schedule or data is refused with the list of what differs.
+
+Per configuration and metric, each side's per-fold mean over the seeds, and the option minus the
+reference per fold, tested as ``claims.csv`` tests a claim (``paired.paired_sides``: exact
+two-sided sign-flip test over the folds, the 95 % interval that inverts it). Outcome against the
+equivalence ``margin`` (percentage points):
+
+* ``equivalent``: the whole interval lies within (-margin, +margin);
+* ``different``: the whole interval lies beyond +margin or below -margin;
+* ``inconclusive``: otherwise.
+
+Beside it, every multi-task configuration minus ``A-fixed`` on each metric in each grid (the
+comparison a user makes), with the verdict by ``claims.csv``'s rule (p <= alpha: ``X above A`` or
+``X below A``; else ``no difference detected``), and the difference of the two contrasts
+(option's minus reference's, paired by fold).
+
+Output (``write_execution``): ``execution.csv`` (configuration, metric, folds, seeds, option and
+reference path, option_mean, reference_mean (means over folds of the per-fold seed means), diff,
+ci_low, ci_high, p_value, margin, outcome), ``execution_contrasts.csv`` (contrast, metric, each
+grid's diff, interval, p and verdict, same_reading, and the difference of the contrasts with its
+interval and p) and ``execution_per_fold.csv`` (configuration, metric, fold, option, reference,
+difference).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from rnn_seg.runs.folder import is_finished
+
+from ..models.run_record import RunRecord
+from .collect import recorded_runs, run_records
+from .paired import (ConfigId, Contrast, PairedResult, StatsConfig, paired, paired_sides,
+                     seed_values)
+from .pooling import pool
+
+#: The settings an execution path may change among those that change results (``pooling``).
+EXECUTION = ("run.encoder.precision",)
+METRICS = ("gesture_accuracy", "gesture_edit", "gesture_f1@10")
+#: The configuration every multi-task model is compared with.
+BASELINE = ConfigId("A", "fixed")
+OUTCOMES = ("equivalent", "different", "inconclusive")
+
+
+@dataclass(frozen=True)
+class GridPart:
+    """One grid's side: its runs (``collect.run_rows``' columns), their path and records."""
+
+    grid: Path
+    runs: pd.DataFrame
+    path: str                              # e.g. "fused loops, bf16"
+    records: dict[Path, RunRecord]
+
+    def configs(self) -> list[ConfigId]:
+        keys = self.runs[["variant", "weighting", "annotations", "direction"]].drop_duplicates()
+        return sorted((ConfigId(*key) for key in keys.itertuples(index=False)),
+                      key=lambda c: (c != BASELINE, c.label))
+
+
+def option_part(grid: Path) -> GridPart:
+    """The option's grid: every run it records, all finished (``ValueError`` naming what is not,
+    one line)."""
+    recorded, unknown = recorded_runs(grid)
+    if unknown:
+        raise ValueError(f"{grid}: not a grid: {unknown[0]}")
+    runs, _, records = run_records(grid, finished_only=True)
+    done = sum(is_finished(grid / run) for run in recorded)
+    if done < len(recorded):
+        raise ValueError(f"{grid}: {done} of its {len(recorded)} runs have finished: the "
+                         "comparison waits for all of them (no interim look)")
+    return GridPart(grid, runs, _path(grid, records), records)
+
+
+def reference_part(grid: Path, option: GridPart) -> GridPart:
+    """The reference's runs of the option's configurations, seeds and folds (``ValueError``
+    naming a run the reference lacks, one line)."""
+    runs, _, records = run_records(grid, seeds=tuple(sorted(option.runs.seed.unique())),
+                                   finished_only=True)
+    wanted = {_key(record) for record in option.records.values()}
+    chosen = {run: record for run, record in records.items() if _key(record) in wanted}
+    missing = sorted(wanted - {_key(record) for record in chosen.values()},
+                     key=lambda key: (key[0].label, key[1], key[2]))
+    if missing:
+        config_id, seed, fold = missing[0]
+        raise ValueError(f"{grid}: no finished run of {config_id.label}, seed {seed}, fold "
+                         f"{fold} ({len(missing)} of the option's {len(wanted)} runs lack "
+                         "their reference)")
+    keep = runs[[_row_key(row) in wanted for row in runs.itertuples(index=False)]]
+    return GridPart(grid, keep.reset_index(drop=True), _path(grid, chosen), chosen)
+
+
+def _row_key(row) -> tuple[ConfigId, int, str]:
+    """``_key`` of a row of ``collect.run_rows``."""
+    return (ConfigId(row.variant, row.weighting, row.annotations, row.direction), int(row.seed),
+            str(row.fold))
+
+
+def _key(record: RunRecord) -> tuple[ConfigId, int, str]:
+    config = record.config
+    direction = "bidirectional" if config.encoder.bidirectional else "forward"
+    return (ConfigId(record.variant, record.weighting, config.data.annotations, direction),
+            config.train.seed, config.test_user)
+
+
+def _path(grid: Path, records: dict[Path, RunRecord]) -> str:
+    """``"<loops> loops, <precision>"`` of every run of ``grid`` (``ValueError`` if they differ:
+    e.g. a fused run that fell back to the graph loops)."""
+    paths = {f"{r.config.encoder.loops} loops, {r.config.encoder.precision}"
+             for r in records.values()}
+    if len(paths) != 1:
+        raise ValueError(f"{grid}: its runs ran on more than one execution path "
+                         f"({', '.join(sorted(paths))}): one path per grid")
+    return paths.pop()
+
+
+def outcome(result: PairedResult, margin: float) -> str:
+    """``equivalent``, ``different`` or ``inconclusive`` (module docstring)."""
+    if -margin < result.ci_low and result.ci_high < margin:
+        return "equivalent"
+    if result.ci_low > margin or result.ci_high < -margin:
+        return "different"
+    return "inconclusive"
+
+
+def reading(result: PairedResult, x: ConfigId, alpha: float) -> str:
+    """``claims.csv``'s rule for ``x - A``: ``<x> above A``, ``<x> below A`` or ``no difference
+    detected``."""
+    if not result.p_value <= alpha:
+        return "no difference detected"
+    return f"{x.label} {'above' if result.mean > 0 else 'below'} {BASELINE.label}"
+
+
+def execution_tables(option: GridPart, reference: GridPart, margin: float,
+                     config: StatsConfig = StatsConfig()
+                     ) -> tuple[pd.DataFrame, pd.DataFrame, pd.DataFrame]:
+    """``execution.csv``, ``execution_contrasts.csv`` and ``execution_per_fold.csv`` (module
+    docstring) of ``option`` against ``reference`` at ``margin`` points."""
+    rows, contrasts, folds = [], [], []
+    for config_id in option.configs():
+        for metric in METRICS:
+            sides = {"option": seed_values(option.runs, config_id, metric),
+                     "reference": seed_values(reference.runs, config_id, metric)}
+            result = paired_sides(f"{option.path} - {reference.path}: {config_id.label}", metric,
+                                  {"option": (1, sides["option"]),
+                                   "reference": (-1, sides["reference"])}, config)
+            means = {name: float(np.mean([values[f].mean() for f in result.folds]))
+                     for name, values in sides.items()}
+            rows.append({"configuration": config_id.label, "metric": metric,
+                         "folds": result.pairs, "seeds": _seeds(option.runs, config_id),
+                         "option": option.path, "reference": reference.path,
+                         "option_mean": means["option"], "reference_mean": means["reference"],
+                         "diff": result.mean, "ci_low": result.ci_low,
+                         "ci_high": result.ci_high, "p_value": result.p_value,
+                         "margin": margin, "outcome": outcome(result, margin)})
+            folds += [{"configuration": config_id.label, "metric": metric, "fold": fold,
+                       "option": sides["option"][fold].mean(),
+                       "reference": sides["reference"][fold].mean(), "difference": d}
+                      for fold, d in zip(result.folds, result.differences)]
+            if config_id != BASELINE and BASELINE in option.configs():
+                contrasts.append(_contrast(option, reference, config_id, metric, config))
+    return pd.DataFrame(rows), pd.DataFrame(contrasts), pd.DataFrame(folds)
+
+
+def _contrast(option: GridPart, reference: GridPart, x: ConfigId, metric: str,
+              config: StatsConfig) -> dict:
+    """One row of ``execution_contrasts.csv``: ``x - A`` in each grid, and their difference."""
+    contrast = Contrast(x, BASELINE)
+    row = {"contrast": contrast.label, "metric": metric}
+    readings = {}
+    for name, part in (("option", option), ("reference", reference)):
+        result = paired(part.runs, contrast, metric, config)
+        readings[name] = reading(result, x, config.alpha)
+        row |= {f"{name}_diff": result.mean, f"{name}_ci_low": result.ci_low,
+                f"{name}_ci_high": result.ci_high, f"{name}_p": result.p_value,
+                f"{name}_verdict": readings[name]}
+    both = paired_sides(
+        f"({contrast.label}) option - reference", metric,
+        {"option x": (1, seed_values(option.runs, x, metric)),
+         "option A": (-1, seed_values(option.runs, BASELINE, metric)),
+         "reference x": (-1, seed_values(reference.runs, x, metric)),
+         "reference A": (1, seed_values(reference.runs, BASELINE, metric))}, config)
+    return row | {"same_reading": readings["option"] == readings["reference"],
+                  "diff_of_diffs": both.mean, "dd_ci_low": both.ci_low,
+                  "dd_ci_high": both.ci_high, "dd_p": both.p_value}
+
+
+def _seeds(runs: pd.DataFrame, config_id: ConfigId) -> str:
+    return " ".join(map(str, sorted(config_id.select(runs).seed.unique())))
+
+
+def write_execution(option_grid: Path, reference_grid: Path, margin: float, out: Path
+                    ) -> list[Path]:
+    """The three CSVs of ``option_grid`` against ``reference_grid`` into ``out``; the paths.
+
+    Raises:
+        ValueError: one line: a margin not above 0, an unfinished option grid, a reference
+            lacking a run the option has, a grid of two paths, runs differing in a setting other
+            than the path (``pooling.MixedSettings``).
+    """
+    if not margin > 0:
+        raise ValueError(f"--margin must be above 0 points (value: {margin})")
+    option = option_part(Path(option_grid))
+    reference = reference_part(Path(reference_grid), option)
+    if option.path == reference.path:
+        raise ValueError(f"{option_grid} and {reference_grid} ran on the same execution path "
+                         f"({option.path}): nothing to compare")
+    pool(option.records | reference.records, f"{option_grid} against {reference_grid}",
+         varying=EXECUTION)
+    tables = execution_tables(option, reference, margin)
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    for name, table in zip(("execution", "execution_contrasts", "execution_per_fold"), tables):
+        path = out / f"{name}.csv"
+        table.to_csv(path, index=False, float_format="%.4f")
+        written.append(path)
+    return written

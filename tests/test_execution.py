@@ -1,0 +1,131 @@
+"""An execution path against its reference (``multitask-tables GRID --reference REF --margin M``),
+on fake grids that differ only in the path their config.json files record."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from multitask.evidence.cli import main as tables_main
+from multitask.evidence.collect import run_rows
+from multitask.evidence.execution import outcome
+from multitask.evidence.paired import StatsConfig, paired_sides
+from multitask.grid.spec import Experiment
+from tests.fake_grid import FOLDS, write_fake_grid
+
+MODELS = (Experiment(variants=("A",)), Experiment(variants=("APoc",), weightings=("gradnorm",)))
+
+
+def _grid(root, name, scores_seed, seeds=(0, 1), **path):
+    return write_fake_grid(root / name, seeds=seeds, experiments=MODELS, scores_seed=scores_seed,
+                           **path)
+
+
+def _fold_means(grid, variant, metric):
+    runs, _ = run_rows(grid)
+    return runs[runs.variant == variant].groupby("fold")[metric].mean()
+
+
+def _compare(option, reference, out, margin="2.0"):
+    return tables_main([str(option), "--reference", str(reference), "--margin", margin,
+                        "--out", str(out)])
+
+
+def test_option_minus_reference_per_configuration_and_score(tmp_path):
+    reference = _grid(tmp_path, "ref", 0)
+    option = _grid(tmp_path, "fused", 1, loops="fused")
+    assert _compare(option, reference, tmp_path / "out") == 0
+    table = pd.read_csv(tmp_path / "out" / "execution.csv", dtype={"seeds": str})
+    assert list(table.configuration.unique()) == ["A-fixed", "APoc-gradnorm"]
+    row = table[(table.configuration == "APoc-gradnorm") & (table.metric == "gesture_edit")].iloc[0]
+    difference = (_fold_means(option, "APoc", "gesture_edit")
+                  - _fold_means(reference, "APoc", "gesture_edit"))
+    assert row["diff"] == pytest.approx(difference.mean(), abs=1e-4)
+    assert row.ci_low <= row["diff"] <= row.ci_high
+    assert (row.folds, row.seeds, row.margin) == (len(FOLDS), "0 1", 2.0)
+    assert (row.option, row.reference) == ("fused loops, fp32", "graph loops, fp32")
+    for _, r in table.iterrows():
+        inside = -r.margin < r.ci_low and r.ci_high < r.margin
+        outside = r.ci_low > r.margin or r.ci_high < -r.margin
+        assert r.outcome == ("equivalent" if inside else "different" if outside
+                             else "inconclusive")
+    per_fold = pd.read_csv(tmp_path / "out" / "execution_per_fold.csv")
+    edit = per_fold[(per_fold.configuration == "APoc-gradnorm")
+                    & (per_fold.metric == "gesture_edit")].set_index("fold").difference
+    assert edit.to_dict() == pytest.approx(difference.to_dict(), abs=1e-4)
+
+
+def test_a_model_comparison_in_each_grid_and_their_difference(tmp_path):
+    reference = _grid(tmp_path, "ref", 0)
+    option = _grid(tmp_path, "bf16", 2, precision="bf16", loops="fused")
+    assert _compare(option, reference, tmp_path / "out") == 0
+    contrasts = pd.read_csv(tmp_path / "out" / "execution_contrasts.csv")
+    assert list(contrasts.contrast.unique()) == ["APoc-gradnorm - A-fixed"]
+    row = contrasts[contrasts.metric == "gesture_accuracy"].iloc[0]
+    gain = {name: (_fold_means(grid, "APoc", "gesture_accuracy")
+                   - _fold_means(grid, "A", "gesture_accuracy"))
+            for name, grid in (("option", option), ("reference", reference))}
+    assert row.option_diff == pytest.approx(gain["option"].mean(), abs=1e-4)
+    assert row.reference_diff == pytest.approx(gain["reference"].mean(), abs=1e-4)
+    assert row.diff_of_diffs == pytest.approx((gain["option"] - gain["reference"]).mean(),
+                                              abs=1e-4)
+    assert row.same_reading == (row.option_verdict == row.reference_verdict)
+    for side in ("option", "reference"):
+        expected = ("no difference detected" if row[f"{side}_p"] > 0.05 else
+                    f"APoc-gradnorm {'above' if row[f'{side}_diff'] > 0 else 'below'} A-fixed")
+        assert row[f"{side}_verdict"] == expected
+
+
+def test_outcome_against_the_margin():
+    def result(differences):
+        values = {f: np.array([d]) for f, d in zip(FOLDS, differences)}
+        zeros = {f: np.array([0.0]) for f in FOLDS}
+        return paired_sides("x", "m", {"a": (1, values), "b": (-1, zeros)}, StatsConfig())
+
+    assert outcome(result([0.1, -0.2, 0.3, 0.0, -0.1, 0.2, 0.1, -0.3]), 2.0) == "equivalent"
+    assert outcome(result([5.1, 4.8, 5.3, 5.0, 4.9, 5.2, 5.1, 4.7]), 2.0) == "different"
+    assert outcome(result([-5.1, -4.8, -5.3, -5.0, -4.9, -5.2, -5.1, -4.7]), 2.0) == "different"
+    assert outcome(result([3.0, -2.5, 4.0, -1.0, 2.0, -3.5, 1.0, 0.5]), 2.0) == "inconclusive"
+
+
+@pytest.mark.parametrize("case, message", [
+    ("width", "run.encoder.hidden"),
+    ("unfinished", "31 of its 32 runs have finished"),
+    ("seed", "no finished run of A-fixed, seed 1"),
+    ("same path", "ran on the same execution path (graph loops, fp32): nothing to compare"),
+    ("two paths", "ran on more than one execution path"),
+    ("margin", "--margin must be above 0 points (value: 0.0)"),
+])
+def test_what_cannot_be_compared_is_a_one_line_error_and_writes_nothing(tmp_path, capsys, case,
+                                                                         message):
+    option = _grid(tmp_path, "option", 1, seeds=(0, 1), loops="fused")
+    reference = {"width": lambda: write_fake_grid(tmp_path / "ref", seeds=(0, 1), hidden=32,
+                                                  experiments=MODELS),
+                 "seed": lambda: _grid(tmp_path, "ref", 0, seeds=(0,)),
+                 }.get(case, lambda: _grid(tmp_path, "ref", 0))()
+    if case == "same path":
+        option = _grid(tmp_path, "graph", 1)
+    if case == "unfinished":
+        (option / "runs/revised/bidirectional/A-fixed/seed1/C/finished.json").unlink()
+    if case == "two paths":
+        config = option / "runs/revised/bidirectional/A-fixed/seed1/C/config.json"
+        record = json.loads(config.read_text())
+        record["run"]["encoder"]["loops"] = "graph"
+        config.write_text(json.dumps(record))
+    margin = "0" if case == "margin" else "2.0"
+    assert _compare(option, reference, tmp_path / "out", margin) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err
+    assert len(err.strip().splitlines()) == 1
+    assert not (tmp_path / "out").exists()
+
+
+def test_reference_and_margin_go_together(tmp_path, capsys):
+    grid = _grid(tmp_path, "g", 0)
+    for extra in (["--margin", "2"], ["--reference", str(grid)]):
+        with pytest.raises(SystemExit) as exit_:
+            tables_main([str(grid), *extra, "--out", str(tmp_path / "out")])
+        assert exit_.value.code == 2
+    assert "--reference needs --margin" in capsys.readouterr().err
