@@ -32,7 +32,9 @@ def write_fake_grid(root: Path, seeds: tuple[int, ...] = (0, 1), hidden: int = 1
                     epochs: int = 12,
                     experiments: tuple[Experiment, ...] = PAPER_EXPERIMENTS,
                     schedule_factors: dict[str, float] | None = None,
-                    per_class: bool = False, fingerprint: str | None = None) -> Path:
+                    per_class: bool = False, fingerprint: str | None = None,
+                    encoder: str = "lstm", seconds: float | None = None,
+                    data_dir: Path | None = None) -> Path:
     """Every run of a grid (default: the paper's, 22 configurations) over 8 folds and ``seeds``
     under ``root``; every variant at the paper's relative length unless ``schedule_factors``.
     ``per_class``: metrics.json holds per-class precision, recall, F1 and the confusion matrices
@@ -40,10 +42,15 @@ def write_fake_grid(root: Path, seeds: tuple[int, ...] = (0, 1), hidden: int = 1
     ``fingerprint``: every config.json records it as the data's, and grid.json records the spec,
     so that the tables check every run against it (fixed weightings and offline models only: a
     GradNorm or ordered head's settings are not written); without it, grid.json records no spec,
-    as an early version's."""
-    spec = GridSpec(data_dir=str(root / "data" / "Suturing"), seeds=seeds, hidden=hidden,
-                    epochs=epochs, experiments=experiments,
-                    schedule_factors=schedule_factors or {})
+    as an early version's. ``encoder``: a TCN's grid (``hidden``, ``epochs`` and
+    ``schedule_factors`` then unused: its reference schedule). ``seconds``: every run's
+    ``timing.json`` records this many seconds of training. ``data_dir``: the release the grid
+    records (default: a folder that does not exist)."""
+    lstm = encoder == "lstm"
+    spec = GridSpec(data_dir=str(data_dir or root / "data" / "Suturing"), seeds=seeds,
+                    hidden=hidden if lstm else None, epochs=epochs if lstm else None,
+                    experiments=experiments, encoder=encoder,
+                    schedule_factors=(schedule_factors or {}) if lstm else None)
     rng = np.random.default_rng(0)
     keys = expand(spec, FOLDS)
     for key in keys:
@@ -75,6 +82,8 @@ def write_fake_grid(root: Path, seeds: tuple[int, ...] = (0, 1), hidden: int = 1
                 mean[task].update(_class_scores(metrics["confusion"][task]))
         _write_json(run_dir / "metrics.json", metrics)
         _write_json(run_dir / "finished.json", {"sweeps": 7 * config.optim.total})
+        if seconds is not None:
+            _write_json(run_dir / "timing.json", {"data": 0.5, "train": seconds - 0.5})
     runs = [str(key.path()) for key in keys]
     _write_json(root / "grid.json", {"runs": runs} if fingerprint is None
                 else {"spec": spec_payload(with_budget(spec)), "runs": runs})

@@ -18,12 +18,19 @@ or not a grid's spec vouches for the runs.
   that differ and the runs of each value (``MixedSettings``), with or without
   ``--allow-incomplete``: there is no row to put them in. Runs that differ so are never taken for
   two runs of one fold (duplicates).
+* runs of different architectures (``architecture``: the LSTM at each width, ED-TCN, MS-TCN)
+  are kept apart: a table of several architectures reads one grid per architecture, each
+  pooled by the rule above, tags each run with its grid's architecture and pairs nothing across
+  them (``apart``); two grids of one architecture, a grid of several, or grids on other data are
+  refused (``MixedArchitectures``).
 """
 from __future__ import annotations
 
 from pathlib import Path
 from typing import Any
 
+from jigsaws_tools.dataset import DataConfig
+from rnn_seg.encoders.config import ENCODERS
 from rnn_seg.runs.settings import settings_of
 
 from ..grid.spec import RunKey
@@ -37,6 +44,80 @@ SHOWN = 3
 
 class MixedSettings(ValueError):
     """Runs a table would put in one row differ in settings that change results."""
+
+
+class MixedArchitectures(ValueError):
+    """Grids a table of several architectures reads are not one architecture each, on one
+    data."""
+
+
+def architecture(record: RunRecord) -> str:
+    """The run's architecture: ``lstm-<units per direction>`` (e.g. ``lstm-128``), ``ed-tcn`` or
+    ``ms-tcn`` (``rnn_seg.encoders``)."""
+    encoder = record.config.encoder
+    return f"lstm-{encoder.hidden}" if encoder.kind == "lstm" else encoder.kind
+
+
+def architecture_name(key: str) -> str:
+    """How tables name an architecture: ``LSTM-128``, ``ED-TCN``, ``MS-TCN``."""
+    return key.upper()
+
+
+def is_architecture(text: str) -> bool:
+    """Whether ``text`` is what ``architecture`` returns for some run (``lstm-1024``)."""
+    kind, _, width = text.partition("-") if text.startswith("lstm-") else (text, "", "")
+    return kind in ENCODERS and (kind != "lstm" or width.isdigit()) and text != "lstm"
+
+
+def apart(grids: dict[Path, dict[Path, RunRecord]]) -> dict[Path, str]:
+    """Check that each grid holds one architecture, no two grids the same one, and every grid the
+    same data (every recorded data setting but where the data lay); the architecture of each.
+
+    Args:
+        grids: grid folder -> run folder -> its record; the runs each grid contributes (each
+            grid already pooled by ``pool``).
+
+    Raises:
+        MixedArchitectures: one line naming the grids (and runs) at fault.
+    """
+    found: dict[Path, str] = {}
+    for grid, records in grids.items():
+        kinds: dict[str, list[Path]] = {}
+        for run, record in records.items():
+            kinds.setdefault(architecture(record), []).append(run)
+        if len(kinds) > 1:
+            raise MixedArchitectures(f"{grid}: runs of several architectures in one grid ("
+                                     + " / ".join(f"{kind} ({_runs([str(r) for r in runs])})"
+                                                  for kind, runs in sorted(kinds.items()))
+                                     + "); one grid per architecture")
+        if not kinds:
+            raise MixedArchitectures(f"{grid}: no run to read its architecture from")
+        found[grid] = next(iter(kinds))
+    seen: dict[str, Path] = {}
+    for grid, kind in found.items():
+        if kind in seen:
+            raise MixedArchitectures(f"{seen[kind]} and {grid} are both {kind} grids; give one "
+                                     "grid per architecture (their runs are never pooled)")
+        seen[kind] = grid
+    data = {grid: _data(next(iter(records.values()))) for grid, records in grids.items()}
+    first = next(iter(data))
+    for grid, settings in data.items():
+        differing = sorted(k for k in settings.keys() | data[first].keys()
+                           if settings.get(k) != data[first].get(k))
+        if differing:
+            raise MixedArchitectures(f"{first} and {grid} differ in their data "
+                                     f"({', '.join(differing)}): architectures are compared on "
+                                     "one data set only")
+    return found
+
+
+def _data(record: RunRecord) -> dict[str, Any]:
+    """The run's data settings but where the data lay, and its data fingerprint."""
+    return {**{name: value for name, value in settings_of(record.configs()).items()
+               if name.startswith("run.data.")
+               and name.removeprefix("run.data.") not in DataConfig.output_fields
+               and name != "run.data.annotations"},
+            "data_fingerprint": record.fingerprint}
 
 
 def record_key(record: RunRecord) -> RunKey:
