@@ -44,9 +44,9 @@ import pandas as pd
 from rnn_seg.runs.folder import RunFolderError, is_finished, read_json
 
 from ..grid.folder import GRID_RECORD
-from ..models.run_record import RunRecord, read_run_record
+from ..models.run_record import read_run_record
 from .captions import describe_runs
-from .collect import CONFIG_COLUMNS, finite, key_from_path, per_fold, recorded_runs, run_rows
+from .collect import finite, key_from_path, per_fold, recorded_runs, run_rows
 from .latex import escape, mean_std, requires
 from .paired import ConfigId
 from .pooling import apart, architecture_name
@@ -159,6 +159,12 @@ def _seconds(run_dir: Path) -> float:
 def read_architectures(grids: list[Path]) -> list[ArchitectureEvidence]:
     """``architecture_evidence`` of every grid, checked to be one architecture each, on one data
     set (``pooling.apart``)."""
+    seen: dict[Path, Path] = {}
+    for grid in map(Path, grids):
+        if grid.resolve() in seen:
+            raise ValueError(f"{grid}: given twice (as {seen[grid.resolve()]}); one grid per "
+                             "architecture")
+        seen[grid.resolve()] = grid
     evidence = [architecture_evidence(Path(grid)) for grid in grids]
     apart({part.grid: {part.grid / _path(row): read_run_record(part.grid / _path(row))
                        for row in part.runs.head(1).itertuples(index=False)}
@@ -338,7 +344,8 @@ def measured_table2(evidence: list[ArchitectureEvidence]) -> tuple[pd.DataFrame,
                                                     labels=labels))
         frame["config"] = part.architecture + "/" + frame.config
         parts.append(frame)
-        measured += [labels[config] for config in dict.fromkeys(frame.config.str.split("/").str[-1])]
+        shown = dict.fromkeys(frame.config.str.split("/").str[-1])
+        measured += [labels[config] for config in shown]
         budgets.append(f"{part.name}: {describe_runs(part.grid, runs).sentence()}")
     if not parts:
         return pd.DataFrame(), ""
