@@ -292,3 +292,28 @@ def test_the_evidence_of_a_grid_names_its_architecture(grids):
     assert isinstance(part, ArchitectureEvidence)
     assert part.architecture == "ms-tcn" and part.name == "MS-TCN"
     assert set(part.runs.architecture) == {"ms-tcn"} and part.left_out == {}
+
+
+def test_grids_are_compared_per_annotation_version_whose_labels_the_fingerprint_covers(
+        tmp_path):
+    """The data fingerprint covers the labels: a grid whose first run is on the original labels
+    and one on the revised labels only are the same data when each version's fingerprint
+    agrees."""
+    def fingerprinted(grid: Path, prints: dict[str, str]) -> Path:
+        for config in grid.glob("runs/*/*/*/seed*/*/config.json"):
+            record = json.loads(config.read_text())
+            annotations = config.relative_to(grid).parts[1]
+            config.write_text(json.dumps({**record, "data_fingerprint": prints[annotations]}))
+        return grid
+
+    originals_first = fingerprinted(write_fake_grid(
+        tmp_path / "lstm", seeds=(0,), experiments=(LSTM_EXPERIMENTS[2], *TCN_EXPERIMENTS[:2])),
+        {"revised": "r", "original": "o"})
+    revised_only = fingerprinted(write_fake_grid(
+        tmp_path / "ed", seeds=(0,), encoder="ed-tcn", experiments=TCN_EXPERIMENTS[:1]),
+        {"revised": "r"})
+    assert [p.architecture for p in read_architectures([originals_first, revised_only])] == [
+        "lstm-16", "ed-tcn"]
+    fingerprinted(revised_only, {"revised": "x"})
+    with pytest.raises(MixedArchitectures, match="data_fingerprint; revised labels"):
+        read_architectures([originals_first, revised_only])

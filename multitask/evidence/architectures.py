@@ -44,7 +44,7 @@ import pandas as pd
 from rnn_seg.runs.folder import RunFolderError, is_finished, read_json
 
 from ..grid.folder import GRID_RECORD
-from ..models.run_record import read_run_record
+from ..models.run_record import RunRecord, read_run_record
 from .captions import describe_runs
 from .collect import finite, key_from_path, per_fold, recorded_runs, run_rows
 from .latex import escape, mean_std, requires
@@ -74,6 +74,7 @@ class ArchitectureEvidence:
     runs: pd.DataFrame              # collect.run_rows' columns, "architecture" and "seconds"
     left_out: dict[str, str]        # configuration label -> what of it was left out and why
     recorded: dict[str, int]        # configuration label -> runs the grid records
+    records: dict[Path, RunRecord]  # each run's folder -> its config.json
 
     @property
     def name(self) -> str:
@@ -114,7 +115,7 @@ def architecture_evidence(grid: Path) -> ArchitectureEvidence:
     kinds = apart({grid: records})
     runs.insert(0, "architecture", kinds[grid])
     runs["seconds"] = [_seconds(run) for run in records]
-    return ArchitectureEvidence(grid, kinds[grid], runs, left_out, counts)
+    return ArchitectureEvidence(grid, kinds[grid], runs, left_out, counts, records)
 
 
 def _path(row) -> Path:
@@ -166,9 +167,7 @@ def read_architectures(grids: list[Path]) -> list[ArchitectureEvidence]:
                              "architecture")
         seen[grid.resolve()] = grid
     evidence = [architecture_evidence(Path(grid)) for grid in grids]
-    apart({part.grid: {part.grid / _path(row): read_run_record(part.grid / _path(row))
-                       for row in part.runs.head(1).itertuples(index=False)}
-           for part in evidence})
+    apart({part.grid: part.records for part in evidence})
     return evidence
 
 

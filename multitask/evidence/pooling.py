@@ -71,7 +71,8 @@ def is_architecture(text: str) -> bool:
 
 def apart(grids: dict[Path, dict[Path, RunRecord]]) -> dict[Path, str]:
     """Check that each grid holds one architecture, no two grids the same one, and every grid the
-    same data (every recorded data setting but where the data lay); the architecture of each.
+    same data (every recorded data setting but where the data lay, and the data's fingerprint,
+    per annotation version); the architecture of each.
 
     Args:
         grids: grid folder -> run folder -> its record; the runs each grid contributes (each
@@ -99,16 +100,26 @@ def apart(grids: dict[Path, dict[Path, RunRecord]]) -> dict[Path, str]:
             raise MixedArchitectures(f"{seen[kind]} and {grid} are both {kind} grids; give one "
                                      "grid per architecture (their runs are never pooled)")
         seen[kind] = grid
-    data = {grid: _data(next(iter(records.values()))) for grid, records in grids.items()}
-    first = next(iter(data))
-    for grid, settings in data.items():
-        differing = sorted(k for k in settings.keys() | data[first].keys()
-                           if settings.get(k) != data[first].get(k))
-        if differing:
-            raise MixedArchitectures(f"{first} and {grid} differ in their data "
-                                     f"({', '.join(differing)}): architectures are compared on "
-                                     "one data set only")
+    seen_data: dict[str, tuple[Path, dict[str, Any]]] = {}    # annotations -> first grid's
+    for grid, records in grids.items():
+        for annotations, settings in _data_by_annotations(records).items():
+            first, known = seen_data.setdefault(annotations, (grid, settings))
+            differing = sorted(k for k in settings.keys() | known.keys()
+                               if settings.get(k) != known.get(k))
+            if differing:
+                raise MixedArchitectures(f"{first} and {grid} differ in their data "
+                                         f"({', '.join(differing)}; {annotations} labels): "
+                                         "architectures are compared on one data set only")
     return found
+
+
+def _data_by_annotations(records: dict[Path, RunRecord]) -> dict[str, dict[str, Any]]:
+    """Annotation version -> the data settings of the first of ``records`` with it (``_data``;
+    the data fingerprint covers the labels, so it differs between versions)."""
+    first: dict[str, RunRecord] = {}
+    for record in records.values():
+        first.setdefault(record.config.data.annotations, record)
+    return {annotations: _data(record) for annotations, record in first.items()}
 
 
 def _data(record: RunRecord) -> dict[str, Any]:
