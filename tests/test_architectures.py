@@ -4,6 +4,7 @@ cross-architecture table, on fake grids (no training)."""
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +17,7 @@ from multitask.evidence.architectures import (ArchitectureEvidence, architecture
 from multitask.evidence.claims import TCN_CLAIMS, Claim, evaluate
 from multitask.evidence.claims_table import claims_note
 from multitask.evidence.cli import main as tables_main
+from multitask.evidence.latex import required_packages
 from multitask.evidence.paired import ConfigId, Contrast, holm
 from multitask.evidence.pooling import MixedArchitectures, apart
 from multitask.grid.spec import Experiment
@@ -317,3 +319,26 @@ def test_grids_are_compared_per_annotation_version_whose_labels_the_fingerprint_
     fingerprinted(revised_only, {"revised": "x"})
     with pytest.raises(MixedArchitectures, match="data_fingerprint; revised labels"):
         read_architectures([originals_first, revised_only])
+
+
+def test_the_latex_compiles_and_fits_an_ieee_page(grids, tmp_path):
+    from tests.test_latex import IEEE_TWO_COLUMN, _pdflatex
+
+    if shutil.which("pdflatex") is None:
+        pytest.skip("pdflatex is not installed (Debian: apt-get install texlive-latex-base "
+                    "texlive-latex-recommended)")
+    partial = write_fake_grid(tmp_path / "wide", seeds=(0, 1), hidden=1024,
+                              experiments=TCN_EXPERIMENTS[:2], seconds=3000.0)
+    _unfinish(partial, "A-fixed", 1, "BCDEF")
+    out = tmp_path / "out"
+    assert tables_main(["--architectures", str(grids["lstm"]), str(partial),
+                        str(grids["ed-tcn"]), str(grids["ms-tcn"]), "--out", str(out)]) == 0
+    for name in ("architectures", "claims", "table2"):
+        tex = (out / f"{name}.tex").read_text()
+        if name == "claims":
+            tex += (out / "claims_note.tex").read_text()
+        document = "\n".join([IEEE_TWO_COLUMN, *required_packages(tex), r"\begin{document}",
+                              tex, r"\end{document}", ""])
+        log = _pdflatex(tmp_path, name, document)
+        assert "Overfull \\hbox" not in log, f"{name} is wider than the page"
+        assert "Float too large" not in log, f"{name} is higher than a page"
