@@ -342,3 +342,18 @@ def test_the_latex_compiles_and_fits_an_ieee_page(grids, tmp_path):
         log = _pdflatex(tmp_path, name, document)
         assert "Overfull \\hbox" not in log, f"{name} is wider than the page"
         assert "Float too large" not in log, f"{name} is higher than a page"
+
+
+def test_one_table_never_holds_runs_of_two_encoders(grids, tmp_path, capsys):
+    """Runs trained one by one: an LSTM's model A and an ED-TCN's APc would be rows of one
+    table, and --compare would pair them as one model's configurations."""
+    collection = tmp_path / "runs"
+    for name, grid, config in (("lstm_A", grids["lstm"], "A-fixed"),
+                               ("edtcn_APc", grids["ed-tcn"], "APc-fixed")):
+        shutil.copytree(grid / "runs/revised/bidirectional" / config / "seed0/B",
+                        collection / name)
+    assert tables_main([str(collection), "--out", str(tmp_path / "tables")]) == 2
+    error = capsys.readouterr().err
+    assert "runs of several encoders (ed-tcn (" in error and "lstm (" in error
+    assert "--architectures" in error and len(error.strip().splitlines()) == 1
+    assert not (tmp_path / "tables").exists()

@@ -44,6 +44,7 @@ import pandas as pd
 from rnn_seg.runs.folder import RunFolderError, is_finished, read_json
 
 from ..grid.folder import GRID_RECORD
+from ..grid.spec import RunKey
 from ..models.run_record import RunRecord, read_run_record
 from .captions import describe_runs
 from .collect import finite, key_from_path, per_fold, recorded_runs, run_rows
@@ -119,8 +120,9 @@ def architecture_evidence(grid: Path) -> ArchitectureEvidence:
 
 
 def _path(row) -> Path:
-    return (Path("runs") / row.annotations / row.direction / f"{row.variant}-{row.weighting}"
-            / f"seed{row.seed}" / row.fold)
+    """The run folder (relative to its grid) of a row of ``collect.run_rows``."""
+    return RunKey(row.annotations, row.direction, row.variant, row.weighting, int(row.seed),
+                  row.fold).path()
 
 
 def _labels(runs: pd.DataFrame) -> list[str]:

@@ -17,7 +17,9 @@ or not a grid's spec vouches for the runs.
   must agree on every other setting, or the table is refused with the list of the settings
   that differ and the runs of each value (``MixedSettings``), with or without
   ``--allow-incomplete``: there is no row to put them in. Runs that differ so are never taken for
-  two runs of one fold (duplicates).
+  two runs of one fold (duplicates). Runs of several encoders (the LSTM, ED-TCN, MS-TCN) are
+  refused in one table even in different rows: its rows would compare them as one model's
+  configurations;
 * runs of different architectures (``architecture``: the LSTM at each width, ED-TCN, MS-TCN)
   are kept apart: a table of several architectures reads one grid per architecture, each
   pooled by the rule above, tags each run with its grid's architecture and pairs nothing across
@@ -167,9 +169,19 @@ def pool(records: dict[Path, RunRecord], where: Path | str, varying: tuple[str, 
             width and schedule (none for a table whose rows are configurations).
 
     Raises:
-        MixedSettings: naming, per row whose runs differ, each setting that differs and the runs
-            of each of its values.
+        MixedSettings: runs of several encoders (an LSTM, ED-TCN, MS-TCN: a table of one grid
+            would pair them as one model's configurations); or, naming, per row whose runs
+            differ, each setting that differs and the runs of each of its values.
     """
+    encoders: dict[str, list[str]] = {}
+    for run, record in records.items():
+        encoders.setdefault(record.config.encoder.kind, []).append(str(run))
+    if len(encoders) > 1:
+        raise MixedSettings(
+            f"{where}: runs of several encoders ("
+            + " / ".join(f"{kind} ({_runs(runs)})" for kind, runs in sorted(encoders.items()))
+            + "), so no table pools or pairs them. Tabulate each encoder's runs from a folder "
+            "of their own; multitask-tables --architectures puts grids of several side by side.")
     rows: dict[tuple, dict[Path, dict]] = {}
     for run, record in records.items():
         key = record_key(record)
