@@ -33,8 +33,7 @@ def write_fake_grid(root: Path, seeds: tuple[int, ...] = (0, 1), hidden: int = 1
                     experiments: tuple[Experiment, ...] = PAPER_EXPERIMENTS,
                     schedule_factors: dict[str, float] | None = None,
                     per_class: bool = False, fingerprint: str | None = None,
-                    encoder: str = "lstm", seconds: float | None = None,
-                    data_dir: Path | None = None) -> Path:
+                    encoder: str = "lstm", seconds: float | None = None) -> Path:
     """Every run of a grid (default: the paper's, 22 configurations) over 8 folds and ``seeds``
     under ``root``; every variant at the paper's relative length unless ``schedule_factors``.
     ``per_class``: metrics.json holds per-class precision, recall, F1 and the confusion matrices
@@ -44,10 +43,9 @@ def write_fake_grid(root: Path, seeds: tuple[int, ...] = (0, 1), hidden: int = 1
     GradNorm or ordered head's settings are not written); without it, grid.json records no spec,
     as an early version's. ``encoder``: a TCN's grid (``hidden``, ``epochs`` and
     ``schedule_factors`` then unused: its reference schedule). ``seconds``: every run's
-    ``timing.json`` records this many seconds of training. ``data_dir``: the release the grid
-    records (default: a folder that does not exist)."""
+    ``timing.json`` records this many seconds (data loading and training)."""
     lstm = encoder == "lstm"
-    spec = GridSpec(data_dir=str(data_dir or root / "data" / "Suturing"), seeds=seeds,
+    spec = GridSpec(data_dir=str(root / "data" / "Suturing"), seeds=seeds,
                     hidden=hidden if lstm else None, epochs=epochs if lstm else None,
                     experiments=experiments, encoder=encoder,
                     schedule_factors=(schedule_factors or {}) if lstm else None)
