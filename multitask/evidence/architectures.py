@@ -25,8 +25,9 @@ writes into ``--out``:
   per run (``seconds_*``: the seconds its runs' ``timing.json`` records, every phase of every
   session, on the machine and with the workers that ran it: compare within a grid, or across
   grids run alike);
-* ``claims.csv`` / ``.tex``, ``claims_note.tex``, ``claims_config.json``: the family "progress
-  heads help TCN backbones" (``claims.TCN_CLAIMS``, 12 claims, Holm over 12) on the ED-TCN and
+* ``claims.csv`` / ``.tex``, ``claims_note.tex``, ``claims_config.json``: "progress heads help
+  TCN backbones" (``claims.TCN_CLAIMS``, 12 claims in three families of 4, one per score, Holm
+  within each) on the ED-TCN and
   MS-TCN grids given (a backbone not given: its claims untested, p = 1);
 * ``table2.csv`` / ``.tex``: the paper's Table II (original labels) with our measured rows:
   model A, APc and APoc of an LSTM grid that ran them, model A of each TCN grid, beside the

@@ -63,8 +63,8 @@ def write_claims(runs: pd.DataFrame, out: Path, config: StatsConfig = StatsConfi
         "test": "two-sided exact sign-flip test of the mean per-fold difference, every one of the "
                 f"2^n sign vectors (n <= {MAX_EXACT_FOLDS}); interval: the shifts it does not "
                 "reject",
-        "families": "the claims of one quoted sentence (claim id prefix); Holm within each, "
-                    "over its declared size (claims not tested count as p = 1)",
+        "families": f"the claims of one quoted sentence{_and_score(table)} (claim id prefix); "
+                    "Holm within each, over its declared size (claims not tested count as p = 1)",
         "power": "probability of the claimed verdict before the family's correction, fold "
                  "differences normal with the paper's mean and our sd; simulated once per number "
                  f"of folds, reported to {POWER_DECIMALS} decimals",
@@ -164,7 +164,7 @@ def _bound(value: float, margin: float = 0.0) -> str:
 def _caption(table: pd.DataFrame, config: StatsConfig, budget: str) -> str:
     """What is compared, in two sentences, and ``budget``; the method is in ``claims_note``."""
     spread = _spread(table)
-    return (f"{_subject(table)} tested on our runs, one family per quoted sentence: mean "
+    return (f"{_subject(table)} tested on our runs, {_families(table)}: mean "
             f"per-fold paired differences in percentage points{spread}, exact sign-flip tests, "
             "Holm's correction within each family. Method, verdicts and abbreviations: the "
             "note to this table." + (f" {budget}" if budget else ""))
@@ -175,6 +175,17 @@ def _spread(table: pd.DataFrame) -> str:
     folds, seeds = table.folds.dropna(), table.seeds.dropna()
     return ("" if folds.empty else
             f" over {_span(folds)} LOUO folds, {_span(seeds)} seed(s) per model and fold")
+
+
+def _families(table: pd.DataFrame) -> str:
+    """How the claims form families, for the caption and the note."""
+    return f"one family per quoted sentence{_and_score(table)}"
+
+
+def _and_score(table: pd.DataFrame) -> str:
+    """`` and score`` where a sentence's claims are split into one family per score (the TCN
+    conjecture's, ``claims.TCN_CLAIMS``), else empty."""
+    return " and score" if table.family.nunique() > table.quote.nunique() else ""
 
 
 def _subject(table: pd.DataFrame) -> str:
@@ -211,7 +222,7 @@ def claims_note(table: pd.DataFrame, config: StatsConfig = StatsConfig(),
         "% The method of the claims table (claims.tex, multitask-tables): \\input this file "
         "beneath the table or in an appendix.\n"
         f"\\noindent\\textbf{{Notes to Table~\\ref{{tab:claims}}.}} {_subject(table)} tested "
-        "on our runs, one family per quoted sentence. Differences in "
+        f"on our runs, {_families(table)}. Differences in "
         f"percentage points: the mean of per-fold paired differences{spread} (seeds averaged "
         f"within a fold).{paper_column}{expected} {_level(config)} CI and $p$: the exact "
         "sign-flip test over all $2^n$ sign vectors of the $n$ folds, and the interval that inverts it (it "
