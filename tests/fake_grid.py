@@ -33,7 +33,8 @@ def write_fake_grid(root: Path, seeds: tuple[int, ...] = (0, 1), hidden: int = 1
                     experiments: tuple[Experiment, ...] = PAPER_EXPERIMENTS,
                     schedule_factors: dict[str, float] | None = None,
                     per_class: bool = False, fingerprint: str | None = None,
-                    precision: str = "fp32", loops: str = "graph", scores_seed: int = 0) -> Path:
+                    precision: str = "fp32", loops: str = "graph", scores_seed: int = 0,
+                    encoder: str = "lstm") -> Path:
     """Every run of a grid (default: the paper's, 22 configurations) over 8 folds and ``seeds``
     under ``root``; every variant at the paper's relative length unless ``schedule_factors``.
     ``per_class``: metrics.json holds per-class precision, recall, F1 and the confusion matrices
@@ -42,10 +43,15 @@ def write_fake_grid(root: Path, seeds: tuple[int, ...] = (0, 1), hidden: int = 1
     so that the tables check every run against it (fixed weightings and offline models only: a
     GradNorm or ordered head's settings are not written); without it, grid.json records no spec,
     as an early version's. ``precision``, ``loops``: the execution path every config.json records;
-    ``scores_seed`` seeds the fake scores (another value: other scores)."""
-    spec = GridSpec(data_dir=str(root / "data" / "Suturing"), seeds=seeds, hidden=hidden,
-                    epochs=epochs, experiments=experiments,
-                    schedule_factors=schedule_factors or {}, precision=precision, loops=loops)
+    ``scores_seed`` seeds the fake scores (another value: other scores); ``encoder``: the
+    grid's (``GridSpec.encoder``); a TCN trains with its reference's size and schedule, so
+    ``hidden``, ``epochs`` and ``schedule_factors`` are an LSTM's alone."""
+    lstm = encoder == "lstm"
+    spec = GridSpec(data_dir=str(root / "data" / "Suturing"), seeds=seeds,
+                    hidden=hidden if lstm else None, epochs=epochs if lstm else None,
+                    experiments=experiments,
+                    schedule_factors=(schedule_factors or {}) if lstm else None,
+                    precision=precision, loops=loops, encoder=encoder)
     rng = np.random.default_rng(scores_seed)
     keys = expand(spec, FOLDS)
     for key in keys:
