@@ -96,7 +96,9 @@ def test_outcome_against_the_margin():
     ("seed", "no finished run of A-fixed, seed 1"),
     ("same path", "ran on the same execution path (graph loops, fp32): nothing to compare"),
     ("two paths", "ran on more than one execution path"),
-    ("margin", "--margin must be above 0 points (value: 0.0)"),
+    ("margin", "--margin must be a finite number of points above 0 (value: 0.0)"),
+    ("infinite margin", "--margin must be a finite number of points above 0 (value: inf)"),
+    ("nan margin", "--margin must be a finite number of points above 0 (value: nan)"),
 ])
 def test_what_cannot_be_compared_is_a_one_line_error_and_writes_nothing(tmp_path, capsys, case,
                                                                          message):
@@ -114,7 +116,7 @@ def test_what_cannot_be_compared_is_a_one_line_error_and_writes_nothing(tmp_path
         record = json.loads(config.read_text())
         record["run"]["encoder"]["loops"] = "graph"
         config.write_text(json.dumps(record))
-    margin = "0" if case == "margin" else "2.0"
+    margin = {"margin": "0", "infinite margin": "inf", "nan margin": "nan"}.get(case, "2.0")
     assert _compare(option, reference, tmp_path / "out", margin) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err

@@ -37,6 +37,7 @@ difference).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -210,12 +211,12 @@ def write_execution(option_grid: Path, reference_grid: Path, margin: float, out:
     """The three CSVs of ``option_grid`` against ``reference_grid`` into ``out``; the paths.
 
     Raises:
-        ValueError: one line: a margin not above 0, an unfinished option grid, a reference
+        ValueError: one line: a margin not a finite number above 0, an unfinished option grid, a reference
             lacking a run the option has, a grid of two paths, runs differing in a setting other
             than the path (``pooling.MixedSettings``).
     """
-    if not margin > 0:
-        raise ValueError(f"--margin must be above 0 points (value: {margin})")
+    if not 0 < margin < math.inf:
+        raise ValueError(f"--margin must be a finite number of points above 0 (value: {margin})")
     option = option_part(Path(option_grid))
     reference = reference_part(Path(reference_grid), option)
     if option.path == reference.path:
