@@ -78,6 +78,43 @@ def test_a_model_comparison_in_each_grid_and_their_difference(tmp_path):
         assert row[f"{side}_verdict"] == expected
 
 
+def test_each_configuration_is_compared_with_a_of_its_labels_and_direction(tmp_path):
+    models = MODELS + (Experiment(variants=("A", "APoc"), directions=("forward",)),
+                       Experiment(variants=("A", "APoc"), weightings=("fixed", "gradnorm"),
+                                  annotations=("original",)))
+    reference = write_fake_grid(tmp_path / "ref", experiments=models, scores_seed=0)
+    option = write_fake_grid(tmp_path / "fused", experiments=models, scores_seed=1,
+                             loops="fused")
+    assert _compare(option, reference, tmp_path / "out") == 0
+    contrasts = pd.read_csv(tmp_path / "out" / "execution_contrasts.csv")
+    assert sorted(contrasts.contrast.unique()) == [
+        "APoc-gradnorm - A-fixed", "forward/APoc-fixed - forward/A-fixed",
+        "original/APoc-fixed - original/A-fixed",
+        "original/APoc-gradnorm - original/A-fixed"]
+    runs, _ = run_rows(option)
+    original = runs[runs.annotations == "original"]
+    gain = (original[original.variant == "APoc"].query("weighting == 'gradnorm'")
+            .groupby("fold").gesture_edit.mean()
+            - original[original.variant == "A"].groupby("fold").gesture_edit.mean())
+    row = contrasts[(contrasts.contrast == "original/APoc-gradnorm - original/A-fixed")
+                    & (contrasts.metric == "gesture_edit")].iloc[0]
+    assert row.option_diff == pytest.approx(gain.mean(), abs=1e-4)
+    assert all(verdict == "no difference detected" or verdict.endswith("original/A-fixed")
+               for verdict in contrasts.loc[contrasts.contrast.str.startswith("original/"),
+                                            ["option_verdict", "reference_verdict"]].values.ravel())
+
+
+def test_a_grid_without_a_has_a_contrasts_table_of_the_header_alone(tmp_path):
+    reference = _grid(tmp_path, "ref", 0)
+    option = write_fake_grid(tmp_path / "fused", experiments=MODELS[1:], scores_seed=1,
+                             loops="fused")
+    assert _compare(option, reference, tmp_path / "out") == 0
+    contrasts = pd.read_csv(tmp_path / "out" / "execution_contrasts.csv")
+    assert contrasts.empty and {"contrast", "diff_of_diffs", "same_reading"} <= set(contrasts)
+    table = pd.read_csv(tmp_path / "out" / "execution.csv")
+    assert list(table.configuration.unique()) == ["APoc-gradnorm"]
+
+
 def test_outcome_against_the_margin():
     def result(differences):
         values = {f: np.array([d]) for f, d in zip(FOLDS, differences)}

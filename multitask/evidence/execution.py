@@ -23,10 +23,12 @@ equivalence ``margin`` (percentage points):
 * ``different``: the whole interval lies beyond +margin or below -margin;
 * ``inconclusive``: otherwise.
 
-Beside it, every multi-task configuration minus ``A-fixed`` on each metric in each grid (the
+Beside it, every other configuration minus ``A-fixed`` of its labels and direction
+(``baseline_of``: ``original/APoc-gradnorm - original/A-fixed``) on each metric in each grid (the
 comparison a user makes), with the verdict by ``claims.csv``'s rule (p <= alpha: ``X above A`` or
 ``X below A``; else ``no difference detected``), and the difference of the two contrasts
-(option's minus reference's, paired by fold).
+(option's minus reference's, paired by fold). A configuration whose ``A-fixed`` the option's grid
+lacks has no contrast (a grid of ``APoc-gradnorm`` alone: a table of the header alone).
 
 Output (``write_execution``): ``execution.csv`` (configuration, metric, folds, seeds, option and
 reference path, option_mean, reference_mean (means over folds of the per-fold seed means), diff,
@@ -55,8 +57,14 @@ from .pooling import pool
 #: The settings an execution path may change among those that change results (``pooling``).
 EXECUTION = ("run.encoder.precision",)
 METRICS = ("gesture_accuracy", "gesture_edit", "gesture_f1@10")
-#: The configuration every multi-task model is compared with.
+#: The configuration every other one is compared with (of its labels and direction:
+#: ``baseline_of``).
 BASELINE = ConfigId("A", "fixed")
+#: The columns of ``execution_contrasts.csv``.
+CONTRAST_COLUMNS = ["contrast", "metric",
+                    *(f"{side}_{name}" for side in ("option", "reference")
+                      for name in ("diff", "ci_low", "ci_high", "p", "verdict")),
+                    "same_reading", "diff_of_diffs", "dd_ci_low", "dd_ci_high", "dd_p"]
 OUTCOMES = ("equivalent", "different", "inconclusive")
 
 
@@ -140,12 +148,17 @@ def outcome(result: PairedResult, margin: float) -> str:
     return "inconclusive"
 
 
+def baseline_of(x: ConfigId) -> ConfigId:
+    """``A-fixed`` of ``x``'s labels and direction: the configuration ``x`` is compared with."""
+    return ConfigId(BASELINE.variant, BASELINE.weighting, x.annotations, x.direction)
+
+
 def reading(result: PairedResult, x: ConfigId, alpha: float) -> str:
-    """``claims.csv``'s rule for ``x - A``: ``<x> above A``, ``<x> below A`` or ``no difference
-    detected``."""
+    """``claims.csv``'s rule for ``x - A`` (``baseline_of``): ``<x> above <A>``, ``<x> below
+    <A>`` or ``no difference detected``."""
     if not result.p_value <= alpha:
         return "no difference detected"
-    return f"{x.label} {'above' if result.mean > 0 else 'below'} {BASELINE.label}"
+    return f"{x.label} {'above' if result.mean > 0 else 'below'} {baseline_of(x).label}"
 
 
 def execution_tables(option: GridPart, reference: GridPart, margin: float,
@@ -154,7 +167,8 @@ def execution_tables(option: GridPart, reference: GridPart, margin: float,
     """``execution.csv``, ``execution_contrasts.csv`` and ``execution_per_fold.csv`` (module
     docstring) of ``option`` against ``reference`` at ``margin`` points."""
     rows, contrasts, folds = [], [], []
-    for config_id in option.configs():
+    configs = option.configs()
+    for config_id in configs:
         for metric in METRICS:
             sides = {"option": seed_values(option.runs, config_id, metric),
                      "reference": seed_values(reference.runs, config_id, metric)}
@@ -174,15 +188,18 @@ def execution_tables(option: GridPart, reference: GridPart, margin: float,
                        "option": sides["option"][fold].mean(),
                        "reference": sides["reference"][fold].mean(), "difference": d}
                       for fold, d in zip(result.folds, result.differences)]
-            if config_id != BASELINE and BASELINE in option.configs():
+            if config_id != baseline_of(config_id) and baseline_of(config_id) in configs:
                 contrasts.append(_contrast(option, reference, config_id, metric, config))
-    return pd.DataFrame(rows), pd.DataFrame(contrasts), pd.DataFrame(folds)
+    return (pd.DataFrame(rows), pd.DataFrame(contrasts, columns=CONTRAST_COLUMNS),
+            pd.DataFrame(folds))
 
 
 def _contrast(option: GridPart, reference: GridPart, x: ConfigId, metric: str,
               config: StatsConfig) -> dict:
-    """One row of ``execution_contrasts.csv``: ``x - A`` in each grid, and their difference."""
-    contrast = Contrast(x, BASELINE)
+    """One row of ``execution_contrasts.csv``: ``x - A`` (``baseline_of``) in each grid, and
+    their difference."""
+    baseline = baseline_of(x)
+    contrast = Contrast(x, baseline)
     row = {"contrast": contrast.label, "metric": metric}
     readings = {}
     for name, part in (("option", option), ("reference", reference)):
@@ -194,9 +211,9 @@ def _contrast(option: GridPart, reference: GridPart, x: ConfigId, metric: str,
     both = paired_sides(
         f"({contrast.label}) option - reference", metric,
         {"option x": (1, seed_values(option.runs, x, metric)),
-         "option A": (-1, seed_values(option.runs, BASELINE, metric)),
+         "option A": (-1, seed_values(option.runs, baseline, metric)),
          "reference x": (-1, seed_values(reference.runs, x, metric)),
-         "reference A": (1, seed_values(reference.runs, BASELINE, metric))}, config)
+         "reference A": (1, seed_values(reference.runs, baseline, metric))}, config)
     return row | {"same_reading": readings["option"] == readings["reference"],
                   "diff_of_diffs": both.mean, "dd_ci_low": both.ci_low,
                   "dd_ci_high": both.ci_high, "dd_p": both.p_value}
