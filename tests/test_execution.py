@@ -130,9 +130,14 @@ def test_outcome_against_the_margin():
 @pytest.mark.parametrize("case, message", [
     ("width", "run.encoder.hidden"),
     ("unfinished", "31 of its 32 runs have finished"),
-    ("seed", "no finished run of A-fixed, seed 1"),
+    ("seed", "no usable run of A-fixed, seed 1, fold B: "),
     ("same path", "ran on the same execution path (graph loops, fp32): nothing to compare"),
     ("two paths", "ran on more than one execution path"),
+    ("unfinished reference run", "no usable run of A-fixed, seed 1, fold C: not finished: "),
+    ("unreadable option run", "seed1/C/config.json: unreadable or not valid JSON"),
+    ("unreadable reference run", "no usable run of A-fixed, seed 1, fold C: unreadable "
+                                 "configuration: "),
+    ("reference not a grid", "not a grid: "),
     ("margin", "--margin must be a finite number of points above 0 (value: 0.0)"),
     ("infinite margin", "--margin must be a finite number of points above 0 (value: inf)"),
     ("nan margin", "--margin must be a finite number of points above 0 (value: nan)"),
@@ -148,6 +153,14 @@ def test_what_cannot_be_compared_is_a_one_line_error_and_writes_nothing(tmp_path
         option = _grid(tmp_path, "graph", 1)
     if case == "unfinished":
         (option / "runs/revised/bidirectional/A-fixed/seed1/C/finished.json").unlink()
+    run = "runs/revised/bidirectional/A-fixed/seed1/C"
+    if case == "unfinished reference run":
+        (reference / run / "finished.json").unlink()
+    if case in ("unreadable option run", "unreadable reference run"):
+        ((option if case == "unreadable option run" else reference) / run
+         / "config.json").write_text("{not json")
+    if case == "reference not a grid":
+        (reference / "grid.json").unlink()
     if case == "two paths":
         config = option / "runs/revised/bidirectional/A-fixed/seed1/C/config.json"
         record = json.loads(config.read_text())

@@ -7,9 +7,11 @@ option's grid repeats configurations of a reference grid (e.g. the committed flo
 path moves the scores, and whether a model comparison reads the same (``results/precision/PLAN.md``
 is the plan it runs).
 
-Evidence: every run the option's grid records must have finished (no interim look); the reference
-must hold, for each of the option's configurations, finished runs of the same seeds on the same
-folds. The runs of both grids must agree on every setting that changes a result but the
+Evidence: every run the option's grid records must have finished (no interim look) and be usable
+(``collect.run_records``: readable, in its place, finite scores); the reference must hold a
+finished, usable run of each of the option's runs (configuration, seed and fold; the refusal names
+the first it lacks and why). The reference's other runs are not the comparison's: they may be
+unfinished, or of other configurations or seeds. The runs of both grids must agree on every setting that changes a result but the
 precision (``pooling.pool`` with ``varying=EXECUTION``); the loops, which are not such a setting,
 are read from each run's ``config.json`` and must be one path per grid. Nothing else may differ:
 a reference of another width, schedule or data is refused with the list of what differs.
@@ -40,6 +42,7 @@ difference).
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -48,6 +51,8 @@ import pandas as pd
 
 from rnn_seg.runs.folder import is_finished
 
+from ..grid.folder import GRID_RECORD
+from ..grid.spec import RunKey
 from ..models.run_record import RunRecord
 from .collect import recorded_runs, run_records
 from .paired import (ConfigId, Contrast, PairedResult, StatsConfig, paired, paired_sides,
@@ -84,35 +89,56 @@ class GridPart:
 
 
 def option_part(grid: Path) -> GridPart:
-    """The option's grid: every run it records, all finished (``ValueError`` naming what is not,
-    one line)."""
-    recorded, unknown = recorded_runs(grid)
-    if unknown:
-        raise ValueError(f"{grid}: not a grid: {unknown[0]}")
-    runs, _, records = run_records(grid, finished_only=True)
+    """The option's grid: every run it records, all finished and usable (``ValueError`` naming
+    what is not, one line)."""
+    recorded = _recorded(grid)
     done = sum(is_finished(grid / run) for run in recorded)
     if done < len(recorded):
         raise ValueError(f"{grid}: {done} of its {len(recorded)} runs have finished: the "
                          "comparison waits for all of them (no interim look)")
+    runs, problems, records = run_records(grid, allow_incomplete=True)
+    if problems:
+        more = f" (and {len(problems) - 1} more problems)" if len(problems) > 1 else ""
+        raise ValueError(f"{grid}: {problems[0]}{more}")
     return GridPart(grid, runs, _path(grid, records), records)
 
 
 def reference_part(grid: Path, option: GridPart) -> GridPart:
     """The reference's runs of the option's configurations, seeds and folds (``ValueError``
-    naming a run the reference lacks, one line)."""
-    runs, _, records = run_records(grid, seeds=tuple(sorted(option.runs.seed.unique())),
-                                   finished_only=True)
+    naming a run the reference lacks and why, one line); its other runs are not read."""
+    _recorded(grid)
+    runs, problems, records = run_records(grid, seeds=tuple(sorted(option.runs.seed.unique())),
+                                          allow_incomplete=True)
     wanted = {_key(record) for record in option.records.values()}
     chosen = {run: record for run, record in records.items() if _key(record) in wanted}
     missing = sorted(wanted - {_key(record) for record in chosen.values()},
                      key=lambda key: (key[0].label, key[1], key[2]))
     if missing:
         config_id, seed, fold = missing[0]
-        raise ValueError(f"{grid}: no finished run of {config_id.label}, seed {seed}, fold "
-                         f"{fold} ({len(missing)} of the option's {len(wanted)} runs lack "
-                         "their reference)")
+        raise ValueError(f"{grid}: no usable run of {config_id.label}, seed {seed}, fold "
+                         f"{fold}: {_why(grid, missing[0], problems)} ({len(missing)} of the "
+                         f"option's {len(wanted)} runs lack their reference)")
     keep = runs[[_row_key(row) in wanted for row in runs.itertuples(index=False)]]
     return GridPart(grid, keep.reset_index(drop=True), _path(grid, chosen), chosen)
+
+
+def _recorded(grid: Path) -> list[Path]:
+    """The runs ``grid``'s grid.json records (``ValueError`` when it has none: not a grid)."""
+    recorded, unknown = recorded_runs(grid)
+    if unknown:
+        raise ValueError(f"{grid}: not a grid: {unknown[0]}")
+    return recorded
+
+
+def _why(grid: Path, key: tuple[ConfigId, int, str], problems: list[str]) -> str:
+    """Why the reference ``grid`` has no usable run of ``key``: the problem ``run_records``
+    found with it, or that its grid.json does not record it."""
+    config_id, seed, fold = key
+    run = grid / RunKey(config_id.annotations, config_id.direction, config_id.variant,
+                        config_id.weighting, seed, fold).path()
+    place = re.compile(re.escape(str(run)) + "(/|:|$)")
+    return next((problem for problem in problems if place.search(problem)),
+                f"{grid / GRID_RECORD} does not record it")
 
 
 def _row_key(row) -> tuple[ConfigId, int, str]:
