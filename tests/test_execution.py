@@ -138,6 +138,7 @@ def test_outcome_against_the_margin():
     ("unreadable reference run", "no usable run of A-fixed, seed 1, fold C: unreadable "
                                  "configuration: "),
     ("reference not a grid", "not a grid: "),
+    ("tcn", "run.encoder.kind"),
     ("margin", "--margin must be a finite number of points above 0 (value: 0.0)"),
     ("infinite margin", "--margin must be a finite number of points above 0 (value: inf)"),
     ("nan margin", "--margin must be a finite number of points above 0 (value: nan)"),
@@ -149,6 +150,9 @@ def test_what_cannot_be_compared_is_a_one_line_error_and_writes_nothing(tmp_path
                                                   experiments=MODELS),
                  "seed": lambda: _grid(tmp_path, "ref", 0, seeds=(0,)),
                  }.get(case, lambda: _grid(tmp_path, "ref", 0))()
+    if case == "tcn":
+        option = write_fake_grid(tmp_path / "tcn", seeds=(0, 1), experiments=MODELS,
+                                 encoder="ed-tcn")
     if case == "same path":
         option = _grid(tmp_path, "graph", 1)
     if case == "unfinished":

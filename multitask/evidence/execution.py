@@ -262,11 +262,11 @@ def write_execution(option_grid: Path, reference_grid: Path, margin: float, out:
         raise ValueError(f"--margin must be a finite number of points above 0 (value: {margin})")
     option = option_part(Path(option_grid))
     reference = reference_part(Path(reference_grid), option)
+    pool(option.records | reference.records, f"{option_grid} against {reference_grid}",
+         varying=EXECUTION)
     if option.path == reference.path:
         raise ValueError(f"{option_grid} and {reference_grid} ran on the same execution path "
                          f"({option.path}): nothing to compare")
-    pool(option.records | reference.records, f"{option_grid} against {reference_grid}",
-         varying=EXECUTION)
     tables = execution_tables(option, reference, margin)
     out.mkdir(parents=True, exist_ok=True)
     written = []
