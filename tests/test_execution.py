@@ -51,6 +51,9 @@ def test_option_minus_reference_per_configuration_and_score(tmp_path):
         outside = r.ci_low > r.margin or r.ci_high < -r.margin
         assert r.outcome == ("equivalent" if inside else "different" if outside
                              else "inconclusive")
+    manifest = json.loads((tmp_path / "out" / "execution.json").read_text())
+    assert (manifest["option"], manifest["reference"], manifest["margin"]) == (
+        str(option), str(reference), 2.0)
     per_fold = pd.read_csv(tmp_path / "out" / "execution_per_fold.csv")
     edit = per_fold[(per_fold.configuration == "APoc-gradnorm")
                     & (per_fold.metric == "gesture_edit")].set_index("fold").difference

@@ -62,7 +62,8 @@ a part whose grid has not finished every run of its seeds is not analysed (no in
 GRID_DIR, every run finished, repeats configurations of the reference GRID on another path (the
 fused loops, bfloat16), all else equal; per configuration and score, the option minus the
 reference paired by fold, equivalent / different / inconclusive against the margin, and whether
-each model's comparison with A reads the same; ``execution*.csv`` in ``--out``.
+each model's comparison with A reads the same; ``execution*.csv`` in ``--out``, listed in
+``execution.json`` with the two grids and the margin.
 
     multitask-tables results/precision/bf16 --reference results/grid --margin 2.0 \
         --out results/precision/bf16-vs-fp32
@@ -100,7 +101,8 @@ MANIFEST = "tables.json"
 WIDTH_MANIFEST = "width.json"
 #: The same for a confirmatory analysis (``--confirm``).
 CONFIRM_MANIFEST = "confirm.json"
-#: The same for an execution path's comparison (``--reference``).
+#: The same for an execution path's comparison (``--reference``); it names the two grids and the
+#: margin too.
 EXECUTION_MANIFEST = "execution.json"
 
 
@@ -422,8 +424,10 @@ def _run(args: argparse.Namespace) -> None:
     manifest = (WIDTH_MANIFEST if args.widths else EXECUTION_MANIFEST if args.reference
                 else MANIFEST)
     kept = () if args.widths or args.reference else _left_alone(args)
-    with staged_outputs(out, manifest, PROG, args.overwrite, kept=kept) as staging, \
-            drawing.shown(PROG):
+    record = ({"option": str(args.grid_dir), "reference": str(args.reference),
+               "margin": args.margin} if args.reference else None)
+    with staged_outputs(out, manifest, PROG, args.overwrite, record=record, kept=kept) \
+            as staging, drawing.shown(PROG):
         if args.widths:
             from .width import write_width
 
