@@ -188,3 +188,17 @@ def test_reference_and_margin_go_together(tmp_path, capsys):
             tables_main([str(grid), *extra, "--out", str(tmp_path / "out")])
         assert exit_.value.code == 2
     assert "--reference needs --margin" in capsys.readouterr().err
+
+
+def test_a_second_call_replaces_the_first_and_a_failed_one_leaves_it(tmp_path):
+    reference = _grid(tmp_path, "ref", 0)
+    out = tmp_path / "out"
+    assert _compare(_grid(tmp_path, "fused", 1, loops="fused"), reference, out) == 0
+    bf16 = _grid(tmp_path, "bf16", 2, precision="bf16", loops="fused")
+    assert _compare(bf16, reference, out, margin="3") == 0
+    written = {path.name: path.read_bytes() for path in out.iterdir()}
+    table = pd.read_csv(out / "execution.csv")
+    assert set(table.option) == {"fused loops, bf16"} and set(table.margin) == {3.0}
+    assert json.loads(written["execution.json"])["option"] == str(bf16)
+    assert _compare(bf16, _grid(tmp_path, "one seed", 0, seeds=(0,)), out) == 2
+    assert {path.name: path.read_bytes() for path in out.iterdir()} == written
