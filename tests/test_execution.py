@@ -202,3 +202,9 @@ def test_a_second_call_replaces_the_first_and_a_failed_one_leaves_it(tmp_path):
     assert json.loads(written["execution.json"])["option"] == str(bf16)
     assert _compare(bf16, _grid(tmp_path, "one seed", 0, seeds=(0,)), out) == 2
     assert {path.name: path.read_bytes() for path in out.iterdir()} == written
+
+
+def test_the_help_shows_the_example_command_on_two_lines():
+    from multitask.evidence import cli
+
+    assert "--margin 2.0 \\\n        --out results/precision/bf16-vs-fp32" in cli.__doc__

@@ -65,7 +65,7 @@ reference paired by fold, equivalent / different / inconclusive against the marg
 each model's comparison with A reads the same; ``execution*.csv`` in ``--out``, listed in
 ``execution.json`` with the two grids and the margin.
 
-    multitask-tables results/precision/bf16 --reference results/grid --margin 2.0 \
+    multitask-tables results/precision/bf16 --reference results/grid --margin 2.0 \\
         --out results/precision/bf16-vs-fp32
 
 A folder of runs trained one by one (``multitask-train``, ``baseline-train``; no grid.json) gets
