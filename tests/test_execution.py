@@ -10,7 +10,7 @@ import pytest
 
 from multitask.evidence.cli import main as tables_main
 from multitask.evidence.collect import run_rows
-from multitask.evidence.execution import outcome
+from multitask.evidence.execution import SMALL_SHIFT, outcome, shift_note
 from multitask.evidence.paired import StatsConfig, paired_sides
 from multitask.grid.spec import Experiment
 from tests.fake_grid import FOLDS, write_fake_grid
@@ -51,6 +51,8 @@ def test_option_minus_reference_per_configuration_and_score(tmp_path):
         outside = r.ci_low > r.margin or r.ci_high < -r.margin
         assert r.outcome == ("equivalent" if inside else "different" if outside
                              else "inconclusive")
+        small = r.outcome == "equivalent" and r.p_value <= 0.05
+        assert (r.note if isinstance(r.note, str) else "") == (SMALL_SHIFT if small else "")
     manifest = json.loads((tmp_path / "out" / "execution.json").read_text())
     assert (manifest["option"], manifest["reference"], manifest["margin"]) == (
         str(option), str(reference), 2.0)
@@ -128,6 +130,10 @@ def test_outcome_against_the_margin():
     assert outcome(result([5.1, 4.8, 5.3, 5.0, 4.9, 5.2, 5.1, 4.7]), 2.0) == "different"
     assert outcome(result([-5.1, -4.8, -5.3, -5.0, -4.9, -5.2, -5.1, -4.7]), 2.0) == "different"
     assert outcome(result([3.0, -2.5, 4.0, -1.0, 2.0, -3.5, 1.0, 0.5]), 2.0) == "inconclusive"
+    shifted = result([0.5, 0.6, 0.4, 0.5, 0.7, 0.3, 0.5, 0.6])
+    assert (outcome(shifted, 2.0), shift_note(shifted, 2.0, 0.05)) == ("equivalent", SMALL_SHIFT)
+    assert shift_note(result([0.1, -0.2, 0.3, 0.0, -0.1, 0.2, 0.1, -0.3]), 2.0, 0.05) == ""
+    assert shift_note(result([5.1, 4.8, 5.3, 5.0, 4.9, 5.2, 5.1, 4.7]), 2.0, 0.05) == ""
 
 
 @pytest.mark.parametrize("case, message", [

@@ -25,6 +25,10 @@ equivalence ``margin`` (percentage points):
 * ``different``: the whole interval lies beyond +margin or below -margin;
 * ``inconclusive``: otherwise.
 
+An *equivalent* endpoint whose test rejects "no difference" (p <= alpha) is noted ``a shift
+smaller than the margin`` (column ``note``; empty otherwise): the path moves the score, by less
+than the margin.
+
 Beside it, every other configuration minus ``A-fixed`` of its labels and direction
 (``baseline_of``: ``original/APoc-gradnorm - original/A-fixed``) on each metric in each grid (the
 comparison a user makes), with the verdict by ``claims.csv``'s rule (p <= alpha: ``X above A`` or
@@ -34,7 +38,7 @@ lacks has no contrast (a grid of ``APoc-gradnorm`` alone: a table of the header 
 
 Output (``write_execution``): ``execution.csv`` (configuration, metric, folds, seeds, option and
 reference path, option_mean, reference_mean (means over folds of the per-fold seed means), diff,
-ci_low, ci_high, p_value, margin, outcome), ``execution_contrasts.csv`` (contrast, metric, each
+ci_low, ci_high, p_value, margin, outcome, note), ``execution_contrasts.csv`` (contrast, metric, each
 grid's diff, interval, p and verdict, same_reading, and the difference of the contrasts with its
 interval and p) and ``execution_per_fold.csv`` (configuration, metric, fold, option, reference,
 difference).
@@ -71,6 +75,8 @@ CONTRAST_COLUMNS = ["contrast", "metric",
                       for name in ("diff", "ci_low", "ci_high", "p", "verdict")),
                     "same_reading", "diff_of_diffs", "dd_ci_low", "dd_ci_high", "dd_p"]
 OUTCOMES = ("equivalent", "different", "inconclusive")
+#: The note of an *equivalent* endpoint whose test rejects "no difference" (``shift_note``).
+SMALL_SHIFT = "a shift smaller than the margin"
 
 
 @dataclass(frozen=True)
@@ -174,6 +180,13 @@ def outcome(result: PairedResult, margin: float) -> str:
     return "inconclusive"
 
 
+def shift_note(result: PairedResult, margin: float, alpha: float) -> str:
+    """``SMALL_SHIFT`` when ``result`` is *equivalent* at ``margin`` and its p <= ``alpha``;
+    "" otherwise."""
+    return SMALL_SHIFT if (outcome(result, margin) == "equivalent"
+                           and result.p_value <= alpha) else ""
+
+
 def baseline_of(x: ConfigId) -> ConfigId:
     """``A-fixed`` of ``x``'s labels and direction: the configuration ``x`` is compared with."""
     return ConfigId(BASELINE.variant, BASELINE.weighting, x.annotations, x.direction)
@@ -209,7 +222,8 @@ def execution_tables(option: GridPart, reference: GridPart, margin: float,
                          "option_mean": means["option"], "reference_mean": means["reference"],
                          "diff": result.mean, "ci_low": result.ci_low,
                          "ci_high": result.ci_high, "p_value": result.p_value,
-                         "margin": margin, "outcome": outcome(result, margin)})
+                         "margin": margin, "outcome": outcome(result, margin),
+                         "note": shift_note(result, margin, config.alpha)})
             folds += [{"configuration": config_id.label, "metric": metric, "fold": fold,
                        "option": sides["option"][fold].mean(),
                        "reference": sides["reference"][fold].mean(), "difference": d}
