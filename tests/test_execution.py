@@ -214,3 +214,20 @@ def test_the_help_shows_the_example_command_on_two_lines():
     from multitask.evidence import cli
 
     assert "--margin 2.0 \\\n        --out results/precision/bf16-vs-fp32" in cli.__doc__
+
+
+def test_progress_only_models_are_left_out_with_a_note(tmp_path, capsys):
+    models = MODELS + (Experiment(variants=("Pc",)),)
+    reference = write_fake_grid(tmp_path / "ref", experiments=models, scores_seed=0)
+    option = write_fake_grid(tmp_path / "fused", experiments=models, scores_seed=1,
+                             loops="fused")
+    assert _compare(option, reference, tmp_path / "out") == 0
+    assert "note: Pc-fixed: no gesture scores" in capsys.readouterr().err
+    table = pd.read_csv(tmp_path / "out" / "execution.csv")
+    assert list(table.configuration.unique()) == ["A-fixed", "APoc-gradnorm"]
+    progress = (Experiment(variants=("Pc",)),)
+    option = write_fake_grid(tmp_path / "pc", experiments=progress, loops="fused")
+    assert _compare(option, reference, tmp_path / "out2") == 2
+    err = capsys.readouterr().err
+    assert "no configuration with gesture scores (it holds Pc-fixed)" in err
+    assert len(err.strip().splitlines()) == 1 and not (tmp_path / "out2").exists()

@@ -435,7 +435,10 @@ def _run(args: argparse.Namespace) -> None:
         elif args.reference:
             from .execution import write_execution
 
-            written = write_execution(args.grid_dir, args.reference, args.margin, staging)
+            written, notes = write_execution(args.grid_dir, args.reference, args.margin,
+                                             staging)
+            for line in notes:
+                print(f"note: {line}", file=sys.stderr)
         else:
             written = write_tables(args.grid_dir, staging, figures=not args.no_figures,
                                    ours_only=args.ours_only, example_trial=args.example_trial,

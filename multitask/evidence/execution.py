@@ -34,7 +34,9 @@ Beside it, every other configuration minus ``A-fixed`` of its labels and directi
 comparison a user makes), with the verdict by ``claims.csv``'s rule (p <= alpha: ``X above A`` or
 ``X below A``; else ``no difference detected``), and the difference of the two contrasts
 (option's minus reference's, paired by fold). A configuration whose ``A-fixed`` the option's grid
-lacks has no contrast (a grid of ``APoc-gradnorm`` alone: a table of the header alone).
+lacks has no contrast (a grid of ``APoc-gradnorm`` alone: a table of the header alone). The
+progress-only models (``Pr``, ``Pc``, ``Poc``) have no gesture scores: they are left out, with a
+note.
 
 Output (``write_execution``): ``execution.csv`` (configuration, metric, folds, seeds, option and
 reference path, option_mean, reference_mean (means over folds of the per-fold seed means), diff,
@@ -58,9 +60,10 @@ from rnn_seg.runs.folder import is_finished
 from ..grid.folder import GRID_RECORD
 from ..grid.spec import RunKey
 from ..models.run_record import RunRecord
+from ..models.variants import get_variant
 from .collect import recorded_runs, run_records
-from .paired import (ConfigId, Contrast, PairedResult, StatsConfig, paired, paired_sides,
-                     seed_values)
+from .paired import (ConfigId, Contrast, PairedResult, StatsConfig, config_labels, paired,
+                     paired_sides, seed_values)
 from .pooling import pool
 
 #: The settings an execution path may change among those that change results (``pooling``).
@@ -89,9 +92,16 @@ class GridPart:
     records: dict[Path, RunRecord]
 
     def configs(self) -> list[ConfigId]:
+        """Its configurations with gesture scores (not the progress-only ``P*``), A first."""
         keys = self.runs[["variant", "weighting", "annotations", "direction"]].drop_duplicates()
-        return sorted((ConfigId(*key) for key in keys.itertuples(index=False)),
+        return sorted((c for c in (ConfigId(*key) for key in keys.itertuples(index=False))
+                       if "gesture" in get_variant(c.variant).task_names),
                       key=lambda c: (c != BASELINE, c.label))
+
+    def unscored(self) -> list[str]:
+        """The labels of its configurations without gesture scores, which ``configs`` leaves
+        out."""
+        return sorted(set(config_labels(self.runs)) - {c.label for c in self.configs()})
 
 
 def option_part(grid: Path) -> GridPart:
@@ -264,17 +274,21 @@ def _seeds(runs: pd.DataFrame, config_id: ConfigId) -> str:
 
 
 def write_execution(option_grid: Path, reference_grid: Path, margin: float, out: Path
-                    ) -> list[Path]:
-    """The three CSVs of ``option_grid`` against ``reference_grid`` into ``out``; the paths.
+                    ) -> tuple[list[Path], list[str]]:
+    """The three CSVs of ``option_grid`` against ``reference_grid`` into ``out``: their paths,
+    and notes for the user (configurations left out: no gesture scores).
 
     Raises:
         ValueError: one line: a margin not a finite number above 0, an unfinished option grid, a reference
             lacking a run the option has, a grid of two paths, runs differing in a setting other
-            than the path (``pooling.MixedSettings``).
+            than the path (``pooling.MixedSettings``), no configuration with gesture scores.
     """
     if not 0 < margin < math.inf:
         raise ValueError(f"--margin must be a finite number of points above 0 (value: {margin})")
     option = option_part(Path(option_grid))
+    if not option.configs():
+        raise ValueError(f"{option_grid}: no configuration with gesture scores (it holds "
+                         f"{', '.join(option.unscored())}): nothing to compare")
     reference = reference_part(Path(reference_grid), option)
     pool(option.records | reference.records, f"{option_grid} against {reference_grid}",
          varying=EXECUTION)
@@ -288,4 +302,6 @@ def write_execution(option_grid: Path, reference_grid: Path, margin: float, out:
         path = out / f"{name}.csv"
         table.to_csv(path, index=False, float_format="%.4f")
         written.append(path)
-    return written
+    notes = [f"{label}: no gesture scores (a progress-only model), left out"
+             for label in option.unscored()]
+    return written, notes
