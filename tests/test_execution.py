@@ -194,6 +194,13 @@ def test_reference_and_margin_go_together(tmp_path, capsys):
             tables_main([str(grid), *extra, "--out", str(tmp_path / "out")])
         assert exit_.value.code == 2
     assert "--reference needs --margin" in capsys.readouterr().err
+    for extra in (["--reference", str(grid), "--margin", "2"], ["--margin", "2"]):
+        with pytest.raises(SystemExit) as exit_:
+            tables_main(["--confirm", str(tmp_path / "plan.toml"), *extra,
+                         "--out", str(tmp_path / "out")])
+        assert exit_.value.code == 2
+    assert "--confirm reads its grids from the plan" in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
 
 
 def test_a_second_call_replaces_the_first_and_a_failed_one_leaves_it(tmp_path):
