@@ -3,6 +3,7 @@ on fake grids that differ only in the path their config.json files record."""
 from __future__ import annotations
 
 import json
+import shutil
 
 import numpy as np
 import pandas as pd
@@ -238,3 +239,17 @@ def test_progress_only_models_are_left_out_with_a_note(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "no configuration with gesture scores (it holds Pc-fixed)" in err
     assert len(err.strip().splitlines()) == 1 and not (tmp_path / "out2").exists()
+
+
+def test_too_few_folds_for_an_interval_is_said(tmp_path, capsys):
+    reference = _grid(tmp_path, "ref", 0)
+    option = _grid(tmp_path, "fused", 1, loops="fused")
+    record = json.loads((option / "grid.json").read_text())
+    kept = [run for run in record["runs"] if run.rsplit("/", 1)[1] in FOLDS[:5]]
+    for run in set(record["runs"]) - set(kept):
+        shutil.rmtree(option / run)
+    (option / "grid.json").write_text(json.dumps({**record, "runs": kept}))
+    assert _compare(option, reference, tmp_path / "out") == 0
+    table = pd.read_csv(tmp_path / "out" / "execution.csv")
+    assert set(table.folds) == {5} and set(table.outcome) == {"inconclusive"}
+    assert "6 of 6 endpoints have 5 or fewer paired folds" in capsys.readouterr().err

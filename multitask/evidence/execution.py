@@ -304,4 +304,17 @@ def write_execution(option_grid: Path, reference_grid: Path, margin: float, out:
         written.append(path)
     notes = [f"{label}: no gesture scores (a progress-only model), left out"
              for label in option.unscored()]
-    return written, notes
+    return written, notes + _too_few_folds(tables[0])
+
+
+def _too_few_folds(table: pd.DataFrame, config: StatsConfig = StatsConfig()) -> list[str]:
+    """A note when some intervals of ``execution.csv`` are infinite: too few folds for the
+    exact test to reach its level (``paired.SignFlip``)."""
+    infinite = table[~np.isfinite(table.ci_low) | ~np.isfinite(table.ci_high)]
+    if infinite.empty:
+        return []
+    folds = int(infinite.folds.max())
+    return [f"{len(infinite)} of {len(table)} endpoints have {folds} or fewer paired folds: the "
+            f"exact sign-flip test cannot reach p <= {config.alpha:.2g} there (smallest p "
+            f"{2 / 2 ** folds:.4f}), so their intervals are infinite and their outcomes "
+            "inconclusive"]
