@@ -253,3 +253,32 @@ def test_too_few_folds_for_an_interval_is_said(tmp_path, capsys):
     table = pd.read_csv(tmp_path / "out" / "execution.csv")
     assert set(table.folds) == {5} and set(table.outcome) == {"inconclusive"}
     assert "6 of 6 endpoints have 5 or fewer paired folds" in capsys.readouterr().err
+
+
+def test_p_values_and_intervals_agree_with_scipy_s_exact_permutation_test(tmp_path):
+    from scipy.stats import permutation_test
+
+    def p_value(d, d0=0.0):
+        return permutation_test((d - d0,), np.mean, permutation_type="samples",
+                                n_resamples=np.inf).pvalue
+
+    reference = _grid(tmp_path, "ref", 0)
+    option = _grid(tmp_path, "bf16", 3, precision="bf16", loops="fused")
+    assert _compare(option, reference, tmp_path / "out") == 0
+    table = pd.read_csv(tmp_path / "out" / "execution.csv")
+    for _, row in table[table.metric == "gesture_f1@10"].iterrows():
+        variant = row.configuration.split("-")[0]
+        d = (_fold_means(option, variant, "gesture_f1@10")
+             - _fold_means(reference, variant, "gesture_f1@10")).to_numpy()
+        assert row.p_value == pytest.approx(p_value(d), abs=1e-4)    # 4 decimals
+        step = 2e-4                                     # beyond the CSV's 4 decimals
+        assert p_value(d, row.ci_low + step) > 0.05 and p_value(d, row.ci_high - step) > 0.05
+        assert p_value(d, row.ci_low - step) <= 0.05 and p_value(d, row.ci_high + step) <= 0.05
+    contrasts = pd.read_csv(tmp_path / "out" / "execution_contrasts.csv")
+    row = contrasts[contrasts.metric == "gesture_f1@10"].iloc[0]
+    gain = {name: (_fold_means(grid, "APoc", "gesture_f1@10")
+                   - _fold_means(grid, "A", "gesture_f1@10")).to_numpy()
+            for name, grid in (("option", option), ("reference", reference))}
+    assert row.option_p == pytest.approx(p_value(gain["option"]), abs=1e-4)
+    assert row.reference_p == pytest.approx(p_value(gain["reference"]), abs=1e-4)
+    assert row.dd_p == pytest.approx(p_value(gain["option"] - gain["reference"]), abs=1e-4)
