@@ -282,3 +282,16 @@ def test_p_values_and_intervals_agree_with_scipy_s_exact_permutation_test(tmp_pa
     assert row.option_p == pytest.approx(p_value(gain["option"]), abs=1e-4)
     assert row.reference_p == pytest.approx(p_value(gain["reference"]), abs=1e-4)
     assert row.dd_p == pytest.approx(p_value(gain["option"] - gain["reference"]), abs=1e-4)
+
+
+def test_scores_archives_compare_as_their_grids(tmp_path):
+    reference = _grid(tmp_path, "ref", 0)
+    option = _grid(tmp_path, "fused", 1, loops="fused")
+    for grid in (reference, option):
+        assert tables_main([str(grid), "--archive", str(tmp_path / f"{grid.name}-archive")]) == 0
+    assert _compare(option, reference, tmp_path / "grids") == 0
+    assert _compare(tmp_path / "fused-archive", tmp_path / "ref-archive",
+                    tmp_path / "archives") == 0
+    for name in ("execution.csv", "execution_contrasts.csv", "execution_per_fold.csv"):
+        assert ((tmp_path / "grids" / name).read_text()
+                == (tmp_path / "archives" / name).read_text())

@@ -121,7 +121,8 @@ def option_part(grid: Path) -> GridPart:
 
 def reference_part(grid: Path, option: GridPart) -> GridPart:
     """The reference's runs of the option's configurations, seeds and folds (``ValueError``
-    naming a run the reference lacks and why, one line); its other runs are not read."""
+    naming a run the reference lacks and why, one line); problems of its other runs (unfinished,
+    unreadable) do not matter here."""
     _recorded(grid)
     runs, problems, records = run_records(grid, seeds=tuple(sorted(option.runs.seed.unique())),
                                           allow_incomplete=True)
