@@ -33,8 +33,8 @@ def write_fake_grid(root: Path, seeds: tuple[int, ...] = (0, 1), hidden: int = 1
                     experiments: tuple[Experiment, ...] = PAPER_EXPERIMENTS,
                     schedule_factors: dict[str, float] | None = None,
                     per_class: bool = False, fingerprint: str | None = None,
-                    precision: str = "fp32", loops: str = "graph", scores_seed: int = 0,
-                    encoder: str = "lstm") -> Path:
+                    encoder: str = "lstm", seconds: float | None = None,
+                    precision: str = "fp32", loops: str = "graph", scores_seed: int = 0) -> Path:
     """Every run of a grid (default: the paper's, 22 configurations) over 8 folds and ``seeds``
     under ``root``; every variant at the paper's relative length unless ``schedule_factors``.
     ``per_class``: metrics.json holds per-class precision, recall, F1 and the confusion matrices
@@ -42,16 +42,17 @@ def write_fake_grid(root: Path, seeds: tuple[int, ...] = (0, 1), hidden: int = 1
     ``fingerprint``: every config.json records it as the data's, and grid.json records the spec,
     so that the tables check every run against it (fixed weightings and offline models only: a
     GradNorm or ordered head's settings are not written); without it, grid.json records no spec,
-    as an early version's. ``precision``, ``loops``: the execution path every config.json records;
-    ``scores_seed`` seeds the fake scores (another value: other scores); ``encoder``: the
-    grid's (``GridSpec.encoder``); a TCN trains with its reference's size and schedule, so
-    ``hidden``, ``epochs`` and ``schedule_factors`` are an LSTM's alone."""
+    as an early version's. ``encoder``: a TCN's grid (``hidden``, ``epochs`` and
+    ``schedule_factors`` then unused: its reference schedule). ``seconds``: every run's
+    ``timing.json`` records this many seconds (data loading and training). ``precision``,
+    ``loops``: the LSTM's execution path every config.json records; ``scores_seed`` seeds the
+    fake scores (another value: other scores)."""
     lstm = encoder == "lstm"
+    path = {"precision": precision, "loops": loops} if lstm else {}
     spec = GridSpec(data_dir=str(root / "data" / "Suturing"), seeds=seeds,
                     hidden=hidden if lstm else None, epochs=epochs if lstm else None,
-                    experiments=experiments,
-                    schedule_factors=(schedule_factors or {}) if lstm else None,
-                    precision=precision, loops=loops, encoder=encoder)
+                    experiments=experiments, encoder=encoder,
+                    schedule_factors=(schedule_factors or {}) if lstm else None, **path)
     rng = np.random.default_rng(scores_seed)
     keys = expand(spec, FOLDS)
     for key in keys:
@@ -83,6 +84,8 @@ def write_fake_grid(root: Path, seeds: tuple[int, ...] = (0, 1), hidden: int = 1
                 mean[task].update(_class_scores(metrics["confusion"][task]))
         _write_json(run_dir / "metrics.json", metrics)
         _write_json(run_dir / "finished.json", {"sweeps": 7 * config.optim.total})
+        if seconds is not None:
+            _write_json(run_dir / "timing.json", {"data": 0.5, "train": seconds - 0.5})
     runs = [str(key.path()) for key in keys]
     _write_json(root / "grid.json", {"runs": runs} if fingerprint is None
                 else {"spec": spec_payload(with_budget(spec)), "runs": runs})

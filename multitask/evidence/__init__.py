@@ -12,6 +12,8 @@
   tested with them; ``claims_table``: ``claims.csv``, ``claims.tex`` and its method note
   ``claims_note.tex``;
 * ``width``: the width study, model A against APoc across grids of several LSTM widths;
+* ``architectures``: the LSTM widths, ED-TCN and MS-TCN side by side, one grid each: the
+  cross-architecture table, the claims on TCN backbones and Table II with measured rows;
 * ``execution``: an execution path (fused loops, bfloat16) against its reference grid, paired by
   fold, equivalent / different / inconclusive against a margin;
 * ``standalone``: tables of runs trained one by one; ``tasks``: the JIGSAWS tasks side by side;

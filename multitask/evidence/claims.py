@@ -13,7 +13,8 @@ cannot reach an adjusted p below ``m * 2 / 2^n`` (``smallest_adjusted_p``).
 
 **Verdicts**, from the adjusted p-value at level ``1 - confidence`` (0.05):
 
-* sign claims (``expect`` +1 / -1): *reproduced* (significant, our mean has the claimed sign),
+* sign claims (``expect`` +1 / -1): *reproduced* (significant, our mean has the claimed sign;
+  *supported* for a conjecture the paper states but never tested, ``Claim.agreed``),
   *contradicted* (significant, the opposite sign), *inconclusive* (not significant);
 * equivalence claims (``expect`` 0, ``|difference| <= margin``): the p-value is that of the
   hypothesis the data lean against: with our mean inside the margin, the larger of the test's p at
@@ -37,7 +38,7 @@ run keeps its row with empty statistics and a note saying what is missing.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
@@ -47,7 +48,7 @@ from .paired import (UNIT_OF_PAIRING, ConfigId, Contrast, PairedResult, StatsCon
                      equivalence_power, holm, paired)
 from .tables import PAPER_TABLES
 
-VERDICTS = ("reproduced", "contradicted", "inconclusive")
+VERDICTS = ("reproduced", "supported", "contradicted", "inconclusive")
 #: The fewest paired folds at which the two-sided exact sign-flip test can reach p < 0.05
 #: (2 / 2^6 = 0.031); with fewer, statistics are reported without a verdict.
 MIN_PAIRS = 6
@@ -94,6 +95,9 @@ class Claim:
     margin: float = 0.0
     note: str = ""                  # what our test or the paper's evidence is, where not obvious
     published: bool = True          # the paper's tables hold this comparison (paper_diff)
+    agreed: str = "reproduced"      # the verdict when our test agrees with the claim: a result
+    #                                 is "reproduced", a conjecture the paper never tested
+    #                                 "supported"
 
     def __post_init__(self):
         if self.expect not in (-1, 0, 1) or (self.expect == 0) != (self.margin > 0):
@@ -166,8 +170,9 @@ def evaluate(runs: pd.DataFrame, claims: tuple[Claim, ...] | None = None,
             claim, row = claims[index], rows[index]
             row["p_adjusted"] = p_adjusted
             if row["folds"] >= MIN_PAIRS:
-                row["verdict"] = verdict(p_adjusted, row["ours_diff"], claim.expect,
-                                         claim.margin, config.alpha)
+                found = verdict(p_adjusted, row["ours_diff"], claim.expect, claim.margin,
+                                config.alpha)
+                row["verdict"] = claim.agreed if found == "reproduced" else found
             notes = [row["note"]]
             if len(members) < size:
                 notes.append(f"Holm over the family's {size} claims, of which {len(members)} "
@@ -408,3 +413,27 @@ CONJECTURE_CLAIMS: tuple[Claim, ...] = (
                  "Suturing; no published difference", published=False)
       for mt in CONJECTURE_MODELS),
 )
+
+
+# --- The paper's conjecture, on temporal convolutional backbones ---------------------------
+
+_Q_ARCHITECTURES = ("we suggest the proposed multi-task approach could be applied on top of more "
+                    "complex architectures to boost performance")
+#: The backbones of the issue's grid (results/tcn/*.toml), as ``pooling.architecture`` names them.
+TCN_BACKBONES = ("ed-tcn", "ms-tcn")
+#: The progress heads on a TCN: APc with fixed weights, APoc with GradNorm (alpha 1.5).
+TCN_HEADS = (ConfigId("APc", "fixed"), ConfigId("APoc", "gradnorm"))
+TCN_SCORES = ("gesture_accuracy", "gesture_edit", "gesture_f1@10")
+
+#: "Progress heads help TCN backbones": per backbone, APc (fixed) - A and APoc (GradNorm) - A on
+#: accuracy, edit and F1@10, one declared family of 12 (Holm over all 12). Read from a table of
+#: several architectures (``architectures``), each side a configuration of its backbone's grid.
+#: The paper never ran a TCN, so there is no published difference; the expected sign is the
+#: conjecture's (+): *supported* = Holm-adjusted p <= alpha with a gain, *contradicted* = with a
+#: loss, *inconclusive* = neither shown (which is not evidence of no effect).
+TCN_CLAIMS: tuple[Claim, ...] = tuple(
+    Claim(f"tcn-progress:{backbone}/{heads.label}:{metric}", _Q_ARCHITECTURES,
+          Contrast(replace(heads, architecture=backbone), replace(A, architecture=backbone)),
+          metric, +1, published=False, agreed="supported",
+          note="the paper's conjecture, untested there: no published difference; expected > 0")
+    for backbone in TCN_BACKBONES for heads in TCN_HEADS for metric in TCN_SCORES)

@@ -18,6 +18,7 @@ from .claims import (FRAME_ACCURACY_MARGIN, MIN_PAIRS, POWER_DECIMALS, Claim, ev
                      smallest_adjusted_p)
 from .latex import escape, number, requires
 from .paired import MAX_EXACT_FOLDS, UNIT_OF_PAIRING, ConfigId, StatsConfig
+from .pooling import architecture_name
 from .tables import METRIC_LABELS
 from ..models.variants import get_variant
 
@@ -51,11 +52,12 @@ def write_claims(runs: pd.DataFrame, out: Path, config: StatsConfig = StatsConfi
     """
     drawing.say("testing the paper's claims (paired tests, power simulations)")
     table = evaluate(runs, claims, config)
+    agreed = {claim.agreed for claim in claims or ()} or {"reproduced"}
     paths = [out / "claims.csv", out / "claims.tex", out / "claims_note.tex",
              out / "claims_config.json"]
     write_atomic(paths[0], table.to_csv(index=False, float_format="%.4f"))
     write_atomic(paths[1], claims_latex(table, config, budget))
-    write_atomic(paths[2], claims_note(table, config))
+    write_atomic(paths[2], claims_note(table, config, " / ".join(sorted(agreed))))
     write_json(paths[3], {
         "statistics": asdict(config), "method": config.method,
         "test": "two-sided exact sign-flip test of the mean per-fold difference, every one of the "
@@ -180,10 +182,12 @@ def _subject(table: pd.DataFrame) -> str:
             else "The paper's conjecture (no published result)")
 
 
-def claims_note(table: pd.DataFrame, config: StatsConfig = StatsConfig()) -> str:
+def claims_note(table: pd.DataFrame, config: StatsConfig = StatsConfig(),
+                agreed: str = "reproduced") -> str:
     """``claims_note.tex``: how Table~\\ref{tab:claims} (``claims_latex``) was computed and read,
-    as one paragraph; claims without a published difference (the conjecture on another task)
-    leave out what describes the paper's tables."""
+    as one paragraph; claims without a published difference (the conjecture on another task or
+    architecture) leave out what describes the paper's tables and say what the expected sign is.
+    ``agreed``: the verdict of a claim the test agrees with (``claims.Claim.agreed``)."""
     spread = _spread(table)
     published = table.paper_diff.notna().any()
     paper_column = (" Paper: the same difference in the paper's tables, $^\\ast$ where it lies "
@@ -193,24 +197,35 @@ def claims_note(table: pd.DataFrame, config: StatsConfig = StatsConfig()) -> str
              if published else "")
     alpha = f"{config.alpha:g}"
     limits = _limits(table, config)
+    conjecture = agreed == "supported"
+    expected = ("" if not conjecture else " Claim: the sign the paper's conjecture expects, a gain "
+                "($>0$, or the margin); the paper reports no such result, so no verdict rests on "
+                "a published difference.")
+    backbones = sorted({ConfigId.parse(side).architecture for comparison in table.comparison
+                        for side in comparison.replace("(", "").replace(")", "").split(" - ")}
+                       - {""})
+    backbone_note = (" " + ", ".join(escape(architecture_name(b)) for b in backbones)
+                     + ": the backbone, its runs from its own grid, paired only with runs of the "
+                     "same backbone." if backbones else "")
     return (
         "% The method of the claims table (claims.tex, multitask-tables): \\input this file "
         "beneath the table or in an appendix.\n"
         f"\\noindent\\textbf{{Notes to Table~\\ref{{tab:claims}}.}} {_subject(table)} tested "
         "on our runs, one family per quoted sentence. Differences in "
         f"percentage points: the mean of per-fold paired differences{spread} (seeds averaged "
-        f"within a fold).{paper_column} {_level(config)} CI and $p$: the exact sign-flip test "
-        "over all $2^n$ sign vectors of the $n$ folds, and the interval that inverts it (it "
+        f"within a fold).{paper_column}{expected} {_level(config)} CI and $p$: the exact "
+        "sign-flip test over all $2^n$ sign vectors of the $n$ folds, and the interval that inverts it (it "
         f"excludes 0 exactly when $p \\le {alpha}$); $p_\\mathrm{{Holm}}$: Holm's correction "
         "within the family, over all its claims (a claim not tested counts as $p = 1$). "
-        f"Verdict: reproduced / contradicted when $p_\\mathrm{{Holm}} \\le "
-        f"{alpha}$ with the claimed / the opposite sign, inconclusive otherwise; for "
-        "$|\\Delta| \\le$ margin, $p$ of the hypothesis our mean lies against (reproduced: the "
+        f"Verdict: {agreed} / contradicted when $p_\\mathrm{{Holm}} \\le "
+        f"{alpha}$ with the claimed / the opposite sign, inconclusive otherwise"
+        + (" (neither shown, which is no evidence of equality)" if conjecture else "") + "; for "
+        f"$|\\Delta| \\le$ margin, $p$ of the hypothesis our mean lies against ({agreed}: the "
         "CI lies inside the margin; contradicted: beyond it); none below "
         f"{MIN_PAIRS} folds.{limits} Folds: folds with the claimed sign (within the "
         f"margin).{power} Subscripts $1$: $w_1{{=}}w_2{{=}}1$, $\\alpha$: GradNorm "
         "$\\alpha{=}1.5$; $g$(X) = X$_\\alpha$ $-$ X$_1$; $r$(X) = X $-$ orig.\\ X; orig.: "
-        "original labels; fwd.: forward LSTM."
+        "original labels; fwd.: forward LSTM." + backbone_note
         + (" ``Best'': ours against our strongest other model, the paper's against its "
            "runner-up. The paper's Tables II and III baselines are DiPietro et al.'s published "
            "numbers." if published else "") + "\n")
@@ -264,6 +279,8 @@ def _config(label: str, weighting: bool = True) -> str:
     """``original/APc-fixed`` -> ``orig.\\ APc$_1$``; single-task models carry no weighting."""
     config = ConfigId.parse(label)
     prefix = "".join(_PREFIXES.get(p, "") for p in (config.annotations, config.direction))
+    if config.architecture:
+        prefix = rf"{escape(architecture_name(config.architecture))}\ {prefix}"
     shown = weighting and get_variant(config.variant).multitask
     mark = rf"$_{{{_WEIGHTING_MARKS[config.weighting]}}}$" if shown else ""
     return f"{prefix}{config.variant}{mark}"

@@ -52,6 +52,16 @@ continues after a copy, on any machine.
     multitask-tables results/grid --widths results/width/h256 results/width/h512 results/paper/grid \\
         --out results/width
 
+``--architectures GRID ...`` writes the architectures side by side instead (``architectures``):
+one scores archive per architecture (LSTM at each width, ED-TCN, MS-TCN; read from the runs),
+each configuration's seeds finished on every fold; ``architectures.csv/.tex/.md`` (model A, APc
+and APoc per architecture, the time-only progress row, the cost per run), the claims "progress
+heads help TCN backbones" (``claims.csv/.tex``, Holm over their 12) and Table II with our
+measured rows (``table2.csv/.tex``) in ``--out``.
+
+    multitask-tables --architectures results/grid results/paper/grid results/tcn/ed-tcn \\
+        results/tcn/ms-tcn --out results/tcn
+
 ``--confirm PLAN`` runs a pre-registered confirmatory analysis instead, exactly as the plan
 file says (``confirm``): its grids, seeds, endpoints, families and decision rules are the plan's;
 a part whose grid has not finished every run of its seeds is not analysed (no interim looks).
@@ -104,6 +114,8 @@ CONFIRM_MANIFEST = "confirm.json"
 #: The same for an execution path's comparison (``--reference``); it names the two grids and the
 #: margin too.
 EXECUTION_MANIFEST = "execution.json"
+#: The same for the architectures side by side (``--architectures``).
+ARCHITECTURES_MANIFEST = "architectures.json"
 
 
 def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: bool = False,
@@ -320,6 +332,11 @@ def build_parser() -> argparse.ArgumentParser:
                         help="the width study instead of tables: A against APoc (GradNorm) in "
                              "GRID_DIR and these grids, one width each; writes width.csv and "
                              "width.png/.pdf to --out (default: none, write the tables)")
+    parser.add_argument("--architectures", type=Path, nargs="+", metavar="GRID",
+                        help="the architectures side by side instead of tables: one scores "
+                             "archive per architecture (LSTM widths, ed-tcn, ms-tcn; no "
+                             "GRID_DIR); writes architectures.csv/.tex/.md, the TCN claims and "
+                             "Table II with measured rows to --out (default: none)")
     parser.add_argument("--confirm", type=Path, metavar="PLAN",
                         help="a pre-registered confirmatory analysis instead of tables, as the "
                              "plan file says (results/confirm/plan.toml; its grids are named "
@@ -356,8 +373,14 @@ def main(argv: list[str] | None = None) -> int:
             parser.error("--confirm reads its grids from the plan: give it --out alone, "
                          "without GRID_DIR")
         return run_command(PROG, args.verbose, lambda: _confirm(args))
+    if args.architectures:
+        if args.grid_dir or args.archive or args.widths or args.compare or args.reference \
+                or args.margin is not None or "--out" not in extra or set(extra) - {"--out", "--overwrite"}:
+            parser.error("--architectures reads the grids it names: give it --out (and "
+                         "--overwrite) alone, without GRID_DIR")
+        return run_command(PROG, args.verbose, lambda: _architectures(args))
     if args.grid_dir is None:
-        parser.error("GRID_DIR is required (but with --confirm)")
+        parser.error("GRID_DIR is required (but with --confirm or --architectures)")
     if (args.reference is None) != (args.margin is None):
         parser.error("--reference needs --margin, and --margin needs --reference")
     if args.reference and (args.archive or args.widths or "--out" not in extra
@@ -397,6 +420,21 @@ def _confirm(args: argparse.Namespace) -> None:
         written, skipped = write_confirm(args.confirm, staging)
     for line in skipped:
         print(f"note: {line}", file=sys.stderr)
+    for path in written:
+        print(args.out / path.relative_to(staging))
+
+
+def _architectures(args: argparse.Namespace) -> None:
+    """``--architectures``: the grids side by side into ``--out``, all files or none."""
+    from .architectures import write_architectures
+
+    for grid in args.architectures:
+        if not grid.is_dir():
+            raise FileNotFoundError(f"{grid}: no such folder (a grid's scores archive, e.g. "
+                                    "results/tcn/ed-tcn)")
+    check_output_folder(args.out, PROG, may_hold=True)
+    with staged_outputs(args.out, ARCHITECTURES_MANIFEST, PROG, args.overwrite) as staging:
+        written = write_architectures(args.architectures, staging)
     for path in written:
         print(args.out / path.relative_to(staging))
 

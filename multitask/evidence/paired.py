@@ -47,6 +47,7 @@ import pandas as pd
 from jigsaws_tools.annotations import ANNOTATION_VERSIONS
 
 from .collect import CONVERGENCE_COLUMNS, KEY_COLUMNS, per_class
+from .pooling import is_architecture
 from ..grid.spec import DIRECTIONS
 
 UNIT_OF_PAIRING = "LOUO fold (test user); each side averaged over its seeds within the fold"
@@ -57,18 +58,22 @@ MAX_EXACT_FOLDS = 16
 @dataclass(frozen=True)
 class ConfigId:
     """One configuration of the grid: its runs
-    ``runs/<annotations>/<direction>/<variant>-<weighting>/seed<k>/<fold>``."""
+    ``runs/<annotations>/<direction>/<variant>-<weighting>/seed<k>/<fold>``; with an
+    ``architecture`` (``pooling.architecture``: ``lstm-128``, ``ed-tcn``, ...), those of that
+    architecture's grid in a table of several (its runs carry an ``architecture`` column)."""
 
     variant: str
     weighting: str = "fixed"
     annotations: str = "revised"
     direction: str = "bidirectional"
+    architecture: str = ""          # "": the one architecture of a grid's table
 
     @classmethod
     def parse(cls, text: str) -> ConfigId:
-        """``[annotations/][direction/]<variant>-<weighting>`` as in the grid's run folders, e.g.
-        ``APc-fixed``, ``original/APoc-gradnorm``, ``revised/forward/A-fixed``; the weighting
-        may be left out (``fixed``). Unnamed parts default to revised labels, bidirectional."""
+        """``[architecture/][annotations/][direction/]<variant>-<weighting>`` as in the grid's
+        run folders, e.g. ``APc-fixed``, ``original/APoc-gradnorm``, ``revised/forward/A-fixed``,
+        ``ed-tcn/APc-fixed``; the weighting may be left out (``fixed``). Unnamed parts default
+        to revised labels, bidirectional, the table's one architecture."""
         *prefix, config = text.split("/")
         variant, _, weighting = config.partition("-")
         values = {"variant": variant, "weighting": weighting or "fixed"}
@@ -77,27 +82,36 @@ class ConfigId:
                 values["annotations"] = part
             elif part in DIRECTIONS:
                 values["direction"] = part
+            elif is_architecture(part):
+                values["architecture"] = part
             else:
                 raise ValueError(f"configuration {text!r}: {part!r} is neither an annotation "
-                                 f"version ({', '.join(ANNOTATION_VERSIONS)}) nor a direction "
-                                 f"({', '.join(DIRECTIONS)})")
-        if not variant or len(prefix) > 2:
+                                 f"version ({', '.join(ANNOTATION_VERSIONS)}), a direction "
+                                 f"({', '.join(DIRECTIONS)}) nor an architecture (lstm-128, "
+                                 "ed-tcn, ms-tcn)")
+        if not variant or len(prefix) > 3:
             raise ValueError(f"configuration {text!r}: expected "
                              "[annotations/][direction/]<variant>-<weighting>, e.g. APc-fixed")
         return cls(**values)
 
     @property
     def label(self) -> str:
-        """``<variant>-<weighting>``, prefixed by the labels and direction where they are not the
-        defaults (revised, bidirectional)."""
-        prefix = [p for p, default in ((self.annotations, "revised"),
+        """``<variant>-<weighting>``, prefixed by the architecture, the labels and the direction
+        where they are not the defaults (one architecture, revised, bidirectional)."""
+        prefix = [p for p, default in ((self.architecture, ""), (self.annotations, "revised"),
                                        (self.direction, "bidirectional")) if p != default]
         return "/".join([*prefix, f"{self.variant}-{self.weighting}"])
 
     def select(self, runs: pd.DataFrame) -> pd.DataFrame:
-        """This configuration's rows of a per-run table (``collect.run_rows``)."""
-        return runs[(runs.annotations == self.annotations) & (runs.direction == self.direction)
-                    & (runs.variant == self.variant) & (runs.weighting == self.weighting)]
+        """This configuration's rows of a per-run table (``collect.run_rows``; of a table of
+        several architectures, with an ``architecture`` column, for one with an architecture)."""
+        chosen = ((runs.annotations == self.annotations) & (runs.direction == self.direction)
+                  & (runs.variant == self.variant) & (runs.weighting == self.weighting))
+        if self.architecture:
+            if "architecture" not in runs.columns:
+                return runs.iloc[:0]
+            chosen &= runs.architecture == self.architecture
+        return runs[chosen]
 
 
 @dataclass(frozen=True)
@@ -302,7 +316,8 @@ class PairedResult:
 
 def _scores(runs: pd.DataFrame) -> list[str]:
     """The metric columns of a per-run table other than per-class scores, in its order."""
-    return [column for column in runs.columns if column not in KEY_COLUMNS + CONVERGENCE_COLUMNS
+    return [column for column in runs.columns
+            if column not in KEY_COLUMNS + CONVERGENCE_COLUMNS + ["architecture"]
             and not per_class(column.split("_", 1)[-1])]
 
 
@@ -380,7 +395,9 @@ def _seed_variance(per_side: list[list[np.ndarray]]) -> float:
 
 def config_labels(runs: pd.DataFrame) -> list[str]:
     """The labels of every configuration in a per-run table, sorted."""
-    configs = runs[["variant", "weighting", "annotations", "direction"]].drop_duplicates()
+    columns = ["variant", "weighting", "annotations", "direction"]
+    columns += ["architecture"] if "architecture" in runs.columns else []
+    configs = runs[columns].drop_duplicates()
     return sorted(ConfigId(*c).label for c in configs.itertuples(index=False))
 
 

@@ -17,13 +17,22 @@ or not a grid's spec vouches for the runs.
   must agree on every other setting, or the table is refused with the list of the settings
   that differ and the runs of each value (``MixedSettings``), with or without
   ``--allow-incomplete``: there is no row to put them in. Runs that differ so are never taken for
-  two runs of one fold (duplicates).
+  two runs of one fold (duplicates). Runs of several encoders (the LSTM, ED-TCN, MS-TCN) are
+  refused in one table even in different rows: its rows would compare them as one model's
+  configurations;
+* runs of different architectures (``architecture``: the LSTM at each width, ED-TCN, MS-TCN)
+  are kept apart: a table of several architectures reads one grid per architecture, each
+  pooled by the rule above, tags each run with its grid's architecture and pairs nothing across
+  them (``apart``); two grids of one architecture, a grid of several, or grids on other data are
+  refused (``MixedArchitectures``).
 """
 from __future__ import annotations
 
 from pathlib import Path
 from typing import Any
 
+from jigsaws_tools.dataset import DataConfig
+from rnn_seg.encoders.config import ENCODERS
 from rnn_seg.runs.settings import settings_of
 
 from ..grid.spec import RunKey
@@ -37,6 +46,91 @@ SHOWN = 3
 
 class MixedSettings(ValueError):
     """Runs a table would put in one row differ in settings that change results."""
+
+
+class MixedArchitectures(ValueError):
+    """Grids a table of several architectures reads are not one architecture each, on one
+    data."""
+
+
+def architecture(record: RunRecord) -> str:
+    """The run's architecture: ``lstm-<units per direction>`` (e.g. ``lstm-128``), ``ed-tcn`` or
+    ``ms-tcn`` (``rnn_seg.encoders``)."""
+    encoder = record.config.encoder
+    return f"lstm-{encoder.hidden}" if encoder.kind == "lstm" else encoder.kind
+
+
+def architecture_name(key: str) -> str:
+    """How tables name an architecture: ``LSTM-128``, ``ED-TCN``, ``MS-TCN``."""
+    return key.upper()
+
+
+def is_architecture(text: str) -> bool:
+    """Whether ``text`` is what ``architecture`` returns for some run (``lstm-1024``)."""
+    kind, _, width = text.partition("-") if text.startswith("lstm-") else (text, "", "")
+    return kind in ENCODERS and (kind != "lstm" or width.isdigit()) and text != "lstm"
+
+
+def apart(grids: dict[Path, dict[Path, RunRecord]]) -> dict[Path, str]:
+    """Check that each grid holds one architecture, no two grids the same one, and every grid the
+    same data (every recorded data setting but where the data lay, and the data's fingerprint,
+    per annotation version); the architecture of each.
+
+    Args:
+        grids: grid folder -> run folder -> its record; the runs each grid contributes (each
+            grid already pooled by ``pool``).
+
+    Raises:
+        MixedArchitectures: one line naming the grids (and runs) at fault.
+    """
+    found: dict[Path, str] = {}
+    for grid, records in grids.items():
+        kinds: dict[str, list[Path]] = {}
+        for run, record in records.items():
+            kinds.setdefault(architecture(record), []).append(run)
+        if len(kinds) > 1:
+            raise MixedArchitectures(f"{grid}: runs of several architectures in one grid ("
+                                     + " / ".join(f"{kind} ({_runs([str(r) for r in runs])})"
+                                                  for kind, runs in sorted(kinds.items()))
+                                     + "); one grid per architecture")
+        if not kinds:
+            raise MixedArchitectures(f"{grid}: no run to read its architecture from")
+        found[grid] = next(iter(kinds))
+    seen: dict[str, Path] = {}
+    for grid, kind in found.items():
+        if kind in seen:
+            raise MixedArchitectures(f"{seen[kind]} and {grid} are both {kind} grids; give one "
+                                     "grid per architecture (their runs are never pooled)")
+        seen[kind] = grid
+    seen_data: dict[str, tuple[Path, dict[str, Any]]] = {}    # annotations -> first grid's
+    for grid, records in grids.items():
+        for labels, settings in _data_by_annotations(records).items():
+            first, known = seen_data.setdefault(labels, (grid, settings))
+            differing = sorted(k for k in settings.keys() | known.keys()
+                               if settings.get(k) != known.get(k))
+            if differing:
+                raise MixedArchitectures(f"{first} and {grid} differ in their data "
+                                         f"({', '.join(differing)}; {labels} labels): "
+                                         "architectures are compared on one data set only")
+    return found
+
+
+def _data_by_annotations(records: dict[Path, RunRecord]) -> dict[str, dict[str, Any]]:
+    """Annotation version -> the data settings of the first of ``records`` with it (``_data``;
+    the data fingerprint covers the labels, so it differs between versions)."""
+    first: dict[str, RunRecord] = {}
+    for record in records.values():
+        first.setdefault(record.config.data.annotations, record)
+    return {annotations: _data(record) for annotations, record in first.items()}
+
+
+def _data(record: RunRecord) -> dict[str, Any]:
+    """The run's data settings but where the data lay, and its data fingerprint."""
+    return {**{name: value for name, value in settings_of(record.configs()).items()
+               if name.startswith("run.data.")
+               and name.removeprefix("run.data.") not in DataConfig.output_fields
+               and name != "run.data.annotations"},
+            "data_fingerprint": record.fingerprint}
 
 
 def record_key(record: RunRecord) -> RunKey:
@@ -75,9 +169,19 @@ def pool(records: dict[Path, RunRecord], where: Path | str, varying: tuple[str, 
             width and schedule (none for a table whose rows are configurations).
 
     Raises:
-        MixedSettings: naming, per row whose runs differ, each setting that differs and the runs
-            of each of its values.
+        MixedSettings: runs of several encoders (an LSTM, ED-TCN, MS-TCN: a table of one grid
+            would pair them as one model's configurations); or, naming, per row whose runs
+            differ, each setting that differs and the runs of each of its values.
     """
+    encoders: dict[str, list[str]] = {}
+    for run, record in records.items():
+        encoders.setdefault(record.config.encoder.kind, []).append(str(run))
+    if len(encoders) > 1:
+        raise MixedSettings(
+            f"{where}: runs of several encoders ("
+            + " / ".join(f"{kind} ({_runs(runs)})" for kind, runs in sorted(encoders.items()))
+            + "), so no table pools or pairs them. Tabulate each encoder's runs from a folder "
+            "of their own; multitask-tables --architectures puts grids of several side by side.")
     rows: dict[tuple, dict[Path, dict]] = {}
     for run, record in records.items():
         key = record_key(record)

@@ -133,10 +133,16 @@ def paper_comparison(summary: pd.DataFrame, table: PaperTable) -> pd.DataFrame:
                 continue
             rows.append(_row(label, config, metric, (mean, finite(ours.get(f"{metric}_std"))),
                              paper or (None, None), int(ours["folds"])))
-    for name, published in table.related.items() if rows else ():
-        rows.extend(_row(name, "", metric, (None, None), published[metric], 0)
-                    for metric in table.metrics if metric in published)
+    rows += related_rows(table) if rows else []
     return pd.DataFrame(rows, columns=_COLUMNS)
+
+
+def related_rows(table: PaperTable) -> list[dict]:
+    """The paper-only rows of ``table`` (``paper_comparison``'s columns): the related work it
+    quotes (Table II's TCN, TCN+RL), the published numbers on the right, nothing on our side."""
+    return [_row(name, "", metric, (None, None), published[metric], 0)
+            for name, published in table.related.items()
+            for metric in table.metrics if metric in published]
 
 
 def annotation_ablation(summary: pd.DataFrame, direction: str = "bidirectional") -> pd.DataFrame:

@@ -120,19 +120,28 @@ def time_baseline_rows(grid_dir: Path, table, columns: Sequence[str]) -> pd.Data
     metrics = [m for m in table.metrics if m.startswith("progress_") and m != "progress_mae_raw"]
     if not metrics or table.direction != "bidirectional":
         return pd.DataFrame(columns=list(columns))
-    try:
-        dataset, users = _grid_data(Path(grid_dir), table.annotations)
-    except (OSError, ValueError) as error:
-        print(f"note: no time-only progress row in {table.name}: the grid's data cannot be "
-              f"read ({error})", file=sys.stderr)
+    folds = grid_fold_scores(Path(grid_dir), table.annotations, table.name)
+    if folds is None:
         return pd.DataFrame(columns=list(columns))
-    folds = fold_scores(dataset, users, "offline")
     rows = [{"model": LABELS["offline"], "config": "time-offline", "metric": m,
              "left_mean": float(folds[m].mean()), "left_std": float(folds[m].std(ddof=1)),
              "right_mean": math.nan, "right_std": math.nan, "diff": math.nan,
              "folds": len(folds)}
             for m in metrics]
     return pd.DataFrame(rows, columns=list(columns))
+
+
+def grid_fold_scores(grid_dir: Path, annotations: str, table: str) -> pd.DataFrame | None:
+    """The offline baseline's ``fold_scores`` on the folds of the grid in ``grid_dir``, fitted on
+    its recorded release with ``annotations``; None, with a note naming ``table`` (the table that
+    would hold the row), when that release cannot be read here."""
+    try:
+        dataset, users = _grid_data(Path(grid_dir), annotations)
+    except (OSError, ValueError) as error:
+        print(f"note: no time-only progress row in {table}: the grid's data cannot be "
+              f"read ({error})", file=sys.stderr)
+        return None
+    return fold_scores(dataset, users, "offline")
 
 
 def _grid_data(grid_dir: Path, annotations: str):
