@@ -148,7 +148,7 @@ def test_outcome_against_the_margin():
     ("unreadable reference run", "no usable run of A-fixed, seed 1, fold C: unreadable "
                                  "configuration: "),
     ("reference not a grid", "not a grid: "),
-    ("tcn", "run.encoder.kind"),
+    ("tcn", "runs of several encoders (ed-tcn "),
     ("margin", "--margin must be a finite number of points above 0 (value: 0.0)"),
     ("infinite margin", "--margin must be a finite number of points above 0 (value: inf)"),
     ("nan margin", "--margin must be a finite number of points above 0 (value: nan)"),
