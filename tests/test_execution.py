@@ -195,7 +195,8 @@ def test_reference_and_margin_go_together(tmp_path, capsys):
             tables_main([str(grid), *extra, "--out", str(tmp_path / "out")])
         assert exit_.value.code == 2
     assert "--reference needs --margin" in capsys.readouterr().err
-    for extra in (["--reference", str(grid), "--margin", "2"], ["--margin", "2"]):
+    for extra in (["--reference", str(grid), "--margin", "2"], ["--margin", "2"],
+                  ["--architectures", str(grid)]):
         with pytest.raises(SystemExit) as exit_:
             tables_main(["--confirm", str(tmp_path / "plan.toml"), *extra,
                          "--out", str(tmp_path / "out")])

@@ -368,8 +368,8 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--compare needs --metric, and --metric and --minus need --compare")
     extra = (["--compare"] if args.compare else []) + _table_options(args)
     if args.confirm:
-        if (args.grid_dir or args.archive or args.widths or args.reference
-                or args.margin is not None or extra != ["--out"]):
+        if (args.grid_dir or args.archive or args.widths or args.architectures
+                or args.reference or args.margin is not None or extra != ["--out"]):
             parser.error("--confirm reads its grids from the plan: give it --out alone, "
                          "without GRID_DIR")
         return run_command(PROG, args.verbose, lambda: _confirm(args))
