@@ -11,9 +11,10 @@ Evidence: every run the option's grid records must have finished (no interim loo
 (``collect.run_records``: readable, in its place, finite scores); the reference must hold a
 finished, usable run of each of the option's runs (configuration, seed and fold; the refusal names
 the first it lacks and why). The reference's other runs are not the comparison's: they may be
-unfinished, or of other configurations or seeds. The runs of both grids must agree on every setting that changes a result but the
-precision (``pooling.pool`` with ``varying=EXECUTION``); the loops, which are not such a setting,
-are read from each run's ``config.json`` and must be one path per grid. Nothing else may differ:
+unfinished, or of other configurations or seeds. The runs of both grids must agree on every
+setting that changes a result but the precision (``pooling.pool`` with ``varying=EXECUTION``);
+the loops, which are not such a setting, are read from each run's ``config.json`` and must be one
+path per grid. Nothing else may differ:
 a reference of another width, schedule or data is refused with the list of what differs.
 
 Per configuration and metric, each side's per-fold mean over the seeds, and the option minus the
@@ -40,10 +41,10 @@ note.
 
 Output (``write_execution``): ``execution.csv`` (configuration, metric, folds, seeds, option and
 reference path, option_mean, reference_mean (means over folds of the per-fold seed means), diff,
-ci_low, ci_high, p_value, margin, outcome, note), ``execution_contrasts.csv`` (contrast, metric, each
-grid's diff, interval, p and verdict, same_reading, and the difference of the contrasts with its
-interval and p) and ``execution_per_fold.csv`` (configuration, metric, fold, option, reference,
-difference).
+ci_low, ci_high, p_value, margin, outcome, note), ``execution_contrasts.csv`` (contrast, metric,
+each grid's diff, interval, p and verdict, same_reading, and the difference of the contrasts with
+its interval and p) and ``execution_per_fold.csv`` (configuration, metric, fold, option,
+reference, difference).
 """
 from __future__ import annotations
 
@@ -280,9 +281,10 @@ def write_execution(option_grid: Path, reference_grid: Path, margin: float, out:
     and notes for the user (configurations left out: no gesture scores).
 
     Raises:
-        ValueError: one line: a margin not a finite number above 0, an unfinished option grid, a reference
-            lacking a run the option has, a grid of two paths, runs differing in a setting other
-            than the path (``pooling.MixedSettings``), no configuration with gesture scores.
+        ValueError: one line: a margin not a finite number above 0, an unfinished option grid,
+            a reference lacking a run the option has, a grid of two paths, runs differing in a
+            setting other than the path (``pooling.MixedSettings``), no configuration with
+            gesture scores.
     """
     if not 0 < margin < math.inf:
         raise ValueError(f"--margin must be a finite number of points above 0 (value: {margin})")
