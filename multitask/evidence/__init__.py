@@ -14,6 +14,8 @@
 * ``width``: the width study, model A against APoc across grids of several LSTM widths;
 * ``architectures``: the LSTM widths, ED-TCN and MS-TCN side by side, one grid each: the
   cross-architecture table, the claims on TCN backbones and Table II with measured rows;
+* ``execution``: an execution path (fused loops, bfloat16) against its reference grid, paired by
+  fold, equivalent / different / inconclusive against a margin;
 * ``standalone``: tables of runs trained one by one; ``tasks``: the JIGSAWS tasks side by side;
 * ``cli``: ``multitask-tables``; ``drawing``: what it is making, said while it works.
 

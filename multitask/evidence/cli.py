@@ -72,9 +72,10 @@ a part whose grid has not finished every run of its seeds is not analysed (no in
 GRID_DIR, every run finished, repeats configurations of the reference GRID on another path (the
 fused loops, bfloat16), all else equal; per configuration and score, the option minus the
 reference paired by fold, equivalent / different / inconclusive against the margin, and whether
-each model's comparison with A reads the same; ``execution*.csv`` in ``--out``.
+each model's comparison with A reads the same; ``execution*.csv`` in ``--out``, listed in
+``execution.json`` with the two grids and the margin.
 
-    multitask-tables results/precision/bf16 --reference results/grid --margin 2.0 \
+    multitask-tables results/precision/bf16 --reference results/grid --margin 2.0 \\
         --out results/precision/bf16-vs-fp32
 
 A folder of runs trained one by one (``multitask-train``, ``baseline-train``; no grid.json) gets
@@ -110,7 +111,8 @@ MANIFEST = "tables.json"
 WIDTH_MANIFEST = "width.json"
 #: The same for a confirmatory analysis (``--confirm``).
 CONFIRM_MANIFEST = "confirm.json"
-#: The same for an execution path's comparison (``--reference``).
+#: The same for an execution path's comparison (``--reference``); it names the two grids and the
+#: margin too.
 EXECUTION_MANIFEST = "execution.json"
 #: The same for the architectures side by side (``--architectures``).
 ARCHITECTURES_MANIFEST = "architectures.json"
@@ -366,7 +368,8 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--compare needs --metric, and --metric and --minus need --compare")
     extra = (["--compare"] if args.compare else []) + _table_options(args)
     if args.confirm:
-        if args.grid_dir or args.archive or args.widths or extra != ["--out"]:
+        if (args.grid_dir or args.archive or args.widths or args.architectures
+                or args.reference or args.margin is not None or extra != ["--out"]):
             parser.error("--confirm reads its grids from the plan: give it --out alone, "
                          "without GRID_DIR")
         return run_command(PROG, args.verbose, lambda: _confirm(args))
@@ -460,8 +463,10 @@ def _run(args: argparse.Namespace) -> None:
     manifest = (WIDTH_MANIFEST if args.widths else EXECUTION_MANIFEST if args.reference
                 else MANIFEST)
     kept = () if args.widths or args.reference else _left_alone(args)
-    with staged_outputs(out, manifest, PROG, args.overwrite, kept=kept) as staging, \
-            drawing.shown(PROG):
+    record = ({"option": str(args.grid_dir), "reference": str(args.reference),
+               "margin": args.margin} if args.reference else None)
+    with staged_outputs(out, manifest, PROG, args.overwrite, record=record, kept=kept) \
+            as staging, drawing.shown(PROG):
         if args.widths:
             from .width import write_width
 
@@ -469,7 +474,10 @@ def _run(args: argparse.Namespace) -> None:
         elif args.reference:
             from .execution import write_execution
 
-            written = write_execution(args.grid_dir, args.reference, args.margin, staging)
+            written, notes = write_execution(args.grid_dir, args.reference, args.margin,
+                                             staging)
+            for line in notes:
+                print(f"note: {line}", file=sys.stderr)
         else:
             written = write_tables(args.grid_dir, staging, figures=not args.no_figures,
                                    ours_only=args.ours_only, example_trial=args.example_trial,
