@@ -65,7 +65,7 @@ from ..models.variants import get_variant
 from .collect import recorded_runs, run_records
 from .paired import (ConfigId, Contrast, PairedResult, StatsConfig, config_labels, paired,
                      paired_sides, seed_values)
-from .pooling import pool
+from .pooling import pool, record_key
 
 #: The settings an execution path may change among those that change results (``pooling``).
 EXECUTION = ("run.encoder.precision",)
@@ -127,15 +127,16 @@ def reference_part(grid: Path, option: GridPart) -> GridPart:
     _recorded(grid)
     runs, problems, records = run_records(grid, seeds=tuple(sorted(option.runs.seed.unique())),
                                           allow_incomplete=True)
-    wanted = {_key(record) for record in option.records.values()}
-    chosen = {run: record for run, record in records.items() if _key(record) in wanted}
-    missing = sorted(wanted - {_key(record) for record in chosen.values()},
-                     key=lambda key: (key[0].label, key[1], key[2]))
+    wanted = {record_key(record) for record in option.records.values()}
+    chosen = {run: record for run, record in records.items() if record_key(record) in wanted}
+    missing = sorted(wanted - {record_key(record) for record in chosen.values()},
+                     key=lambda key: str(key.path()))
     if missing:
-        config_id, seed, fold = missing[0]
-        raise ValueError(f"{grid}: no usable run of {config_id.label}, seed {seed}, fold "
-                         f"{fold}: {_why(grid, missing[0], problems)} ({len(missing)} of the "
-                         f"option's {len(wanted)} runs lack their reference)")
+        key = missing[0]
+        label = ConfigId(key.variant, key.weighting, key.annotations, key.direction).label
+        raise ValueError(f"{grid}: no usable run of {label}, seed {key.seed}, fold {key.fold}: "
+                         f"{_why(grid, key, problems)} ({len(missing)} of the option's "
+                         f"{len(wanted)} runs lack their reference)")
     keep = runs[[_row_key(row) in wanted for row in runs.itertuples(index=False)]]
     return GridPart(grid, keep.reset_index(drop=True), _path(grid, chosen), chosen)
 
@@ -148,28 +149,18 @@ def _recorded(grid: Path) -> list[Path]:
     return recorded
 
 
-def _why(grid: Path, key: tuple[ConfigId, int, str], problems: list[str]) -> str:
+def _why(grid: Path, key: RunKey, problems: list[str]) -> str:
     """Why the reference ``grid`` has no usable run of ``key``: the problem ``run_records``
     found with it, or that its grid.json does not record it."""
-    config_id, seed, fold = key
-    run = grid / RunKey(config_id.annotations, config_id.direction, config_id.variant,
-                        config_id.weighting, seed, fold).path()
-    place = re.compile(re.escape(str(run)) + "(/|:|$)")
+    place = re.compile(re.escape(str(grid / key.path())) + "(/|:|$)")
     return next((problem for problem in problems if place.search(problem)),
                 f"{grid / GRID_RECORD} does not record it")
 
 
-def _row_key(row) -> tuple[ConfigId, int, str]:
-    """``_key`` of a row of ``collect.run_rows``."""
-    return (ConfigId(row.variant, row.weighting, row.annotations, row.direction), int(row.seed),
-            str(row.fold))
-
-
-def _key(record: RunRecord) -> tuple[ConfigId, int, str]:
-    config = record.config
-    direction = "bidirectional" if config.encoder.bidirectional else "forward"
-    return (ConfigId(record.variant, record.weighting, config.data.annotations, direction),
-            config.train.seed, config.test_user)
+def _row_key(row) -> RunKey:
+    """The ``RunKey`` of a row of ``collect.run_rows`` (``pooling.record_key`` of its run)."""
+    return RunKey(row.annotations, row.direction, row.variant, row.weighting, int(row.seed),
+                  str(row.fold))
 
 
 def _path(grid: Path, records: dict[Path, RunRecord]) -> str:
