@@ -73,8 +73,9 @@ def _add_model_options(model: argparse._ArgumentGroup) -> None:
                        help="of the LSTM's matrix products: bf16 needs a CPU with native "
                             "bfloat16 (docs/PERFORMANCE.md)")
     model.add_argument("--loops", choices=LOOPS, default=encoder.loops,
-                       help="how the LSTM's loops over time run: TensorFlow ops step by step, "
-                            "compiled by XLA, or fused C++ ops built on first use (same results "
+                       help="how the LSTM's loops over time run: TensorFlow ops step by step "
+                            "(graph), compiled by XLA (xla), fused C++ ops built on first use "
+                            "(fused), or auto: fused where they build, else graph (same results "
                             "to float32 rounding; docs/PERFORMANCE.md)")
 
 

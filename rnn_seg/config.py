@@ -17,8 +17,11 @@ ResetMode = Literal["original", "corrected"]
 RESET_MODES = ("original", "corrected")
 Precision = Literal["fp32", "bf16"]
 PRECISIONS = ("fp32", "bf16")
-Loops = Literal["graph", "xla", "fused"]
-LOOPS = ("graph", "xla", "fused")
+Loops = Literal["auto", "graph", "xla", "fused"]
+LOOPS = ("auto", "graph", "xla", "fused")
+#: The loops a process runs: ``auto`` is ``fused`` where ``rnn_seg.kernels`` builds and loads,
+#: else ``graph`` (``rnn_seg.lstm.runnable_loops``).
+RUNNABLE_LOOPS = ("graph", "xla", "fused")
 
 
 @dataclass(frozen=True)
@@ -40,8 +43,9 @@ class EncoderConfig:
     init_scale: float = 0.1
     reset_mode: ResetMode = "original"
     precision: Precision = "fp32"   # of the LSTM's matrix products (rnn_seg.lstm's docstring)
-    loops: Loops = "graph"          # TensorFlow ops step by step, one XLA kernel per loop, or
-                                    # the compiled C++ loops of rnn_seg.kernels
+    loops: Loops = "auto"           # TensorFlow ops step by step ("graph"), one XLA kernel per
+                                    # loop ("xla"), the compiled C++ loops of rnn_seg.kernels
+                                    # ("fused"), or "auto": fused where they build, else graph
 
     def __post_init__(self):
         require_choice("EncoderConfig.kind", self.kind, ("lstm",))

@@ -33,7 +33,9 @@ longer pays TensorFlow's per-op dispatch, which is most of a step's cost in a sm
 to a bucket (two per octave) and the loop stops at the last real step; each bucket compiles once
 per process. ``fused`` runs each loop as one C++ op (``rnn_seg.kernels``: weights laid out once per
 call, gates and peepholes fused with each step's product), built on first use; where it cannot be
-built or loaded, the encoder says why in one line and runs the ``graph`` loops.
+built or loaded, the encoder says why in one line and runs the ``graph`` loops. ``auto`` (the
+default) is ``fused`` where they build and load, else ``graph``, after the same line; the loops a
+run ran are in its provenance (``config.json``).
 """
 from __future__ import annotations
 
@@ -44,8 +46,8 @@ from typing import Callable, NamedTuple
 
 import tensorflow as tf
 
-from .config import (LOOPS, PRECISIONS, RESET_MODES, EncoderConfig,  # noqa: F401 (re-exported)
-                     Loops, Precision, ResetMode, cpu_flags, native_bf16,
+from .config import (LOOPS, PRECISIONS, RESET_MODES, RUNNABLE_LOOPS,  # noqa: F401 (re-exported)
+                     EncoderConfig, Loops, Precision, ResetMode, cpu_flags, native_bf16,
                      require_native_precision)
 from .kernels import build as fused_build
 from .kernels import loops as fused_loops
@@ -139,12 +141,12 @@ def lstm_scan(x_proj: tf.Tensor, resets: tf.Tensor, W_h: tf.Variable, peep: tf.V
         W_h: ``[H, 4H]`` recurrent weights.
         peep: ``[3, H]`` peepholes (rows w_ic, w_fc, w_oc).
         precision: of the recurrent products and ``dW_h`` (module docstring).
-        loops: how the loops over time run (module docstring).
+        loops: how the loops over time run (module docstring; ``auto``: ``runnable``'s).
 
     Returns:
         ``[T, B, H]`` hidden outputs h_t.
     """
-    return _BPTT[precision, loops](x_proj, 1.0 - resets, tf.convert_to_tensor(W_h),
+    return _BPTT[precision, runnable(loops, precision)](x_proj, 1.0 - resets, tf.convert_to_tensor(W_h),
                                    tf.convert_to_tensor(peep))
 
 
@@ -212,7 +214,7 @@ _LOOP_FUNCTIONS = {
             tf.function(functools.partial(_backward_loop, bounded=True), jit_compile=True)),
     "fused": (fused_loops.forward_loop, fused_loops.backward_loop)}
 _BPTT = {(precision, loops): _bptt_in(dtype, loops)
-         for precision, dtype in _DTYPES.items() for loops in LOOPS}
+         for precision, dtype in _DTYPES.items() for loops in RUNNABLE_LOOPS}
 
 
 def _padding(steps: tf.Tensor) -> Callable[[tf.Tensor], tf.Tensor]:
@@ -473,15 +475,22 @@ class RecurrentEncoder(tf.Module):
 
 
 def runnable_loops(config: EncoderConfig) -> EncoderConfig:
-    """``config``, or, when its ``fused`` loops cannot be built or loaded here, ``config`` with the
-    ``graph`` loops after one line on stderr saying why (once per process and reason)."""
-    if config.loops != "fused":
-        return config
-    reason = _fused_unavailable(config.precision)
+    """``config`` with the loops this process runs (``runnable``)."""
+    loops = runnable(config.loops, config.precision)
+    return config if loops == config.loops else replace(config, loops=loops)
+
+
+def runnable(loops: Loops, precision: Precision) -> Loops:
+    """The loops that run here for ``loops``: ``auto`` is ``fused`` where ``rnn_seg.kernels``
+    builds and loads them for ``precision``, else ``graph``; ``fused`` falls back to ``graph``
+    there too, after one line on stderr saying why (once per process and reason)."""
+    if loops not in ("auto", "fused"):
+        return loops
+    reason = _fused_unavailable(precision)
     if reason is None:
-        return config
+        return "fused"
     _say_once(f"fused LSTM loops unavailable ({reason}): running the graph loops")
-    return replace(config, loops="graph")
+    return "graph"
 
 
 @functools.lru_cache(maxsize=None)

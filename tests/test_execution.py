@@ -137,12 +137,31 @@ def test_outcome_against_the_margin():
     assert shift_note(result([5.1, 4.8, 5.3, 5.0, 4.9, 5.2, 5.1, 4.7]), 2.0, 0.05) == ""
 
 
+def _set_provenance_loops(grid, loops, run="runs"):
+    """Record ``loops`` as what every run under ``grid / run`` ran (its provenance)."""
+    for config in (grid / run).rglob("config.json"):
+        record = json.loads(config.read_text())
+        record["provenance"] = {**record.get("provenance", {}), "loops": loops}
+        config.write_text(json.dumps(record))
+
+
+def test_a_grid_on_the_default_loops_reads_as_the_loops_its_runs_ran(tmp_path):
+    """``auto`` is no path: the runs' provenance says which loops they ran."""
+    reference = _grid(tmp_path, "ref", 0)
+    option = _grid(tmp_path, "auto", 1, loops="auto")
+    _set_provenance_loops(option, "fused")
+    assert _compare(option, reference, tmp_path / "out") == 0
+    table = pd.read_csv(tmp_path / "out" / "execution.csv")
+    assert set(table.option) == {"fused loops, fp32"}
+
+
 @pytest.mark.parametrize("case, message", [
     ("width", "run.encoder.hidden"),
     ("unfinished", "31 of its 32 runs have finished"),
     ("seed", "no usable run of A-fixed, seed 1, fold B: "),
     ("same path", "ran on the same execution path (graph loops, fp32): nothing to compare"),
     ("two paths", "ran on more than one execution path"),
+    ("fell back", "ran on more than one execution path (fused loops, fp32, graph loops, fp32)"),
     ("unfinished reference run", "no usable run of A-fixed, seed 1, fold C: not finished: "),
     ("unreadable option run", "seed1/C/config.json: unreadable or not valid JSON"),
     ("unreadable reference run", "no usable run of A-fixed, seed 1, fold C: unreadable "
@@ -180,6 +199,8 @@ def test_what_cannot_be_compared_is_a_one_line_error_and_writes_nothing(tmp_path
         record = json.loads(config.read_text())
         record["run"]["encoder"]["loops"] = "graph"
         config.write_text(json.dumps(record))
+    if case == "fell back":          # configured fused, ran graph (no compiler on its machine)
+        _set_provenance_loops(option, "graph", run="runs/revised/bidirectional/A-fixed/seed1/C")
     margin = {"margin": "0", "infinite margin": "inf", "nan margin": "nan"}.get(case, "2.0")
     assert _compare(option, reference, tmp_path / "out", margin) == 2
     err = capsys.readouterr().err

@@ -1,5 +1,6 @@
-"""The fused C++ loops (``loops = "fused"``): a run trains as on the graph loops; where they cannot
-be built, the graph loops run after one line saying why, and a failed build leaves nothing."""
+"""The fused C++ loops (``loops = "fused"``, and ``"auto"``, the default, where they build): a run
+trains as on the graph loops; where they cannot be built, the graph loops run after one line saying
+why, and a failed build leaves nothing."""
 import json
 import os
 import shutil
@@ -20,14 +21,14 @@ from tests.fused_loops import needs_fused
 import tensorflow as tf
 
 
-def _run(data_dir, out, loops):
+def _run(data_dir, out, loops, ran=None):
     config = RunConfig(data=DataConfig(str(data_dir)), test_user="B",
                        encoder=EncoderConfig(hidden=32, loops=loops),
                        optim=OptimConfig(total=6, decay_start=4, decay_every=100),
                        train=TrainConfig(seed=0, eval_points=()))
     train_baseline(config, out, log=lambda m: None)
     recorded = json.loads((out / "config.json").read_text())
-    assert recorded["provenance"]["loops"] == loops               # those the process ran
+    assert recorded["provenance"]["loops"] == (ran or loops)      # those the process ran
     return (json.loads((out / "metrics.json").read_text())["mean"]["gesture"],
             recorded["run"]["encoder"]["loops"])
 
@@ -52,10 +53,22 @@ def test_the_fused_loops_build_wherever_a_compiler_is():
         assert build.unavailable("bf16") is None
 
 
-def test_unbuildable_fused_loops_fall_back_to_the_graph_loops_after_one_line(monkeypatch, capsys):
-    reason = "no C++ compiler: 'g++' not found (a test's reason)"
+@needs_fused
+def test_the_default_loops_run_the_fused_ones_where_they_build(synth_dir, tmp_path):
+    """``auto``, the default, is the fused loops here: the run computes what a ``fused`` run
+    does, records ``auto`` as configured and ``fused`` as what ran."""
+    assert EncoderConfig().loops == "auto"
+    auto, configured = _run(synth_dir, tmp_path / "auto", "auto", ran="fused")
+    fused, _ = _run(synth_dir, tmp_path / "fused", "fused")
+    assert configured == "auto" and auto == fused
+
+
+@pytest.mark.parametrize("loops", ["fused", "auto"])
+def test_unbuildable_fused_loops_fall_back_to_the_graph_loops_after_one_line(monkeypatch, capsys,
+                                                                              loops):
+    reason = f"no C++ compiler: 'g++' not found (a test's reason, loops {loops})"
     monkeypatch.setattr(lstm, "_fused_unavailable", lambda precision: reason)
-    config = EncoderConfig(hidden=8, loops="fused")
+    config = EncoderConfig(hidden=8, loops=loops)
     encoders = [RecurrentEncoder(3, config, tf.random.Generator.from_seed(0)) for _ in range(2)]
     assert [e.config for e in encoders] == [replace(config, loops="graph")] * 2
     lines = capsys.readouterr().err.splitlines()
@@ -83,3 +96,9 @@ def test_a_grid_refuses_to_stack_fused_loops(tmp_path, capsys):
     code = grid_main(["--preset", "quick", "--data-dir", "synthetic", "--out", str(tmp_path),
                       "--loops", "fused", "--stack", "2"])
     assert code == 2 and "--stack 1 with loops fused" in capsys.readouterr().err
+
+
+def test_loops_stay_as_given_when_not_fused_or_auto(monkeypatch):
+    """Asking whether the kernels build is for ``fused`` and ``auto`` only."""
+    monkeypatch.setattr(lstm, "_fused_unavailable", lambda precision: pytest.fail("asked"))
+    assert [lstm.runnable(loops, "fp32") for loops in ("graph", "xla")] == ["graph", "xla"]

@@ -275,10 +275,12 @@ def test_dask_cluster_gives_the_local_pool_metrics(tmp_path, tiny_spec, tiny_gri
 
 
 def test_stacked_grid_gives_the_lone_runs_metrics(tmp_path, tiny_spec, tiny_grid):
-    """``--stack 2`` trains folds B and C of each configuration in one vectorised step."""
+    """``--stack 2`` trains folds B and C of each configuration in one vectorised step, on the
+    graph loops when the spec leaves the loops to ``auto``."""
     assert grid_main(["--spec", str(tiny_spec), "--out", str(tmp_path), "--stack", "2"]) == 0
-    assert "resuming" not in (tmp_path / RunKey("revised", "bidirectional", "A", "fixed", 0, "B")
-                              .path() / "train.log").read_text()
+    run = tmp_path / RunKey("revised", "bidirectional", "A", "fixed", 0, "B").path()
+    assert "resuming" not in (run / "train.log").read_text()
+    assert json.loads((run / "config.json").read_text())["provenance"]["loops"] == "graph"
     lone, stacked = _metrics(tiny_grid), _metrics(tmp_path)
     assert lone.keys() == stacked.keys() and len(lone) == 4
     _assert_same_metrics(stacked, lone, rtol=1e-3, atol=0.05)

@@ -13,7 +13,8 @@ finished, usable run of each of the option's runs (configuration, seed and fold;
 the first it lacks and why). The reference's other runs are not the comparison's: they may be
 unfinished, or of other configurations or seeds. The runs of both grids must agree on every
 setting that changes a result but the precision (``pooling.pool`` with ``varying=EXECUTION``);
-the loops, which are not such a setting, are read from each run's ``config.json`` and must be one
+the loops, which are not such a setting, are those each run's ``config.json`` says it started on
+(``RunRecord.loops``: its provenance's, so ``auto`` and a fallback read as what ran) and must be one
 path per grid. Nothing else may differ:
 a reference of another width, schedule or data is refused with the list of what differs.
 
@@ -166,7 +167,7 @@ def _row_key(row) -> RunKey:
 def _path(grid: Path, records: dict[Path, RunRecord]) -> str:
     """``"<loops> loops, <precision>"`` of every run of ``grid`` (``ValueError`` if they differ:
     e.g. a fused run that fell back to the graph loops)."""
-    paths = {f"{r.config.encoder.loops} loops, {r.config.encoder.precision}"
+    paths = {f"{r.loops()} loops, {r.config.encoder.precision}"
              for r in records.values()}
     if len(paths) != 1:
         raise ValueError(f"{grid}: its runs ran on more than one execution path "

@@ -63,9 +63,10 @@ def build_parser() -> argparse.ArgumentParser:
                              f"(default: the spec's, else {DEFAULT_DATA_DIR_TEXT})")
     parser.add_argument("--loops", choices=LOOPS,
                         help="override the spec's loops: how the LSTM's loops over time run "
-                             "(xla: compiled by XLA; fused: C++ ops built on first use; same "
+                             "(graph: TensorFlow ops; xla: compiled by XLA; fused: C++ ops built "
+                             "on first use; auto: fused where they build, else graph; same "
                              "results to float32 rounding; a grid may resume with any; default: "
-                             "the spec's, else graph)")
+                             "the spec's, else auto, graph with --stack)")
     parser.add_argument("--out", type=Path, required=True, metavar="DIR",
                         help="grid folder (shared by every worker on Dask)")
     parser.add_argument("--workers", type=positive_int, default=1, metavar="N",
@@ -137,6 +138,8 @@ def _run(args: argparse.Namespace) -> int:
                 thread_count(str(count))
             except argparse.ArgumentTypeError as error:
                 raise ValueError(f"{option}: {error}{note}") from None
+    if args.stack > 1 and spec.loops == "auto":
+        spec = with_overrides(spec, loops="graph")     # what a vectorised step runs
     if args.stack > 1 and spec.loops != "graph":
         raise ValueError(f"--stack vectorises the runs' steps, which turns {spec.loops}'s "
                          f"compiled loops back into TensorFlow ops: use --stack 1 with loops "

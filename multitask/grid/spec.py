@@ -35,7 +35,7 @@ Example spec (every key optional)::
     epochs = 10                   # length of the gesture variants' schedule; P scaled alike
     schedule_factors = {APoc = 1.5}   # per variant, a longer schedule still; {} = none
     precision = "fp32"            # or "bf16": the LSTM's matrix products in bfloat16
-    loops = "graph"               # "xla" or "fused": the LSTM's loops compiled (not a setting)
+    loops = "auto"                # or "graph", "xla", "fused": how the LSTM's loops run (not a setting)
     ordinal_loss = "sum"          # the ordered progress head's loss: "sum" (paper) or "mean"
     relative_rate = "chen"        # GradNorm's r_i: "chen" (ratio mean) or "paper" (loss mean)
     encoder = "lstm"              # or "ed-tcn", "ms-tcn": their reference settings and schedule

@@ -3,7 +3,8 @@
 Writes what a training evaluation point writes (predictions/NAME.csv, plots/NAME.png,
 metrics.json) for the held-out user's trials (or --test-user's). On a run's final checkpoint it
 reproduces the run's last evaluation point exactly (to float32 rounding if it trained with
---loops xla: a loaded run runs the op loops). --data-dir with --format scores labelled
+--loops xla, or on the fused loops where they cannot be built here: a loaded run then runs the
+op loops). --data-dir with --format scores labelled
 recordings of another layout (your own robot's, at its rate). --stream scores a forward model as
 it would run online (causal preprocessing of every frame; docs/REPRODUCTION.md, "Streaming").
 """

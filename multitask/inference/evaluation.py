@@ -4,7 +4,8 @@ evaluation point (``rnn_seg.trainer.write_evaluation``: per-trial predictions an
 
 Offline, the test trials are preprocessed and predicted exactly as the run's own evaluation points
 were, so the final checkpoint reproduces the run's last evaluation (exactly, or to float32
-rounding for a run trained with XLA's loops: a loaded run runs the op loops). ``stream=True`` scores a forward
+rounding for a run trained with XLA's loops, or with the fused ones where they cannot be built
+here: ``load_run``'s loops). ``stream=True`` scores a forward
 model as it would run online: each trial's every frame preprocessed causally (``TrainedRun.predict``
 with ``causal=True``, equal to feeding the frames one at a time), each labelled sample scored with
 the prediction of the last stream sample at or before its frame; the labels and the samples scored

@@ -38,7 +38,7 @@ from rnn_seg.runs.folder import to_jsonable, write_json
 from rnn_seg.runs.publish import staged_folder
 
 from .output_folders import check_export_folder
-from .trained_run import CONFIG_FILE, TrainedRun
+from .trained_run import CONFIG_FILE, TrainedRun, load_run
 
 #: 2: the input columns and rate of the run's recording format (1: the release's only).
 EXPORT_FORMAT = 2
@@ -176,6 +176,14 @@ def _task_outputs(run: TrainedRun, length: str) -> dict[str, str]:
     return out
 
 
+def _on_graph_loops(run: TrainedRun) -> TrainedRun:
+    """``run``, or its checkpoint reloaded on the graph loops where its LSTM runs other ones: a
+    SavedModel holds TensorFlow's own ops, not the fused ones of this package's library."""
+    if run.model.encoder.config.loops == "graph":
+        return run
+    return load_run(run.run_dir, run.checkpoint, loops="graph")
+
+
 def export_run(run: TrainedRun, out: Path, overwrite: bool = False) -> Path:
     """Write ``run`` as a SavedModel folder (whole or not at all).
 
@@ -189,7 +197,7 @@ def export_run(run: TrainedRun, out: Path, overwrite: bool = False) -> Path:
         ``out``.
     """
     check_export_folder(out, overwrite)
-    module = ExportedRun(run)
+    module = ExportedRun(_on_graph_loops(run))
     with staged_folder(out, overwrite) as folder:
         try:
             tf.saved_model.save(module, str(folder),

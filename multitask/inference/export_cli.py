@@ -34,7 +34,8 @@ def build_parser() -> argparse.ArgumentParser:
 def _export(args: argparse.Namespace) -> None:
     read_run_config(args.run_dir)               # the run and the output folder before TensorFlow
     check_export_folder(args.out, args.overwrite)
-    run = load_for_command(args)          # imports TensorFlow quietly: before any module using it
+    run = load_for_command(args, loops="graph")   # a SavedModel's; imports TensorFlow quietly:
+                                                  # before any module using it
     from .export import export_run
 
     export_run(run, args.out, args.overwrite)

@@ -39,9 +39,10 @@ def stream_layout_advice(layout: str, command: str) -> str:
             "without --stream, with --format FILE.toml; README, 'Your own recordings')")
 
 
-def load_for_command(args: argparse.Namespace) -> TrainedRun:
+def load_for_command(args: argparse.Namespace, loops: str | None = None) -> TrainedRun:
     """The ``TrainedRun`` of ``RUN_DIR`` at ``--checkpoint``: TensorFlow imported quietly
-    (``import_tensorflow``), then its threads set, then the weights loaded."""
+    (``import_tensorflow``), then its threads set, then the weights loaded (``load_run``, its
+    ``loops``)."""
     import_tensorflow()
     from rnn_seg.threads import configure_threads
 
@@ -50,4 +51,4 @@ def load_for_command(args: argparse.Namespace) -> TrainedRun:
     encoder = read_run_config(args.run_dir)[0].encoder
     configure_threads(args.threads, encoder.hidden, encoder.precision,
                       bidirectional=encoder.bidirectional)
-    return load_run(args.run_dir, args.checkpoint)
+    return load_run(args.run_dir, args.checkpoint, loops)

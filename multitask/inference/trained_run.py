@@ -26,10 +26,12 @@ from rnn_seg.runs.checkpoints import restore_weights
 from rnn_seg.model import SegmentationModel
 from rnn_seg.runs.folder import (RunFolderError, from_jsonable, is_finished, read_json,
                                  write_json)
+from rnn_seg.config import Loops
 from rnn_seg.tasks import Task
 from rnn_seg.trainer import predict
 
 from ..models.heads import HeadConfig
+from ..models.run_record import read_run_record
 from .predictions import RecordingPrediction
 from .run_record import (CONFIG_FILE, STREAM_NORMALISATION_FILE, data_folder,  # noqa: F401
                          read_run_config)
@@ -266,17 +268,24 @@ def training_normalisation(config: RunConfig, data_dir: Path | str | None = None
     return Normalisation.fit(samples), [t.name for t in trials]
 
 
-def load_run(path: Path | str, checkpoint: int | None = None) -> TrainedRun:
+def load_run(path: Path | str, checkpoint: int | None = None,
+             loops: Loops | None = None) -> TrainedRun:
     """Load a run folder with the weights of its latest checkpoint (normally the final one) or of
     the checkpoint saved after sweep ``checkpoint`` (``rnn_seg.runs.checkpoints.restore_weights``;
-    a ``RunFolderError`` names what is missing or does not fit). The model runs the TensorFlow-op
-    loops whatever loops it trained with (``EncoderConfig.loops``): the same numbers to float32
-    rounding, no compilation per recording length, and an export that needs no XLA."""
+    a ``RunFolderError`` names what is missing or does not fit).
+
+    An LSTM's model runs ``loops``; None = the fused loops for a run that started on them (so its
+    own evaluations are repeated exactly; the graph loops, after one line, where they cannot be
+    built here), else the TensorFlow-op loops: for a run trained on XLA's loops the same numbers
+    to float32 rounding, without a compilation per recording length."""
     run_dir = Path(path)
-    config, saved = read_run_config(run_dir)
+    record = read_run_record(run_dir)
+    config, saved = record.config, record.saved
     variant, tasks = run_tasks(saved, config, str(run_dir / CONFIG_FILE))
-    encoder = (replace(config.encoder, loops="graph") if config.encoder.kind == "lstm"
-               else config.encoder)
+    encoder = config.encoder
+    if encoder.kind == "lstm":
+        encoder = replace(encoder, loops=loops or ("fused" if record.loops() == "fused"
+                                                   else "graph"))
     model = SegmentationModel(len(feature_columns(config.data.feature_set)), encoder, tasks,
                               config.train.seed)
     sweep = restore_weights(model, run_dir, sweep=checkpoint)

@@ -89,6 +89,14 @@ class RunRecord:
         return variant_record(VARIANTS[self.variant], self.weighting, self.config,
                               self.gradnorm, self.heads, self.fingerprint)
 
+    def loops(self) -> str:
+        """The LSTM loops the run started on: its provenance's (``auto`` resolved, a fused run
+        that fell back read as ``graph``), else, in a record older than that entry, the
+        configured ones."""
+        provenance = self.saved.get("provenance")
+        ran = provenance.get("loops") if isinstance(provenance, dict) else None
+        return ran if isinstance(ran, str) else self.config.encoder.loops
+
     def classes(self, task: str) -> tuple[str, ...]:
         """The class names of ``task`` (``"gesture"``: the task definition's gestures;
         ``"progress"``: its stages)."""
