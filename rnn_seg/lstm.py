@@ -357,6 +357,7 @@ class RecurrentEncoder(tf.Module):
 
     def __init__(self, input_size: int, config: EncoderConfig, rng: tf.random.Generator):
         super().__init__(name="encoder")
+        self.asked_loops = config.loops          # before ``auto`` (or a fallback) is resolved
         self.config = config = runnable_loops(config)
         self.cells = {
             d: [LSTMCellWeights(input_size if layer == 0 else config.hidden, config.hidden,
@@ -367,6 +368,15 @@ class RecurrentEncoder(tf.Module):
     @property
     def directions(self) -> tuple[str, ...]:
         return ("fw", "rv") if self.config.bidirectional else ("fw",)
+
+    def resume_on(self, started: str) -> None:
+        """Run ``started``, the loops this encoder's run started on (its config.json's
+        provenance), where it was asked for ``auto``: a run resumed with the default keeps its
+        path (``runnable``'s fallback aside), so its provenance, ``load_run`` and the execution
+        comparisons read what trained it. Explicit loops are kept: a run may resume on any.
+        Call before the first trace."""
+        if self.asked_loops == "auto" and started in RUNNABLE_LOOPS:
+            self.config = runnable_loops(replace(self.config, loops=started))
 
     @property
     def dropout_calls(self) -> int:

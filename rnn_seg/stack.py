@@ -44,7 +44,9 @@ tf.get_logger().addFilter(_NoFallbackWarnings())
 
 class TrainerStack:
     """Train ``trainers`` (same model shapes, tasks, trainer class and number of sweeps)
-    together."""
+    together; two or more must run the ``graph`` loops (``EncoderConfig(loops="graph")``, not the
+    default ``auto``, where the fused loops build): ``tf.vectorized_map`` maps TensorFlow ops, and
+    would run compiled loops member by member."""
 
     def __init__(self, trainers: Sequence[Trainer]):
         self.trainers = list(trainers)
@@ -54,6 +56,12 @@ class TrainerStack:
         folders = [t.run_dir.resolve() for t in self.trainers]
         if len(set(folders)) < len(folders):
             raise ValueError(f"cannot stack runs sharing a folder: {[str(f) for f in folders]}")
+        for t in self.trainers if len(self.trainers) > 1 else ():   # one alone: its own step
+            loops = getattr(t.model.encoder.config, "loops", "graph")   # a TCN's are TF ops
+            if loops != "graph":
+                raise ValueError(f"cannot stack {t.run_dir}: its LSTM runs the {loops} loops, "
+                                 "which a vectorised step would run member by member: build "
+                                 "its model with loops 'graph' (what 'auto' is in a stacked grid)")
         first = self.trainers[0]
         for t in self.trainers[1:]:
             _require_same(first, t, "trainer class", lambda x: type(x).__name__)

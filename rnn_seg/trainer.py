@@ -45,6 +45,7 @@ from .config import (PLOT_POINTS, PREDICTION_MODES, PlotPoints,  # noqa: F401 (r
                      PredictionMode, TrainConfig, check_eval_points,
                      require_native_precision)
 from .convergence import history_convergence
+from .encoders.registry import resume_on
 from .runs.lock import hold_folder
 from .model import ModelParams, SegmentationModel
 from .optim import OptimConfig, build_optimizer
@@ -328,6 +329,8 @@ class Trainer:
                                      "provenance": {**provenance(), "started": now(),
                                                     "loops": self.model.encoder.config.loops}})
         self._record = read_json(config_path)
+        started = self._record.get("provenance")
+        resume_on(self.model.encoder, started.get("loops") if isinstance(started, dict) else None)
         self.settings_hash = self._record.get("settings_hash", self.settings_hash)
         self._saved_hash.assign(self.settings_hash)
         checkpoint = tf.train.Checkpoint(model=self.model, sgd=self.sgd, sweep=self.sweep,

@@ -15,7 +15,7 @@ from rnn_seg import lstm
 from rnn_seg.kernels import build
 from rnn_seg.lstm import EncoderConfig, RecurrentEncoder
 from rnn_seg.optim import OptimConfig
-from rnn_seg.trainer import TrainConfig
+from rnn_seg.trainer import TrainConfig, Trainer
 from tests.fused_loops import needs_fused
 
 import tensorflow as tf
@@ -76,7 +76,7 @@ def test_unbuildable_fused_loops_fall_back_to_the_graph_loops_after_one_line(mon
 
 
 @pytest.mark.parametrize("compiler, message", [("no-such-compiler-49", r"no C\+\+ compiler"),
-                                               ("false", "failed")])
+                                               ("false", "failed: false exited with status 1")])
 def test_a_failed_build_says_why_and_leaves_nothing(tmp_path, monkeypatch, compiler, message):
     monkeypatch.setenv("CXX", compiler)
     with pytest.raises(build.KernelUnavailable, match=message):
@@ -102,3 +102,38 @@ def test_loops_stay_as_given_when_not_fused_or_auto(monkeypatch):
     """Asking whether the kernels build is for ``fused`` and ``auto`` only."""
     monkeypatch.setattr(lstm, "_fused_unavailable", lambda precision: pytest.fail("asked"))
     assert [lstm.runnable(loops, "fp32") for loops in ("graph", "xla")] == ["graph", "xla"]
+
+
+class _Interrupt(Exception):
+    pass
+
+
+@pytest.mark.parametrize("asked, ran", [("auto", "graph"), ("graph", "graph"),
+                                        pytest.param("fused", "fused", marks=needs_fused)])
+def test_a_run_resumed_with_the_default_loops_keeps_those_it_started_on(synth_dir, tmp_path,
+                                                                         monkeypatch, asked, ran):
+    """A run started on the graph loops (e.g. before ``auto`` was the default) resumes on them
+    with ``auto``: one path per run, the one its provenance names (what ``load_run`` and the
+    execution comparisons read); explicit loops are a run's to change."""
+    def config(loops):
+        return RunConfig(data=DataConfig(str(synth_dir)), test_user="B",
+                         encoder=EncoderConfig(hidden=8, loops=loops),
+                         optim=OptimConfig(total=3, decay_start=2, decay_every=100),
+                         train=TrainConfig(seed=0, eval_points=()))
+
+    original = Trainer._log_progress
+
+    def stop_in_epoch_2(self, done, *args):
+        original(self, done, *args)
+        if done == 2 * self.sweeps_per_epoch:       # before its checkpoint: resumes from 1
+            raise _Interrupt
+
+    run = tmp_path / "run"
+    with monkeypatch.context() as patch:
+        patch.setattr(Trainer, "_log_progress", stop_in_epoch_2)
+        with pytest.raises(_Interrupt):
+            train_baseline(config("graph"), run, log=lambda m: None)
+    messages = []
+    train_baseline(config(asked), run, log=messages.append)
+    assert [m for m in messages if "resuming" in m][0].endswith(f"with {ran} loops")
+    assert json.loads((run / "config.json").read_text())["provenance"]["loops"] == "graph"

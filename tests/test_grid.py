@@ -16,7 +16,7 @@ import pandas as pd
 import pytest
 
 from multitask.grid.spec import (Experiment, GridSpec, RunKey, expand, job_groups, load_spec,
-                                 run_config, stack_groups, with_budget)
+                                 run_config, spec_from_dict, stack_groups, with_budget)
 from multitask.grid.cli import main as grid_main
 from multitask.grid.executors import run_grid
 from multitask.evidence.cli import main as tables_main
@@ -284,6 +284,36 @@ def test_stacked_grid_gives_the_lone_runs_metrics(tmp_path, tiny_spec, tiny_grid
     lone, stacked = _metrics(tiny_grid), _metrics(tmp_path)
     assert lone.keys() == stacked.keys() and len(lone) == 4
     _assert_same_metrics(stacked, lone, rtol=1e-3, atol=0.05)
+
+
+def test_a_grid_resumed_with_the_default_loops_keeps_those_it_was_launched_with(
+        tmp_path, tiny_spec, tiny_grid, capsys):
+    """A grid whose grid.json records ``graph`` (launched before ``auto`` was the default, or
+    with ``--stack``) trains its remaining runs on ``graph`` under ``auto``: one path per grid."""
+    grid = tmp_path / "grid"
+    shutil.copytree(tiny_grid, grid)
+    record = json.loads((grid / "grid.json").read_text())
+    record["spec"]["loops"] = "graph"
+    (grid / "grid.json").write_text(json.dumps(record))
+    run = grid / RunKey("revised", "bidirectional", "A", "fixed", 0, "C").path()
+    shutil.rmtree(run)                                      # a run the grid had not started
+    capsys.readouterr()
+    assert grid_main(["--spec", str(tiny_spec), "--out", str(grid)]) == 0
+    assert "loops auto: graph" in capsys.readouterr().out
+    assert json.loads((run / "config.json").read_text())["provenance"]["loops"] == "graph"
+
+
+@pytest.mark.parametrize("stack", ["1", "2"])
+def test_a_convolutional_grid_may_stack_and_read_older_records(tmp_path, synth_dir, stack):
+    """A TCN grid has no LSTM loops: ``auto`` (its default), or ``graph`` as older grid.json and
+    stacked grids record, are accepted; compiled loops are refused."""
+    spec = tmp_path / "tcn.toml"
+    spec.write_text(f'preset = "quick"\ndata_dir = "{synth_dir}"\nencoder = "ed-tcn"\n')
+    assert grid_main(["--spec", str(spec), "--out", str(tmp_path / "grid"), "--stack", stack,
+                      "--dry-run"]) == 0
+    assert spec_from_dict({"encoder": "ed-tcn", "loops": "graph"}).loops == "graph"
+    with pytest.raises(ValueError, match="loops is an LSTM setting"):
+        spec_from_dict({"encoder": "ed-tcn", "loops": "fused"})
 
 
 def test_stack_groups_hold_one_configuration():

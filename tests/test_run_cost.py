@@ -27,7 +27,7 @@ def _data(seed: int) -> SequenceSet:
 
 def _trainer(run_dir, seed=0, **train) -> Trainer:
     tasks = [SoftmaxClassification("gesture", ["a", "b", "c"]), OrdinalProgress()]
-    model = SegmentationModel(F, EncoderConfig(hidden=8), tasks, seed)
+    model = SegmentationModel(F, EncoderConfig(hidden=8, loops="graph"), tasks, seed)
     config = TrainConfig(seed=seed, eval_points=(EPOCHS - 1, EPOCHS), plots="none", **train)
     return Trainer(model, tasks, OptimConfig(total=EPOCHS, decay_start=2), config, _data(seed),
                    _data(seed + 100), run_dir, {}, 5.0, log=lambda m: None)

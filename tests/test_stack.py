@@ -13,6 +13,7 @@ from rnn_seg.optim import OptimConfig
 from rnn_seg.stack import TrainerStack, padded_batches
 from rnn_seg.tasks import SoftmaxClassification
 from rnn_seg.trainer import SequenceSet, TrainConfig, Trainer
+from tests.fused_loops import needs_fused
 
 F, SWEEPS = 4, 6
 
@@ -26,10 +27,11 @@ def _data(seed: int) -> SequenceSet:
     return SequenceSet([f"s{i}" for i in range(10)], inputs, labels)
 
 
-def _trainer(run_dir, seed: int, gradnorm: bool, mode: str = "corrected") -> Trainer:
+def _trainer(run_dir, seed: int, gradnorm: bool, mode: str = "corrected",
+             loops: str = "graph") -> Trainer:
     tasks = [SoftmaxClassification("gesture", ["a", "b", "c"]), OrdinalProgress()]
-    model = SegmentationModel(F, EncoderConfig(hidden=8, keep_prob=0.5, reset_mode=mode), tasks,
-                              seed)
+    model = SegmentationModel(F, EncoderConfig(hidden=8, keep_prob=0.5, reset_mode=mode,
+                                               loops=loops), tasks, seed)
     data = _data(seed)
     args = (model, tasks, OptimConfig(learning_rate=0.5, momentum=0.5, unit="sweeps",
                                       total=SWEEPS, decay_start=3, decay_every=2),
@@ -86,6 +88,17 @@ def test_stack_refuses_members_that_differ(tmp_path):
     b = _trainer(tmp_path / "b", 1, True)
     with pytest.raises(ValueError, match="different trainer class"):
         TrainerStack([a, b])
+
+
+@pytest.mark.parametrize("loops", ["xla", pytest.param("auto", marks=needs_fused)])
+def test_stack_refuses_members_on_compiled_loops(tmp_path, loops):
+    """A vectorised step maps TensorFlow ops over the members; compiled loops (``auto``'s
+    fused ones where they build) would run member by member: refused, naming the member."""
+    a = _trainer(tmp_path / "a", 0, False, loops=loops)
+    b = _trainer(tmp_path / "b", 1, False)
+    with pytest.raises(ValueError, match=f"cannot stack {tmp_path / 'a'}: its LSTM runs the"):
+        TrainerStack([a, b])
+    TrainerStack([a])                           # alone, a member runs its own step
 
 
 def test_padding_is_masked_out_of_the_losses():

@@ -6,6 +6,7 @@ one parent run with its runs nested under it."""
 from __future__ import annotations
 
 import importlib.util
+import json
 
 import pandas as pd
 import pytest
@@ -73,6 +74,9 @@ def test_a_finished_run_is_logged_to_mlflow_once(synth_dir, tmp_path, monkeypatc
     run = runs[0]
     assert run.data.params["variant"] == "APc" and run.data.params["run.encoder.hidden"] == "8"
     assert run.data.params["run.test_user"] == "C"
+    recorded = json.loads((tmp_path / "run" / "config.json").read_text())
+    assert run.data.params["run.encoder.loops"] == "auto"                  # what was asked
+    assert run.data.tags["mtrnn.loops"] == recorded["provenance"]["loops"] != "auto"   # what ran
     history = pd.read_csv(tmp_path / "run" / "history.csv")
     losses = client.get_metric_history(run.info.run_id, "loss_gesture")
     assert [m.step for m in losses] == list(history.sweep)

@@ -39,11 +39,12 @@ from jigsaws_tools.cli.common import (command_parser, deprecated_alias, import_t
 from jigsaws_tools.cli.options import DEFAULT_DATA_DIR_TEXT
 from jigsaws_tools.errors import WriteFailed
 from jigsaws_tools.recording_format import RELEASE_LAYOUT_ONLY
-from rnn_seg.config import LOOPS, require_native_precision
+from rnn_seg.config import LOOPS, RUNNABLE_LOOPS, require_native_precision
 from rnn_seg.runs.folder import RunFolderError, is_finished
 from rnn_seg.runs.outputs import OutputFolderError, check_output_folder, folders_below
 from rnn_seg.runs.provenance import set_command
 
+from .folder import GRID_RECORD, read_record
 from .spec import (DEFAULT_PRESET, PRESETS, GridSpec, expand, job_groups, load_spec,
                    release_users, with_budget, with_overrides)
 
@@ -66,7 +67,8 @@ def build_parser() -> argparse.ArgumentParser:
                              "(graph: TensorFlow ops; xla: compiled by XLA; fused: C++ ops built "
                              "on first use; auto: fused where they build, else graph; same "
                              "results to float32 rounding; a grid may resume with any; default: "
-                             "the spec's, else auto, graph with --stack)")
+                             "the spec's, else auto: graph with --stack, and on resuming a grid "
+                             "the loops its grid.json records)")
     parser.add_argument("--out", type=Path, required=True, metavar="DIR",
                         help="grid folder (shared by every worker on Dask)")
     parser.add_argument("--workers", type=positive_int, default=1, metavar="N",
@@ -123,6 +125,23 @@ def _check_grid_folder(out: Path) -> None:
                                     "folder)")
 
 
+def _on_recorded_loops(spec: GridSpec, out: Path) -> GridSpec:
+    """``spec``, or, where it asks for ``auto`` loops and ``out``'s grid.json records the runnable
+    loops the grid was launched with (say ``graph``, the default before ``auto``), ``spec`` on
+    those after a line saying so: a resumed grid keeps one path (``multitask-tables
+    --reference`` refuses two), and its runs already started keep theirs too
+    (``RecurrentEncoder.resume_on``). ``--loops`` other than ``auto`` switches."""
+    if spec.encoder != "lstm" or spec.loops != "auto":
+        return spec
+    record = read_record(out)
+    recorded = (record or {}).get("spec", {}).get("loops")
+    if recorded not in RUNNABLE_LOOPS:
+        return spec
+    print(f"grid: loops auto: {recorded}, the loops {out / GRID_RECORD} records (--loops to "
+          "switch)", flush=True)
+    return with_overrides(spec, loops=recorded)
+
+
 def _run(args: argparse.Namespace) -> int:
     from rnn_seg.runs.lock import hold_folder
 
@@ -145,6 +164,7 @@ def _run(args: argparse.Namespace) -> int:
                          f"compiled loops back into TensorFlow ops: use --stack 1 with loops "
                          f"{spec.loops} (or graph loops with --stack)")
     _check_grid_folder(args.out)
+    spec = _on_recorded_loops(spec, args.out)
     keys = expand(spec, release_users(spec))
     budget = spec.budget
     size = f"H={budget.hidden}" if spec.encoder == "lstm" else f"encoder {spec.encoder}"

@@ -321,6 +321,11 @@ PAPER_EXPERIMENTS = (
 )
 
 
+#: The loops a convolutional encoder's spec may name: none compiled, as its encoder has no LSTM
+#: loops (``graph``: the default before ``auto``, in older grid.json, and a stacked grid's).
+UNCOMPILED_LOOPS = ("auto", "graph")
+
+
 @dataclass(frozen=True)
 class GridSpec:
     """A whole grid; ``None`` budget fields take the preset's value."""
@@ -344,11 +349,11 @@ class GridSpec:
         require_choice("preset", self.preset, PRESETS)
         require_choice("encoder", self.encoder, ENCODERS)
         if self.encoder != "lstm":
-            lstm_only = [name for name, value, default in (
-                ("hidden", self.hidden, None), ("epochs", self.epochs, None),
-                ("schedule_factors", self.schedule_factors, None),
-                ("precision", self.precision, EncoderConfig.precision),
-                ("loops", self.loops, EncoderConfig.loops)) if value != default]
+            lstm_only = [name for name, given in (
+                ("hidden", self.hidden is not None), ("epochs", self.epochs is not None),
+                ("schedule_factors", self.schedule_factors is not None),
+                ("precision", self.precision != EncoderConfig.precision),
+                ("loops", self.loops not in UNCOMPILED_LOOPS)) if given]
             if lstm_only:
                 raise ValueError(f"{lstm_only[0]} is an LSTM setting; encoder {self.encoder!r} "
                                  "trains with its reference's (docs/REPRODUCTION.md)")

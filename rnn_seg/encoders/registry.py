@@ -34,3 +34,12 @@ def shared_variables(encoder: tf.Module) -> list[tf.Variable]:
     if layout(encoder) == WRAPPED:
         return [v for cells in encoder.cells.values() for v in cells[-1].trainable_variables]
     return encoder.shared_variables()
+
+
+def resume_on(encoder: tf.Module, started: str | None) -> None:
+    """Let a resumed run's ``encoder`` run the loops its run started on (``started``: config.json's
+    ``provenance.loops``; None in older records, which keep the asked loops): the LSTM's
+    ``RecurrentEncoder.resume_on``; the convolutional encoders have no loops to choose."""
+    method = getattr(encoder, "resume_on", None)
+    if method is not None and started is not None:
+        method(started)

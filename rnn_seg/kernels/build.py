@@ -73,8 +73,9 @@ def build(path: Path) -> None:
             raise KernelUnavailable(f"compiling {SOURCE.name} took over {BUILD_SECONDS} s") from None
         if done.returncode != 0:
             errors = [line for line in done.stderr.splitlines() if "error" in line]
-            raise KernelUnavailable(f"compiling {SOURCE.name} failed: "
-                                    f"{(errors or done.stderr.splitlines() or ['?'])[0].strip()}")
+            said = errors or done.stderr.splitlines() or [
+                f"{command[0]} exited with status {done.returncode} and no message"]
+            raise KernelUnavailable(f"compiling {SOURCE.name} failed: {said[0].strip()}")
         os.replace(target, path)
 
 

@@ -14,6 +14,9 @@ resumed is logged once, whole:
 * its final scores (``metrics.json``'s mean over the evaluation points) as ``final.<task>.<score>``
   (``final.gesture.accuracy``, ``final.gesture.f1_10`` for F1@10: MLflow names take no ``@``).
 
+The LSTM loops a run started on (config.json's ``provenance.loops``: ``fused`` or ``graph`` for
+the parameter ``run.encoder.loops = auto``) are its tag ``mtrnn.loops``.
+
 A grid is one parent MLflow run (its spec as parameters), its runs nested under it. Runs are
 found again by their tags (``mtrnn.run_dir``, ``mtrnn.settings_hash``; a grid's
 ``mtrnn.grid_dir``): the same command again logs nothing twice. ``URI`` is any MLflow tracking
@@ -101,6 +104,10 @@ class Tracker:
                 str(config.get("settings_hash", ""))}
         if self.parent is not None:
             tags["mlflow.parentRunId"] = self.parent
+        provenance = config.get("provenance")
+        ran = provenance.get("loops") if isinstance(provenance, dict) else None
+        if isinstance(ran, str):            # the parameter says what was asked, e.g. auto
+            tags["mtrnn.loops"] = ran
         started = _started(config)
         run = self.client.create_run(self.experiment, run_name=_run_name(run_dir, config),
                                      tags=tags, start_time=started)
