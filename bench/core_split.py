@@ -11,7 +11,9 @@ Each process trains ``--sweeps`` sweeps and evaluates once; its ``timing.json`` 
 of its training sweeps. Prints, per layout, the median seconds per sweep of one run and the
 throughput (sweeps per hour of the whole machine, i.e. summed over the runs at once), and the
 throughput ratio of the second layout over the first: above 1, two one-core workers finish a
-grid sooner (``multitask-grid --workers 2``); below 1, one worker on both cores does.
+grid sooner (``multitask-grid --workers 2``); below 1, one worker on both cores does. The runs use
+the engine's default LSTM loops (``auto``: fused where they build, since 2026-11-27; the
+measurements of issue 45 in docs/PERFORMANCE.md were made on ``graph``, the default then).
 
     python bench/core_split.py [--repeats 2] [--sweeps 12] [--hidden 1024] [--variant A]
 """

@@ -7,6 +7,8 @@ splits its wall time into: process start and imports (timed on their own, in a s
 in the same invocation), then from the run's ``timing.json``: data loading, graph tracing,
 training sweeps, monitoring (progress lines), evaluations (predictions, CSVs, plots) and
 checkpoints; what is left is configuration, final writes and exit. Repeats and prints medians.
+The LSTM runs the engine's default loops (``auto``: the fused ones where they build, since
+2026-11-27; ``graph`` before) unless the extra options name ``--loops``.
 
     python bench/run_cost.py [--repeats 3] [--variant APc] [--hidden 128] [--epochs 30]
                              [--eval-at 25,28,30] [--threads 1] [-- extra multitask-train options]

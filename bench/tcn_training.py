@@ -9,6 +9,7 @@ ones (about 1-5 minutes at 5 Hz), so the costs carry over; evaluation and checkp
 counted. Nothing is written outside a temporary folder.
 
     nice -n 19 python bench/tcn_training.py [--sweeps 20] [--hidden 128 1024] [--threads 0]
+                                            [--loops auto]
 """
 from __future__ import annotations
 
@@ -60,6 +61,9 @@ def main() -> None:
     parser.add_argument("--hidden", type=int, nargs="+", default=[128],
                         help="LSTM widths to time beside the TCNs")
     parser.add_argument("--threads", type=int, default=0)
+    parser.add_argument("--loops", default="auto", choices=["auto", "graph", "xla", "fused"],
+                        help="the LSTM's loops (default: the engine's default, auto; the "
+                             "2026-11-27 numbers of docs/PERFORMANCE.md are graph's)")
     args = parser.parse_args()
 
     from jigsaws_tools.dataset import default_cache_dir
@@ -67,22 +71,24 @@ def main() -> None:
     from multitask.models.variants import batch_size, get_variant
     from rnn_seg.config import EncoderConfig
     from rnn_seg.encoders.config import encoder_config
+    from rnn_seg.lstm import runnable
     from rnn_seg.threads import configure_threads
 
     configure_threads(args.threads, max(args.hidden), "fp32")
     data = str(ensure_release(default_cache_dir(), SynthConfig()))
     variant = get_variant("APc")
-    setups = [(f"lstm H={h}", EncoderConfig(hidden=h), variant.optim(), batch_size("lstm"))
-              for h in args.hidden]
+    loops = runnable(args.loops, "fp32")                # what auto is here
+    setups = [(f"lstm H={h} {loops}", EncoderConfig(hidden=h, loops=loops),
+               variant.optim(), batch_size("lstm")) for h in args.hidden]
     setups += [(kind, encoder_config(kind), variant.optim(kind), batch_size(kind))
                for kind in ENCODERS]
-    print(f"{'encoder':<14} {'batch':>5} {'trace s':>8} {'s/sweep':>8} {'sweeps/run':>10} "
+    print(f"{'encoder':<20} {'batch':>5} {'trace s':>8} {'s/sweep':>8} {'sweeps/run':>10} "
           f"{'min/run':>8}")
     with tempfile.TemporaryDirectory() as tmp:
         for name, encoder, optim, batch in setups:
             config = _config(data, encoder, replace(optim), batch)
             m = measure(config, args.sweeps, Path(tmp) / name.replace(" ", "_"))
-            print(f"{name:<14} {batch:>5} {m['trace_s']:>8.1f} {m['sweep_s']:>8.3f} "
+            print(f"{name:<20} {batch:>5} {m['trace_s']:>8.1f} {m['sweep_s']:>8.3f} "
                   f"{m['run_sweeps']:>10} {m['run_min']:>8.1f}", flush=True)
 
 
