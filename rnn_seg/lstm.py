@@ -227,10 +227,10 @@ def _padding(steps: tf.Tensor) -> Callable[[tf.Tensor], tf.Tensor]:
                       tf.int32)
     size = (steps + quantum - 1) // quantum * quantum
 
-    def pad(x: tf.Tensor) -> tf.Tensor:
+    def to_bucket(x: tf.Tensor) -> tf.Tensor:     # not "pad": AutoGraph names it tf__<name>
         return tf.pad(x, tf.concat([[[0, size - steps]], tf.zeros([x.shape.rank - 1, 2], tf.int32)],
                                    axis=0))
-    return pad
+    return to_bucket
 
 
 def _shift(x: tf.Tensor) -> tf.Tensor:

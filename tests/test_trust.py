@@ -495,8 +495,9 @@ def test_grid_workers_die_with_their_parent(tmp_path, small_dir):
 
 def test_ctrl_c_stops_a_grid_cleanly_and_it_resumes(tmp_path, small_dir):
     out = tmp_path / "out"
+    # long enough to be running when the signal comes, on the fused loops too (ms per sweep)
     command = [sys.executable, "-m", "multitask.grid.cli", "--spec",
-               str(_spec(tmp_path, small_dir, epochs=12)), "--out", str(out)]
+               str(_spec(tmp_path, small_dir, epochs=200)), "--out", str(out)]
     grid = subprocess.Popen(command, env=ENV, start_new_session=True, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
     _wait_for(lambda: _checkpointed(out), "a first checkpoint")
@@ -512,12 +513,12 @@ def test_ctrl_c_stops_a_grid_cleanly_and_it_resumes(tmp_path, small_dir):
 
 
 def test_ctrl_c_stops_training_cleanly_and_it_resumes(tmp_path, small_dir):
-    command = [sys.executable, "-m", "multitask.train_cli", *TINY[:-3], "--epochs", "20",
+    command = [sys.executable, "-m", "multitask.train_cli", *TINY[:-3], "--epochs", "200",
                "--no-plots", "--data-dir", str(small_dir), "--out", str(tmp_path / "x")]
     train = subprocess.Popen(command, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                              text=True)
     for line in train.stdout:
-        if line.startswith("[x] epoch 2/20"):
+        if line.startswith("[x] epoch 2/200"):
             break
     train.send_signal(signal.SIGINT)
     out, err = train.communicate(timeout=120)
