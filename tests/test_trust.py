@@ -493,13 +493,19 @@ def test_grid_workers_die_with_their_parent(tmp_path, small_dir):
             pass
 
 
+def _default_sigint() -> None:
+    """In a child, before it starts: Ctrl-C's default action, which Python needs to install its
+    KeyboardInterrupt handler. A test runner started as a background job of a shell without job
+    control (``cmd &`` in a script, CI wrappers) ignores SIGINT, and its children inherit that."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def test_ctrl_c_stops_a_grid_cleanly_and_it_resumes(tmp_path, small_dir):
     out = tmp_path / "out"
-    # long enough to be running when the signal comes, on the fused loops too (ms per sweep)
     command = [sys.executable, "-m", "multitask.grid.cli", "--spec",
-               str(_spec(tmp_path, small_dir, epochs=200)), "--out", str(out)]
+               str(_spec(tmp_path, small_dir, epochs=12)), "--out", str(out)]
     grid = subprocess.Popen(command, env=ENV, start_new_session=True, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True, preexec_fn=_default_sigint)
     _wait_for(lambda: _checkpointed(out), "a first checkpoint")
     os.killpg(grid.pid, signal.SIGINT)                   # as a terminal's Ctrl-C does
     _, err = grid.communicate(timeout=120)
@@ -513,12 +519,12 @@ def test_ctrl_c_stops_a_grid_cleanly_and_it_resumes(tmp_path, small_dir):
 
 
 def test_ctrl_c_stops_training_cleanly_and_it_resumes(tmp_path, small_dir):
-    command = [sys.executable, "-m", "multitask.train_cli", *TINY[:-3], "--epochs", "200",
+    command = [sys.executable, "-m", "multitask.train_cli", *TINY[:-3], "--epochs", "20",
                "--no-plots", "--data-dir", str(small_dir), "--out", str(tmp_path / "x")]
     train = subprocess.Popen(command, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                             text=True)
+                             text=True, preexec_fn=_default_sigint)
     for line in train.stdout:
-        if line.startswith("[x] epoch 2/200"):
+        if line.startswith("[x] epoch 2/20"):
             break
     train.send_signal(signal.SIGINT)
     out, err = train.communicate(timeout=120)
