@@ -146,8 +146,8 @@ def lstm_scan(x_proj: tf.Tensor, resets: tf.Tensor, W_h: tf.Variable, peep: tf.V
     Returns:
         ``[T, B, H]`` hidden outputs h_t.
     """
-    return _BPTT[precision, runnable(loops, precision)](x_proj, 1.0 - resets, tf.convert_to_tensor(W_h),
-                                   tf.convert_to_tensor(peep))
+    return _BPTT[precision, runnable(loops, precision)](
+        x_proj, 1.0 - resets, tf.convert_to_tensor(W_h), tf.convert_to_tensor(peep))
 
 
 def _bptt_in(dtype: tf.DType, loops: Loops):

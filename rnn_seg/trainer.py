@@ -56,7 +56,7 @@ from .runs.logs import append_csv_row, resume_log  # noqa: F401 (append_csv_row 
 from .sweeps import make_sweep, pad_sweep, reset_flags, sweep_indices, sweeps_per_epoch
 from .predictions import prediction_csv, prediction_table
 from .tasks import Task, task_metrics, task_scores
-from .runs.provenance import now, provenance
+from .runs.provenance import now, provenance, started_loops
 from .runs.settings import SettingsMismatchError, check_run_dir, settings_hash
 from .runs.timing import PhaseClock
 
@@ -329,8 +329,7 @@ class Trainer:
                                      "provenance": {**provenance(), "started": now(),
                                                     "loops": self.model.encoder.config.loops}})
         self._record = read_json(config_path)
-        started = self._record.get("provenance")
-        resume_on(self.model.encoder, started.get("loops") if isinstance(started, dict) else None)
+        resume_on(self.model.encoder, started_loops(self._record))
         self.settings_hash = self._record.get("settings_hash", self.settings_hash)
         self._saved_hash.assign(self.settings_hash)
         checkpoint = tf.train.Checkpoint(model=self.model, sgd=self.sgd, sweep=self.sweep,

@@ -16,6 +16,7 @@ from typing import Any
 
 from baseline.config import RunConfig
 from rnn_seg.runs.folder import CONFIG, ConfigError, RunFolderError, from_jsonable, read_json
+from rnn_seg.runs.provenance import started_loops
 
 from .config import WEIGHTINGS, GradNormConfig, HeadConfig, Weighting
 from .variants import VARIANTS, Variant
@@ -93,9 +94,7 @@ class RunRecord:
         """The LSTM loops the run started on: its provenance's (``auto`` resolved, a fused run
         that fell back read as ``graph``), else, in a record older than that entry, the
         configured ones."""
-        provenance = self.saved.get("provenance")
-        ran = provenance.get("loops") if isinstance(provenance, dict) else None
-        return ran if isinstance(ran, str) else self.config.encoder.loops
+        return started_loops(self.saved) or self.config.encoder.loops
 
     def classes(self, task: str) -> tuple[str, ...]:
         """The class names of ``task`` (``"gesture"``: the task definition's gestures;

@@ -51,6 +51,14 @@ def provenance() -> dict:
             "host": socket.gethostname(), "cpu": cpu_model()}
 
 
+def started_loops(record: dict) -> str | None:
+    """The LSTM loops a run started on, as its config.json ``record`` says (``provenance.loops``,
+    ``auto`` resolved: ``fused``, ``graph`` or ``xla``); None in a record without that entry."""
+    ran = record.get("provenance", {})
+    ran = ran.get("loops") if isinstance(ran, dict) else None
+    return ran if isinstance(ran, str) else None
+
+
 @lru_cache(maxsize=1)
 def cpu_model() -> str | None:
     """This machine's processor, e.g. "AMD EPYC": Linux /proc/cpuinfo's first ``model

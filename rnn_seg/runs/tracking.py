@@ -36,6 +36,7 @@ from pathlib import Path
 from typing import Any, Iterator
 
 from .folder import CONFIG, GRADNORM_LOG, HISTORY, is_finished, read_json
+from .provenance import started_loops
 
 DEFAULT_EXPERIMENT = "mtrnn-jigsaws"
 INSTALL = 'MLflow is not installed: pip install -e ".[mlflow]" (or pip install mlflow-skinny)'
@@ -104,9 +105,8 @@ class Tracker:
                 str(config.get("settings_hash", ""))}
         if self.parent is not None:
             tags["mlflow.parentRunId"] = self.parent
-        provenance = config.get("provenance")
-        ran = provenance.get("loops") if isinstance(provenance, dict) else None
-        if isinstance(ran, str):            # the parameter says what was asked, e.g. auto
+        ran = started_loops(config)
+        if ran is not None:                 # the parameter says what was asked, e.g. auto
             tags["mtrnn.loops"] = ran
         started = _started(config)
         run = self.client.create_run(self.experiment, run_name=_run_name(run_dir, config),
