@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -106,12 +107,92 @@ def test_an_unfinished_grid_is_not_analysed(project: Path):
     table, _, skipped = analyse(read_plan(project / "confirm" / "plan.toml"))
     assert table.empty
     assert skipped[0] == (f"wide: not analysed, 71 of 72 runs of seeds 0 1 2 in {grid} finished "
-                          "(the plan analyses complete grids only)")
+                          "(the plan analyses complete grids only): not finished: "
+                          f"{grid / 'runs/revised/bidirectional/APc-fixed/seed2/D'}")
+
+
+def _unrecord(grid: Path, *runs: str) -> None:
+    """Delete ``runs`` (folders under ``runs/revised/bidirectional``) and their lines in
+    grid.json, as if the grid had never planned them."""
+    record = json.loads((grid / "grid.json").read_text())
+    for run in runs:
+        shutil.rmtree(grid / "runs/revised/bidirectional" / run)
+        record["runs"] = [r for r in record["runs"] if f"revised/bidirectional/{run}" not in r]
+    (grid / "grid.json").write_text(json.dumps(record))
+
+
+def _edit_json(path: Path, change) -> None:
+    data = json.loads(path.read_text())
+    change(data)
+    path.write_text(json.dumps(data))
+
+
+def _no_edit(data: dict) -> None:
+    for block in (data["mean"], *data["points"].values()):
+        block["gesture"]["edit"] = None
+
+
+INCOMPLETE = {
+    # a fold no run of one configuration has, and that grid.json does not record either
+    "a fold missing": (lambda grid: _unrecord(grid, *(f"APc-fixed/seed{s}/D" for s in (0, 1, 2))),
+                       "APc-fixed does not have seeds 0 1 2 on every fold"),
+    # a seed missing for one configuration, not recorded either
+    "a seed missing": (lambda grid: _unrecord(grid, "APoc-gradnorm/seed1"),
+                       "APoc-gradnorm does not have seeds 0 1 2 on every fold"),
+    "a NaN score": (lambda grid: _edit_json(
+        grid / "runs/revised/bidirectional/A-fixed/seed0/C/metrics.json", _no_edit),
+        "metric"),
+    "a run of another width": (lambda grid: _edit_json(
+        grid / "runs/revised/bidirectional/A-fixed/seed1/E/config.json",
+        lambda data: data["run"]["encoder"].update(hidden=32)), "run.encoder.hidden"),
+    "a stray seed": (lambda grid: shutil.copytree(
+        grid / "runs/revised/bidirectional/A-fixed/seed2",
+        grid / "runs/revised/bidirectional/A-fixed/seed3"), "stray folder"),
+}
+
+
+@pytest.mark.parametrize("case", INCOMPLETE)
+def test_a_grid_that_is_not_the_plans_design_is_not_analysed(project: Path, case: str):
+    """Every way a grid can fall short of the plan's design leaves its part without rows and
+    says why, and never stops another part from being analysed."""
+    spoil, reason = INCOMPLETE[case]
+    spoil(project / "grids" / "wide")
+    table, _, skipped = analyse(read_plan(project / "confirm" / "plan.toml"))
+    assert table.empty
+    assert skipped[0].startswith("wide: not analysed") and reason in skipped[0]
+
+
+def test_a_part_at_another_width_than_the_plans_is_not_analysed(project: Path):
+    plan = project / "confirm" / "plan.toml"
+    plan.write_text(PLAN.replace('grid = "grids/wide"', 'grid = "grids/wide"\nhidden = 1024'))
+    table, _, skipped = analyse(read_plan(plan))
+    assert table.empty and "lstm-16, but the plan's part is at 1024 units" in skipped[0]
+    plan.write_text(PLAN.replace('grid = "grids/wide"', 'grid = "grids/wide"\nhidden = 16'))
+    assert not analyse(read_plan(plan))[0].empty
+
+
+def test_a_recorded_seed_outside_the_plan_is_left_out(project: Path):
+    """A seed the grid records but the plan does not name (seed 3) is not pooled."""
+    grid = project / "grids" / "wide"
+    before = analyse(read_plan(project / "confirm" / "plan.toml"))[0]
+    runs = grid / "runs/revised/bidirectional/APc-fixed"
+    shutil.copytree(runs / "seed2", runs / "seed3")
+    for config in (runs / "seed3").glob("*/config.json"):
+        _edit_json(config, lambda data: data["run"]["train"].update(seed=3))
+    _edit_json(grid / "grid.json", lambda data: data["runs"].extend(
+        run.replace("seed2", "seed3") for run in list(data["runs"]) if "APc-fixed/seed2" in run))
+    after = analyse(read_plan(project / "confirm" / "plan.toml"))[0]
+    pd.testing.assert_frame_equal(before, after)
 
 
 @pytest.mark.parametrize("mean, p, high, expected", [
     (2.0, 0.01, 4.0, "replicated"), (0.5, 0.2, 2.0, "not replicated"),
-    (-2.0, 0.01, -0.5, "not replicated (reversed)"), (1.0, 0.2, 3.5, "inconclusive")])
+    (-2.0, 0.01, -0.5, "not replicated (reversed)"), (1.0, 0.2, 3.5, "inconclusive"),
+    # the boundaries: p exactly 0.05; an upper end of 3.0, or of 3.00 at two decimals (PLAN.md:
+    # "ours with two decimals"), reaches +3.0; 2.99 lies below it
+    (0.5, 0.05, 3.5, "replicated"), (0.5, 0.2, 3.0, "inconclusive"),
+    (0.5, 0.2, 2.996, "inconclusive"), (0.5, 0.2, 2.994, "not replicated"),
+    (0.0, 1.0, 2.0, "not replicated")])
 def test_the_replication_rule(mean, p, high, expected):
     part = Part("r", "r", Path("."), (1,), (), ("replicated", "not replicated", "inconclusive"),
                 rule_out_below=3.0)
@@ -123,6 +204,33 @@ def test_the_claim_rule():
     assert outcome(part, 1.0, 0.04, 2.0, 0.05) == "reproduced"
     assert outcome(part, -1.0, 0.04, -0.1, 0.05) == "contradicted"
     assert outcome(part, 1.0, 0.06, 2.0, 0.05) == "inconclusive"
+    assert outcome(part, 1.0, 0.05, 2.0, 0.05) == "reproduced"
+    assert outcome(part, -1.0, 0.05, -0.1, 0.05) == "contradicted"
+
+
+@pytest.mark.parametrize("apoc_high, excluded", [(3.0, False), (2.996, False), (2.994, True)])
+def test_the_rule_out_criterion_reads_our_upper_end_with_two_decimals(project: Path, monkeypatch,
+                                                                     apoc_high, excluded):
+    """PLAN.md: "The paper's gains are compared to the interval with their published digit and
+    ours with two decimals": an upper end of 2.996 is 3.00, not below the paper's +3.0."""
+    from multitask.evidence import confirm
+
+    real = confirm.paired
+
+    def with_upper_end(runs, contrast, metric, config):
+        result = real(runs, contrast, metric, config)
+        if contrast.label == "APoc-gradnorm - A-fixed" and metric == "gesture_edit":
+            monkeypatch.setattr(type(result), "ci", property(lambda r: (
+                (1.0, apoc_high) if r.contrast == "APoc-gradnorm - A-fixed"
+                and r.metric == "gesture_edit" else r.test.interval())))
+        return result
+
+    monkeypatch.setattr(confirm, "paired", with_upper_end)
+    table, _, _ = analyse(read_plan(project / "confirm" / "plan.toml"))
+    row = table[(table.analysis == "planned") & (table.metric == "gesture_edit")
+                & (table.comparison == "APoc-gradnorm - A-fixed")].iloc[0]
+    assert row.ci_high == apoc_high and row.rule_out == excluded
+    assert row.paper_in_ci == (not excluded)
 
 
 def test_a_plan_with_a_mistyped_key_is_one_named_error(tmp_path: Path):
@@ -133,6 +241,19 @@ def test_a_plan_with_a_mistyped_key_is_one_named_error(tmp_path: Path):
     plan.write_text(PLAN.replace("paper_gain = 2.3", 'paper_gain = "2.3"'))
     with pytest.raises(PlanError, match=r"endpoints\[1\].paper_gain must be a float"):
         read_plan(plan)
+    plan.write_text(PLAN.replace("sensitivity_seeds", "sensitivty_seeds"))
+    with pytest.raises(PlanError, match=r"parts\[0\].sensitivty_seeds: not a key of a plan's part"):
+        read_plan(plan)
+    plan.write_text(PLAN.replace("seeds = [1, 2]\noutcomes", 'seeds = [1, "2"]\noutcomes'))
+    with pytest.raises(PlanError, match=r"parts\[0\].sensitivity_seeds must be a list of distinct"):
+        read_plan(plan)
+
+
+def test_the_committed_plan_reads():
+    plan = read_plan(Path(__file__).resolve().parents[1] / "results/confirm/plan.toml")
+    assert [(p.name, p.hidden, p.seeds) for p in plan.parts] == [
+        ("paper-width", 1024, (0, 1, 2)), ("replication-512", 512, (1, 2, 3, 4, 5))]
+    assert [[len(f.endpoints) for f in p.families] for p in plan.parts] == [[2, 4], [1, 2]]
 
 
 def test_the_command_writes_the_analysis_from_any_folder(project: Path, tmp_path: Path,

@@ -15,13 +15,22 @@ size (``paired.holm``). A primary endpoint gets an outcome by the part's decisio
   mean > 0), else *not replicated* when the interval's upper end lies below ``rule_out_below``
   (*not replicated (reversed)* when significantly negative), else *inconclusive*.
 
+An interval end is compared with a paper's gain (``rule_out``, ``paper_in_ci``, the replication's
+threshold) at two decimals, the gain at its published digit, as the plan says "so a reader can
+see on which side they lie" (``shown``).
+
 Beside the planned analysis (``analysis`` = ``planned``), every endpoint is also given for each
 seed alone (``seed <k>``) and, where the plan names ``sensitivity_seeds``, for those seeds pooled
 (``sensitivity``); these rows are descriptive (no outcome, no correction).
 
 **No interim analysis**: a part is analysed only when every run its grid records for the part's
-seeds has finished; otherwise the part is reported as not analysed, with how many runs are done,
-and gets no rows.
+seeds has finished and is usable (finite scores, the grid's settings, one setting per
+configuration), at the plan's width (``hidden``), and every side of every endpoint has exactly
+the part's seeds on every fold; otherwise the part is reported as not analysed, with how many
+runs are done and what is wrong, and gets no rows (the other parts are still analysed). Seeds
+the grid holds beyond the part's are left out.
+
+The plan's keys are checked: a missing, mistyped or unknown key is a ``PlanError``.
 
 Output, in ``--out``: ``confirm.csv`` (one row per part, family, endpoint and analysis) and
 ``confirm_per_fold.csv`` (the fold differences behind each row).
@@ -35,13 +44,26 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .collect import IncompleteEvidence, key_from_path, recorded_runs, run_rows
+from .collect import LEFT_OUT, IncompleteEvidence, key_from_path, recorded_runs, run_records
 from .paired import ConfigId, Contrast, StatsConfig, holm, paired
+from .pooling import MixedSettings, architecture
 
 ROLES = ("primary", "secondary")
 COLUMNS = ["part", "family", "role", "analysis", "seeds", "comparison", "metric", "folds",
            "diff", "ci_low", "ci_high", "p_value", "p_holm", "paper_gain", "paper_in_ci",
            "rule_out", "outcome", "folds_favouring"]
+#: Problems a line of a part not analysed names (the rest are counted).
+SHOWN_PROBLEMS = 3
+#: Decimals of an interval end when it is compared with a paper's gain (PLAN.md, ``shown``).
+DECIMALS = 2
+
+
+#: The keys a plan's tables may hold; any other is refused (a misspelt key is not ignored).
+KEYS = {"plan": {"confidence", "parts"},
+        "part": {"name", "title", "grid", "hidden", "seeds", "sensitivity_seeds", "outcomes",
+                 "rule_out_below", "families"},
+        "family": {"name", "role", "endpoints"},
+        "endpoint": {"x", "y", "metric", "paper_gain"}}
 
 
 class PlanError(ValueError):
@@ -81,6 +103,7 @@ class Part:
     outcomes: tuple[str, str, str]
     sensitivity_seeds: tuple[int, ...] = ()
     rule_out_below: float | None = None
+    hidden: int | None = None           # LSTM units per direction of every run; None: unchecked
 
 
 @dataclass(frozen=True)
@@ -95,13 +118,14 @@ def read_plan(path: Path) -> Plan:
     nearest folder above it that holds it (a repository's root).
 
     Raises:
-        PlanError: a missing or mistyped key, an unknown role.
+        PlanError: a missing, mistyped or unknown key, an unknown role.
     """
     path = Path(path)
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as error:
         raise PlanError(f"{path}: cannot read the plan: {error}") from None
+    _known(data, "plan", path, "")
     confidence = _get(data, "confidence", float, path, "")
     parts = tuple(_part(entry, path, f"parts[{i}]")
                   for i, entry in enumerate(_get(data, "parts", list, path, "")))
@@ -117,7 +141,32 @@ def _get(table: dict, key: str, kind: type, path: Path, where: str):
     return float(value) if kind is float else value
 
 
+def _known(table, kind: str, path: Path, where: str) -> None:
+    """Raise unless ``table`` is a table whose keys are all ``KEYS[kind]``."""
+    if not isinstance(table, dict):
+        raise PlanError(f"{path}: {where or 'the plan'} must be a table (value: {table!r})")
+    unknown = sorted(set(table) - KEYS[kind])
+    if unknown:
+        raise PlanError(f"{path}: {where + '.' if where else ''}{unknown[0]}: not a key of a "
+                        f"plan's {kind} (known: {', '.join(sorted(KEYS[kind]))})")
+
+
+def _seeds(entry: dict, key: str, path: Path, where: str, required: bool = True
+           ) -> tuple[int, ...]:
+    """``entry[key]``, a non-empty list of distinct seeds (integers); () when not required and
+    absent."""
+    if key not in entry and not required:
+        return ()
+    seeds = _get(entry, key, list, path, where)
+    if not seeds or len(set(seeds)) != len(seeds) or not all(
+            isinstance(s, int) and not isinstance(s, bool) for s in seeds):
+        raise PlanError(f"{path}: {where}.{key} must be a list of distinct integer seeds "
+                        f"(value: {seeds!r})")
+    return tuple(seeds)
+
+
 def _part(entry: dict, path: Path, where: str) -> Part:
+    _known(entry, "part", path, where)
     families = tuple(_family(f, path, f"{where}.families[{i}]")
                      for i, f in enumerate(_get(entry, "families", list, path, where)))
     outcomes = tuple(_get(entry, "outcomes", list, path, where))
@@ -127,18 +176,22 @@ def _part(entry: dict, path: Path, where: str) -> Part:
     return Part(name=_get(entry, "name", str, path, where),
                 title=_get(entry, "title", str, path, where),
                 grid=_locate(path, _get(entry, "grid", str, path, where)),
-                seeds=tuple(_get(entry, "seeds", list, path, where)),
+                seeds=_seeds(entry, "seeds", path, where),
                 families=families, outcomes=outcomes,
-                sensitivity_seeds=tuple(entry.get("sensitivity_seeds", ())),
+                sensitivity_seeds=_seeds(entry, "sensitivity_seeds", path, where, False),
                 rule_out_below=None if rule_out is None
-                else _get(entry, "rule_out_below", float, path, where))
+                else _get(entry, "rule_out_below", float, path, where),
+                hidden=None if "hidden" not in entry else _get(entry, "hidden", int, path, where))
 
 
 def _family(entry: dict, path: Path, where: str) -> Family:
+    _known(entry, "family", path, where)
     role = _get(entry, "role", str, path, where)
     if role not in ROLES:
         raise PlanError(f"{path}: {where}.role must be one of {', '.join(ROLES)} "
                         f"(value: {role!r})")
+    for i, e in enumerate(_get(entry, "endpoints", list, path, where)):
+        _known(e, "endpoint", path, f"{where}.endpoints[{i}]")
     endpoints = tuple(
         Endpoint(*(_get(e, key, str, path, f"{where}.endpoints[{i}]")
                    for key in ("x", "y", "metric")),
@@ -174,7 +227,7 @@ def analyse(plan: Plan) -> tuple[pd.DataFrame, pd.DataFrame, list[str]]:
             for family in part.families:
                 results = [paired(chosen, e.contrast, e.metric, config)
                            for e in family.endpoints]
-                adjusted = (holm([r.p_value for r in results])
+                adjusted = (holm([r.p_value for r in results], size=len(family.endpoints))
                             if analysis == "planned" else [np.nan] * len(results))
                 for endpoint, result, p_holm in zip(family.endpoints, results, adjusted):
                     row = _row(part, family, analysis, seeds, endpoint, result, p_holm, config)
@@ -187,8 +240,11 @@ def analyse(plan: Plan) -> tuple[pd.DataFrame, pd.DataFrame, list[str]]:
 
 
 def _complete_runs(part: Part, skipped: list[str]) -> pd.DataFrame | None:
-    """The part's runs, every seed of it finished on every fold of both sides; None (and a line
-    in ``skipped``) otherwise."""
+    """The part's runs: every run its grid records for the part's seeds finished and usable
+    (``collect.run_records``), of one setting per configuration (``pooling.pool``), at the
+    plan's width, and every side of every endpoint with exactly the part's seeds on each of the
+    grid's folds (the folds any of the part's runs has). None, and a line in ``skipped`` saying
+    why, otherwise."""
     if not part.grid.is_dir():
         skipped.append(f"{part.name}: not analysed, its grid {part.grid} does not exist (yet)")
         return None
@@ -197,45 +253,72 @@ def _complete_runs(part: Part, skipped: list[str]) -> pd.DataFrame | None:
               in part.seeds]
     done = sum((part.grid / run / "finished.json").is_file() for run in wanted)
     try:
-        runs, _ = run_rows(part.grid, seeds=part.seeds)
-    except IncompleteEvidence:
+        runs, problems, records = run_records(part.grid, allow_incomplete=True, seeds=part.seeds)
+    except (IncompleteEvidence, MixedSettings) as error:
+        problems, runs, records = [str(error)], None, {}
+    problems = [line for line in problems if not line.startswith(LEFT_OUT)]
+    if runs is not None and not problems:
+        problems = _plan_problems(part, runs, records)
+    if problems:
+        shown = "; ".join(" ".join(line.split()) for line in problems[:SHOWN_PROBLEMS])
+        more = (f" (and {len(problems) - SHOWN_PROBLEMS} more)"
+                if len(problems) > SHOWN_PROBLEMS else "")
         skipped.append(f"{part.name}: not analysed, {done} of {len(wanted)} runs of seeds "
                        f"{' '.join(map(str, part.seeds))} in {part.grid} finished (the plan "
-                       "analyses complete grids only)")
+                       f"analyses complete grids only): {shown}{more}")
         return None
-    for endpoint in (e for family in part.families for e in family.endpoints):
-        for side in endpoint.contrast.configs:
-            of_side = runs[(runs.variant == side.variant) & (runs.weighting == side.weighting)
-                           & (runs.annotations == side.annotations)
-                           & (runs.direction == side.direction)]
-            seeds = of_side.groupby("fold").seed.apply(lambda s: tuple(sorted(s)))
-            if of_side.empty or set(seeds) != {tuple(sorted(part.seeds))}:
-                raise IncompleteEvidence(
-                    f"{part.grid}: {side.label} does not have seeds "
-                    f"{' '.join(map(str, part.seeds))} on every fold (part {part.name})")
     return runs
+
+
+def _plan_problems(part: Part, runs: pd.DataFrame, records: dict) -> list[str]:
+    """What keeps the part's usable ``runs`` (and their ``records``) from being the plan's
+    design: a run of another width than the plan's, a side of an endpoint without exactly the
+    part's seeds on each fold the part's runs have."""
+    problems = [f"{run}: {architecture(record)}, but the plan's part is at {part.hidden} units"
+                for run, record in sorted(records.items())
+                if part.hidden is not None and architecture(record) != f"lstm-{part.hidden}"]
+    folds = sorted(set(runs.fold))
+    sides = {side for family in part.families for e in family.endpoints
+             for side in e.contrast.configs}
+    for side in sorted(sides, key=lambda s: s.label):
+        seeds = side.select(runs).groupby("fold").seed.apply(lambda s: tuple(sorted(s)))
+        wrong = [f"{fold} ({' '.join(map(str, seeds.get(fold, ()))) or 'none'})" for fold in folds
+                 if seeds.get(fold, ()) != tuple(sorted(part.seeds))]
+        if wrong:
+            problems.append(f"{side.label} does not have seeds "
+                            f"{' '.join(map(str, part.seeds))} on every fold of {part.grid}: "
+                            f"seeds on {', '.join(wrong)}")
+    return problems
 
 
 def _row(part: Part, family: Family, analysis: str, seeds: tuple[int, ...], endpoint: Endpoint,
          result, p_holm: float, config: StatsConfig) -> dict:
     low, high = result.ci
     planned_primary = analysis == "planned" and family.role == "primary"
+    threshold = endpoint.paper_gain if part.rule_out_below is None else part.rule_out_below
     return {"part": part.name, "family": family.name, "role": family.role, "analysis": analysis,
             "seeds": " ".join(map(str, seeds)), "comparison": result.contrast,
             "metric": endpoint.metric, "folds": result.pairs, "diff": result.mean,
             "ci_low": low, "ci_high": high, "p_value": result.p_value, "p_holm": p_holm,
             "paper_gain": endpoint.paper_gain,
-            "paper_in_ci": bool(low <= endpoint.paper_gain <= high),
-            "rule_out": bool(high < (part.rule_out_below if part.rule_out_below is not None
-                                     else endpoint.paper_gain)) if planned_primary else None,
+            "paper_in_ci": bool(shown(low) <= endpoint.paper_gain <= shown(high)),
+            "rule_out": bool(shown(high) < threshold) if planned_primary else None,
             "outcome": (outcome(part, result.mean, p_holm, high, config.alpha)
                         if planned_primary else None),
             "folds_favouring": f"{int((np.asarray(result.differences) > 0).sum())}/"
                                f"{result.pairs}"}
 
 
+def shown(value: float) -> float:
+    """An interval end as PLAN.md compares it with a paper's gain: "the paper's gains are
+    compared to the interval with their published digit and ours with two decimals, so a reader
+    can see on which side they lie" (2.996 is 3.00: not below the paper's +3.0)."""
+    return round(value, DECIMALS)
+
+
 def outcome(part: Part, mean: float, p_holm: float, ci_high: float, alpha: float) -> str:
-    """The part's decision rule (module docstring) for one primary endpoint."""
+    """The part's decision rule (module docstring) for one primary endpoint; ``ci_high`` is
+    compared with ``rule_out_below`` at two decimals (``shown``)."""
     first, second, third = part.outcomes
     if part.rule_out_below is None:
         if p_holm <= alpha:
@@ -243,7 +326,7 @@ def outcome(part: Part, mean: float, p_holm: float, ci_high: float, alpha: float
         return third
     if p_holm <= alpha and mean > 0:
         return first
-    if ci_high < part.rule_out_below:
+    if shown(ci_high) < part.rule_out_below:
         return f"{second} (reversed)" if p_holm <= alpha else second
     return third
 
