@@ -270,3 +270,20 @@ def test_the_command_writes_the_analysis_from_any_folder(project: Path, tmp_path
     with pytest.raises(SystemExit):
         tables_main(["--confirm", str(out / "plan.toml"), "--out", str(out), "--seeds", "0"])
     assert np.isfinite(table["diff"]).all()
+
+
+def test_a_tie_lost_to_float_rounding_still_counts():
+    """A fold difference that is 0 but computed as 5.6e-17 (0.1 + 0.2 - 0.3), or folds whose
+    differences sum to 0 up to rounding, count as the exact ties they are: the p-value and the
+    interval do not depend on how the seed means were rounded."""
+    from multitask.evidence.paired import SignFlip
+
+    exact = np.array([0.0, 1.0, 2.0, 1.5, 0.5, 3.0, 1.0, 2.5])
+    rounded = exact.copy()
+    rounded[0] = 0.1 + 0.2 - 0.3
+    assert SignFlip(rounded).p_value() == SignFlip(exact).p_value() == 4 / 256
+    pattern = np.array([3.0, -1.5, 2.25, 0.5, -2.0, 4.0, 1.0, -0.75])   # -1.5 + 0.5 + 1.0 = 0
+    scaled = pattern * (2.994 / 2.6666666666666665)
+    assert SignFlip(scaled).p_value() == SignFlip(pattern).p_value() == 43 / 128
+    assert SignFlip(scaled).interval() == pytest.approx(
+        tuple(2.994 / 2.6666666666666665 * e for e in SignFlip(pattern).interval()), abs=1e-9)

@@ -19,8 +19,11 @@ one procedure gives the test and the interval, so that they cannot disagree:
   level ``1 - confidence``. It is computed exactly: a sign vector counts at ``d0`` exactly when
   ``d0`` lies between the mean of ``d`` over its flipped folds and the mean over the others
   (both sides are linear in ``d0``), so the p-value at any ``d0`` and the interval's ends come
-  from the same sorted subset means. ``p(0) <= alpha`` if and only if the interval excludes 0,
-  by construction; coverage is exact (``1 - 12/256`` = 95.3 % at 8 folds) whenever the fold
+  from the same sorted subset means. Values within ``TIES`` of each other count as equal (a tie
+  counts towards p, as ``>=`` says), so that float rounding of the seed means (about 1e-14 for
+  scores near 100) never decides whether a sign vector counts, e.g. when a fold difference is 0
+  or some folds' differences sum to 0; the interval's ends lie ``TIES`` beyond the subset means.
+  ``p(0) <= alpha`` if and only if the interval excludes 0, by construction; coverage is exact (``1 - 12/256`` = 95.3 % at 8 folds) whenever the fold
   differences are symmetric about their mean;
 * the variance of ``d`` split into a **seed share** (each side's within-fold variance over its
   seeds, divided by its number of seeds: what averaging the seeds leaves in a fold's mean) and a
@@ -53,6 +56,9 @@ from ..grid.spec import DIRECTIONS
 UNIT_OF_PAIRING = "LOUO fold (test user); each side averaged over its seeds within the fold"
 #: The most folds the exact test enumerates (2^n sign vectors).
 MAX_EXACT_FOLDS = 16
+#: How close (in the differences' unit) a shift and a subset mean must be to count as equal in
+#: the sign-flip test: far above float rounding, far below any score's resolution.
+TIES = 1e-10
 
 
 @dataclass(frozen=True)
@@ -185,7 +191,8 @@ class SignFlip:
 
     Each of the ``2^(n-1) - 1`` splits of the folds into two non-empty groups (a sign vector and
     its negation are one split) counts towards the p-value at ``d0`` when ``d0`` lies between the
-    two groups' means (``low``, ``high``); the two constant sign vectors always count."""
+    two groups' means (``low``, ``high``), to within ``TIES``; the two constant sign vectors
+    always count."""
 
     def __init__(self, differences, confidence: float = 0.95):
         d = np.asarray(differences, float)
@@ -205,15 +212,16 @@ class SignFlip:
 
     def p_value(self, d0: float = 0.0) -> float:
         """Two-sided p-value of the hypothesis "the mean difference is ``d0``"."""
-        counting = np.searchsorted(self.low, d0, side="right") - np.searchsorted(
-            self.high, d0, side="left")
+        counting = np.searchsorted(self.low, d0 + TIES, side="right") - np.searchsorted(
+            self.high, d0 - TIES, side="left")
         return (1 + int(counting)) / self.half
 
     def interval(self) -> tuple[float, float]:
         """The ``d0`` the test does not reject (infinite when it can reject none)."""
         if self.needed == 0:
             return -math.inf, math.inf
-        return float(self.low[self.needed - 1]), float(self.high[-self.needed])
+        return (float(self.low[self.needed - 1]) - TIES,
+                float(self.high[-self.needed]) + TIES)
 
     @property
     def smallest_p(self) -> float:
