@@ -1,0 +1,299 @@
+"""An independent re-implementation of ``results/confirm/PLAN.md``, checked against
+``multitask-tables --confirm`` on fake grids with chosen scores.
+
+Nothing here imports ``multitask.evidence.paired``: the sign vectors are enumerated one by one
+(``itertools.product``), the p-value is counted from PLAN.md's definition (the share of the 2^8
+sign vectors whose flipped sum is at least the observed sum in absolute value), and the 95 %
+interval is found by bisection on that p-value, not from subset means. The plan read is the
+committed ``results/confirm/plan.toml`` itself, in a copy of the repository's layout."""
+from __future__ import annotations
+
+import itertools
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from multitask.evidence.cli import main as tables_main
+from multitask.grid.spec import Experiment
+from tests.fake_grid import FOLDS, write_fake_grid
+
+PLAN = Path(__file__).resolve().parents[1] / "results" / "confirm" / "plan.toml"
+METRICS = ("gesture_edit", "gesture_f1@10", "gesture_accuracy")
+A, APOC, APC = "A-fixed", "APoc-gradnorm", "APc-fixed"
+WIDE_SEEDS, NARROW_SEEDS = (0, 1, 2), (1, 2, 3, 4, 5)
+ALPHA = 0.05
+TOLERANCE = 1e-9
+#: How close two sums of fold differences must be to count as a tie (float rounding only).
+TIE = 1e-12
+#: Each seed's offset from its fold's mean: zero sum, so the mean over seeds is exact in floats.
+OFFSETS = {3: (-1.0, 0.0, 1.0), 5: (-2.0, -1.0, 0.0, 1.0, 2.0)}
+#: Planned families: (part, family, role, [(x, y, metric, paper gain)]) as PLAN.md states them.
+FAMILIES = [
+    ("paper-width", "primary-1024", "primary",
+     [(APOC, A, "gesture_edit", 3.0), (APC, A, "gesture_edit", 2.3)]),
+    ("paper-width", "secondary-1024", "secondary",
+     [(APOC, A, "gesture_f1@10", 2.2), (APC, A, "gesture_f1@10", 1.6),
+      (APOC, A, "gesture_accuracy", 0.7), (APC, A, "gesture_accuracy", 0.4)]),
+    ("replication-512", "replication-512", "primary", [(APOC, A, "gesture_edit", 3.0)]),
+    ("replication-512", "secondary-512", "secondary",
+     [(APOC, A, "gesture_f1@10", 2.2), (APOC, A, "gesture_accuracy", 0.7)]),
+]
+
+
+# ---------------------------------------------------------------- the reference implementation
+
+#: Every sign vector over 8 folds, one per row: [256, 8].
+SIGNS = np.array(list(itertools.product((1.0, -1.0), repeat=len(FOLDS))))
+
+
+def sign_flip_p(d: np.ndarray, d0: float = 0.0) -> float:
+    """Share of the 2^8 sign vectors s with |sum s (d - d0)| >= |sum (d - d0)| (ties count)."""
+    centred = np.asarray(d, float) - d0
+    return float(np.mean(np.abs(SIGNS @ centred) >= abs(centred.sum()) - TIE))
+
+
+def interval_end(d: np.ndarray, side: int) -> float:
+    """The end (side -1: lower, +1: upper) of the set of d0 with p(d0) > ALPHA, by bisection
+    between the mean (p = 1) and a point far out (rejected)."""
+    inside = float(np.mean(d))
+    outside = inside + side * (10 * (np.ptp(d) + 1))
+    assert sign_flip_p(d, outside) <= ALPHA < sign_flip_p(d, inside)
+    for _ in range(200):
+        middle = (inside + outside) / 2
+        if middle in (inside, outside):
+            break
+        if sign_flip_p(d, middle) > ALPHA:
+            inside = middle
+        else:
+            outside = middle
+    return inside
+
+
+def holm(p: list[float]) -> list[float]:
+    m = len(p)
+    order = sorted(range(m), key=lambda i: p[i])
+    adjusted, running = [0.0] * m, 0.0
+    for rank, i in enumerate(order):
+        running = max(running, min(1.0, (m - rank) * p[i]))
+        adjusted[i] = running
+    return adjusted
+
+
+def two_decimals_below(value: float, gain: float) -> bool:
+    """PLAN.md: the paper's gain (its published digit) against our interval end, two decimals."""
+    return float(f"{value:.2f}") < gain
+
+
+def expected_rows(scores: dict, part: str, seeds: tuple[int, ...]) -> pd.DataFrame:
+    """Every row PLAN.md asks of ``part``: the planned test (with Holm, the rule-out and the
+    outcome for primaries), the sensitivity seeds (part 1) and each seed alone."""
+    analyses = {"planned": seeds}
+    if part == "paper-width":
+        analyses["sensitivity"] = (1, 2)
+    analyses |= {f"seed {s}": (s,) for s in seeds}
+    rows = []
+    for analysis, chosen in analyses.items():
+        for name, family, role, endpoints in FAMILIES:
+            if name != part:
+                continue
+            found = []
+            for x, y, metric, gain in endpoints:
+                d = np.array([np.mean([scores[x, s, f][metric] for s in chosen])
+                              - np.mean([scores[y, s, f][metric] for s in chosen])
+                              for f in FOLDS])
+                found.append((x, y, metric, gain, d, sign_flip_p(d)))
+            adjusted = holm([p for *_, p in found])
+            for (x, y, metric, gain, d, p), p_holm in zip(found, adjusted):
+                low, high = interval_end(d, -1), interval_end(d, +1)
+                row = {"part": part, "family": family, "analysis": analysis,
+                       "comparison": f"{x} - {y}", "metric": metric, "diff": float(np.mean(d)),
+                       "ci_low": low, "ci_high": high, "p_value": p,
+                       "p_holm": p_holm if analysis == "planned" else np.nan,
+                       "rule_out": None, "outcome": None}
+                if analysis == "planned" and role == "primary":
+                    row["rule_out"] = two_decimals_below(high, gain)
+                    row["outcome"] = decision(part, row["diff"], p_holm, high)
+                rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def decision(part: str, mean: float, p: float, high: float) -> str:
+    """PLAN.md's decision rules, word for word."""
+    if part == "paper-width":
+        if p <= ALPHA and mean > 0:
+            return "reproduced"
+        if p <= ALPHA and mean < 0:
+            return "contradicted"
+        return "inconclusive"
+    if p <= ALPHA and mean > 0:
+        return "replicated"
+    if two_decimals_below(high, 3.0):
+        return "not replicated (reversed)" if p <= ALPHA and mean < 0 else "not replicated"
+    assert p > ALPHA
+    return "inconclusive"
+
+
+# ---------------------------------------------------------------- fake grids with chosen scores
+
+def chosen_scores(effects: dict[tuple[str, str], np.ndarray], configs: tuple[str, ...],
+                  seeds: tuple[int, ...], spread: float = 1.0) -> dict:
+    """(config, seed, fold) -> {metric: score}: per fold a base score, plus ``effects[config,
+    metric]`` (per fold, default 0), plus a per-seed offset that sums to zero over the seeds
+    (and differs between configurations, so each seed's contrast differs from the pooled one).
+    Every value is a multiple of 1/4 when the effects are, so fold means are exact."""
+    scores = {}
+    for c, config in enumerate(configs):
+        for k, fold in enumerate(FOLDS):
+            for s, offset in zip(seeds, OFFSETS[len(seeds)]):
+                scores[config, s, fold] = {
+                    metric: 60.0 + 2.5 * k + m + effects.get((config, metric), np.zeros(8))[k]
+                    + spread * offset * (1 if c % 2 else -1) * (1 + k % 3)
+                    for m, metric in enumerate(METRICS)}
+    return scores
+
+
+def write_scores(grid: Path, scores: dict) -> None:
+    """Put ``scores`` into every run's metrics.json (its mean and its one evaluation point)."""
+    for (config, seed, fold), values in scores.items():
+        path = grid / "runs" / "revised" / "bidirectional" / config / f"seed{seed}" / fold
+        data = json.loads((path / "metrics.json").read_text())
+        for block in (data["mean"], *data["points"].values()):
+            for metric, value in values.items():
+                block["gesture"][metric.removeprefix("gesture_")] = value
+        (path / "metrics.json").write_text(json.dumps(data))
+
+
+def project(root: Path, wide: dict | None, narrow: dict | None) -> Path:
+    """The repository's layout under ``root``: the committed plan in ``results/confirm`` and the
+    grids it names (with ``wide`` and ``narrow`` scores; None: no grid). Returns the plan."""
+    (root / "results" / "confirm").mkdir(parents=True)
+    plan = root / "results" / "confirm" / "plan.toml"
+    shutil.copyfile(PLAN, plan)
+    if wide is not None:
+        grid = write_fake_grid(root / "results" / "paper" / "grid", seeds=WIDE_SEEDS, hidden=1024,
+                               experiments=(Experiment(("A",)), Experiment(("APoc",), ("gradnorm",)),
+                                            Experiment(("APc",))))
+        write_scores(grid, wide)
+    if narrow is not None:
+        grid = write_fake_grid(root / "results" / "confirm" / "h512", seeds=NARROW_SEEDS,
+                               hidden=512,
+                               experiments=(Experiment(("A",)), Experiment(("APoc",), ("gradnorm",))))
+        write_scores(grid, narrow)
+    return plan
+
+
+def run_confirm(plan: Path, out: Path) -> pd.DataFrame:
+    """``multitask-tables --confirm`` as a user runs it: its confirm.csv."""
+    assert tables_main(["--confirm", str(plan), "--out", str(out)]) == 0
+    return pd.read_csv(out / "confirm.csv")
+
+
+def compare(table: pd.DataFrame, expected: pd.DataFrame, tolerance: float) -> None:
+    """Every expected row is in ``table`` once, with the same numbers and words."""
+    keys = ["part", "family", "analysis", "comparison", "metric"]
+    merged = expected.merge(table, on=keys, how="left", suffixes=("", "_code"),
+                            validate="one_to_one", indicator=True)
+    assert (merged["_merge"] == "both").all(), merged[merged["_merge"] != "both"][keys]
+    assert len(table) == len(expected)
+    for column in ("diff", "ci_low", "ci_high", "p_value", "p_holm"):
+        np.testing.assert_allclose(merged[f"{column}_code"].to_numpy(float),
+                                   merged[column].to_numpy(float), rtol=0, atol=tolerance,
+                                   err_msg=column)
+    for column in ("rule_out", "outcome"):
+        code = [None if pd.isna(v) else v for v in merged[f"{column}_code"]]
+        ours = [None if v is None or (isinstance(v, float) and np.isnan(v)) else v
+                for v in merged[column]]
+        if column == "rule_out":        # a CSV reads booleans back as True/False or strings
+            code = [None if v is None else str(v) == "True" for v in code]
+        assert code == ours, column
+
+
+def check(tmp_path: Path, wide_effects: dict | None, narrow_effects: dict | None) -> pd.DataFrame:
+    """Run the command on grids with these effects and compare every row with the reference,
+    from the in-memory table (to 1e-9) and from confirm.csv (to its 4 decimals)."""
+    from multitask.evidence.confirm import analyse, read_plan
+
+    wide = (chosen_scores(wide_effects, (A, APOC, APC), WIDE_SEEDS)
+            if wide_effects is not None else None)
+    narrow = (chosen_scores(narrow_effects, (A, APOC), NARROW_SEEDS)
+              if narrow_effects is not None else None)
+    plan = project(tmp_path, wide, narrow)
+    expected = pd.concat(
+        [expected_rows(scores, part, seeds) for scores, part, seeds in
+         ((wide, "paper-width", WIDE_SEEDS), (narrow, "replication-512", NARROW_SEEDS))
+         if scores is not None], ignore_index=True)
+    table, _, _ = analyse(read_plan(plan))
+    compare(table, expected, TOLERANCE)
+    csv = run_confirm(plan, tmp_path / "results" / "confirm")
+    compare(csv, expected, 5e-5 + 1e-12)
+    return table.merge(expected[["part", "family", "analysis", "comparison", "metric"]])
+
+
+def per_fold(values) -> np.ndarray:
+    return np.asarray(values, float)
+
+
+# ---------------------------------------------------------------- the cases
+
+CLEAR = per_fold([4.0, 5.5, 3.25, 6.0, 4.5, 5.0, 3.75, 7.0])
+MIXED = per_fold([3.0, -1.5, 2.25, 0.5, -2.0, 4.0, 1.0, -0.75])
+SYMMETRIC = per_fold([1.0, -1.0, 2.5, -2.5, 0.75, -0.75, 4.0, -4.0])
+
+
+def test_a_clear_gain_a_null_and_a_clear_loss(tmp_path: Path):
+    table = check(tmp_path, {(APOC, "gesture_edit"): CLEAR, (APC, "gesture_edit"): -CLEAR,
+                             (APOC, "gesture_f1@10"): MIXED, (APC, "gesture_accuracy"): SYMMETRIC},
+                  {(APOC, "gesture_edit"): SYMMETRIC, (APOC, "gesture_accuracy"): CLEAR})
+    planned = table[(table.analysis == "planned") & (table.metric == "gesture_edit")]
+    assert set(planned.outcome) == {"reproduced", "contradicted", "not replicated"}
+
+
+def test_zeros_and_equal_fold_differences(tmp_path: Path):
+    """Zero fold differences still flip (PLAN.md: 2^8 = 256 sign vectors), so 3 zeros and 5
+    positive differences are not significant; 8 equal differences are (p = 2/256)."""
+    zeros = per_fold([0, 0, 0, 1.5, 2.0, 2.5, 3.0, 3.5])
+    table = check(tmp_path, {(APOC, "gesture_edit"): zeros,
+                             (APC, "gesture_edit"): np.full(8, 2.25)},
+                  {(APOC, "gesture_edit"): np.full(8, 1.0),
+                   (APOC, "gesture_f1@10"): np.zeros(8)})
+    planned = table[table.analysis == "planned"].set_index(["part", "comparison", "metric"])
+    assert planned.loc[("paper-width", f"{APOC} - {A}", "gesture_edit"), "p_value"] == 16 / 256
+    equal = planned.loc[("paper-width", f"{APC} - {A}", "gesture_edit")]
+    assert equal.p_value == 2 / 256
+    assert equal.ci_low == pytest.approx(2.25, abs=TOLERANCE) == equal.ci_high
+    assert planned.loc[("replication-512", f"{APOC} - {A}", "gesture_f1@10"), "p_value"] == 1.0
+
+
+def scaled(pattern: np.ndarray, high: float) -> np.ndarray:
+    """``pattern`` scaled so that its interval's upper end is ``high`` (the test and its
+    interval are equivariant)."""
+    return pattern * (high / interval_end(pattern, +1))
+
+
+@pytest.mark.parametrize("high, outcome", [
+    (3.0, "inconclusive"),          # exactly 3.0 (MIXED's upper end is 8/3): "reaches +3.0"
+    (2.996, "inconclusive"),        # 3.00 with two decimals: not below the paper's 3.0
+    (2.994, "not replicated"),      # 2.99
+])
+def test_the_replication_rule_at_its_boundary(tmp_path: Path, high: float, outcome: str):
+    d = MIXED * 9 / 8 if high == 3.0 else scaled(MIXED, high)
+    table = check(tmp_path, None, {(APOC, "gesture_edit"): d})
+    row = table[(table.analysis == "planned") & (table.metric == "gesture_edit")].iloc[0]
+    assert row.p_value > ALPHA and row.outcome == outcome
+    assert row.ci_high == pytest.approx(high, abs=TOLERANCE)
+
+
+@pytest.mark.parametrize("apoc, apc, excluded", [
+    (CLEAR / 2, scaled(CLEAR, 2.3), (False, False)),       # CLEAR's upper end is 6.0 exactly
+    (scaled(CLEAR, 2.996), scaled(CLEAR, 2.296), (False, False)),
+    (scaled(CLEAR, 2.994), scaled(CLEAR, 2.294), (True, True))])
+def test_the_rule_out_criterion_at_its_boundary(tmp_path: Path, apoc, apc, excluded):
+    """The paper's +3.0 and +2.3 against our upper ends with two decimals."""
+    table = check(tmp_path, {(APOC, "gesture_edit"): apoc, (APC, "gesture_edit"): apc}, None)
+    rows = table[(table.analysis == "planned") & (table.metric == "gesture_edit")]
+    rows = rows.set_index("comparison").loc[[f"{APOC} - {A}", f"{APC} - {A}"]]
+    assert tuple(rows.rule_out) == excluded and set(rows.outcome) == {"reproduced"}
