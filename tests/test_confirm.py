@@ -287,3 +287,19 @@ def test_a_tie_lost_to_float_rounding_still_counts():
     assert SignFlip(scaled).p_value() == SignFlip(pattern).p_value() == 43 / 128
     assert SignFlip(scaled).interval() == pytest.approx(
         tuple(2.994 / 2.6666666666666665 * e for e in SignFlip(pattern).interval()), abs=1e-9)
+
+
+def test_each_row_names_the_commits_that_trained_its_runs(project: Path):
+    """PLAN.md names the commit whose code trains each part; the pooling rule compares settings,
+    not code, so every row says which commits trained the runs behind it."""
+    grid = project / "grids" / "wide"
+    for config in (grid / "runs").glob("*/*/*/*/*/config.json"):
+        _edit_json(config, lambda data: data.update(provenance={
+            "git_commit": "9a820fde116d82e4e16f3c0edbc8f2077d4a4068", "git_dirty": False}))
+    _edit_json(grid / "runs/revised/bidirectional/APc-fixed/seed1/C/config.json",
+               lambda data: data.update(provenance={"git_commit": "0123456789", "git_dirty": True}))
+    table, _, _ = analyse(read_plan(project / "confirm" / "plan.toml"))
+    commits = table.set_index(["analysis", "comparison", "metric"]).commits
+    assert commits["planned", "APc-fixed - A-fixed", "gesture_edit"] == "0123456-dirty 9a820fd"
+    assert commits["seed 0", "APc-fixed - A-fixed", "gesture_edit"] == "9a820fd"
+    assert commits["planned", "APoc-gradnorm - A-fixed", "gesture_edit"] == "9a820fd"

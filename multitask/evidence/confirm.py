@@ -32,8 +32,9 @@ the grid holds beyond the part's are left out.
 
 The plan's keys are checked: a missing, mistyped or unknown key is a ``PlanError``.
 
-Output, in ``--out``: ``confirm.csv`` (one row per part, family, endpoint and analysis) and
-``confirm_per_fold.csv`` (the fold differences behind each row).
+Output, in ``--out``: ``confirm.csv`` (one row per part, family, endpoint and analysis, with
+``commits``: the commits whose code trained the runs behind it, for the reader to hold against
+the commits the plan names) and ``confirm_per_fold.csv`` (the fold differences behind each row).
 """
 from __future__ import annotations
 
@@ -51,7 +52,7 @@ from .pooling import MixedSettings, architecture
 ROLES = ("primary", "secondary")
 COLUMNS = ["part", "family", "role", "analysis", "seeds", "comparison", "metric", "folds",
            "diff", "ci_low", "ci_high", "p_value", "p_holm", "paper_gain", "paper_in_ci",
-           "rule_out", "outcome", "folds_favouring"]
+           "rule_out", "outcome", "folds_favouring", "commits"]
 #: Problems a line of a part not analysed names (the rest are counted).
 SHOWN_PROBLEMS = 3
 #: Decimals of an interval end when it is compared with a paper's gain (PLAN.md, ``shown``).
@@ -231,7 +232,7 @@ def analyse(plan: Plan) -> tuple[pd.DataFrame, pd.DataFrame, list[str]]:
                             if analysis == "planned" else [np.nan] * len(results))
                 for endpoint, result, p_holm in zip(family.endpoints, results, adjusted):
                     row = _row(part, family, analysis, seeds, endpoint, result, p_holm, config)
-                    rows.append(row)
+                    rows.append({**row, "commits": _commits(chosen, endpoint)})
                     per_fold += [{"part": part.name, "analysis": analysis,
                                   "comparison": row["comparison"], "metric": endpoint.metric,
                                   "fold": fold, "difference": d}
@@ -267,7 +268,24 @@ def _complete_runs(part: Part, skipped: list[str]) -> pd.DataFrame | None:
                        f"{' '.join(map(str, part.seeds))} in {part.grid} finished (the plan "
                        f"analyses complete grids only): {shown}{more}")
         return None
-    return runs
+    return runs.assign(commit=[_commit(record) for record in records.values()])
+
+
+def _commit(record) -> str:
+    """The commit whose code trained the run (its config.json's provenance), 7 digits, with
+    ``-dirty`` when the checkout had uncommitted changes; ``unknown`` when not recorded."""
+    provenance = record.saved.get("provenance") or {}
+    commit = provenance.get("git_commit")
+    if not commit:
+        return "unknown"
+    return commit[:7] + ("-dirty" if provenance.get("git_dirty") else "")
+
+
+def _commits(runs: pd.DataFrame, endpoint: Endpoint) -> str:
+    """The commits that trained ``runs`` of the endpoint's sides, sorted (PLAN.md names the
+    commit each part's runs are trained by; the pooling rule compares settings, not code)."""
+    sides = pd.concat([side.select(runs) for side in endpoint.contrast.configs])
+    return " ".join(sorted(set(sides.commit)))
 
 
 def _plan_problems(part: Part, runs: pd.DataFrame, records: dict) -> list[str]:
