@@ -247,6 +247,9 @@ def test_a_plan_with_a_mistyped_key_is_one_named_error(tmp_path: Path):
     plan.write_text(PLAN.replace("seeds = [1, 2]\noutcomes", 'seeds = [1, "2"]\noutcomes'))
     with pytest.raises(PlanError, match=r"parts\[0\].sensitivity_seeds must be a list of distinct"):
         read_plan(plan)
+    plan.write_text(PLAN.replace("sensitivity_seeds = [1, 2]", "sensitivity_seeds = [1, 3]"))
+    with pytest.raises(PlanError, match=r"sensitivity_seeds must be some of the part's seeds"):
+        read_plan(plan)
 
 
 def test_the_committed_plan_reads():

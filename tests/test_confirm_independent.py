@@ -261,7 +261,8 @@ def test_zeros_and_equal_fold_differences(tmp_path: Path):
                   {(APOC, "gesture_edit"): np.full(8, 1.0),
                    (APOC, "gesture_f1@10"): np.zeros(8)})
     planned = table[table.analysis == "planned"].set_index(["part", "comparison", "metric"])
-    assert planned.loc[("paper-width", f"{APOC} - {A}", "gesture_edit"), "p_value"] == 16 / 256
+    zero_row = planned.loc[("paper-width", f"{APOC} - {A}", "gesture_edit")]
+    assert zero_row.p_value == 16 / 256 and zero_row.folds_favouring == "5/8"
     equal = planned.loc[("paper-width", f"{APC} - {A}", "gesture_edit")]
     assert equal.p_value == 2 / 256
     assert equal.ci_low == pytest.approx(2.25, abs=TOLERANCE) == equal.ci_high
@@ -297,3 +298,27 @@ def test_the_rule_out_criterion_at_its_boundary(tmp_path: Path, apoc, apc, exclu
     rows = table[(table.analysis == "planned") & (table.metric == "gesture_edit")]
     rows = rows.set_index("comparison").loc[[f"{APOC} - {A}", f"{APC} - {A}"]]
     assert tuple(rows.rule_out) == excluded and set(rows.outcome) == {"reproduced"}
+
+
+@pytest.mark.parametrize("spoil", ["unfinished", "unrecorded"])
+def test_mixed_seed_counts_are_refused_and_the_other_part_still_analysed(tmp_path: Path, spoil):
+    """A fold of part 1 where one configuration has 2 seeds instead of 3 (its third unfinished, or
+    never recorded): part 1 gets no row, part 2 its full rows, as the reference computes them."""
+    from multitask.evidence.confirm import analyse, read_plan
+
+    narrow = chosen_scores({(APOC, "gesture_edit"): CLEAR}, (A, APOC), NARROW_SEEDS)
+    plan = project(tmp_path, chosen_scores({(APOC, "gesture_edit"): CLEAR}, (A, APOC, APC),
+                                           WIDE_SEEDS), narrow)
+    grid = tmp_path / "results" / "paper" / "grid"
+    run = grid / "runs" / "revised" / "bidirectional" / APOC / "seed2" / "F"
+    if spoil == "unfinished":
+        (run / "finished.json").unlink()
+    else:
+        shutil.rmtree(run)
+        record = json.loads((grid / "grid.json").read_text())
+        record["runs"] = [r for r in record["runs"] if not r.endswith(f"{APOC}/seed2/F")]
+        (grid / "grid.json").write_text(json.dumps(record))
+    table, _, skipped = analyse(read_plan(plan))
+    assert set(table.part) == {"replication-512"}
+    assert skipped[0].startswith("paper-width: not analysed")
+    compare(table, expected_rows(narrow, "replication-512", NARROW_SEEDS), TOLERANCE)

@@ -46,7 +46,7 @@ import numpy as np
 import pandas as pd
 
 from .collect import LEFT_OUT, IncompleteEvidence, key_from_path, recorded_runs, run_records
-from .paired import ConfigId, Contrast, StatsConfig, holm, paired
+from .paired import TIES, ConfigId, Contrast, StatsConfig, holm, paired
 from .pooling import MixedSettings, architecture
 
 ROLES = ("primary", "secondary")
@@ -174,12 +174,15 @@ def _part(entry: dict, path: Path, where: str) -> Part:
     if len(outcomes) != 3:
         raise PlanError(f"{path}: {where}.outcomes must name 3 outcomes (value: {outcomes})")
     rule_out = entry.get("rule_out_below")
+    seeds = _seeds(entry, "seeds", path, where)
+    sensitivity = _seeds(entry, "sensitivity_seeds", path, where, False)
+    if not set(sensitivity) <= set(seeds):
+        raise PlanError(f"{path}: {where}.sensitivity_seeds must be some of the part's seeds "
+                        f"{list(seeds)} (value: {list(sensitivity)})")
     return Part(name=_get(entry, "name", str, path, where),
                 title=_get(entry, "title", str, path, where),
                 grid=_locate(path, _get(entry, "grid", str, path, where)),
-                seeds=_seeds(entry, "seeds", path, where),
-                families=families, outcomes=outcomes,
-                sensitivity_seeds=_seeds(entry, "sensitivity_seeds", path, where, False),
+                seeds=seeds, families=families, outcomes=outcomes, sensitivity_seeds=sensitivity,
                 rule_out_below=None if rule_out is None
                 else _get(entry, "rule_out_below", float, path, where),
                 hidden=None if "hidden" not in entry else _get(entry, "hidden", int, path, where))
@@ -323,7 +326,7 @@ def _row(part: Part, family: Family, analysis: str, seeds: tuple[int, ...], endp
             "rule_out": bool(shown(high) < threshold) if planned_primary else None,
             "outcome": (outcome(part, result.mean, p_holm, high, config.alpha)
                         if planned_primary else None),
-            "folds_favouring": f"{int((np.asarray(result.differences) > 0).sum())}/"
+            "folds_favouring": f"{int((np.asarray(result.differences) > TIES).sum())}/"
                                f"{result.pairs}"}
 
 
