@@ -104,8 +104,9 @@ def test_the_planned_analysis_pools_the_seeds_within_each_fold(project: Path):
 def test_an_unfinished_grid_is_not_analysed(project: Path):
     grid = project / "grids" / "wide"
     (grid / "runs/revised/bidirectional/APc-fixed/seed2/D/finished.json").unlink()
-    table, _, skipped = analyse(read_plan(project / "confirm" / "plan.toml"))
-    assert table.empty
+    table, per_fold, skipped = analyse(read_plan(project / "confirm" / "plan.toml"))
+    assert table.empty and per_fold.empty and list(per_fold.columns) == [
+        "part", "analysis", "comparison", "metric", "fold", "difference"]
     assert skipped[0] == (f"wide: not analysed, 71 of 72 runs of seeds 0 1 2 in {grid} finished "
                           "(the plan analyses complete grids only): not finished: "
                           f"{grid / 'runs/revised/bidirectional/APc-fixed/seed2/D'}")

@@ -53,6 +53,7 @@ ROLES = ("primary", "secondary")
 COLUMNS = ["part", "family", "role", "analysis", "seeds", "comparison", "metric", "folds",
            "diff", "ci_low", "ci_high", "p_value", "p_holm", "paper_gain", "paper_in_ci",
            "rule_out", "outcome", "folds_favouring", "commits"]
+PER_FOLD_COLUMNS = ["part", "analysis", "comparison", "metric", "fold", "difference"]
 #: Problems a line of a part not analysed names (the rest are counted).
 SHOWN_PROBLEMS = 3
 #: Decimals of an interval end when it is compared with a paper's gain (PLAN.md, ``shown``).
@@ -240,7 +241,8 @@ def analyse(plan: Plan) -> tuple[pd.DataFrame, pd.DataFrame, list[str]]:
                                   "comparison": row["comparison"], "metric": endpoint.metric,
                                   "fold": fold, "difference": d}
                                  for fold, d in zip(result.folds, result.differences)]
-    return pd.DataFrame(rows, columns=COLUMNS), pd.DataFrame(per_fold), skipped
+    return (pd.DataFrame(rows, columns=COLUMNS), pd.DataFrame(per_fold, columns=PER_FOLD_COLUMNS),
+            skipped)
 
 
 def _complete_runs(part: Part, skipped: list[str]) -> pd.DataFrame | None:
