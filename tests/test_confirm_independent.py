@@ -322,3 +322,99 @@ def test_mixed_seed_counts_are_refused_and_the_other_part_still_analysed(tmp_pat
     assert set(table.part) == {"replication-512"}
     assert skipped[0].startswith("paper-width: not analysed")
     compare(table, expected_rows(narrow, "replication-512", NARROW_SEEDS), TOLERANCE)
+
+
+EXPLORATORY = """
+[[analyses]]
+part = "replication-512"
+name = "seed 0 pooled"
+borrowed = [{config = "A-fixed", grid = "results/width/h512-a180", seeds = [0]},
+            {config = "APoc-gradnorm", grid = "results/width/h512", seeds = [0]}]
+"""
+
+
+def width_grids(root: Path, scores: dict) -> None:
+    """PLAN.md's two width grids of seed 0 at 512 units: A's seed 0 taken from ``h512-a180``,
+    APoc's from ``h512``; each grid's other configuration scores 0 (it must not be read)."""
+    for name, used in (("h512-a180", A), ("h512", APOC)):
+        grid = write_fake_grid(root / "results" / "width" / name, seeds=(0,), hidden=512,
+                               experiments=(Experiment(("A",)),
+                                            Experiment(("APoc",), ("gradnorm",))))
+        write_scores(grid, {(config, 0, fold): (scores[used, 0, fold] if config == used
+                                                 else dict.fromkeys(METRICS, 0.0))
+                            for config in (A, APOC) for fold in FOLDS})
+
+
+def test_the_exploratory_seed_0_analysis_pools_the_width_grids_seed_0(tmp_path: Path):
+    """PLAN.md part 2: "labelled exploratory, the same analysis with seed 0 pooled (seeds 0-5;
+    A's seed 0 from results/width/h512-a180/, APoc's from results/width/h512/)": in its own
+    file, the planned rows as without it."""
+    from multitask.evidence.confirm import analyse, read_plan
+    from multitask.evidence.exploratory import analyse_exploratory, read_exploratory
+
+    narrow = chosen_scores({(APOC, "gesture_edit"): MIXED, (APOC, "gesture_f1@10"): CLEAR},
+                           (A, APOC), NARROW_SEEDS)
+    seed0 = {(config, 0, fold): {m: 70.0 + 3.0 * k + (5.0 if config == APOC else 0.0)
+                                 for m in METRICS}
+             for config in (A, APOC) for k, fold in enumerate(FOLDS)}
+    plan_path = project(tmp_path, None, narrow)
+    out = tmp_path / "results" / "confirm"
+    planned_alone = run_confirm(plan_path, out)
+    width_grids(tmp_path, seed0)
+    (out / "exploratory.toml").write_text(EXPLORATORY)
+    assert run_confirm(plan_path, out).equals(planned_alone)
+    explored = pd.read_csv(out / "exploratory.csv")
+    plan = read_plan(plan_path)
+    table, _, notes = analyse_exploratory(plan, read_exploratory(out / "exploratory.toml", plan))
+    assert notes == []
+    pooled = {**narrow, **seed0}
+    all_seeds = (0, *NARROW_SEEDS)
+    expected = []
+    for family, role, endpoints in [f[1:] for f in FAMILIES if f[0] == "replication-512"]:
+        for x, y, metric, gain in endpoints:
+            d = np.array([np.mean([pooled[x, s, f][metric] for s in all_seeds])
+                          - np.mean([pooled[y, s, f][metric] for s in all_seeds])
+                          for f in FOLDS])
+            expected.append({"part": "replication-512", "family": family,
+                             "analysis": "exploratory: seed 0 pooled",
+                             "comparison": f"{x} - {y}", "metric": metric,
+                             "diff": float(np.mean(d)), "ci_low": interval_end(d, -1),
+                             "ci_high": interval_end(d, +1), "p_value": sign_flip_p(d),
+                             "p_holm": np.nan, "rule_out": None, "outcome": None})
+    compare(table, pd.DataFrame(expected), TOLERANCE)
+    compare(explored, pd.DataFrame(expected), 5e-5 + 1e-12)
+    assert set(table.seeds) == {"0 1 2 3 4 5"} and set(explored.role) <= {"primary", "secondary"}
+
+
+def test_no_exploratory_look_before_the_part_is_complete(tmp_path: Path):
+    from multitask.evidence.confirm import read_plan
+    from multitask.evidence.exploratory import analyse_exploratory, read_exploratory
+
+    narrow = chosen_scores({}, (A, APOC), NARROW_SEEDS)
+    plan_path = project(tmp_path, None, narrow)
+    width_grids(tmp_path, chosen_scores({}, (A, APOC), (0, 1, 2)))
+    (tmp_path / "results/confirm/h512/runs/revised/bidirectional/A-fixed/seed5/I"
+     / "finished.json").unlink()
+    path = tmp_path / "results" / "confirm" / "exploratory.toml"
+    path.write_text(EXPLORATORY)
+    plan = read_plan(plan_path)
+    table, _, notes = analyse_exploratory(plan, read_exploratory(path, plan))
+    assert table.empty and notes == [
+        "replication-512, exploratory: seed 0 pooled: not computed, the part is not analysed"]
+
+
+def test_borrowed_runs_of_other_settings_are_not_pooled(tmp_path: Path):
+    from multitask.evidence.confirm import read_plan
+    from multitask.evidence.exploratory import analyse_exploratory, read_exploratory
+
+    plan_path = project(tmp_path, None, chosen_scores({}, (A, APOC), NARROW_SEEDS))
+    width_grids(tmp_path, chosen_scores({}, (A, APOC), (0, 1, 2)))
+    config = tmp_path / "results/width/h512/runs/revised/bidirectional/APoc-gradnorm/seed0/B"
+    data = json.loads((config / "config.json").read_text())
+    data["run"]["encoder"]["hidden"] = 1024
+    (config / "config.json").write_text(json.dumps(data))
+    path = tmp_path / "results" / "confirm" / "exploratory.toml"
+    path.write_text(EXPLORATORY)
+    plan = read_plan(plan_path)
+    table, _, notes = analyse_exploratory(plan, read_exploratory(path, plan))
+    assert table.empty and "not computed" in notes[0] and "run.encoder.hidden" in notes[0]

@@ -127,14 +127,15 @@ def read_plan(path: Path) -> Plan:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as error:
         raise PlanError(f"{path}: cannot read the plan: {error}") from None
-    _known(data, "plan", path, "")
-    confidence = _get(data, "confidence", float, path, "")
+    check_keys(data, "plan", path, "")
+    confidence = plan_value(data, "confidence", float, path, "")
     parts = tuple(_part(entry, path, f"parts[{i}]")
-                  for i, entry in enumerate(_get(data, "parts", list, path, "")))
+                  for i, entry in enumerate(plan_value(data, "parts", list, path, "")))
     return Plan(path, confidence, parts)
 
 
-def _get(table: dict, key: str, kind: type, path: Path, where: str):
+def plan_value(table: dict, key: str, kind: type, path: Path, where: str):
+    """``table[key]``, of ``kind`` (an int where a float is asked is read as one)."""
     value = table.get(key)
     ok = isinstance(value, kind) or (kind is float and isinstance(value, int))
     if value is None or not ok or isinstance(value, bool):
@@ -143,23 +144,24 @@ def _get(table: dict, key: str, kind: type, path: Path, where: str):
     return float(value) if kind is float else value
 
 
-def _known(table, kind: str, path: Path, where: str) -> None:
-    """Raise unless ``table`` is a table whose keys are all ``KEYS[kind]``."""
+def check_keys(table, kind: str, path: Path, where: str, keys: dict[str, set[str]] = KEYS
+               ) -> None:
+    """Raise unless ``table`` is a table whose keys are all ``keys[kind]``."""
     if not isinstance(table, dict):
-        raise PlanError(f"{path}: {where or 'the plan'} must be a table (value: {table!r})")
-    unknown = sorted(set(table) - KEYS[kind])
+        raise PlanError(f"{path}: {where or 'the file'} must be a table (value: {table!r})")
+    unknown = sorted(set(table) - keys[kind])
     if unknown:
         raise PlanError(f"{path}: {where + '.' if where else ''}{unknown[0]}: not a key of a "
-                        f"plan's {kind} (known: {', '.join(sorted(KEYS[kind]))})")
+                        f"plan's {kind} (known: {', '.join(sorted(keys[kind]))})")
 
 
-def _seeds(entry: dict, key: str, path: Path, where: str, required: bool = True
-           ) -> tuple[int, ...]:
+def plan_seeds(entry: dict, key: str, path: Path, where: str, required: bool = True
+               ) -> tuple[int, ...]:
     """``entry[key]``, a non-empty list of distinct seeds (integers); () when not required and
     absent."""
     if key not in entry and not required:
         return ()
-    seeds = _get(entry, key, list, path, where)
+    seeds = plan_value(entry, key, list, path, where)
     if not seeds or len(set(seeds)) != len(seeds) or not all(
             isinstance(s, int) and not isinstance(s, bool) for s in seeds):
         raise PlanError(f"{path}: {where}.{key} must be a list of distinct integer seeds "
@@ -168,44 +170,44 @@ def _seeds(entry: dict, key: str, path: Path, where: str, required: bool = True
 
 
 def _part(entry: dict, path: Path, where: str) -> Part:
-    _known(entry, "part", path, where)
+    check_keys(entry, "part", path, where)
     families = tuple(_family(f, path, f"{where}.families[{i}]")
-                     for i, f in enumerate(_get(entry, "families", list, path, where)))
-    outcomes = tuple(_get(entry, "outcomes", list, path, where))
+                     for i, f in enumerate(plan_value(entry, "families", list, path, where)))
+    outcomes = tuple(plan_value(entry, "outcomes", list, path, where))
     if len(outcomes) != 3:
         raise PlanError(f"{path}: {where}.outcomes must name 3 outcomes (value: {outcomes})")
     rule_out = entry.get("rule_out_below")
-    seeds = _seeds(entry, "seeds", path, where)
-    sensitivity = _seeds(entry, "sensitivity_seeds", path, where, False)
+    seeds = plan_seeds(entry, "seeds", path, where)
+    sensitivity = plan_seeds(entry, "sensitivity_seeds", path, where, False)
     if not set(sensitivity) <= set(seeds):
         raise PlanError(f"{path}: {where}.sensitivity_seeds must be some of the part's seeds "
                         f"{list(seeds)} (value: {list(sensitivity)})")
-    return Part(name=_get(entry, "name", str, path, where),
-                title=_get(entry, "title", str, path, where),
-                grid=_locate(path, _get(entry, "grid", str, path, where)),
+    return Part(name=plan_value(entry, "name", str, path, where),
+                title=plan_value(entry, "title", str, path, where),
+                grid=locate_grid(path, plan_value(entry, "grid", str, path, where)),
                 seeds=seeds, families=families, outcomes=outcomes, sensitivity_seeds=sensitivity,
                 rule_out_below=None if rule_out is None
-                else _get(entry, "rule_out_below", float, path, where),
-                hidden=None if "hidden" not in entry else _get(entry, "hidden", int, path, where))
+                else plan_value(entry, "rule_out_below", float, path, where),
+                hidden=None if "hidden" not in entry else plan_value(entry, "hidden", int, path, where))
 
 
 def _family(entry: dict, path: Path, where: str) -> Family:
-    _known(entry, "family", path, where)
-    role = _get(entry, "role", str, path, where)
+    check_keys(entry, "family", path, where)
+    role = plan_value(entry, "role", str, path, where)
     if role not in ROLES:
         raise PlanError(f"{path}: {where}.role must be one of {', '.join(ROLES)} "
                         f"(value: {role!r})")
-    for i, e in enumerate(_get(entry, "endpoints", list, path, where)):
-        _known(e, "endpoint", path, f"{where}.endpoints[{i}]")
+    for i, e in enumerate(plan_value(entry, "endpoints", list, path, where)):
+        check_keys(e, "endpoint", path, f"{where}.endpoints[{i}]")
     endpoints = tuple(
-        Endpoint(*(_get(e, key, str, path, f"{where}.endpoints[{i}]")
+        Endpoint(*(plan_value(e, key, str, path, f"{where}.endpoints[{i}]")
                    for key in ("x", "y", "metric")),
-                 _get(e, "paper_gain", float, path, f"{where}.endpoints[{i}]"))
-        for i, e in enumerate(_get(entry, "endpoints", list, path, where)))
-    return Family(_get(entry, "name", str, path, where), role, endpoints)
+                 plan_value(e, "paper_gain", float, path, f"{where}.endpoints[{i}]"))
+        for i, e in enumerate(plan_value(entry, "endpoints", list, path, where)))
+    return Family(plan_value(entry, "name", str, path, where), role, endpoints)
 
 
-def _locate(plan: Path, grid: str) -> Path:
+def locate_grid(plan: Path, grid: str) -> Path:
     """``grid`` in the plan's folder or the nearest folder above that holds it; if none does
     (not run yet), as named, relative to the plan's folder."""
     for folder in (plan.parent, *plan.parent.resolve().parents):
@@ -220,33 +222,48 @@ def analyse(plan: Plan) -> tuple[pd.DataFrame, pd.DataFrame, list[str]]:
     config = StatsConfig(confidence=plan.confidence)
     rows, per_fold, skipped = [], [], []
     for part in plan.parts:
-        runs = _complete_runs(part, skipped)
-        if runs is None:
+        found = complete_runs(part, skipped)
+        if found is None:
             continue
+        runs, _ = found
         analyses = {"planned": part.seeds}
         if part.sensitivity_seeds:
             analyses["sensitivity"] = part.sensitivity_seeds
         analyses |= {f"seed {seed}": (seed,) for seed in part.seeds}
         for analysis, seeds in analyses.items():
-            chosen = runs[runs.seed.isin(seeds)]
-            for family in part.families:
-                results = [paired(chosen, e.contrast, e.metric, config)
-                           for e in family.endpoints]
-                adjusted = (holm([r.p_value for r in results], size=len(family.endpoints))
-                            if analysis == "planned" else [np.nan] * len(results))
-                for endpoint, result, p_holm in zip(family.endpoints, results, adjusted):
-                    row = _row(part, family, analysis, seeds, endpoint, result, p_holm, config)
-                    rows.append({**row, "commits": _commits(chosen, endpoint)})
-                    per_fold += [{"part": part.name, "analysis": analysis,
-                                  "comparison": row["comparison"], "metric": endpoint.metric,
-                                  "fold": fold, "difference": d}
-                                 for fold, d in zip(result.folds, result.differences)]
-    return (pd.DataFrame(rows, columns=COLUMNS), pd.DataFrame(per_fold, columns=PER_FOLD_COLUMNS),
-            skipped)
+            endpoint_rows(part, analysis, seeds, runs[runs.seed.isin(seeds)], config, rows,
+                          per_fold)
+    return tables(rows, per_fold) + (skipped,)
 
 
-def _complete_runs(part: Part, skipped: list[str]) -> pd.DataFrame | None:
-    """The part's runs: every run its grid records for the part's seeds finished and usable
+def tables(rows: list[dict], per_fold: list[dict]) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """The rows as ``confirm.csv``'s and ``confirm_per_fold.csv``'s tables (their columns even
+    when empty)."""
+    return (pd.DataFrame(rows, columns=COLUMNS),
+            pd.DataFrame(per_fold, columns=PER_FOLD_COLUMNS))
+
+
+def endpoint_rows(part: Part, analysis: str, seeds: tuple[int, ...], chosen: pd.DataFrame,
+                  config: StatsConfig, rows: list[dict], per_fold: list[dict]) -> None:
+    """Append to ``rows`` and ``per_fold`` every endpoint of ``part`` tested on the runs
+    ``chosen`` (those of ``seeds``); Holm's correction and the outcome only for the ``planned``
+    analysis."""
+    for family in part.families:
+        results = [paired(chosen, e.contrast, e.metric, config) for e in family.endpoints]
+        adjusted = (holm([r.p_value for r in results], size=len(family.endpoints))
+                    if analysis == "planned" else [np.nan] * len(results))
+        for endpoint, result, p_holm in zip(family.endpoints, results, adjusted):
+            row = _row(part, family, analysis, seeds, endpoint, result, p_holm, config)
+            rows.append({**row, "commits": _commits(chosen, endpoint)})
+            per_fold += [{"part": part.name, "analysis": analysis,
+                          "comparison": row["comparison"], "metric": endpoint.metric,
+                          "fold": fold, "difference": d}
+                         for fold, d in zip(result.folds, result.differences)]
+
+
+def complete_runs(part: Part, skipped: list[str]) -> tuple[pd.DataFrame, dict] | None:
+    """The part's runs (with the ``commit`` that trained each) and their records (run folder ->
+    its config.json): every run its grid records for the part's seeds finished and usable
     (``collect.run_records``), of one setting per configuration (``pooling.pool``), at the
     plan's width, and every side of every endpoint with exactly the part's seeds on each of the
     grid's folds (the folds any of the part's runs has). None, and a line in ``skipped`` saying
@@ -273,10 +290,10 @@ def _complete_runs(part: Part, skipped: list[str]) -> pd.DataFrame | None:
                        f"{' '.join(map(str, part.seeds))} in {part.grid} finished (the plan "
                        f"analyses complete grids only): {shown}{more}")
         return None
-    return runs.assign(commit=[_commit(record) for record in records.values()])
+    return runs.assign(commit=[run_commit(record) for record in records.values()]), records
 
 
-def _commit(record) -> str:
+def run_commit(record) -> str:
     """The commit whose code trained the run (its config.json's provenance), 7 digits, with
     ``-dirty`` when the checkout had uncommitted changes; ``unknown`` when not recorded."""
     provenance = record.saved.get("provenance") or {}

@@ -1,0 +1,180 @@
+"""The exploratory analyses a confirmatory plan's text names beside its tests, never part of them.
+
+``results/confirm/PLAN.md`` (part 2) names one: "labelled exploratory, the same analysis with
+seed 0 pooled (seeds 0-5; A's seed 0 from ``results/width/h512-a180/``, APoc's from
+``results/width/h512/``)". The plan file (``plan.toml``) cannot hold it, so an
+``exploratory.toml`` beside it does: per analysis, the plan's part it repeats and, per side
+(configuration), the runs of another grid pooled into it::
+
+    [[analyses]]
+    part = "replication-512"
+    name = "seed 0 pooled"
+    borrowed = [{config = "A-fixed", grid = "results/width/h512-a180", seeds = [0]},
+                {config = "APoc-gradnorm", grid = "results/width/h512", seeds = [0]}]
+
+Each analysis repeats every endpoint of its part on the part's runs plus the borrowed ones,
+seeds averaged within each fold as the plan's test does, and is written to ``exploratory.csv``
+(``confirm.csv``'s columns; ``analysis`` = ``exploratory: <name>``; no Holm, no outcome, no
+rule-out) and ``exploratory_per_fold.csv``: the planned rows are never touched. An analysis is
+computed only for a part the plan analysed (no interim look), and only when every borrowed run
+is finished and usable, of the settings of the part's runs of its configuration
+(``pooling.pool``), on every fold the part has and of seeds the part does not hold; otherwise a
+line says why it was not.
+"""
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+
+from .collect import LEFT_OUT, IncompleteEvidence, run_records
+from .confirm import (Plan, PlanError, check_keys, complete_runs, endpoint_rows, locate_grid,
+                      plan_seeds, plan_value, read_plan, run_commit, tables)
+from .paired import ConfigId, StatsConfig
+from .pooling import MixedSettings, pool, record_key
+
+#: The exploratory analyses' file, beside the plan's.
+EXPLORATORY_FILE = "exploratory.toml"
+KINDS = {"exploratory": {"analyses"}, "analysis": {"part", "name", "borrowed"},
+         "borrowed": {"config", "grid", "seeds"}}
+
+
+@dataclass(frozen=True)
+class Borrowed:
+    """Runs of ``config`` (a side's label, e.g. ``A-fixed``) in another ``grid``, of ``seeds``."""
+
+    config: ConfigId
+    grid: Path
+    seeds: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class Exploratory:
+    """A part's endpoints again, with ``borrowed`` runs pooled into their sides."""
+
+    part: str
+    name: str
+    borrowed: tuple[Borrowed, ...]
+
+
+def read_exploratory(path: Path, plan: Plan) -> tuple[Exploratory, ...]:
+    """The analyses in ``path`` (none when there is no such file); grids are found as the plan's.
+
+    Raises:
+        PlanError: a missing, mistyped or unknown key, a part the plan does not have.
+    """
+    if not path.is_file():
+        return ()
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as error:
+        raise PlanError(f"{path}: cannot read the exploratory analyses: {error}") from None
+    check_keys(data, "exploratory", path, "", KINDS)
+    parts = {part.name for part in plan.parts}
+    found = []
+    for i, entry in enumerate(plan_value(data, "analyses", list, path, "")):
+        where = f"analyses[{i}]"
+        check_keys(entry, "analysis", path, where, KINDS)
+        part = plan_value(entry, "part", str, path, where)
+        if part not in parts:
+            raise PlanError(f"{path}: {where}.part: {part!r} is not a part of {plan.path} "
+                            f"({', '.join(sorted(parts))})")
+        borrowed = []
+        for j, side in enumerate(plan_value(entry, "borrowed", list, path, where)):
+            at = f"{where}.borrowed[{j}]"
+            check_keys(side, "borrowed", path, at, KINDS)
+            try:
+                config = ConfigId.parse(plan_value(side, "config", str, path, at))
+            except ValueError as error:
+                raise PlanError(f"{path}: {at}.config: {error}") from None
+            grid = locate_grid(path, plan_value(side, "grid", str, path, at))
+            borrowed.append(Borrowed(config, grid, plan_seeds(side, "seeds", path, at)))
+        found.append(Exploratory(part, plan_value(entry, "name", str, path, where),
+                                 tuple(borrowed)))
+    return tuple(found)
+
+
+def analyse_exploratory(plan: Plan, analyses: tuple[Exploratory, ...]
+                        ) -> tuple[pd.DataFrame, pd.DataFrame, list[str]]:
+    """``exploratory.csv``'s and ``exploratory_per_fold.csv``'s tables, and one line per
+    analysis not computed (its part not analysed, or its borrowed runs unusable)."""
+    config = StatsConfig(confidence=plan.confidence)
+    rows, per_fold, notes = [], [], []
+    for analysis in analyses:
+        part = next(p for p in plan.parts if p.name == analysis.part)
+        found = complete_runs(part, [])
+        label = f"exploratory: {analysis.name}"
+        if found is None:
+            notes.append(f"{part.name}, {label}: not computed, the part is not analysed")
+            continue
+        runs, records = found
+        try:
+            borrowed = [_borrowed_runs(b, part.seeds, sorted(set(runs.fold)), runs, records)
+                        for b in analysis.borrowed]
+        except (IncompleteEvidence, MixedSettings) as error:
+            notes.append(f"{part.name}, {label}: not computed: {' '.join(str(error).split())}")
+            continue
+        pooled = pd.concat([runs, *borrowed], ignore_index=True)
+        seeds = tuple(sorted(set(pooled.seed)))
+        endpoint_rows(part, label, seeds, pooled, config, rows, per_fold)
+    return tables(rows, per_fold) + (notes,)
+
+
+def _borrowed_runs(borrowed: Borrowed, part_seeds: tuple[int, ...], folds: list[str],
+                   runs: pd.DataFrame, records: dict) -> pd.DataFrame:
+    """The borrowed runs of ``borrowed.config`` (with their ``commit``), checked: finished and
+    usable, of seeds the part does not hold, one per seed on each of ``folds``, of the settings
+    of the part's runs of that configuration (``records``).
+
+    Raises:
+        IncompleteEvidence: naming what is missing or wrong.
+        MixedSettings: the borrowed runs' settings differ from the part's.
+    """
+    side = borrowed.config
+    where = f"{borrowed.grid} ({side.label}, seeds {' '.join(map(str, borrowed.seeds))})"
+    if set(borrowed.seeds) & set(part_seeds):
+        raise IncompleteEvidence(f"{where}: seeds the part holds already")
+    if not borrowed.grid.is_dir():
+        raise IncompleteEvidence(f"{where}: no such grid")
+    found, problems, found_records = run_records(borrowed.grid, allow_incomplete=True,
+                                                 seeds=borrowed.seeds)
+    problems = [line for line in problems if not line.startswith(LEFT_OUT)]
+    if problems:
+        raise IncompleteEvidence(f"{where}: {problems[0]}")
+    found = found.assign(commit=[run_commit(r) for r in found_records.values()])
+    chosen = side.select(found)
+    seeds = chosen.groupby("fold").seed.apply(lambda s: tuple(sorted(s)))
+    if sorted(seeds.index) != folds or set(seeds) != {tuple(sorted(borrowed.seeds))}:
+        raise IncompleteEvidence(f"{where}: not one run per seed on each of the folds "
+                                 f"{' '.join(folds)}")
+    pool({**_of(side, records), **_of(side, found_records)}, where)
+    return chosen
+
+
+def _of(side: ConfigId, records: dict) -> dict:
+    """The ``records`` (run folder -> record) of runs of the configuration ``side``."""
+    def config(record) -> tuple[str, ...]:
+        key = record_key(record)
+        return key.variant, key.weighting, key.annotations, key.direction
+    wanted = (side.variant, side.weighting, side.annotations, side.direction)
+    return {run: record for run, record in records.items() if config(record) == wanted}
+
+
+def write_exploratory(plan_path: Path, out: Path) -> tuple[list[Path], list[str]]:
+    """``exploratory.csv`` and ``exploratory_per_fold.csv`` in ``out`` when an
+    ``exploratory.toml`` lies beside the plan (the paths written), and the analyses not
+    computed."""
+    from rnn_seg.runs.folder import write_atomic
+
+    plan = read_plan(plan_path)
+    analyses = read_exploratory(Path(plan_path).parent / EXPLORATORY_FILE, plan)
+    if not analyses:
+        return [], []
+    table, per_fold, notes = analyse_exploratory(plan, analyses)
+    written = []
+    for name, frame in (("exploratory.csv", table), ("exploratory_per_fold.csv", per_fold)):
+        write_atomic(out / name, frame.to_csv(index=False, float_format="%.4f"))
+        written.append(out / name)
+    return written, notes
