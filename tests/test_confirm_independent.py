@@ -25,6 +25,7 @@ PLAN = Path(__file__).resolve().parents[1] / "results" / "confirm" / "plan.toml"
 METRICS = ("gesture_edit", "gesture_f1@10", "gesture_accuracy")
 A, APOC, APC = "A-fixed", "APoc-gradnorm", "APc-fixed"
 WIDE_SEEDS, NARROW_SEEDS = (0, 1, 2), (1, 2, 3, 4, 5)
+NARROW_EXPERIMENTS = (Experiment(("A",)), Experiment(("APoc",), ("gradnorm",)))
 ALPHA = 0.05
 TOLERANCE = 1e-9
 #: How close two sums of fold differences must be to count as a tie (float rounding only).
@@ -174,14 +175,13 @@ def project(root: Path, wide: dict | None, narrow: dict | None) -> Path:
     plan = root / "results" / "confirm" / "plan.toml"
     shutil.copyfile(PLAN, plan)
     if wide is not None:
-        grid = write_fake_grid(root / "results" / "paper" / "grid", seeds=WIDE_SEEDS, hidden=1024,
-                               experiments=(Experiment(("A",)), Experiment(("APoc",), ("gradnorm",)),
-                                            Experiment(("APc",))))
+        grid = write_fake_grid(root / "results" / "paper" / "grid", seeds=WIDE_SEEDS,
+                               hidden=1024, experiments=(*NARROW_EXPERIMENTS,
+                                                         Experiment(("APc",))))
         write_scores(grid, wide)
     if narrow is not None:
         grid = write_fake_grid(root / "results" / "confirm" / "h512", seeds=NARROW_SEEDS,
-                               hidden=512,
-                               experiments=(Experiment(("A",)), Experiment(("APoc",), ("gradnorm",))))
+                               hidden=512, experiments=NARROW_EXPERIMENTS)
         write_scores(grid, narrow)
     return plan
 
@@ -338,8 +338,7 @@ def width_grids(root: Path, scores: dict) -> None:
     APoc's from ``h512``; each grid's other configuration scores 0 (it must not be read)."""
     for name, used in (("h512-a180", A), ("h512", APOC)):
         grid = write_fake_grid(root / "results" / "width" / name, seeds=(0,), hidden=512,
-                               experiments=(Experiment(("A",)),
-                                            Experiment(("APoc",), ("gradnorm",))))
+                               experiments=NARROW_EXPERIMENTS)
         write_scores(grid, {(config, 0, fold): (scores[used, 0, fold] if config == used
                                                  else dict.fromkeys(METRICS, 0.0))
                             for config in (A, APOC) for fold in FOLDS})
@@ -349,7 +348,7 @@ def test_the_exploratory_seed_0_analysis_pools_the_width_grids_seed_0(tmp_path: 
     """PLAN.md part 2: "labelled exploratory, the same analysis with seed 0 pooled (seeds 0-5;
     A's seed 0 from results/width/h512-a180/, APoc's from results/width/h512/)": in its own
     file, the planned rows as without it."""
-    from multitask.evidence.confirm import analyse, read_plan
+    from multitask.evidence.confirm import read_plan
     from multitask.evidence.exploratory import analyse_exploratory, read_exploratory
 
     narrow = chosen_scores({(APOC, "gesture_edit"): MIXED, (APOC, "gesture_f1@10"): CLEAR},

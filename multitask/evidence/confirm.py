@@ -188,7 +188,8 @@ def _part(entry: dict, path: Path, where: str) -> Part:
                 seeds=seeds, families=families, outcomes=outcomes, sensitivity_seeds=sensitivity,
                 rule_out_below=None if rule_out is None
                 else plan_value(entry, "rule_out_below", float, path, where),
-                hidden=None if "hidden" not in entry else plan_value(entry, "hidden", int, path, where))
+                hidden=(None if "hidden" not in entry
+                        else plan_value(entry, "hidden", int, path, where)))
 
 
 def _family(entry: dict, path: Path, where: str) -> Family:
