@@ -45,6 +45,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from ..models.run_record import RunRecord
 from .collect import LEFT_OUT, IncompleteEvidence, key_from_path, recorded_runs, run_records
 from .paired import TIES, ConfigId, Contrast, StatsConfig, holm, paired
 from .pooling import MixedSettings, architecture
@@ -294,7 +295,7 @@ def complete_runs(part: Part, skipped: list[str]) -> tuple[pd.DataFrame, dict] |
     return runs.assign(commit=[run_commit(record) for record in records.values()]), records
 
 
-def run_commit(record) -> str:
+def run_commit(record: RunRecord) -> str:
     """The commit whose code trained the run (its config.json's provenance), 7 digits, with
     ``-dirty`` when the checkout had uncommitted changes; ``unknown`` when not recorded."""
     provenance = record.saved.get("provenance") or {}
