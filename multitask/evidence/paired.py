@@ -23,8 +23,9 @@ one procedure gives the test and the interval, so that they cannot disagree:
   counts towards p, as ``>=`` says), so that float rounding of the seed means (about 1e-14 for
   scores near 100) never decides whether a sign vector counts, e.g. when a fold difference is 0
   or some folds' differences sum to 0; the interval's ends lie ``TIES`` beyond the subset means.
-  ``p(0) <= alpha`` if and only if the interval excludes 0, by construction; coverage is exact (``1 - 12/256`` = 95.3 % at 8 folds) whenever the fold
-  differences are symmetric about their mean;
+  ``p(0) <= alpha`` if and only if the interval excludes 0, by construction; coverage is exact
+  (``1 - 12/256`` = 95.3 % at 8 folds) whenever the fold differences are symmetric about their
+  mean;
 * the variance of ``d`` split into a **seed share** (each side's within-fold variance over its
   seeds, divided by its number of seeds: what averaging the seeds leaves in a fold's mean) and a
   **fold share** (the rest: how the effect itself varies from one test user to another). With one
