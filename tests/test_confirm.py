@@ -234,22 +234,23 @@ def test_the_rule_out_criterion_reads_our_upper_end_with_two_decimals(project: P
     assert row.paper_in_ci == (not excluded)
 
 
-def test_a_plan_with_a_mistyped_key_is_one_named_error(tmp_path: Path):
+@pytest.mark.parametrize("old, new, message", [
+    ('role = "secondary"', 'role = "tertiary"',
+     r"plan.toml: parts\[0\].families\[1\].role must be one"),
+    ("paper_gain = 2.3", 'paper_gain = "2.3"', r"endpoints\[1\].paper_gain must be a float"),
+    ("sensitivity_seeds", "sensitivty_seeds",
+     r"parts\[0\].sensitivty_seeds: not a key of a plan's part"),
+    ("seeds = [1, 2]\noutcomes", 'seeds = [1, "2"]\noutcomes',
+     r"parts\[0\].sensitivity_seeds must be a list of distinct"),
+    ("sensitivity_seeds = [1, 2]", "sensitivity_seeds = [1, 3]",
+     r"sensitivity_seeds must be some of the part's seeds"),
+])
+def test_a_plan_with_a_mistyped_key_is_one_named_error(tmp_path: Path, old: str, new: str,
+                                                       message: str):
+    assert old in PLAN
     plan = tmp_path / "plan.toml"
-    plan.write_text(PLAN.replace('role = "secondary"', 'role = "tertiary"'))
-    with pytest.raises(PlanError, match=r"plan.toml: parts\[0\].families\[1\].role must be one"):
-        read_plan(plan)
-    plan.write_text(PLAN.replace("paper_gain = 2.3", 'paper_gain = "2.3"'))
-    with pytest.raises(PlanError, match=r"endpoints\[1\].paper_gain must be a float"):
-        read_plan(plan)
-    plan.write_text(PLAN.replace("sensitivity_seeds", "sensitivty_seeds"))
-    with pytest.raises(PlanError, match=r"parts\[0\].sensitivty_seeds: not a key of a plan's part"):
-        read_plan(plan)
-    plan.write_text(PLAN.replace("seeds = [1, 2]\noutcomes", 'seeds = [1, "2"]\noutcomes'))
-    with pytest.raises(PlanError, match=r"parts\[0\].sensitivity_seeds must be a list of distinct"):
-        read_plan(plan)
-    plan.write_text(PLAN.replace("sensitivity_seeds = [1, 2]", "sensitivity_seeds = [1, 3]"))
-    with pytest.raises(PlanError, match=r"sensitivity_seeds must be some of the part's seeds"):
+    plan.write_text(PLAN.replace(old, new))
+    with pytest.raises(PlanError, match=message):
         read_plan(plan)
 
 
