@@ -308,3 +308,58 @@ def test_each_row_names_the_commits_that_trained_its_runs(project: Path):
     assert commits["planned", "APc-fixed - A-fixed", "gesture_edit"] == "0123456-dirty 9a820fd"
     assert commits["seed 0", "APc-fixed - A-fixed", "gesture_edit"] == "9a820fd"
     assert commits["planned", "APoc-gradnorm - A-fixed", "gesture_edit"] == "9a820fd"
+
+
+# --- The report (confirm.md) ----------------------------------------------------------------
+
+def _report(project: Path, plan_text: str = PLAN) -> tuple[str, pd.DataFrame]:
+    """confirm.md and confirm.csv as the command writes them for ``plan_text``."""
+    out = project / "confirm"
+    (out / "plan.toml").write_text(plan_text)
+    assert tables_main(["--confirm", str(out / "plan.toml"), "--out", str(out)]) == 0
+    return (out / "confirm.md").read_text(), pd.read_csv(out / "confirm.csv")
+
+
+def test_the_report_gives_each_primary_outcome_in_the_plans_words_first(project: Path):
+    text, table = _report(project, PLAN.replace("paper_gain = 2.3", "paper_gain = 9.0"))
+    planned = table[(table.analysis == "planned") & (table.role == "primary")]
+    for row in planned.itertuples(index=False):
+        line = f"- {row.comparison}, gesture edit: **{row.outcome}**"
+        assert line in text
+        excluded = f"the paper's gain of {row.paper_gain:+.1f} is excluded"
+        assert (f"{line}; {excluded}" in text) == bool(row.rule_out)
+    assert planned.rule_out.any() and not planned.rule_out.all()      # both cases met
+    claim = text.index("## a claim")
+    order = [text.index(marker, claim) for marker in (
+        "**", "Per seed and sensitivity", "### Family secondary", "## a replication")]
+    assert order == sorted(order)                   # outcome, descriptive, secondary, next part
+    assert "## a replication\n\nreplication: not analysed" in text
+    assert text.count("**") == 2 * len(planned)     # only the planned outcomes are bold
+
+
+def test_the_reports_numbers_are_the_analysis_rounded_as_the_plan_says(project: Path):
+    text, _ = _report(project)
+    table, _, _ = analyse(read_plan(project / "confirm" / "plan.toml"))
+    for row in table.itertuples(index=False):
+        assert f"{row.diff:+.2f}" in text
+        if row.analysis != "planned" and len(row.seeds.split()) == 1:
+            continue
+        assert f"{row.ci_low:.2f} to {row.ci_high:.2f}" in text and f"{row.p_value:.4f}" in text
+    assert "| +3.0 |" in text and "| +2.3 |" in text             # the paper's published digit
+    header = next(line for line in text.splitlines() if line.startswith("| endpoint | planned"))
+    assert header.split(" | ")[2:] == ["seed 0", "seed 1", "seed 2",
+                                       "sensitivity (seeds 1 2) |"]
+
+
+def test_the_report_labels_exploratory_rows_and_keeps_them_out_of_the_outcomes(project: Path):
+    from multitask.evidence.confirm_report import confirm_markdown
+
+    plan = read_plan(project / "confirm" / "plan.toml")
+    table, _, skipped = analyse(plan)
+    explored = table[table.analysis == "planned"].assign(analysis="exploratory: seed 9 pooled",
+                                                         outcome=None, p_holm=np.nan)
+    text = confirm_markdown(plan, table, skipped, explored, [])
+    section = text.index("### Exploratory (not part of the plan's test")
+    assert text.index("exploratory: seed 9 pooled") > section
+    assert text.count("**") == confirm_markdown(plan, table, skipped, explored.iloc[:0],
+                                                []).count("**")

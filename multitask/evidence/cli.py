@@ -66,7 +66,8 @@ measured rows (``table2.csv/.tex``) in ``--out``.
 file says (``confirm``): its grids, seeds, endpoints, families and decision rules are the plan's;
 a part whose grid has not finished every run of its seeds is not analysed (no interim looks).
 The exploratory analyses the plan's text names, in an ``exploratory.toml`` beside the plan file,
-go to ``exploratory.csv`` (``exploratory``), never into the plan's rows.
+go to ``exploratory.csv`` (``exploratory``), never into the plan's rows; ``confirm.md`` reports
+it all in the plan's words and order (``confirm_report``).
 
     multitask-tables --confirm results/confirm/plan.toml --out results/confirm
 
@@ -342,9 +343,10 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--confirm", type=Path, metavar="PLAN",
                         help="a pre-registered confirmatory analysis instead of tables, as the "
                              "plan file says (results/confirm/plan.toml; its grids are named "
-                             "in it, so no GRID_DIR): writes confirm.csv and "
-                             "confirm_per_fold.csv to --out (default: none), and "
-                             "exploratory.csv when an exploratory.toml lies beside the plan")
+                             "in it, so no GRID_DIR): writes confirm.csv, "
+                             "confirm_per_fold.csv and the report confirm.md to --out "
+                             "(default: none), and exploratory.csv when an exploratory.toml "
+                             "lies beside the plan")
     parser.add_argument("--reference", type=Path, metavar="GRID",
                         help="compare GRID_DIR's execution path (fused loops, bfloat16) with this "
                              "grid's, paired by fold; needs --margin and --out; writes "
@@ -416,14 +418,11 @@ def _left_alone(args: argparse.Namespace) -> tuple[str, ...]:
 
 def _confirm(args: argparse.Namespace) -> None:
     """``--confirm``: the plan's analysis into ``--out``, all files or none."""
-    from .confirm import write_confirm
-    from .exploratory import write_exploratory
+    from .confirm_report import write_confirmatory
 
     check_output_folder(args.out, PROG, may_hold=True)
     with staged_outputs(args.out, CONFIRM_MANIFEST, PROG, False) as staging:
-        written, skipped = write_confirm(args.confirm, staging)
-        explored, not_computed = write_exploratory(args.confirm, staging)
-    written, skipped = written + explored, skipped + not_computed
+        written, skipped = write_confirmatory(args.confirm, staging)
     for line in skipped:
         print(f"note: {line}", file=sys.stderr)
     for path in written:

@@ -34,7 +34,8 @@ The plan's keys are checked: a missing, mistyped or unknown key is a ``PlanError
 
 Output, in ``--out``: ``confirm.csv`` (one row per part, family, endpoint and analysis, with
 ``commits``: the commits whose code trained the runs behind it, for the reader to hold against
-the commits the plan names) and ``confirm_per_fold.csv`` (the fold differences behind each row).
+the commits the plan names) and ``confirm_per_fold.csv`` (the fold differences behind each row),
+written with the report ``confirm.md`` by ``confirm_report``.
 """
 from __future__ import annotations
 
@@ -371,16 +372,3 @@ def outcome(part: Part, mean: float, p_holm: float, ci_high: float, alpha: float
     if shown(ci_high) < part.rule_out_below:
         return f"{second} (reversed)" if p_holm <= alpha else second
     return third
-
-
-def write_confirm(plan_path: Path, out: Path) -> tuple[list[Path], list[str]]:
-    """``confirm.csv`` and ``confirm_per_fold.csv`` in ``out`` (the paths), and the parts not
-    analysed."""
-    from rnn_seg.runs.folder import write_atomic
-
-    table, per_fold, skipped = analyse(read_plan(plan_path))
-    written = []
-    for name, frame in (("confirm.csv", table), ("confirm_per_fold.csv", per_fold)):
-        write_atomic(out / name, frame.to_csv(index=False, float_format="%.4f"))
-        written.append(out / name)
-    return written, skipped

@@ -160,21 +160,3 @@ def _of(side: ConfigId, records: dict) -> dict:
         return key.variant, key.weighting, key.annotations, key.direction
     wanted = (side.variant, side.weighting, side.annotations, side.direction)
     return {run: record for run, record in records.items() if config(record) == wanted}
-
-
-def write_exploratory(plan_path: Path, out: Path) -> tuple[list[Path], list[str]]:
-    """``exploratory.csv`` and ``exploratory_per_fold.csv`` in ``out`` when an
-    ``exploratory.toml`` lies beside the plan (the paths written), and the analyses not
-    computed."""
-    from rnn_seg.runs.folder import write_atomic
-
-    plan = read_plan(plan_path)
-    analyses = read_exploratory(Path(plan_path).parent / EXPLORATORY_FILE, plan)
-    if not analyses:
-        return [], []
-    table, per_fold, notes = analyse_exploratory(plan, analyses)
-    written = []
-    for name, frame in (("exploratory.csv", table), ("exploratory_per_fold.csv", per_fold)):
-        write_atomic(out / name, frame.to_csv(index=False, float_format="%.4f"))
-        written.append(out / name)
-    return written, notes
