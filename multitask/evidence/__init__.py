@@ -12,7 +12,8 @@
   tested with them; ``claims_table``: ``claims.csv``, ``claims.tex`` and its method note
   ``claims_note.tex``;
 * ``confirm``: a pre-registered confirmatory analysis, run as its plan file says; ``exploratory``:
-  the exploratory analyses its plan names, apart from its rows;
+  the exploratory analyses its plan names, apart from its rows; ``confirm_report``: both written
+  out, with ``confirm.md``, the outcome in the plan's words;
 * ``width``: the width study, model A against APoc across grids of several LSTM widths;
 * ``architectures``: the LSTM widths, ED-TCN and MS-TCN side by side, one grid each: the
   cross-architecture table, the claims on TCN backbones and Table II with measured rows;
