@@ -193,7 +193,9 @@ def test_a_recorded_seed_outside_the_plan_is_left_out(project: Path):
     # "ours with two decimals"), reaches +3.0; 2.99 lies below it
     (0.5, 0.05, 3.5, "replicated"), (0.5, 0.2, 3.0, "inconclusive"),
     (0.5, 0.2, 2.996, "inconclusive"), (0.5, 0.2, 2.994, "not replicated"),
-    (0.0, 1.0, 2.0, "not replicated")])
+    (0.0, 1.0, 2.0, "not replicated"),
+    # "reversed" needs a mean below 0, "replicated" one above (PLAN.md), whatever p says
+    (0.0, 0.01, 1.0, "not replicated")])
 def test_the_replication_rule(mean, p, high, expected):
     part = Part("r", "r", Path("."), (1,), (), ("replicated", "not replicated", "inconclusive"),
                 rule_out_below=3.0)
@@ -207,6 +209,8 @@ def test_the_claim_rule():
     assert outcome(part, 1.0, 0.06, 2.0, 0.05) == "inconclusive"
     assert outcome(part, 1.0, 0.05, 2.0, 0.05) == "reproduced"
     assert outcome(part, -1.0, 0.05, -0.1, 0.05) == "contradicted"
+    # PLAN.md: contradicted needs "the mean fold difference < 0"; a mean of 0 is "otherwise"
+    assert outcome(part, 0.0, 0.04, 1.0, 0.05) == "inconclusive"
 
 
 @pytest.mark.parametrize("apoc_high, excluded", [(3.0, False), (2.996, False), (2.994, True)])
@@ -244,6 +248,10 @@ def test_the_rule_out_criterion_reads_our_upper_end_with_two_decimals(project: P
      r"parts\[0\].sensitivity_seeds must be a list of distinct"),
     ("sensitivity_seeds = [1, 2]", "sensitivity_seeds = [1, 3]",
      r"sensitivity_seeds must be some of the part's seeds"),
+    # a family that tests nothing, and two parts of one name (their rows and lines would mix)
+    ('endpoints = [{x = "APoc-gradnorm", y = "A-fixed", metric = "gesture_accuracy", '
+     'paper_gain = 0.7}]', "endpoints = []", r"parts\[0\].families\[1\].endpoints must not be"),
+    ('name = "replication"\ntitle', 'name = "wide"\ntitle', r"parts: two parts of one name"),
 ])
 def test_a_plan_with_a_mistyped_key_is_one_named_error(tmp_path: Path, old: str, new: str,
                                                        message: str):
@@ -308,6 +316,24 @@ def test_each_row_names_the_commits_that_trained_its_runs(project: Path):
     assert commits["planned", "APc-fixed - A-fixed", "gesture_edit"] == "0123456-dirty 9a820fd"
     assert commits["seed 0", "APc-fixed - A-fixed", "gesture_edit"] == "9a820fd"
     assert commits["planned", "APoc-gradnorm - A-fixed", "gesture_edit"] == "9a820fd"
+
+
+def test_a_run_finished_by_another_checkout_names_both_commits(project: Path):
+    """A run resumed from its checkpoint by a session of another checkout: config.json records
+    the session that started it, finished.json the one that finished it; both trained it."""
+    grid = project / "grids" / "wide"
+    first = {"git_commit": "9a820fde116d82e4e16f3c0edbc8f2077d4a4068", "git_dirty": False}
+    for name in ("config.json", "finished.json"):
+        for path in (grid / "runs").glob(f"*/*/*/*/*/{name}"):
+            _edit_json(path, lambda data: data.update(provenance=first))
+    _edit_json(grid / "runs/revised/bidirectional/APoc-gradnorm/seed2/E/finished.json",
+               lambda data: data.update(provenance={"git_commit": "fedcba9876", "git_dirty": True}))
+    table, _, _ = analyse(read_plan(project / "confirm" / "plan.toml"))
+    commits = table.set_index(["analysis", "comparison", "metric"]).commits
+    assert commits["planned", "APoc-gradnorm - A-fixed", "gesture_edit"] == "9a820fd fedcba9-dirty"
+    assert commits["seed 2", "APoc-gradnorm - A-fixed", "gesture_edit"] == "9a820fd fedcba9-dirty"
+    assert commits["seed 1", "APoc-gradnorm - A-fixed", "gesture_edit"] == "9a820fd"
+    assert commits["planned", "APc-fixed - A-fixed", "gesture_edit"] == "9a820fd"
 
 
 # --- The report (confirm.md) ----------------------------------------------------------------

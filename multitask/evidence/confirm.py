@@ -46,6 +46,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from rnn_seg.runs.folder import FINISHED, RunFolderError, read_json
+
 from ..models.run_record import RunRecord
 from .collect import LEFT_OUT, IncompleteEvidence, key_from_path, recorded_runs, run_records
 from .paired import TIES, ConfigId, Contrast, StatsConfig, holm, paired
@@ -132,7 +134,10 @@ def read_plan(path: Path) -> Plan:
     check_keys(data, "plan", path, "")
     confidence = plan_value(data, "confidence", float, path, "")
     parts = tuple(_part(entry, path, f"parts[{i}]")
-                  for i, entry in enumerate(plan_value(data, "parts", list, path, "")))
+                  for i, entry in enumerate(plan_list(data, "parts", path, "")))
+    names = [part.name for part in parts]
+    if len(set(names)) != len(names):
+        raise PlanError(f"{path}: parts: two parts of one name (names: {', '.join(names)})")
     return Plan(path, confidence, parts)
 
 
@@ -144,6 +149,15 @@ def plan_value(table: dict, key: str, kind: type, path: Path, where: str):
         name = f"{where}.{key}" if where else key
         raise PlanError(f"{path}: {name} must be a {kind.__name__} (value: {value!r})")
     return float(value) if kind is float else value
+
+
+def plan_list(table: dict, key: str, path: Path, where: str) -> list:
+    """``table[key]``, a non-empty list (a part without families, a family without endpoints
+    tests nothing)."""
+    entries = plan_value(table, key, list, path, where)
+    if not entries:
+        raise PlanError(f"{path}: {where + '.' if where else ''}{key} must not be empty")
+    return entries
 
 
 def check_keys(table, kind: str, path: Path, where: str, keys: dict[str, set[str]] = KEYS
@@ -174,7 +188,7 @@ def plan_seeds(entry: dict, key: str, path: Path, where: str, required: bool = T
 def _part(entry: dict, path: Path, where: str) -> Part:
     check_keys(entry, "part", path, where)
     families = tuple(_family(f, path, f"{where}.families[{i}]")
-                     for i, f in enumerate(plan_value(entry, "families", list, path, where)))
+                     for i, f in enumerate(plan_list(entry, "families", path, where)))
     outcomes = tuple(plan_value(entry, "outcomes", list, path, where))
     if len(outcomes) != 3:
         raise PlanError(f"{path}: {where}.outcomes must name 3 outcomes (value: {outcomes})")
@@ -200,13 +214,14 @@ def _family(entry: dict, path: Path, where: str) -> Family:
     if role not in ROLES:
         raise PlanError(f"{path}: {where}.role must be one of {', '.join(ROLES)} "
                         f"(value: {role!r})")
-    for i, e in enumerate(plan_value(entry, "endpoints", list, path, where)):
+    entries = plan_list(entry, "endpoints", path, where)
+    for i, e in enumerate(entries):
         check_keys(e, "endpoint", path, f"{where}.endpoints[{i}]")
     endpoints = tuple(
         Endpoint(*(plan_value(e, key, str, path, f"{where}.endpoints[{i}]")
                    for key in ("x", "y", "metric")),
                  plan_value(e, "paper_gain", float, path, f"{where}.endpoints[{i}]"))
-        for i, e in enumerate(plan_value(entry, "endpoints", list, path, where)))
+        for i, e in enumerate(entries))
     return Family(plan_value(entry, "name", str, path, where), role, endpoints)
 
 
@@ -297,9 +312,25 @@ def complete_runs(part: Part, skipped: list[str]) -> tuple[pd.DataFrame, dict] |
 
 
 def run_commit(record: RunRecord) -> str:
-    """The commit whose code trained the run (its config.json's provenance), 7 digits, with
-    ``-dirty`` when the checkout had uncommitted changes; ``unknown`` when not recorded."""
-    provenance = record.saved.get("provenance") or {}
+    """The commits whose code trained the run, space-separated and sorted: the session that
+    started it (its config.json's provenance) and, when another, the one that finished it
+    (finished.json's: a run resumed from its checkpoint by another checkout). Each 7 digits, with
+    ``-dirty`` when the checkout had uncommitted changes; ``unknown`` when not recorded (a
+    finished.json that records no provenance, as an early engine's, adds nothing)."""
+    sessions = [record.saved.get("provenance") or {}]
+    try:
+        finished = read_json(record.path.parent / FINISHED)
+    except RunFolderError:
+        finished = None
+    if not isinstance(finished, dict):
+        sessions.append({})                 # unreadable: the finishing session is unknown
+    elif "provenance" in finished:
+        sessions.append(finished["provenance"] or {})
+    return " ".join(sorted({_commit(provenance) for provenance in sessions}))
+
+
+def _commit(provenance: dict) -> str:
+    """One session's commit (``run_commit``)."""
     commit = provenance.get("git_commit")
     if not commit:
         return "unknown"
@@ -310,7 +341,7 @@ def _commits(runs: pd.DataFrame, endpoint: Endpoint) -> str:
     """The commits that trained ``runs`` of the endpoint's sides, sorted (PLAN.md names the
     commit each part's runs are trained by; the pooling rule compares settings, not code)."""
     sides = pd.concat([side.select(runs) for side in endpoint.contrast.configs])
-    return " ".join(sorted(set(sides.commit)))
+    return " ".join(sorted({commit for cell in sides.commit for commit in cell.split()}))
 
 
 def _plan_problems(part: Part, runs: pd.DataFrame, records: dict) -> list[str]:
@@ -364,11 +395,11 @@ def outcome(part: Part, mean: float, p_holm: float, ci_high: float, alpha: float
     compared with ``rule_out_below`` at two decimals (``shown``)."""
     first, second, third = part.outcomes
     if part.rule_out_below is None:
-        if p_holm <= alpha:
+        if p_holm <= alpha and mean != 0:
             return first if mean > 0 else second
         return third
     if p_holm <= alpha and mean > 0:
         return first
     if shown(ci_high) < part.rule_out_below:
-        return f"{second} (reversed)" if p_holm <= alpha else second
+        return f"{second} (reversed)" if p_holm <= alpha and mean < 0 else second
     return third

@@ -31,7 +31,7 @@ import pandas as pd
 
 from .collect import LEFT_OUT, IncompleteEvidence, run_records
 from .confirm import (Plan, PlanError, check_keys, complete_runs, endpoint_rows, locate_grid,
-                      plan_seeds, plan_value, read_plan, run_commit, tables)
+                      plan_list, plan_seeds, plan_value, run_commit, tables)
 from .paired import ConfigId, StatsConfig
 from .pooling import MixedSettings, pool, record_key
 
@@ -82,7 +82,7 @@ def read_exploratory(path: Path, plan: Plan) -> tuple[Exploratory, ...]:
             raise PlanError(f"{path}: {where}.part: {part!r} is not a part of {plan.path} "
                             f"({', '.join(sorted(parts))})")
         borrowed = []
-        for j, side in enumerate(plan_value(entry, "borrowed", list, path, where)):
+        for j, side in enumerate(plan_list(entry, "borrowed", path, where)):
             at = f"{where}.borrowed[{j}]"
             check_keys(side, "borrowed", path, at, KINDS)
             try:
