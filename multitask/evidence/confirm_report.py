@@ -27,10 +27,6 @@ import pandas as pd
 from .confirm import Family, Part, Plan, analyse, read_plan, tables
 from .exploratory import EXPLORATORY_FILE, analyse_exploratory, read_exploratory
 
-#: The files ``write_confirmatory`` writes (the exploratory ones only when analyses are declared).
-CONFIRM_FILES = ("confirm.csv", "confirm_per_fold.csv", "confirm.md")
-EXPLORATORY_FILES = ("exploratory.csv", "exploratory_per_fold.csv")
-
 
 def write_confirmatory(plan_path: Path, out: Path) -> tuple[list[Path], list[str]]:
     """The plan's analysis (``confirm.analyse``) and the exploratory analyses beside it
