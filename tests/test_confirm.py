@@ -389,3 +389,11 @@ def test_the_report_labels_exploratory_rows_and_keeps_them_out_of_the_outcomes(p
     assert text.index("exploratory: seed 9 pooled") > section
     assert text.count("**") == confirm_markdown(plan, table, skipped, explored.iloc[:0],
                                                 []).count("**")
+
+
+def test_the_report_names_the_plans_confidence(project: Path):
+    """The interval's level in the report is the plan's, never a fixed 95 %."""
+    text, table = _report(project, PLAN.replace("confidence = 0.95", "confidence = 0.9"))
+    assert "90 % interval" in text and "95 %" not in text
+    row = table[(table.analysis == "planned")].iloc[0]
+    assert f"{row.ci_low:.2f} to {row.ci_high:.2f}" in text

@@ -24,6 +24,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from rnn_seg.runs.folder import write_atomic
+
 from .confirm import Family, Part, Plan, analyse, read_plan, tables
 from .exploratory import EXPLORATORY_FILE, analyse_exploratory, read_exploratory
 
@@ -36,8 +38,6 @@ def write_confirmatory(plan_path: Path, out: Path) -> tuple[list[Path], list[str
     Raises:
         confirm.PlanError: the plan or its exploratory file cannot be read as one.
     """
-    from rnn_seg.runs.folder import write_atomic
-
     plan = read_plan(plan_path)
     table, per_fold, skipped = analyse(plan)
     analyses = read_exploratory(Path(plan_path).parent / EXPLORATORY_FILE, plan)
@@ -70,8 +70,8 @@ def confirm_markdown(plan: Plan, table: pd.DataFrame, skipped: list[str],
         if reasons or rows.empty:
             lines += reasons or [f"{part.name}: not analysed"]
             continue
-        lines += _part_lines(part, rows)
-        lines += _exploratory_lines(part, explored, notes)
+        lines += _part_lines(part, rows, _interval_name(plan))
+        lines += _exploratory_lines(part, explored, notes, _interval_name(plan))
     text = "\n".join(lines)
     while "\n\n\n" in text:
         text = text.replace("\n\n\n", "\n\n")
@@ -80,21 +80,27 @@ def confirm_markdown(plan: Plan, table: pd.DataFrame, skipped: list[str],
 
 def _pooling(plan: Plan) -> str:
     return (f"per fold, each side's mean over the seeds; the exact two-sided sign-flip test "
-            f"over the folds and its {plan.confidence * 100:g} % interval; Holm's correction "
-            "within each family over its declared size")
+            f"over the folds and its {_interval_name(plan)}; Holm's correction within each "
+            "family over its declared size")
 
 
-def _part_lines(part: Part, rows: pd.DataFrame) -> list[str]:
+def _interval_name(plan: Plan) -> str:
+    """``95 % interval``, at the plan's confidence."""
+    return f"{plan.confidence * 100:g} % interval"
+
+
+def _part_lines(part: Part, rows: pd.DataFrame, interval: str) -> list[str]:
     planned = rows[rows.analysis == "planned"]
     commits = sorted({c for cell in planned.commits for c in str(cell).split()})
     lines = [f"Seeds {planned.seeds.iloc[0]}, averaged within each fold; runs trained by the "
              f"code of commit {', '.join(commits)}.", ""]
     for family in part.families:
-        lines += _family_lines(part, family, rows)
+        lines += _family_lines(part, family, rows, interval)
     return lines
 
 
-def _family_lines(part: Part, family: Family, rows: pd.DataFrame) -> list[str]:
+def _family_lines(part: Part, family: Family, rows: pd.DataFrame, interval: str
+                  ) -> list[str]:
     of_family = rows[rows.family == family.name]
     planned = of_family[of_family.analysis == "planned"]
     primary = family.role == "primary"
@@ -104,7 +110,7 @@ def _family_lines(part: Part, family: Family, rows: pd.DataFrame) -> list[str]:
     if primary:
         lines += [f"- {_endpoint(row)}: **{row.outcome}**{_excluded(part, row)}"
                   for row in planned.itertuples(index=False)] + [""]
-    header = ["endpoint", *(["outcome"] if primary else []), "difference", "95 % interval", "p",
+    header = ["endpoint", *(["outcome"] if primary else []), "difference", interval, "p",
               "Holm p", "paper's gain", "paper's gain in interval", "folds favouring X"]
     body = [[_endpoint(row), *([row.outcome] if primary else []), _points(row.diff),
              _interval(row), _p(row.p_value), _p(row.p_holm), f"{row.paper_gain:+.1f}",
@@ -126,7 +132,8 @@ def _family_lines(part: Part, family: Family, rows: pd.DataFrame) -> list[str]:
     return lines
 
 
-def _exploratory_lines(part: Part, explored: pd.DataFrame, notes: list[str]) -> list[str]:
+def _exploratory_lines(part: Part, explored: pd.DataFrame, notes: list[str], interval: str
+                       ) -> list[str]:
     rows = explored[explored.part == part.name]
     reasons = [line for line in notes if line.startswith(f"{part.name}, ")]
     if rows.empty and not reasons:
@@ -134,7 +141,7 @@ def _exploratory_lines(part: Part, explored: pd.DataFrame, notes: list[str]) -> 
     lines = ["### Exploratory (not part of the plan's test; no correction, no outcome)", ""]
     lines += [f"- {line}" for line in reasons]
     if not rows.empty:
-        header = ["analysis", "seeds", "endpoint", "difference", "95 % interval", "p",
+        header = ["analysis", "seeds", "endpoint", "difference", interval, "p",
                   "folds favouring X", "commits"]
         body = [[row.analysis, row.seeds, _endpoint(row), _points(row.diff), _interval(row),
                  _p(row.p_value), row.folds_favouring, row.commits]
