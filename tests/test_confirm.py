@@ -397,3 +397,12 @@ def test_the_report_names_the_plans_confidence(project: Path):
     assert "90 % interval" in text and "95 %" not in text
     row = table[(table.analysis == "planned")].iloc[0]
     assert f"{row.ci_low:.2f} to {row.ci_high:.2f}" in text
+
+
+def test_a_part_without_sensitivity_seeds_reports_no_sensitivity_analysis(project: Path):
+    """Part 2 of PLAN.md names no sensitivity analysis: its report must not mention one."""
+    text, table = _report(project, PLAN.replace("sensitivity_seeds = [1, 2]\n", ""))
+    assert "sensitivity" not in set(table.analysis) and "sensitivity" not in text.lower()
+    assert "Per seed (descriptive: no correction, no outcome)" in text
+    header = next(line for line in text.splitlines() if line.startswith("| endpoint | planned"))
+    assert header.split(" | ")[2:] == ["seed 0", "seed 1", "seed 2 |"]

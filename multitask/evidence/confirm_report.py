@@ -10,8 +10,8 @@ order:
    claim of the paper, by "the paper's gain of +X is excluded" when the rule-out criterion holds;
    then the pooled difference, its 95 % interval, p and Holm's p (ours with two decimals, the
    paper's gain with its published digit, p with four);
-2. per endpoint, each seed's difference beside the pooled one and the sensitivity analysis
-   (descriptive: no correction, no outcome);
+2. per endpoint, each seed's difference beside the pooled one and, where the plan names one,
+   the sensitivity analysis (descriptive: no correction, no outcome);
 3. the **secondary** endpoints (reported, never used for the decision);
 4. under "Exploratory", the analyses of ``exploratory.toml``, labelled as such.
 
@@ -116,20 +116,27 @@ def _family_lines(part: Part, family: Family, rows: pd.DataFrame, interval: str
              _interval(row), _p(row.p_value), _p(row.p_holm), f"{row.paper_gain:+.1f}",
              "yes" if row.paper_in_ci else "no", row.folds_favouring]
             for row in planned.itertuples(index=False)]
-    lines += _table(header, body) + [""]
+    return lines + _table(header, body) + [""] + _descriptive_lines(of_family, planned)
+
+
+def _descriptive_lines(of_family: pd.DataFrame, planned: pd.DataFrame) -> list[str]:
+    """Each seed's difference, and the sensitivity analysis where the plan names one, beside
+    the planned one: a table whose heading names only what it holds."""
     analyses = dict.fromkeys(of_family.analysis)
-    descriptive = ([a for a in analyses if a.startswith("seed ")]
-                   + [a for a in analyses if a == "sensitivity"])
-    if descriptive:
-        lines += ["Per seed and sensitivity (descriptive: no correction, no outcome): "
-                  "difference, and for pooled seeds its interval and p.", ""]
-        header = ["endpoint", f"planned (seeds {planned.seeds.iloc[0]})",
-                  *(_analysis_name(of_family, a) for a in descriptive)]
-        body = [[_endpoint(row), _points(row.diff),
-                 *(_descriptive(of_family, a, row) for a in descriptive)]
-                for row in planned.itertuples(index=False)]
-        lines += _table(header, body) + [""]
-    return lines
+    seeds = [a for a in analyses if a.startswith("seed ")]
+    sensitivity = [a for a in analyses if a == "sensitivity"]
+    if not seeds + sensitivity:
+        return []
+    heading = ("Per seed and sensitivity (descriptive: no correction, no outcome): each seed's "
+               "difference; the sensitivity analysis's difference, interval and p."
+               if sensitivity else
+               "Per seed (descriptive: no correction, no outcome): each seed's difference.")
+    header = ["endpoint", f"planned (seeds {planned.seeds.iloc[0]})",
+              *(_analysis_name(of_family, a) for a in seeds + sensitivity)]
+    body = [[_endpoint(row), _points(row.diff),
+             *(_descriptive(of_family, a, row) for a in seeds + sensitivity)]
+            for row in planned.itertuples(index=False)]
+    return [heading, ""] + _table(header, body) + [""]
 
 
 def _exploratory_lines(part: Part, explored: pd.DataFrame, notes: list[str], interval: str
