@@ -406,3 +406,17 @@ def test_a_part_without_sensitivity_seeds_reports_no_sensitivity_analysis(projec
     assert "Per seed (descriptive: no correction, no outcome)" in text
     header = next(line for line in text.splitlines() if line.startswith("| endpoint | planned"))
     assert header.split(" | ")[2:] == ["seed 0", "seed 1", "seed 2 |"]
+
+
+def test_a_file_of_the_reports_name_is_replaced_only_with_overwrite(project: Path, capsys):
+    """A confirm.md the command did not write is refused, and the refusal's advice (--overwrite)
+    is an option --confirm takes."""
+    out = project / "elsewhere"
+    out.mkdir()
+    (out / "confirm.md").write_text("mine\n")
+    command = ["--confirm", str(project / "confirm" / "plan.toml"), "--out", str(out)]
+    assert tables_main(command) == 2
+    assert "(--overwrite)" in capsys.readouterr().err
+    assert (out / "confirm.md").read_text() == "mine\n" and not (out / "confirm.csv").exists()
+    assert tables_main(command + ["--overwrite"]) == 0
+    assert (out / "confirm.md").read_text().startswith("# Confirmatory analysis")

@@ -67,7 +67,8 @@ file says (``confirm``): its grids, seeds, endpoints, families and decision rule
 a part whose grid has not finished every run of its seeds is not analysed (no interim looks).
 The exploratory analyses the plan's text names, in an ``exploratory.toml`` beside the plan file,
 go to ``exploratory.csv`` (``exploratory``), never into the plan's rows; ``confirm.md`` reports
-it all in the plan's words and order (``confirm_report``).
+it all in the plan's words and order (``confirm_report``). It takes ``--out`` (and
+``--overwrite``, to replace files of its names it did not write) alone.
 
     multitask-tables --confirm results/confirm/plan.toml --out results/confirm
 
@@ -374,9 +375,10 @@ def main(argv: list[str] | None = None) -> int:
     extra = (["--compare"] if args.compare else []) + _table_options(args)
     if args.confirm:
         if (args.grid_dir or args.archive or args.widths or args.architectures
-                or args.reference or args.margin is not None or extra != ["--out"]):
-            parser.error("--confirm reads its grids from the plan: give it --out alone, "
-                         "without GRID_DIR")
+                or args.reference or args.margin is not None or "--out" not in extra
+                or set(extra) - {"--out", "--overwrite"}):
+            parser.error("--confirm reads its grids from the plan: give it --out (and "
+                         "--overwrite) alone, without GRID_DIR")
         return run_command(PROG, args.verbose, lambda: _confirm(args))
     if args.architectures:
         if args.grid_dir or args.archive or args.widths or args.compare or args.reference \
@@ -421,7 +423,7 @@ def _confirm(args: argparse.Namespace) -> None:
     from .confirm_report import write_confirmatory
 
     check_output_folder(args.out, PROG, may_hold=True)
-    with staged_outputs(args.out, CONFIRM_MANIFEST, PROG, False) as staging:
+    with staged_outputs(args.out, CONFIRM_MANIFEST, PROG, args.overwrite) as staging:
         written, skipped = write_confirmatory(args.confirm, staging)
     for line in skipped:
         print(f"note: {line}", file=sys.stderr)
