@@ -9,9 +9,11 @@ import pytest
 from multitask.grid.spec import expand, load_spec, release_users, with_budget
 
 ROOT = Path(__file__).resolve().parents[1]
-#: Confirmatory plans (``multitask.evidence.confirm``) are TOML too, but no grid spec.
+#: Confirmatory plans (``multitask.evidence.confirm``) and the exploratory analyses beside them
+#: (``multitask.evidence.exploratory``) are TOML too, but no grid spec.
 PLANS = sorted((ROOT / "results").rglob("plan.toml"))
-SPECS = sorted(set((ROOT / "results").rglob("*.toml")) - set(PLANS))
+EXPLORATORY = sorted((ROOT / "results").rglob("exploratory.toml"))
+SPECS = sorted(set((ROOT / "results").rglob("*.toml")) - set(PLANS) - set(EXPLORATORY))
 
 
 def test_there_are_specs():
@@ -34,6 +36,14 @@ def test_every_committed_plan_reads(path):
     plan = read_plan(path)
     assert plan.parts and all(family.endpoints for part in plan.parts
                               for family in part.families)
+
+
+@pytest.mark.parametrize("path", EXPLORATORY, ids=[str(p.relative_to(ROOT)) for p in EXPLORATORY])
+def test_every_committed_exploratory_file_reads_beside_its_plan(path):
+    from multitask.evidence.confirm import read_plan
+    from multitask.evidence.exploratory import read_exploratory
+
+    assert read_exploratory(path, read_plan(path.parent / "plan.toml"))
 
 
 def test_the_smoke_grid_is_small_and_synthetic():
