@@ -107,9 +107,9 @@ def test_an_unfinished_grid_is_not_analysed(project: Path):
     table, per_fold, skipped = analyse(read_plan(project / "confirm" / "plan.toml"))
     assert table.empty and per_fold.empty and list(per_fold.columns) == [
         "part", "analysis", "comparison", "metric", "fold", "difference"]
-    assert skipped[0] == (f"wide: not analysed, 71 of 72 runs of seeds 0 1 2 in {grid} finished "
-                          "(the plan analyses complete grids only): not finished: "
-                          f"{grid / 'runs/revised/bidirectional/APc-fixed/seed2/D'}")
+    assert skipped[0] == ("wide: not analysed, 71 of 72 runs of seeds 0 1 2 in grids/wide "
+                          "finished (the plan analyses complete grids only): not finished: "
+                          "grids/wide/runs/revised/bidirectional/APc-fixed/seed2/D")
 
 
 def _unrecord(grid: Path, *runs: str) -> None:
@@ -420,3 +420,24 @@ def test_a_file_of_the_reports_name_is_replaced_only_with_overwrite(project: Pat
     assert (out / "confirm.md").read_text() == "mine\n" and not (out / "confirm.csv").exists()
     assert tables_main(command + ["--overwrite"]) == 0
     assert (out / "confirm.md").read_text().startswith("# Confirmatory analysis")
+
+
+def test_what_the_command_writes_does_not_depend_on_where_the_checkout_or_the_user_is(
+        project: Path, tmp_path_factory, monkeypatch):
+    """Paths in confirm.md are the plan's (``results/...``), not this machine's; a grid is
+    looked for beside the plan, never in the current folder."""
+    (project / "grids/wide/runs/revised/bidirectional/APc-fixed/seed1/C/finished.json").unlink()
+    elsewhere = tmp_path_factory.mktemp("elsewhere")
+    shutil.copytree(project, elsewhere / "project")
+    user = tmp_path_factory.mktemp("user")
+    (user / "grids" / "not-yet").mkdir(parents=True)            # a decoy where the user stands
+    monkeypatch.chdir(user)
+    reports = []
+    for root in (project, elsewhere / "project"):
+        out = root / "confirm"
+        assert tables_main(["--confirm", str(out / "plan.toml"), "--out", str(out)]) == 0
+        reports.append((out / "confirm.md").read_text())
+    assert reports[0] == reports[1]
+    assert str(project) not in reports[0] and str(elsewhere) not in reports[0]
+    assert "wide: not analysed, 71 of 72 runs of seeds 0 1 2 in grids/wide finished" in reports[0]
+    assert "replication: not analysed, its grid grids/not-yet does not exist (yet)" in reports[0]

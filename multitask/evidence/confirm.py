@@ -110,6 +110,7 @@ class Part:
     sensitivity_seeds: tuple[int, ...] = ()
     rule_out_below: float | None = None
     hidden: int | None = None           # LSTM units per direction of every run; None: unchecked
+    grid_name: str = ""                 # ``grid`` as the plan names it ("": as found)
 
 
 @dataclass(frozen=True)
@@ -201,6 +202,7 @@ def _part(entry: dict, path: Path, where: str) -> Part:
     return Part(name=plan_value(entry, "name", str, path, where),
                 title=plan_value(entry, "title", str, path, where),
                 grid=locate_grid(path, plan_value(entry, "grid", str, path, where)),
+                grid_name=plan_value(entry, "grid", str, path, where),
                 seeds=seeds, families=families, outcomes=outcomes, sensitivity_seeds=sensitivity,
                 rule_out_below=None if rule_out is None
                 else plan_value(entry, "rule_out_below", float, path, where),
@@ -227,11 +229,18 @@ def _family(entry: dict, path: Path, where: str) -> Family:
 
 def locate_grid(plan: Path, grid: str) -> Path:
     """``grid`` in the plan's folder or the nearest folder above that holds it; if none does
-    (not run yet), as named, relative to the plan's folder."""
+    (not run yet), as named, relative to the plan's folder (never to the current folder: the
+    command reads the same grids wherever it is run from)."""
     for folder in (plan.parent, *plan.parent.resolve().parents):
         if (folder / grid).is_dir():
             return folder / grid
-    return Path(grid)
+    return plan.parent / grid
+
+
+def as_named(text: str, grid: Path, name: str) -> str:
+    """``text`` with ``grid``'s path as found here written as the plan ``name``s it, so that what
+    the command writes does not depend on where the checkout lies."""
+    return text.replace(str(grid), name) if name else text
 
 
 def analyse(plan: Plan) -> tuple[pd.DataFrame, pd.DataFrame, list[str]]:
@@ -287,7 +296,8 @@ def complete_runs(part: Part, skipped: list[str]) -> tuple[pd.DataFrame, dict] |
     grid's folds (the folds any of the part's runs has). None, and a line in ``skipped`` saying
     why, otherwise."""
     if not part.grid.is_dir():
-        skipped.append(f"{part.name}: not analysed, its grid {part.grid} does not exist (yet)")
+        skipped.append(as_named(f"{part.name}: not analysed, its grid {part.grid} does not "
+                                "exist (yet)", part.grid, part.grid_name))
         return None
     recorded, _ = recorded_runs(part.grid)
     wanted = [run for run in recorded if key_from_path(part.grid / run, part.grid).seed
@@ -304,9 +314,10 @@ def complete_runs(part: Part, skipped: list[str]) -> tuple[pd.DataFrame, dict] |
         shown = "; ".join(" ".join(line.split()) for line in problems[:SHOWN_PROBLEMS])
         more = (f" (and {len(problems) - SHOWN_PROBLEMS} more)"
                 if len(problems) > SHOWN_PROBLEMS else "")
-        skipped.append(f"{part.name}: not analysed, {done} of {len(wanted)} runs of seeds "
-                       f"{' '.join(map(str, part.seeds))} in {part.grid} finished (the plan "
-                       f"analyses complete grids only): {shown}{more}")
+        skipped.append(as_named(f"{part.name}: not analysed, {done} of {len(wanted)} runs of "
+                                f"seeds {' '.join(map(str, part.seeds))} in {part.grid} "
+                                f"finished (the plan analyses complete grids only): "
+                                f"{shown}{more}", part.grid, part.grid_name))
         return None
     return runs.assign(commit=[run_commit(record) for record in records.values()]), records
 

@@ -30,8 +30,8 @@ from pathlib import Path
 import pandas as pd
 
 from .collect import LEFT_OUT, IncompleteEvidence, run_records
-from .confirm import (Plan, PlanError, check_keys, complete_runs, endpoint_rows, locate_grid,
-                      plan_list, plan_seeds, plan_value, run_commit, tables)
+from .confirm import (Plan, PlanError, as_named, check_keys, complete_runs, endpoint_rows,
+                      locate_grid, plan_list, plan_seeds, plan_value, run_commit, tables)
 from .paired import ConfigId, StatsConfig
 from .pooling import MixedSettings, pool, record_key
 
@@ -48,6 +48,7 @@ class Borrowed:
     config: ConfigId
     grid: Path
     seeds: tuple[int, ...]
+    grid_name: str = ""                 # ``grid`` as the file names it ("": as found)
 
 
 @dataclass(frozen=True)
@@ -89,8 +90,9 @@ def read_exploratory(path: Path, plan: Plan) -> tuple[Exploratory, ...]:
                 config = ConfigId.parse(plan_value(side, "config", str, path, at))
             except ValueError as error:
                 raise PlanError(f"{path}: {at}.config: {error}") from None
-            grid = locate_grid(path, plan_value(side, "grid", str, path, at))
-            borrowed.append(Borrowed(config, grid, plan_seeds(side, "seeds", path, at)))
+            named = plan_value(side, "grid", str, path, at)
+            borrowed.append(Borrowed(config, locate_grid(path, named),
+                                     plan_seeds(side, "seeds", path, at), named))
         found.append(Exploratory(part, plan_value(entry, "name", str, path, where),
                                  tuple(borrowed)))
     return tuple(found)
@@ -114,7 +116,11 @@ def analyse_exploratory(plan: Plan, analyses: tuple[Exploratory, ...]
             borrowed = [_borrowed_runs(b, part.seeds, sorted(set(runs.fold)), runs, records)
                         for b in analysis.borrowed]
         except (IncompleteEvidence, MixedSettings) as error:
-            notes.append(f"{part.name}, {label}: not computed: {' '.join(str(error).split())}")
+            note = f"{part.name}, {label}: not computed: {' '.join(str(error).split())}"
+            for grid, name in [(part.grid, part.grid_name),
+                               *((b.grid, b.grid_name) for b in analysis.borrowed)]:
+                note = as_named(note, grid, name)
+            notes.append(note)
             continue
         pooled = pd.concat([runs, *borrowed], ignore_index=True)
         seeds = tuple(sorted(set(pooled.seed)))
