@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import shutil
 
 import pandas as pd
 import pytest
@@ -144,3 +145,147 @@ def test_widths_takes_out_alone(tmp_path, capsys, options):
         tables_main([str(grid), "--widths", str(grid), *out, *options])
     assert exit_.value.code == 2
     assert "--widths needs --out and takes no other option" in capsys.readouterr().err
+
+
+def _pooled(tmp_path, *options, first=(0,), second=(1, 2), **second_grid):
+    """The study of a 16-unit grid and a 64-unit width joined from two grids (``first``'s seeds
+    and ``second``'s), ``second_grid`` overriding the second grid's settings; the exit code."""
+    one = write_fake_grid(tmp_path / "h64-a", seeds=first, hidden=64, epochs=12,
+                          experiments=MODELS, schedule_factors={"APoc": 1.5})
+    settings = {"hidden": 64, "epochs": 12, "experiments": MODELS,
+                "schedule_factors": {"APoc": 1.5}, "scores_seed": 1} | second_grid
+    two = write_fake_grid(tmp_path / "h64-b", seeds=second, **settings)
+    return tables_main([str(_grid(tmp_path, 16)), "--widths", f"{one}+{two}", *options,
+                        "--out", str(tmp_path / "w")]), one, two
+
+
+def test_grids_of_one_width_pool_their_seeds(tmp_path):
+    code, one, two = _pooled(tmp_path)
+    assert code == 0
+    table = pd.read_csv(tmp_path / "w" / "width.csv", dtype={"seeds": str})
+    row = table[(table.hidden == 64) & (table.metric == "gesture_edit")].iloc[0]
+    runs = pd.concat([run_rows(one)[0], run_rows(two)[0]])       # by hand: seeds 0, 1 and 2
+    a, apoc = (runs[runs.variant == v].groupby("fold").gesture_edit.mean() for v in ("A", "APoc"))
+    assert a.index.tolist() == list(FOLDS)
+    assert row.A_mean == pytest.approx(a.mean(), abs=1e-4)
+    assert row.A_std == pytest.approx(a.std(ddof=1), abs=1e-4)
+    assert row.APoc_mean == pytest.approx(apoc.mean(), abs=1e-4)
+    assert row["diff"] == pytest.approx((apoc - a).mean(), abs=1e-4)
+    assert (row.seeds, row.folds, row.A_runs, row.APoc_runs) == ("0 1 2", 8, 24, 24)
+    assert (row.A_epochs, row.APoc_epochs) == (12, 18)
+    assert row.grids == f"{one}: 0; {two}: 1 2"
+    assert set(table[table.hidden == 16].grids) == {f"{tmp_path / 'h16'}: 0"}
+
+
+def test_a_pooled_width_is_the_table_of_one_grid_holding_its_runs(tmp_path):
+    """Pooling changes nothing but where the runs lie: the table of the two grids' runs copied
+    into one grid is the pooled one."""
+    code, one, two = _pooled(tmp_path)
+    pooled = pd.read_csv(tmp_path / "w" / "width.csv")
+    merged = tmp_path / "merged"
+    shutil.copytree(one, merged)
+    shutil.copytree(two / "runs", merged / "runs", dirs_exist_ok=True)
+    recorded = [json.loads((grid / "grid.json").read_text())["runs"] for grid in (one, two)]
+    (merged / "grid.json").write_text(json.dumps({"runs": recorded[0] + recorded[1]}))
+    assert tables_main([str(tmp_path / "h16"), "--widths", str(merged),
+                        "--out", str(tmp_path / "m")]) == 0
+    alone = pd.read_csv(tmp_path / "m" / "width.csv")
+    assert "grids" not in alone.columns and code == 0
+    pd.testing.assert_frame_equal(alone, pooled.drop(columns="grids"))
+
+
+def test_one_grid_per_width_writes_no_grids_column(tmp_path):
+    small, wide = _grid(tmp_path, 32), _grid(tmp_path, 64, seeds=(0, 1))
+    assert tables_main([str(small), "--widths", str(wide), "--out", str(tmp_path / "w")]) == 0
+    columns = pd.read_csv(tmp_path / "w" / "width.csv").columns
+    assert "grids" not in columns and columns[-2:].tolist() == ["paper_A", "paper_APoc"]
+
+
+def test_pooled_grids_of_another_schedule_are_refused_naming_it(tmp_path, capsys):
+    code, one, two = _pooled(tmp_path, schedule_factors={"A": 1.5, "APoc": 1.5})
+    err = capsys.readouterr().err
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert err.count(f"{one}+{two}: runs of one configuration differ") == 1
+    assert "revised/bidirectional/A-fixed: " in err and "APoc" not in err
+    assert f"run.optim.total 12 ({one}/runs" in err and f"/ 18 ({two}/runs" in err
+    assert not (tmp_path / "w").exists()
+
+
+def test_one_seed_in_two_grids_of_a_width_is_refused_naming_both(tmp_path, capsys):
+    code, one, two = _pooled(tmp_path, second=(0, 1))
+    err = capsys.readouterr().err
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert f"{one} and {two} both hold seed 0 of A-fixed" in err
+    assert not (tmp_path / "w").exists()
+
+
+def test_grids_of_other_widths_in_one_entry_are_refused(tmp_path, capsys):
+    code, one, two = _pooled(tmp_path, hidden=32)
+    err = capsys.readouterr().err
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert f"the grids of one entry are of different widths ({one}: 64, {two}: 32)" in err
+
+
+def test_pooled_grids_on_other_data_are_refused(tmp_path, capsys):
+    one = _grid(tmp_path, 64)
+    two = write_fake_grid(tmp_path / "h64-b", seeds=(1,), hidden=64, epochs=12,
+                          experiments=MODELS, schedule_factors={"APoc": 1.5})
+    for path in two.glob("runs/**/config.json"):
+        config = json.loads(path.read_text())
+        config["run"]["data"]["preprocessing"]["cutoff_hz"] = 2.0
+        path.write_text(json.dumps(config))
+    assert tables_main([str(_grid(tmp_path, 16)), "--widths", f"{one}+{two}",
+                        "--out", str(tmp_path / "w")]) == 2
+    err = capsys.readouterr().err
+    assert f"the grids differ in their data settings (preprocessing): {one} and {two}" in err
+
+
+def test_seeds_take_each_from_the_grid_that_holds_it(tmp_path):
+    code, one, two = _pooled(tmp_path, "--seeds", "0", "2")
+    assert code == 0
+    table = pd.read_csv(tmp_path / "w" / "width.csv", dtype={"seeds": str})
+    wide = table[table.hidden == 64]
+    assert set(wide.seeds) == {"0 2"} and set(wide.grids) == {f"{one}: 0; {two}: 2"}
+    (tmp_path / "only").mkdir()
+    code, one, two = _pooled(tmp_path / "only", "--seeds", "0")      # none from the second
+    table = pd.read_csv(tmp_path / "only" / "w" / "width.csv", dtype={"seeds": str})
+    assert code == 0 and set(table.seeds) == {"0"} and "grids" not in table.columns
+
+
+def test_a_grid_of_the_entry_still_training_refuses_the_entry(tmp_path, capsys):
+    """Each grid of an entry is checked alone: the second's only seed not finished is its
+    one-line error."""
+    one = _grid(tmp_path, 64)
+    two = write_fake_grid(tmp_path / "h64-b", seeds=(1,), hidden=64, epochs=12,
+                          experiments=MODELS, schedule_factors={"APoc": 1.5})
+    (two / "runs/revised/bidirectional/A-fixed/seed1/B/finished.json").unlink()
+    assert tables_main([str(_grid(tmp_path, 16)), "--widths", f"{one}+{two}",
+                        "--out", str(tmp_path / "w")]) == 2
+    err = capsys.readouterr().err
+    assert f"{two}: no seed with every run" in err and "A-fixed 7 of 8 runs finished" in err
+
+
+@pytest.mark.parametrize("entry", ["{g}+", "+{g}", "{g}++{g}", "{g}+{g}"])
+def test_malformed_entries_are_one_line_errors(tmp_path, capsys, entry):
+    grid = _grid(tmp_path, 64)
+    assert tables_main([str(_grid(tmp_path, 16)), "--widths", entry.format(g=grid),
+                        "--out", str(tmp_path / "w")]) == 2
+    err = capsys.readouterr().err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
+    assert ("an empty grid name" in err) or (f"{grid} is named twice" in err)
+    assert not (tmp_path / "w").exists()
+
+
+def test_a_folder_whose_name_holds_the_join_is_refused_not_split(tmp_path, capsys):
+    _grid(tmp_path, 64), _grid(tmp_path, 32)
+    joined = _grid(tmp_path / "x", 128).rename(tmp_path / "h64+h32")
+    assert tables_main([str(_grid(tmp_path, 16)), "--widths", str(joined),
+                        "--out", str(tmp_path / "w")]) == 2
+    assert "a folder whose name holds '+'" in capsys.readouterr().err
+
+
+def test_a_missing_grid_of_an_entry_is_named(tmp_path, capsys):
+    grid = _grid(tmp_path, 64)
+    assert tables_main([str(_grid(tmp_path, 16)), "--widths", f"{grid}+{tmp_path / 'nope'}",
+                        "--out", str(tmp_path / "w")]) == 2
+    assert f"{tmp_path / 'nope'}: no such folder" in capsys.readouterr().err

@@ -47,10 +47,15 @@ continues after a copy, on any machine.
 ``--widths GRID ...`` writes the width study instead (``width``): model A against APoc
 (GradNorm) in GRID_DIR and each further grid, one LSTM width each, as ``width.csv`` and
 ``width.png/.pdf`` in ``--out``; with ``--seeds``, only those seeds' runs of every grid (e.g.
-``--seeds 0``: one seed at every width).
+``--seeds 0``: one seed at every width). The grids of one width join by ``+`` into one entry
+(GRID_DIR too): each is checked as a grid on its own, then their runs are pooled, refused unless
+they agree on every setting (the schedule too) and hold no seed twice; ``width.csv`` then names
+each width's grids and their seeds (``grids``).
 
     multitask-tables results/grid --widths results/width/h256 results/width/h512 results/paper/grid \\
         --out results/width
+    multitask-tables results/grid --widths results/width/h256 \\
+        results/width/h512-a180+results/confirm/h512 results/paper/grid --out results/width/a180
 
 ``--architectures GRID ...`` writes the architectures side by side instead (``architectures``):
 one scores archive per architecture (LSTM at each width, ED-TCN, MS-TCN; read from the runs),
@@ -332,9 +337,11 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--metric",
                         help="with --compare: a metric column of runs.csv, e.g. gesture_edit "
                              "(required with --compare)")
-    parser.add_argument("--widths", type=Path, nargs="+", metavar="GRID",
+    parser.add_argument("--widths", nargs="+", metavar="GRID[+GRID...]",
                         help="the width study instead of tables: A against APoc (GradNorm) in "
-                             "GRID_DIR and these grids, one width each; writes width.csv and "
+                             "GRID_DIR and these grids, one width each; the grids of one width "
+                             "join by +, e.g. results/width/h512-a180+results/confirm/h512, "
+                             "their runs pooled; writes width.csv and "
                              "width.png/.pdf to --out (default: none, write the tables)")
     parser.add_argument("--architectures", type=Path, nargs="+", metavar="GRID",
                         help="the architectures side by side instead of tables: one scores "
@@ -446,9 +453,18 @@ def _architectures(args: argparse.Namespace) -> None:
         print(args.out / path.relative_to(staging))
 
 
+def _width_entries(args: argparse.Namespace) -> list[tuple[Path, ...]]:
+    """``--widths``: the grids of each width, GRID_DIR's first (``width.width_entry``)."""
+    from .width import width_entry
+
+    return [width_entry(str(entry)) for entry in (args.grid_dir, *args.widths)]
+
+
 def _run(args: argparse.Namespace) -> None:
-    for grid in (args.grid_dir, *(args.widths or ()), *([args.reference] if args.reference
-                                                          else [])):
+    entries = _width_entries(args) if args.widths else []
+    folders = ([grid for entry in entries for grid in entry] if entries
+               else [args.grid_dir, *([args.reference] if args.reference else [])])
+    for grid in folders:
         if not grid.is_dir():
             raise FileNotFoundError(f"{grid}: no such folder (a grid folder, a scores archive "
                                     "or a folder of runs)")
@@ -477,7 +493,7 @@ def _run(args: argparse.Namespace) -> None:
         if args.widths:
             from .width import write_width
 
-            written = write_width([args.grid_dir, *args.widths], staging, seeds)
+            written = write_width(entries, staging, seeds)
         elif args.reference:
             from .execution import write_execution
 

@@ -1,4 +1,13 @@
-"""The width study: model A and APoc (GradNorm) across LSTM widths, one grid per width.
+"""The width study: model A and APoc (GradNorm) across LSTM widths, one entry per width.
+
+An entry is one grid, or several grids of one width joined by ``+``
+(``results/width/h512-a180+results/confirm/h512``: seed 0 from the first, seeds 1-5 from the
+second); each grid is checked on its own, as a grid of a one-grid entry, then their runs are
+pooled as one grid's: they must be of one width, on the same data and folds, each model's runs
+agreeing on every setting (``pooling.pool``: a grid of another schedule is refused, naming the
+setting), and no seed of a model may come from two of them. The width's fold means are then
+over the union of their seeds. A folder whose own name holds ``+`` cannot be named in an entry
+(link it under another name).
 
 Each grid holds runs of one width (their ``config.json`` says which), on the same data (every
 recorded data setting but the folder it was read from) and folds as the others; a model's runs
@@ -15,7 +24,8 @@ seeds has less seed noise in its fold means, so its std and interval are the nar
 
 * ``hidden``: LSTM units per direction; ``metric``: ``gesture_accuracy``, ``gesture_edit`` or
   ``gesture_f1@10`` (``collect.run_rows``' columns, in percent);
-* ``seeds``: the seeds used, space-separated; ``folds``: how many folds are paired;
+* ``seeds``: the seeds used, space-separated (of every grid of the width's entry);
+  ``folds``: how many folds are paired;
 * ``A_mean``, ``A_std``, ``APoc_mean``, ``APoc_std``: mean and sample standard deviation over
   folds of each fold's mean over its seeds;
 * ``diff``, ``ci_low``, ``ci_high``, ``p_value``: APoc minus A paired over folds, each side
@@ -30,11 +40,15 @@ seeds has less seed noise in its fold means, so its std and interval are the nar
   runs at that width and how many of them the three-way convergence verdict calls each
   (``rnn_seg.convergence``; a run whose verdict is unknown is in none of the three);
 * ``paper_A``, ``paper_APoc``: the published values (Table I) at the paper's width, 1024, for
-  the real Suturing release; empty otherwise.
+  the real Suturing release; empty otherwise;
+* ``grids``, only when some width pools several grids (a table of one grid per width has the
+  columns above alone): each grid of the width's entry, as given, and the seeds it contributes,
+  e.g. ``results/width/h512-a180: 0; results/confirm/h512: 1 2 3 4 5``.
 
 ``width.png`` / ``.pdf`` draws score against width (log2 axis) for both models, the paper's
-values marked at 1024, each width's seed count under its tick; below each metric, APoc - A with
-its 95 % interval against width, the paper's difference marked at 1024.
+values marked at 1024, each width's seed count under its tick (and its count of grids, when it
+pools several); below each metric, APoc - A with its 95 % interval against width, the paper's
+difference marked at 1024.
 """
 from __future__ import annotations
 
@@ -72,11 +86,14 @@ PAPER_WIDTH = 1024
 #: schedule, which ``width.csv`` states per width (``A_epochs``, ``APoc_epochs``).
 STUDIED = ("run.encoder.hidden", "run.optim.total", "run.optim.decay_start",
            "run.optim.decay_every", "run.train.eval_points")
+#: Joins the grids of one width in an entry: ``results/width/h512-a180+results/confirm/h512``.
+JOIN = "+"
 
 
 @dataclass(frozen=True)
 class WidthEvidence:
-    """One grid's part of the study: its width, data, seeds and the runs of A and APoc."""
+    """One width's part of the study, from one grid or several: its width, data, seeds and the
+    runs of A and APoc."""
 
     hidden: int
     data: dict                    # A's first run's ``config.json`` ``run.data``, not where it was
@@ -85,6 +102,34 @@ class WidthEvidence:
     runs: pd.DataFrame            # one row per run of A and APoc (``collect.run_rows``' columns)
     epochs: dict[str, int]        # model name (``MODELS``) -> its schedule's length in epochs
     records: dict[Path, RunRecord]  # each run's folder -> its config.json
+    grids: dict[Path, tuple[int, ...]]  # each grid of the entry, as given -> the seeds it gives
+
+    @property
+    def name(self) -> str:
+        """The entry as given: its grids joined by ``JOIN``."""
+        return JOIN.join(map(str, self.grids))
+
+
+def width_entry(text: str) -> tuple[Path, ...]:
+    """The grids of one entry of the study: ``text`` split at ``JOIN`` (``results/width/h256``
+    is one grid, ``results/width/h512-a180+results/confirm/h512`` two of one width).
+
+    Raises:
+        ValueError: one line: an empty part (``a+``, ``a++b``), a grid named twice, or ``text``
+            naming an existing folder although it holds ``JOIN`` (it would be read as several).
+    """
+    parts = text.split(JOIN)
+    if len(parts) > 1 and Path(text).is_dir():
+        raise ValueError(f"{text}: a folder whose name holds {JOIN!r}, which joins grids of one "
+                         "width; name it through a link without it")
+    if not all(parts):
+        raise ValueError(f"{text}: an empty grid name; join the grids of one width as "
+                         f"GRID{JOIN}GRID")
+    grids = tuple(Path(part) for part in parts)
+    twice = sorted({str(grid) for grid in grids if grids.count(grid) > 1})
+    if twice:
+        raise ValueError(f"{text}: {twice[0]} is named twice")
+    return grids
 
 
 def _model_runs(grid: Path, seeds: tuple[int, ...] | None) -> dict[int, dict[str, list[Path]]]:
@@ -101,6 +146,11 @@ def _model_runs(grid: Path, seeds: tuple[int, ...] | None) -> dict[int, dict[str
         if name and (seeds is None or key.seed in seeds):
             by_seed.setdefault(key.seed, {}).setdefault(name, []).append(run)
     return by_seed
+
+
+def _lacking(where: Path | str, seeds: tuple[int, ...]) -> str:
+    """The error of a grid (or entry) without a run of ``seeds``."""
+    return f"{where}: no run of A-fixed or APoc-gradnorm of seed(s) {', '.join(map(str, seeds))}"
 
 
 def _complete_seeds(grid: Path, by_seed: dict[int, dict[str, list[Path]]]) -> tuple[int, ...]:
@@ -137,8 +187,7 @@ def width_evidence(grid: Path, seeds: tuple[int, ...] | None = None) -> WidthEvi
     """
     by_seed = _model_runs(grid, seeds)
     if seeds and not by_seed:
-        raise ValueError(f"{grid}: no run of A-fixed or APoc-gradnorm of seed(s) "
-                         f"{', '.join(map(str, seeds))}")
+        raise ValueError(_lacking(grid, seeds))
     chosen = _complete_seeds(grid, by_seed)
     folders = [run for seed in chosen for runs in by_seed[seed].values() for run in runs]
     problems = [f"{OTHER_SETTINGS} {grid / run}: "
@@ -168,29 +217,87 @@ def width_evidence(grid: Path, seeds: tuple[int, ...] | None = None) -> WidthEvi
     return WidthEvidence(widths.pop(),
                          {k: v for k, v in data.items() if k not in DataConfig.output_fields},
                          task_name(data) == PAPER_TASK and not is_synthetic(data), chosen, runs,
-                         epochs, records)
+                         epochs, records, {grid: chosen})
 
 
-def _check_comparable(grids: list[Path], evidence: list[WidthEvidence]) -> None:
-    """One grid per width, every grid on the same data and folds, each model's runs of every
-    grid alike but in their width and schedule (``pooling.pool``); a one-line ``ValueError``."""
+def entry_evidence(grids: tuple[Path, ...], seeds: tuple[int, ...] | None = None
+                   ) -> WidthEvidence:
+    """One width's evidence from the grids of its entry: each grid's (``width_evidence``),
+    pooled when there are several; the seeds are then the union of theirs. With ``seeds``, a
+    grid of several that holds none of them gives nothing (``--seeds 0`` takes seed 0 from the
+    grid that has it); one that holds some is checked as alone.
+
+    Raises:
+        ValueError: one line: a grid's own problem (``width_evidence``), the grids of other
+            widths, one seed of a model in two of them (naming both and the seed), other data
+            or folds, or a model's runs differing in a setting (``pooling.MixedSettings``, naming
+            it, e.g. the schedule).
+    """
+    where = JOIN.join(map(str, grids))
+    if seeds and len(grids) > 1:
+        grids = tuple(grid for grid in grids if _model_runs(grid, seeds))
+        if not grids:
+            raise ValueError(_lacking(where, seeds))
+    parts = [width_evidence(grid, seeds) for grid in grids]
+    if len(parts) == 1:
+        return parts[0]
+    widths = {part.hidden for part in parts}
+    if len(widths) > 1:
+        raise ValueError(f"{where}: the grids of one entry are of different widths ("
+                         + ", ".join(f"{grid}: {part.hidden}" for grid, part in zip(grids, parts))
+                         + "); give each width an entry of its own")
+    _check_disjoint(grids, seeds)
+    _check_alike(parts)
+    records = {run: record for part in parts for run, record in part.records.items()}
+    pool(records, where)
+    first = parts[0]
+    return WidthEvidence(first.hidden, first.data, first.paper,
+                         tuple(sorted(seed for part in parts for seed in part.seeds)),
+                         pd.concat([part.runs for part in parts], ignore_index=True),
+                         first.epochs, records, {grid: part.seeds
+                                                 for grid, part in zip(grids, parts)})
+
+
+def _check_disjoint(grids: tuple[Path, ...], seeds: tuple[int, ...] | None) -> None:
+    """No seed of a model recorded in two of ``grids`` (finished or not: two runs of one seed
+    would be counted twice, or one silently dropped); a one-line ``ValueError`` naming both."""
+    owner: dict[tuple[int, str], Path] = {}
+    for grid in grids:
+        for seed, models in sorted(_model_runs(grid, seeds).items()):
+            for name in models:
+                first = owner.setdefault((seed, name), grid)
+                if first != grid:
+                    raise ValueError(f"{first} and {grid} both hold seed {seed} of "
+                                     f"{MODELS[name].label}; a seed of one width comes from one "
+                                     "grid only")
+
+
+def _check_comparable(evidence: list[WidthEvidence]) -> None:
+    """One entry per width, every entry on the same data and folds, each model's runs of every
+    entry alike but in their width and schedule (``pooling.pool``); a one-line ``ValueError``."""
     widths = [part.hidden for part in evidence]
     if len(set(widths)) < len(widths):
-        raise ValueError(f"one grid per width, got widths {sorted(widths)}")
-    first = evidence[0].data
-    for grid, part in zip(grids[1:], evidence[1:]):
-        differing = sorted(k for k in first.keys() | part.data.keys()
-                           if first.get(k) != part.data.get(k))
-        if differing:
-            raise ValueError(f"the grids differ in their data settings ({', '.join(differing)}): "
-                             f"{grids[0]} and {grid}")
-    folds = {str(grid): " ".join(sorted(set(part.runs.fold)))
-             for grid, part in zip(grids, evidence)}
-    if len(set(folds.values())) > 1:
-        raise ValueError("the grids differ in their folds: "
-                         + "; ".join(f"{grid}: {value}" for grid, value in folds.items()))
+        raise ValueError(f"one grid per width, got widths {sorted(widths)}; join the grids of "
+                         f"one width in one entry, GRID{JOIN}GRID")
+    _check_alike(evidence)
     pool({run: record for part in evidence for run, record in part.records.items()},
          "the grids of the width study", varying=STUDIED)
+
+
+def _check_alike(parts: list[WidthEvidence]) -> None:
+    """Every part on the first's data settings and folds; a one-line ``ValueError`` naming the
+    parts (their entries) that differ."""
+    first = parts[0]
+    for part in parts[1:]:
+        differing = sorted(k for k in first.data.keys() | part.data.keys()
+                           if first.data.get(k) != part.data.get(k))
+        if differing:
+            raise ValueError(f"the grids differ in their data settings ({', '.join(differing)}): "
+                             f"{first.name} and {part.name}")
+    folds = {part.name: " ".join(sorted(set(part.runs.fold))) for part in parts}
+    if len(set(folds.values())) > 1:
+        raise ValueError("the grids differ in their folds: "
+                         + "; ".join(f"{name}: {value}" for name, value in folds.items()))
 
 
 def width_table(evidence: list[WidthEvidence]) -> pd.DataFrame:
@@ -217,6 +324,11 @@ def width_table(evidence: list[WidthEvidence]) -> pd.DataFrame:
     table = pd.DataFrame(rows)
     adjusted = table.groupby("metric").p_value.transform(lambda p: holm(p.to_numpy(float)))
     table.insert(table.columns.get_loc("p_value") + 1, "p_holm", adjusted)
+    if any(len(part.grids) > 1 for part in evidence):
+        sources = {part.hidden: "; ".join(f"{grid}: {' '.join(map(str, seeds))}"
+                                          for grid, seeds in part.grids.items())
+                   for part in evidence}
+        table["grids"] = table.hidden.map(sources)
     return table
 
 
@@ -242,10 +354,12 @@ def width_figure(table: pd.DataFrame, out_dir: Path) -> list[Path]:
         _draw_scores(axes[0, column], rows, title)
         _draw_difference(axes[1, column], rows)
     ticks = table.drop_duplicates("hidden").sort_values("hidden")
+    sources = ticks["grids"] if "grids" in ticks else [None] * len(ticks)
+    labels = [f"{hidden}\n{_seed_count(seeds)}{_grid_count(grids)}" for hidden, seeds, grids
+              in zip(ticks.hidden, ticks.seeds.astype(str), sources)]
     for ax in axes[1]:
         ax.set_xscale("log", base=2)
-        ax.set_xticks(ticks.hidden, [f"{hidden}\n{_seed_count(seeds)}" for hidden, seeds
-                                     in zip(ticks.hidden, ticks.seeds.astype(str))])
+        ax.set_xticks(ticks.hidden, labels)
         ax.minorticks_off()
         ax.set_xlabel("LSTM units per direction")
     fig.tight_layout()
@@ -291,13 +405,20 @@ def _seed_count(seeds: str) -> str:
     return f"{count} seed{'s' * (count != 1)}"
 
 
-def write_width(grids: list[Path], out: Path, seeds: tuple[int, ...] | None = None
-                ) -> list[Path]:
-    """``width.csv`` and the figure from one grid per width (only ``seeds``' runs, if given);
-    returns the paths written."""
-    grids = [Path(grid) for grid in grids]
-    evidence = [width_evidence(grid, seeds) for grid in grids]
-    _check_comparable(grids, evidence)
+def _grid_count(grids: str | None) -> str:
+    """``\n2 grids`` under the tick of a width pooled from two grids (the ``grids`` column's
+    ``a: 0; b: 1 2``); nothing for one grid, or a table without the column (None)."""
+    count = len(grids.split("; ")) if grids else 1
+    return f"\n{count} grids" if count > 1 else ""
+
+
+def write_width(entries: list[Path | tuple[Path, ...]], out: Path,
+                seeds: tuple[int, ...] | None = None) -> list[Path]:
+    """``width.csv`` and the figure from one entry per width, a grid or the grids of one width
+    (``width_entry``; only ``seeds``' runs, if given); returns the paths written."""
+    evidence = [entry_evidence(tuple(map(Path, entry)) if isinstance(entry, tuple)
+                               else (Path(entry),), seeds) for entry in entries]
+    _check_comparable(evidence)
     table = width_table(evidence)
     out.mkdir(parents=True, exist_ok=True)
     csv = out / "width.csv"
