@@ -289,3 +289,11 @@ def test_a_missing_grid_of_an_entry_is_named(tmp_path, capsys):
     assert tables_main([str(_grid(tmp_path, 16)), "--widths", f"{grid}+{tmp_path / 'nope'}",
                         "--out", str(tmp_path / "w")]) == 2
     assert f"{tmp_path / 'nope'}: no such folder" in capsys.readouterr().err
+
+
+def test_grid_dir_may_be_a_joined_entry_too(tmp_path):
+    code, one, two = _pooled(tmp_path)
+    pooled = pd.read_csv(tmp_path / "w" / "width.csv")
+    assert tables_main([f"{one}+{two}", "--widths", str(tmp_path / "h16"),
+                        "--out", str(tmp_path / "first")]) == 0
+    pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "first" / "width.csv"), pooled)
