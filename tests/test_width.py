@@ -73,7 +73,7 @@ def test_two_grids_of_one_width_are_a_one_line_error(tmp_path, capsys):
     grid = _grid(tmp_path, 32)
     assert tables_main([str(grid), "--widths", str(grid), "--out", str(tmp_path / "w")]) == 2
     err = capsys.readouterr().err
-    assert "one grid per width, got widths [32, 32]" in err and "Traceback" not in err
+    assert "one entry per width, got widths [32, 32]" in err and "Traceback" not in err
     assert not (tmp_path / "w").exists()
 
 

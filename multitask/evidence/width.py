@@ -277,8 +277,8 @@ def _check_comparable(evidence: list[WidthEvidence]) -> None:
     entry alike but in their width and schedule (``pooling.pool``); a one-line ``ValueError``."""
     widths = [part.hidden for part in evidence]
     if len(set(widths)) < len(widths):
-        raise ValueError(f"one grid per width, got widths {sorted(widths)}; join the grids of "
-                         f"one width in one entry, GRID{JOIN}GRID")
+        raise ValueError(f"one entry per width, got widths {sorted(widths)}; join the grids "
+                         f"of one width in one entry, GRID{JOIN}GRID")
     _check_alike(evidence)
     pool({run: record for part in evidence for run, record in part.records.items()},
          "the grids of the width study", varying=STUDIED)
