@@ -302,17 +302,30 @@ def test_a_tie_lost_to_float_rounding_still_counts():
         tuple(2.994 / 2.6666666666666665 * e for e in SignFlip(pattern).interval()), abs=1e-9)
 
 
+#: The provenance of the commit that trained seed 0 at 1024 units.
+SEED_0_COMMIT = {"git_commit": "9a820fde116d82e4e16f3c0edbc8f2077d4a4068", "git_dirty": False}
+
+
+def _stamp(paths, provenance: dict) -> None:
+    """Record ``provenance`` in each of the JSON files ``paths``."""
+    for path in paths:
+        _edit_json(path, lambda data: data.update(provenance=provenance))
+
+
+def _commits(project: Path) -> pd.Series:
+    """The ``commits`` column of the planned analysis, by analysis, comparison and metric."""
+    table, _, _ = analyse(read_plan(project / "confirm" / "plan.toml"))
+    return table.set_index(["analysis", "comparison", "metric"]).commits
+
+
 def test_each_row_names_the_commits_that_trained_its_runs(project: Path):
     """PLAN.md names the commit whose code trains each part; the pooling rule compares settings,
     not code, so every row says which commits trained the runs behind it."""
     grid = project / "grids" / "wide"
-    for config in (grid / "runs").glob("*/*/*/*/*/config.json"):
-        _edit_json(config, lambda data: data.update(provenance={
-            "git_commit": "9a820fde116d82e4e16f3c0edbc8f2077d4a4068", "git_dirty": False}))
-    _edit_json(grid / "runs/revised/bidirectional/APc-fixed/seed1/C/config.json",
-               lambda data: data.update(provenance={"git_commit": "0123456789", "git_dirty": True}))
-    table, _, _ = analyse(read_plan(project / "confirm" / "plan.toml"))
-    commits = table.set_index(["analysis", "comparison", "metric"]).commits
+    _stamp(grid.glob("runs/*/*/*/*/*/config.json"), SEED_0_COMMIT)
+    _stamp([grid / "runs/revised/bidirectional/APc-fixed/seed1/C/config.json"],
+           {"git_commit": "0123456789", "git_dirty": True})
+    commits = _commits(project)
     assert commits["planned", "APc-fixed - A-fixed", "gesture_edit"] == "0123456-dirty 9a820fd"
     assert commits["seed 0", "APc-fixed - A-fixed", "gesture_edit"] == "9a820fd"
     assert commits["planned", "APoc-gradnorm - A-fixed", "gesture_edit"] == "9a820fd"
@@ -322,14 +335,11 @@ def test_a_run_finished_by_another_checkout_names_both_commits(project: Path):
     """A run resumed from its checkpoint by a session of another checkout: config.json records
     the session that started it, finished.json the one that finished it; both trained it."""
     grid = project / "grids" / "wide"
-    first = {"git_commit": "9a820fde116d82e4e16f3c0edbc8f2077d4a4068", "git_dirty": False}
-    for name in ("config.json", "finished.json"):
-        for path in (grid / "runs").glob(f"*/*/*/*/*/{name}"):
-            _edit_json(path, lambda data: data.update(provenance=first))
-    _edit_json(grid / "runs/revised/bidirectional/APoc-gradnorm/seed2/E/finished.json",
-               lambda data: data.update(provenance={"git_commit": "fedcba9876", "git_dirty": True}))
-    table, _, _ = analyse(read_plan(project / "confirm" / "plan.toml"))
-    commits = table.set_index(["analysis", "comparison", "metric"]).commits
+    _stamp([*grid.glob("runs/*/*/*/*/*/config.json"), *grid.glob("runs/*/*/*/*/*/finished.json")],
+           SEED_0_COMMIT)
+    _stamp([grid / "runs/revised/bidirectional/APoc-gradnorm/seed2/E/finished.json"],
+           {"git_commit": "fedcba9876", "git_dirty": True})
+    commits = _commits(project)
     assert commits["planned", "APoc-gradnorm - A-fixed", "gesture_edit"] == "9a820fd fedcba9-dirty"
     assert commits["seed 2", "APoc-gradnorm - A-fixed", "gesture_edit"] == "9a820fd fedcba9-dirty"
     assert commits["seed 1", "APoc-gradnorm - A-fixed", "gesture_edit"] == "9a820fd"
