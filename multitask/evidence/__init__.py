@@ -5,7 +5,8 @@
   settings only: no data, no TensorFlow); ``metrics_file``: each run's metrics.json checked
   against itself and its run; ``pooling``: the one rule for which runs a table may pool;
 * ``tables``, ``latex``, ``captions``: the paper's Tables I-III and the ablation, as CSV and
-  paste-ready LaTeX with captions read from the runs; ``paper_results``: the published numbers;
+  paste-ready LaTeX with captions read from the runs; ``markdown``: the READMEs' Markdown
+  tables; ``paper_results``: the published numbers;
 * ``figures``, ``curves``: the paper's figures and training curves; ``confusion``: per-gesture
   precision, recall, F1 and confusion matrices;
 * ``paired``: paired statistics over folds and seeds; ``claims``: the paper's claims as data,

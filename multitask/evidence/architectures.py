@@ -50,6 +50,7 @@ from ..models.run_record import RunRecord, read_run_record
 from .captions import describe_runs
 from .collect import finite, key_from_path, per_fold, recorded_runs, run_rows
 from .latex import escape, mean_std, requires
+from .markdown import markdown_table
 from .paired import ConfigId
 from .pooling import apart, architecture_name
 
@@ -266,13 +267,12 @@ def architecture_markdown(table: pd.DataFrame) -> str:
     """The table as Markdown (for ``results/tcn/README.md``): mean (std) over folds per score,
     seeds x folds, cost per run, and what was left out."""
     header = ["architecture", "model", *SCORES.values(), "seeds x folds", "per run", "note"]
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    for _, row in table.iterrows():
-        cells = [_cell(row, score, lambda m, s: f"{m:.1f} ({s:.1f})" if s is not None
-                       else f"{m:.1f}") for score in SCORES]
-        lines.append("| " + " | ".join([row.architecture, row.model, *cells, _evidence(row),
-                                        duration(row.seconds_mean), row.note or ""]) + " |")
-    return "\n".join(lines) + "\n"
+    rows = [[row.architecture, row.model,
+             *(_cell(row, score, lambda m, s: f"{m:.1f} ({s:.1f})" if s is not None
+                     else f"{m:.1f}") for score in SCORES),
+             _evidence(row), duration(row.seconds_mean), row.note or ""]
+            for _, row in table.iterrows()]
+    return "\n".join(markdown_table(header, rows)) + "\n"
 
 
 def architecture_latex(table: pd.DataFrame, caption: str) -> str:

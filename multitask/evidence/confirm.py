@@ -355,6 +355,16 @@ def _commits(runs: pd.DataFrame, endpoint: Endpoint) -> str:
     return " ".join(sorted({commit for cell in sides.commit for commit in cell.split()}))
 
 
+def fold_seed_gaps(runs: pd.DataFrame, side: ConfigId, folds: list[str],
+                   seeds: tuple[int, ...]) -> list[str]:
+    """Each of ``folds`` (and any other fold ``side`` has in ``runs``) whose runs of ``side``
+    are not one per seed of ``seeds``, with the seeds it has: ``["C (0 2)", "D (none)"]``."""
+    found = side.select(runs).groupby("fold").seed.apply(lambda s: tuple(sorted(s)))
+    wanted = tuple(sorted(seeds))
+    return [f"{fold} ({' '.join(map(str, found.get(fold, ()))) or 'none'})"
+            for fold in sorted(set(folds) | set(found.index)) if found.get(fold, ()) != wanted]
+
+
 def _plan_problems(part: Part, runs: pd.DataFrame, records: dict) -> list[str]:
     """What keeps the part's usable ``runs`` (and their ``records``) from being the plan's
     design: a run of another width than the plan's, a side of an endpoint without exactly the
@@ -366,9 +376,7 @@ def _plan_problems(part: Part, runs: pd.DataFrame, records: dict) -> list[str]:
     sides = {side for family in part.families for e in family.endpoints
              for side in e.contrast.configs}
     for side in sorted(sides, key=lambda s: s.label):
-        seeds = side.select(runs).groupby("fold").seed.apply(lambda s: tuple(sorted(s)))
-        wrong = [f"{fold} ({' '.join(map(str, seeds.get(fold, ()))) or 'none'})" for fold in folds
-                 if seeds.get(fold, ()) != tuple(sorted(part.seeds))]
+        wrong = fold_seed_gaps(runs, side, folds, part.seeds)
         if wrong:
             problems.append(f"{side.label} does not have seeds "
                             f"{' '.join(map(str, part.seeds))} on every fold of {part.grid}: "

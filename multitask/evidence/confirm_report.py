@@ -19,7 +19,7 @@ A part not analysed (its grid incomplete) gets the line saying why, and nothing 
 """
 from __future__ import annotations
 
-import math
+import re
 from pathlib import Path
 
 import pandas as pd
@@ -28,6 +28,7 @@ from rnn_seg.runs.folder import write_atomic
 
 from .confirm import Family, Part, Plan, analyse, read_plan, tables
 from .exploratory import EXPLORATORY_FILE, analyse_exploratory, read_exploratory
+from .markdown import markdown_table
 
 
 def write_confirmatory(plan_path: Path, out: Path) -> tuple[list[Path], list[str]]:
@@ -72,10 +73,7 @@ def confirm_markdown(plan: Plan, table: pd.DataFrame, skipped: list[str],
             continue
         lines += _part_lines(part, rows, _interval_name(plan))
         lines += _exploratory_lines(part, explored, notes, _interval_name(plan))
-    text = "\n".join(lines)
-    while "\n\n\n" in text:
-        text = text.replace("\n\n\n", "\n\n")
-    return text.rstrip("\n") + "\n"
+    return re.sub(r"\n{3,}", "\n\n", "\n".join(lines)).rstrip("\n") + "\n"
 
 
 def _pooling(plan: Plan) -> str:
@@ -116,7 +114,7 @@ def _family_lines(part: Part, family: Family, rows: pd.DataFrame, interval: str
              _interval(row), _p(row.p_value), _p(row.p_holm), f"{row.paper_gain:+.1f}",
              "yes" if row.paper_in_ci else "no", row.folds_favouring]
             for row in planned.itertuples(index=False)]
-    return lines + _table(header, body) + [""] + _descriptive_lines(of_family, planned)
+    return lines + markdown_table(header, body) + [""] + _descriptive_lines(of_family, planned)
 
 
 def _descriptive_lines(of_family: pd.DataFrame, planned: pd.DataFrame) -> list[str]:
@@ -136,7 +134,7 @@ def _descriptive_lines(of_family: pd.DataFrame, planned: pd.DataFrame) -> list[s
     body = [[_endpoint(row), _points(row.diff),
              *(_descriptive(of_family, a, row) for a in seeds + sensitivity)]
             for row in planned.itertuples(index=False)]
-    return [heading, ""] + _table(header, body) + [""]
+    return [heading, ""] + markdown_table(header, body) + [""]
 
 
 def _exploratory_lines(part: Part, explored: pd.DataFrame, notes: list[str], interval: str
@@ -153,7 +151,7 @@ def _exploratory_lines(part: Part, explored: pd.DataFrame, notes: list[str], int
         body = [[row.analysis, row.seeds, _endpoint(row), _points(row.diff), _interval(row),
                  _p(row.p_value), row.folds_favouring, row.commits]
                 for row in rows.itertuples(index=False)]
-        lines += _table(header, body)
+        lines += markdown_table(header, body)
     return lines + [""]
 
 
@@ -189,17 +187,9 @@ def _points(value: float) -> str:
 
 
 def _interval(row) -> str:
-    return f"{_end(row.ci_low)} to {_end(row.ci_high)}"
-
-
-def _end(value: float) -> str:
-    return f"{value:.2f}" if math.isfinite(value) else ("-inf" if value < 0 else "inf")
+    """``low to high``, two decimals (an unbounded end reads ``-inf`` / ``inf``)."""
+    return f"{row.ci_low:.2f} to {row.ci_high:.2f}"
 
 
 def _p(value: float) -> str:
     return "--" if pd.isna(value) else f"{value:.4f}"
-
-
-def _table(header: list[str], body: list[list[str]]) -> list[str]:
-    return (["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-            + ["| " + " | ".join(map(str, cells)) + " |" for cells in body])

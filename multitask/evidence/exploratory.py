@@ -31,7 +31,8 @@ import pandas as pd
 
 from .collect import LEFT_OUT, IncompleteEvidence, run_records
 from .confirm import (Plan, PlanError, as_named, check_keys, complete_runs, endpoint_rows,
-                      locate_grid, plan_list, plan_seeds, plan_value, run_commit, tables)
+                      fold_seed_gaps, locate_grid, plan_list, plan_seeds, plan_value,
+                      run_commit, tables)
 from .paired import ConfigId, StatsConfig
 from .pooling import MixedSettings, pool, record_key
 
@@ -150,13 +151,12 @@ def _borrowed_runs(borrowed: Borrowed, part_seeds: tuple[int, ...], folds: list[
     if problems:
         raise IncompleteEvidence(f"{where}: {problems[0]}")
     found = found.assign(commit=[run_commit(r) for r in found_records.values()])
-    chosen = side.select(found)
-    seeds = chosen.groupby("fold").seed.apply(lambda s: tuple(sorted(s)))
-    if sorted(seeds.index) != folds or set(seeds) != {tuple(sorted(borrowed.seeds))}:
+    gaps = fold_seed_gaps(found, side, folds, borrowed.seeds)
+    if gaps:
         raise IncompleteEvidence(f"{where}: not one run per seed on each of the folds "
-                                 f"{' '.join(folds)}")
+                                 f"{' '.join(folds)}: seeds on {', '.join(gaps)}")
     pool({**_of(side, records), **_of(side, found_records)}, where)
-    return chosen
+    return side.select(found)
 
 
 def _of(side: ConfigId, records: dict) -> dict:

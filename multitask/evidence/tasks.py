@@ -24,6 +24,7 @@ from rnn_seg.runs.folder import write_atomic
 from rnn_seg.runs.manifest import staged_outputs
 from rnn_seg.runs.outputs import check_output_folder
 
+from .markdown import markdown_table
 from .paired import ConfigId
 
 PROG = "python -m multitask.evidence.tasks"
@@ -83,13 +84,10 @@ def markdown(table: pd.DataFrame) -> str:
     """One line per task and model: A's scores, or a difference with its 95 % interval and
     verdict; the folds and seeds of each task's evidence."""
     header = ["task", "model", *SCORES.values(), "folds x seeds"]
-    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-    for (task, model), rows in table.groupby(["task", "model"], sort=False):
-        cells = [_cell(row) for row in rows.itertuples()]
-        first = rows.iloc[0]
-        lines.append("| " + " | ".join([task.replace("_", " "), model, *cells,
-                                        f"{first.folds} x {first.seeds}"]) + " |")
-    return "\n".join(lines) + "\n"
+    body = [[task.replace("_", " "), model, *(_cell(row) for row in rows.itertuples()),
+             f"{rows.iloc[0].folds} x {rows.iloc[0].seeds}"]
+            for (task, model), rows in table.groupby(["task", "model"], sort=False)]
+    return "\n".join(markdown_table(header, body)) + "\n"
 
 
 def _cell(row) -> str:
