@@ -84,6 +84,25 @@ def test_a_failed_build_says_why_and_leaves_nothing(tmp_path, monkeypatch, compi
     assert [p for p in tmp_path.rglob("*") if p.is_file()] == []
 
 
+def test_a_cpu_with_avx512_fp16_builds_the_loops_without_it(tmp_path, monkeypatch):
+    """``-march=native`` on a CPU with AVX512-FP16 (Sapphire Rapids and later) turns on Eigen's
+    half-precision code, which TensorFlow 2.21's headers do not compile under with g++ 12; the
+    loops never use it, so the build switches it off. Any x86 machine plays such a CPU with a
+    compiler that adds ``-mavx512fp16`` to every command."""
+    compiler = shutil.which(os.environ.get("CXX") or "g++")
+    if compiler is None:
+        pytest.skip("no C++ compiler")
+    fp16 = tmp_path / "cxx-with-avx512fp16"
+    fp16.write_text(f'#!/bin/sh\nexec "{compiler}" -mavx512fp16 "$@"\n')
+    fp16.chmod(0o755)
+    if "__AVX512FP16__" not in build.native_macros(str(fp16)):
+        pytest.skip(f"{compiler} cannot target AVX512-FP16")
+    monkeypatch.setenv("CXX", str(fp16))
+    library = tmp_path / "kernels" / "lstm_loops-fp16.so"
+    build.build(library)
+    assert library.is_file()
+
+
 def test_the_cache_is_kept_per_tensorflow_version(tmp_path, monkeypatch):
     monkeypatch.setenv("JIGSAWS_CACHE_DIR", str(tmp_path))
     path = build.library_path()

@@ -28,6 +28,11 @@ from ..config import Precision, cpu_flags
 SOURCE = Path(__file__).with_name("lstm_loops.cc")
 FORWARD_OP = "MtrnnLstmForward"
 BUILD_SECONDS = 600
+#: Instruction sets ``-march=native`` may switch on that the loops never use and that TensorFlow's
+#: bundled Eigen headers do not compile under with every compiler (AVX512-FP16, on Sapphire Rapids
+#: and later Xeons: TensorFlow 2.21's Eigen with g++ 12), by the macro that shows one is on -> the
+#: flag that switches it off again.
+UNUSED_ISAS = {"__AVX512FP16__": "-mno-avx512fp16"}
 
 
 class KernelUnavailable(RuntimeError):
@@ -39,9 +44,24 @@ def library_dir() -> Path:
     return default_cache_dir() / "kernels" / f"tf-{tf.__version__}"
 
 
+@lru_cache(maxsize=None)
+def native_macros(compiler: str) -> frozenset[str]:
+    """The macros ``compiler -march=native`` predefines (empty when it cannot say)."""
+    try:
+        done = subprocess.run([compiler, "-march=native", "-dM", "-E", "-x", "c++", os.devnull],
+                              capture_output=True, text=True, timeout=60)
+    except (OSError, subprocess.TimeoutExpired):
+        return frozenset()
+    return frozenset(line.split()[1] for line in done.stdout.splitlines()
+                     if line.startswith("#define "))
+
+
 def compile_command(source: Path, target: Path) -> list[str]:
-    """The compiler's command line for ``source`` -> shared library ``target``."""
-    return [os.environ.get("CXX") or "g++", "-shared", "-fPIC", "-O3", "-march=native", "-w",
+    """The compiler's command line for ``source`` -> shared library ``target``: this CPU's
+    instruction sets (``-march=native``) but those in ``UNUSED_ISAS``."""
+    compiler = os.environ.get("CXX") or "g++"
+    unused = [flag for macro, flag in UNUSED_ISAS.items() if macro in native_macros(compiler)]
+    return [compiler, "-shared", "-fPIC", "-O3", "-march=native", *unused, "-w",
             *tf.sysconfig.get_compile_flags(), str(source), "-o", str(target),
             *tf.sysconfig.get_link_flags()]
 
