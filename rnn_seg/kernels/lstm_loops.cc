@@ -14,11 +14,13 @@
 // product for L units is H broadcast-multiply-adds of 4 vectors. With AVX-512 one pass over the
 // panel sums all 4 gates of up to 6 rows (24 accumulators); with AVX2 two passes sum 2 gates
 // each (12 accumulators, 2 weight vectors and a broadcast fill 15 of the 16 registers), the
-// panel stored pass by pass so that each pass streams its own weights once. Backward, the
-// product dz W^T (K = 4H) streams W[L p + l, 4 k + q] for q < 4 as four vectors, summed into
-// four partial sums per row and added at the end: all rows at once with AVX-512, 3 at a time
-// with AVX2. Every lane's sums run over k in the same order on both, so the two builds give the
-// same float32 products bit for bit. With bfloat16 weights (AVX512_BF16 only) a panel holds
+// panel stored pass by pass so that each pass streams its own weights once; every lane sums over
+// k in the same order on both, so the two builds' forward products agree bit for bit. Backward,
+// the product dz W^T (K = 4H): with AVX-512 the panel streams W[L p + l, 4 k + q] for q < 4 as
+// four vectors, summed into four partial sums per row and added at the end; with AVX2 each unit's
+// row of W is dotted with the rows of dz, two units at a time, a vector of k at a time (their
+// lanes added at the end), which needs no broadcasts: in float32 the two builds' backward
+// products agree to rounding (a relative 2e-7 on the tests' inputs). With bfloat16 weights (AVX512_BF16 only) a panel holds
 // pairs of consecutive k for the dot product vdpbf16ps, the row operand is rounded to bfloat16
 // (nearest even) and the float32 sum is rounded to bfloat16 and widened, as TensorFlow's
 // bfloat16 matmul and cast do in rnn_seg.lstm.product.
@@ -58,11 +60,9 @@ using tensorflow::errors::InvalidArgument;
 #if defined(__AVX512F__)
 constexpr int kLanes = 16;          // floats in a vector, units in a panel
 constexpr int kForwardGates = 4;    // gates a forward pass over a panel sums
-constexpr int kBackwardRows = 6;    // rows a backward pass sums (4 partial sums a row)
 #else
 constexpr int kLanes = 8;           // AVX2 (and any other target): 256-bit vectors
 constexpr int kForwardGates = 2;
-constexpr int kBackwardRows = 3;
 #endif
 constexpr int kMaxRows = 6;         // batch rows a call of a product sums
 constexpr int kChunkUnits = 32;     // units a thread claims at a time
@@ -217,12 +217,28 @@ struct Fp32Panels {
     });
   }
 
+#if defined(__AVX512F__)
   // backward: dz W^T, four consecutive k per step of the panel, in one pass
   static Fp32Panels backward(const float* w, int hidden) {
     return packed(hidden, 4, [&](int k, int q, int unit) {
       return w[size_t(unit) * 4 * hidden + 4 * k + q];
     });
   }
+#else
+  // backward: dz W^T as each unit's row of W (its 4H weights, zero-padded to whole vectors),
+  // dotted with the rows of dz; zero rows past the units
+  static Fp32Panels backward(const float* w, int hidden) {
+    Fp32Panels p{(hidden + kLanes - 1) / kLanes, hidden, 4, nullptr};
+    const size_t n = 4 * size_t(hidden);
+    p.data = aligned_zeros<float>(size_t(p.panels) * kLanes * p.row_stride());
+    for (int unit = 0; unit < hidden; ++unit)
+      std::memcpy(p.unit_row(unit), w + unit * n, n * sizeof(float));
+    return p;
+  }
+
+  size_t row_stride() const { return (4 * size_t(depth) + kLanes - 1) / kLanes * kLanes; }
+  float* unit_row(int unit) const { return data.get() + unit * row_stride(); }
+#endif
 
   // panel p, pass q / group, depth k, vector q % group, lane l <- weight(k, q, p L + l); zero
   // past the units
@@ -260,7 +276,7 @@ struct Fp32Panels {
   template <int R, bool kBackward>
   void product(const Rows& rows, int row0, int panel, vec (*acc_out)[4]) const {
     if constexpr (kBackward) {
-      backward_rows<R>(rows, row0, panel, acc_out);
+      backward_sums<R>(rows, row0, panel, acc_out);
     } else {
       for (int pass = 0; pass < 4 / kForwardGates; ++pass)
         forward_pass<R>(rows, row0, panel, pass, acc_out);
@@ -290,26 +306,68 @@ struct Fp32Panels {
       for (int q = 0; q < kForwardGates; ++q) acc_out[r][pass * kForwardGates + q] = acc[r][q];
   }
 
-  // The rows' 4 partial sums each, kBackwardRows rows at a time (their accumulators fill the
-  // registers), each group of rows streaming the panel (from the cache after the first).
+#if defined(__AVX512F__)
+  // The rows' four partial sums each, added at the end.
   template <int R>
-  void backward_rows(const Rows& rows, int row0, int panel, vec (*acc_out)[4]) const {
-    constexpr int kNow = R < kBackwardRows ? R : kBackwardRows;
-    vec acc[kNow][4];
-    for (int r = 0; r < kNow; ++r)
+  void backward_sums(const Rows& rows, int row0, int panel, vec (*acc_out)[4]) const {
+    vec acc[R][4];
+    for (int r = 0; r < R; ++r)
       for (int q = 0; q < 4; ++q) acc[r][q] = vec{};
-    const float* a[kNow];
-    for (int r = 0; r < kNow; ++r) a[r] = rows.base + (row0 + r) * rows.stride;
+    const float* a[R];
+    for (int r = 0; r < R; ++r) a[r] = rows.base + (row0 + r) * rows.stride;
     const vec* w = reinterpret_cast<const vec*>(at(panel, 0, 0));
     for (int k = 0; k < depth; ++k, w += 4) {
-      for (int r = 0; r < kNow; ++r) {
+      for (int r = 0; r < R; ++r) {
         const float* s = a[r] + 4 * k;
         for (int q = 0; q < 4; ++q) acc[r][q] += s[q] * w[q];
       }
     }
-    for (int r = 0; r < kNow; ++r) acc_out[r][0] = (acc[r][0] + acc[r][1]) + (acc[r][2] + acc[r][3]);
-    if constexpr (R > kNow) backward_rows<R - kNow>(rows, row0 + kNow, panel, acc_out + kNow);
+    for (int r = 0; r < R; ++r) acc_out[r][0] = (acc[r][0] + acc[r][1]) + (acc[r][2] + acc[r][3]);
   }
+#else
+  // Two units at a time, each unit's row of W against every row of dz, a vector of k at a time:
+  // 2 R lane-wise sums (12 registers at most), added across their lanes at the end. No
+  // broadcasts, which the partial sums above need four of per step of k and row, and which share
+  // a port with the multiply-adds on AVX2 cores.
+  typedef float unaligned_vec __attribute__((vector_size(kLanes * sizeof(float)), aligned(4)));
+
+  template <int R>
+  void backward_sums(const Rows& rows, int row0, int panel, vec (*acc_out)[4]) const {
+    const int n = 4 * depth, whole = n / kLanes;
+    const float* a[R];
+    for (int r = 0; r < R; ++r) a[r] = rows.base + (row0 + r) * rows.stride;
+    for (int l = 0; l < kLanes; l += 2) {
+      const float* w0 = unit_row(panel * kLanes + l);
+      const float* w1 = w0 + row_stride();
+      vec acc[R][2];
+      for (int r = 0; r < R; ++r) acc[r][0] = acc[r][1] = vec{};
+      for (int k = 0; k < whole; ++k) {
+        const vec x0 = reinterpret_cast<const vec*>(w0)[k], x1 = reinterpret_cast<const vec*>(w1)[k];
+        for (int r = 0; r < R; ++r) {
+          const vec d = reinterpret_cast<const unaligned_vec*>(a[r])[k];
+          acc[r][0] += d * x0;
+          acc[r][1] += d * x1;
+        }
+      }
+      for (int r = 0; r < R; ++r) {
+        float s0 = across(acc[r][0]), s1 = across(acc[r][1]);
+        for (int k = whole * kLanes; k < n; ++k) {        // 4H not a whole number of vectors
+          s0 += a[r][k] * w0[k];
+          s1 += a[r][k] * w1[k];
+        }
+        acc_out[r][0][l] = s0;
+        acc_out[r][0][l + 1] = s1;
+      }
+    }
+  }
+
+  // The sum of a vector's lanes, pairwise.
+  static float across(vec v) {
+    for (int width = kLanes / 2; width > 0; width /= 2)
+      for (int l = 0; l < width; ++l) v[l] += v[l + width];
+    return v[0];
+  }
+#endif
 };
 
 // ---- the products, bfloat16 (AVX512_BF16) ----------------------------------------------------
