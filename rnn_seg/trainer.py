@@ -20,8 +20,10 @@ A run directory holds::
     metrics.json                 every evaluation point, their mean, the confusion matrices summed
                                  over the points, and whether the training loss had stopped
                                  falling (``rnn_seg.convergence``)
-    finished.json                written last (settings hash, start and end time, provenance); a
-                                 run without it is incomplete and resumes
+    finished.json                written last (settings hash, start and end time, provenance, the
+                                 training segments: which loops and precision trained which
+                                 sweeps, and why; rnn_seg.runs.segments); a run without it is
+                                 incomplete and resumes
     .lock                        while a process trains the run: its lock (rnn_seg.runs.lock)
 
 A run folder always matches its weights: launching a run into a folder that records other settings
@@ -57,6 +59,7 @@ from .sweeps import make_sweep, pad_sweep, reset_flags, sweep_indices, sweeps_pe
 from .predictions import prediction_csv, prediction_table
 from .tasks import Task, task_metrics, task_scores
 from .runs.provenance import now, provenance, started_loops
+from .runs.segments import SEGMENTS, closed, earlier_segments, session_segment
 from .runs.settings import SettingsMismatchError, check_run_dir, settings_hash
 from .runs.timing import PhaseClock
 
@@ -192,6 +195,7 @@ class Trainer:
         self._test_outputs_at: tuple[int, dict] | None = None   # (sweep, outputs) of the test set
         self._store: CheckpointStore | None = None                  # set by prepare()
         self._record: dict = {}                                     # config.json, by prepare()
+        self._segments: list[dict] = []                             # by resume()
         self._losses: list[np.ndarray] = []                         # since the last progress line
         self._summaries: tf.summary.SummaryWriter | None = None     # with config.tensorboard
         self._started = time.time()
@@ -364,6 +368,9 @@ class Trainer:
         self._last_line = (done, self._started)
         if done:
             self._continue_clock(done)
+        self._segments = [*earlier_segments(self._store.clock(done) if done else None, done,
+                                            self._record),
+                          session_segment(self.model.encoder, done)]
         return done
 
     def _continue_clock(self, done: int) -> None:
@@ -403,7 +410,8 @@ class Trainer:
                 or done % (self.sweeps_per_unit * self.config.checkpoint_every) == 0):
             with self.clock.phase("checkpoint"):
                 self._store.save(done, {"phases": self.clock.report(),
-                                        "elapsed_seconds": time.time() - self._started})
+                                        "elapsed_seconds": time.time() - self._started,
+                                        SEGMENTS: closed(self._segments, done)})
 
     def log_columns(self) -> dict[str, list[str]]:
         """The columns of the run's CSV logs (``rnn_seg.runs.logs``) it knows: ``history.csv``'s,
@@ -550,7 +558,7 @@ class Trainer:
         mark_finished(self.run_dir, {
             "sweeps": self.total_sweeps, "settings_hash": self.settings_hash,
             "started": self._record.get("provenance", {}).get("started"), "finished": now(),
-            "provenance": provenance()})
+            "provenance": provenance(), SEGMENTS: closed(self._segments, self.total_sweeps)})
         return read_json(self.run_dir / "metrics.json")
 
 

@@ -165,10 +165,15 @@ def _row_key(row) -> RunKey:
 
 
 def _path(grid: Path, records: dict[Path, RunRecord]) -> str:
-    """``"<loops> loops, <precision>"`` of every run of ``grid`` (``ValueError`` if they differ:
-    e.g. a fused run that fell back to the graph loops)."""
+    """``"<loops> loops, <precision>"`` of every run of ``grid`` (``ValueError`` if they differ,
+    or a run's sessions ran on different loops: e.g. a fused run resumed on the graph loops)."""
     paths = {f"{r.loops()} loops, {r.config.encoder.precision}"
              for r in records.values()}
+    mixed = sorted(str(run) for run, r in records.items() if r.loops().startswith("mixed"))
+    if mixed:
+        raise ValueError(f"{grid}: {len(mixed)} run(s) ran on more than one execution path, its "
+                         f"sessions on different loops (first: {mixed[0]}, "
+                         f"{records[Path(mixed[0])].loops()}): one path per grid")
     if len(paths) != 1:
         raise ValueError(f"{grid}: its runs ran on more than one execution path "
                          f"({', '.join(sorted(paths))}): one path per grid")
