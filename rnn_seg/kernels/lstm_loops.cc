@@ -36,6 +36,7 @@
 #include <cstring>
 #include <memory>
 #include <mutex>
+#include <thread>
 #include <vector>
 
 #if defined(__AVX512BF16__)
@@ -154,6 +155,9 @@ class SharedSteps {
   }
 
  private:
+  // Spins briefly (a step's panels usually complete within microseconds), then yields the
+  // core while it waits, so that on a busy machine the thread it waits for runs instead of
+  // a spin (sched_yield returns at once where nothing else wants the core), then sleeps.
   void wait_done(int64_t target) {
     for (int spins = 0; spins < kSpins; ++spins) {
       if (done_.load(std::memory_order_acquire) >= target) return;
@@ -161,13 +165,17 @@ class SharedSteps {
       __builtin_ia32_pause();
 #endif
     }
+    for (int yields = 0; yields < kYields; ++yields) {
+      if (done_.load(std::memory_order_acquire) >= target) return;
+      std::this_thread::yield();
+    }
     std::unique_lock<std::mutex> lock(mutex_);
     sleepers_.fetch_add(1);
     wake_.wait(lock, [&] { return done_.load() >= target; });
     sleepers_.fetch_sub(1);
   }
 
-  static constexpr int kSpins = 20000;
+  static constexpr int kSpins = 2000, kYields = 20000;
   const int64_t panels_, chunk_, total_;
   std::atomic<int64_t> claimed_{0}, done_{0};
   std::atomic<int> sleepers_{0};
