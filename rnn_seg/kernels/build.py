@@ -212,7 +212,7 @@ def build(path: Path) -> None:
             "built_seconds": round(time.monotonic() - started, 1)}, indent=1) + "\n")
         os.replace(record, record_path(path))
         os.replace(target, path)
-    print(f"built in {time.monotonic() - started:.0f} s", file=sys.stderr, flush=True)
+    print(f"  built in {time.monotonic() - started:.0f} s", file=sys.stderr, flush=True)
 
 
 def _compile(command: list[str], name: str) -> None:
