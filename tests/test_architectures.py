@@ -11,15 +11,15 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from multitask.evidence.architectures import (ArchitectureEvidence, architecture_markdown,
-                                              architecture_table, measured_table2,
-                                              read_architectures, runs_of)
-from multitask.evidence.claims import TCN_CLAIMS, Claim, evaluate
-from multitask.evidence.claims_table import claims_note
 from multitask.evidence.cli import main as tables_main
-from multitask.evidence.latex import required_packages
-from multitask.evidence.paired import ConfigId, Contrast, holm
-from multitask.evidence.pooling import MixedArchitectures, apart
+from multitask.evidence.render.latex import required_packages
+from multitask.evidence.runs.pooling import MixedArchitectures, apart
+from multitask.evidence.statistics.paired import ConfigId, Contrast, holm
+from multitask.evidence.studies.architectures import (ArchitectureEvidence, architecture_markdown,
+                                                      architecture_table, measured_table2,
+                                                      read_architectures, runs_of)
+from multitask.evidence.studies.claims import TCN_CLAIMS, Claim, evaluate
+from multitask.evidence.studies.claims_table import claims_note
 from multitask.grid.spec import Experiment
 from multitask.models.run_record import read_run_record
 from tests.fake_grid import FOLDS, write_fake_grid

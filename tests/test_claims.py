@@ -10,15 +10,15 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from multitask.evidence.claims import (CLAIMS, COLUMNS, MIN_PAIRS, VERDICTS, Claim, evaluate,
-                                       paper_difference, paper_value, smallest_adjusted_p,
-                                       verdict)
-from multitask.evidence.claims_table import claims_latex, write_claims
-from multitask.evidence.collect import LOWER_IS_BETTER, METRICS
-from multitask.evidence.latex import escape, required_packages
-from multitask.evidence.paired import (ConfigId, Contrast, NotPaired, SignFlip, StatsConfig,
-                                       holm, paired, power)
 from multitask.evidence.cli import main as tables_main
+from multitask.evidence.render.latex import escape, required_packages
+from multitask.evidence.runs.collect import LOWER_IS_BETTER, METRICS
+from multitask.evidence.statistics.paired import (ConfigId, Contrast, NotPaired, SignFlip,
+                                                  StatsConfig, holm, paired, power)
+from multitask.evidence.studies.claims import (CLAIMS, COLUMNS, MIN_PAIRS, VERDICTS, Claim,
+                                               evaluate, paper_difference, paper_value,
+                                               smallest_adjusted_p, verdict)
+from multitask.evidence.studies.claims_table import claims_latex, write_claims
 from multitask.grid.spec import RunKey
 from tests.fake_grid import write_fake_run
 

@@ -1,4 +1,5 @@
-"""The pre-registered confirmatory analysis (``multitask.evidence.confirm``, ``--confirm``)."""
+"""The pre-registered confirmatory analysis (``multitask.evidence.studies.confirm``,
+``multitask-tables confirm``)."""
 from __future__ import annotations
 
 import json
@@ -10,8 +11,8 @@ import pandas as pd
 import pytest
 
 from multitask.evidence.cli import main as tables_main
-from multitask.evidence.collect import run_rows
-from multitask.evidence.confirm import Part, PlanError, analyse, outcome, read_plan
+from multitask.evidence.runs.collect import run_rows
+from multitask.evidence.studies.confirm import Part, PlanError, analyse, outcome, read_plan
 from multitask.grid.spec import Experiment
 from tests.fake_grid import FOLDS, write_fake_grid
 
@@ -218,7 +219,7 @@ def test_the_rule_out_criterion_reads_our_upper_end_with_two_decimals(project: P
                                                                      apoc_high, excluded):
     """PLAN.md: "The paper's gains are compared to the interval with their published digit and
     ours with two decimals": an upper end of 2.996 is 3.00, not below the paper's +3.0."""
-    from multitask.evidence import confirm
+    from multitask.evidence.studies import confirm
 
     real = confirm.paired
 
@@ -289,7 +290,7 @@ def test_a_tie_lost_to_float_rounding_still_counts():
     """A fold difference that is 0 but computed as 5.6e-17 (0.1 + 0.2 - 0.3), or folds whose
     differences sum to 0 up to rounding, count as the exact ties they are: the p-value and the
     interval do not depend on how the seed means were rounded."""
-    from multitask.evidence.paired import SignFlip
+    from multitask.evidence.statistics.paired import SignFlip
 
     exact = np.array([0.0, 1.0, 2.0, 1.5, 0.5, 3.0, 1.0, 2.5])
     rounded = exact.copy()
@@ -388,7 +389,7 @@ def test_the_reports_numbers_are_the_analysis_rounded_as_the_plan_says(project: 
 
 
 def test_the_report_labels_exploratory_rows_and_keeps_them_out_of_the_outcomes(project: Path):
-    from multitask.evidence.confirm_report import confirm_markdown
+    from multitask.evidence.studies.confirm_report import confirm_markdown
 
     plan = read_plan(project / "confirm" / "plan.toml")
     table, _, skipped = analyse(plan)

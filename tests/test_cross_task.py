@@ -1,11 +1,12 @@
-"""The JIGSAWS tasks side by side (multitask.evidence.tasks): read from each task's tables."""
+"""The JIGSAWS tasks side by side (multitask.evidence.studies.tasks): read from each task's
+tables."""
 from __future__ import annotations
 
 from pathlib import Path
 
 import pandas as pd
 
-from multitask.evidence.tasks import MODELS, SCORES, main
+from multitask.evidence.studies.tasks import MODELS, SCORES, main
 
 
 def _tables(folder: Path, shift: float, seeds: int) -> Path:

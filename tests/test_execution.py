@@ -10,9 +10,9 @@ import pandas as pd
 import pytest
 
 from multitask.evidence.cli import main as tables_main
-from multitask.evidence.collect import run_rows
-from multitask.evidence.execution import SMALL_SHIFT, outcome, shift_note
-from multitask.evidence.paired import StatsConfig, paired_sides
+from multitask.evidence.runs.collect import run_rows
+from multitask.evidence.statistics.paired import StatsConfig, paired_sides
+from multitask.evidence.studies.execution import SMALL_SHIFT, outcome, shift_note
 from multitask.grid.spec import Experiment
 from tests.fake_grid import FOLDS, write_fake_grid
 

@@ -15,11 +15,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from multitask.grid.spec import (Experiment, GridSpec, RunKey, expand, job_groups, load_spec,
-                                 run_config, spec_from_dict, stack_groups, with_budget)
+from multitask.evidence.cli import main as tables_main
 from multitask.grid.cli import main as grid_main
 from multitask.grid.executors import run_grid
-from multitask.evidence.cli import main as tables_main
+from multitask.grid.spec import (Experiment, GridSpec, RunKey, expand, job_groups, load_spec,
+                                 run_config, spec_from_dict, stack_groups, with_budget)
 from multitask.models.variants import get_variant
 
 TINY = """
@@ -333,7 +333,7 @@ def test_run_key_paths_are_unique():
 
 
 def test_annotation_ablation_reports_revised_minus_original():
-    from multitask.evidence.tables import annotation_ablation, to_latex
+    from multitask.evidence.render.tables import annotation_ablation, to_latex
 
     summary = pd.DataFrame([
         {"annotations": a, "direction": "bidirectional", "variant": v, "weighting": "fixed",
@@ -365,7 +365,7 @@ def test_runs_saved_before_the_standard_error_get_it_from_their_history(tmp_path
     takes the standard error from history.csv with the saved criterion, and keeps the saved
     verdict and loss_drop; a history that cannot give it leaves it blank, never an error."""
     from fake_grid import write_fake_grid
-    from multitask.evidence.collect import run_rows
+    from multitask.evidence.runs.collect import run_rows
     from rnn_seg.convergence import history_convergence
     from rnn_seg.runs.folder import read_json, write_json
 
@@ -393,7 +393,7 @@ def test_runs_saved_before_the_standard_error_get_it_from_their_history(tmp_path
 
 
 def test_tables_carry_rounded_and_raw_mae():
-    from multitask.evidence.tables import PAPER_TABLES, paper_comparison
+    from multitask.evidence.render.tables import PAPER_TABLES, paper_comparison
 
     summary = pd.DataFrame([{"annotations": "revised", "direction": "bidirectional",
                              "variant": "APr", "weighting": "fixed", "folds": 8, "still_falling": 0,
@@ -431,7 +431,7 @@ def test_experiments_may_name_their_own_seeds_first_seeds_run_first_then_by_conf
 
 
 def test_tables_mark_runs_still_falling_and_name_undecided_ones_in_the_note():
-    from multitask.evidence.tables import PAPER_TABLES, paper_comparison, to_latex
+    from multitask.evidence.render.tables import PAPER_TABLES, paper_comparison, to_latex
 
     row = {"annotations": "revised", "direction": "bidirectional", "weighting": "fixed",
            "folds": 8, "gesture_accuracy_mean": 85.0, "gesture_accuracy_std": 5.0}

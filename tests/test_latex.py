@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from multitask.grid.spec import Experiment
-from multitask.evidence.latex import escape, mean_std, number, required_packages
 from multitask.evidence.cli import main as tables_main
+from multitask.evidence.render.latex import escape, mean_std, number, required_packages
+from multitask.grid.spec import Experiment
 from tests.fake_grid import FOLDS, TRIALS, write_fake_grid
 
 #: IEEE conference page (IEEEtran): 43pc text width, two 21pc columns.

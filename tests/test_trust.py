@@ -804,7 +804,7 @@ def test_a_malformed_grid_record_is_one_line_naming_it(tmp_path, capsys):
 
 
 def test_collecting_results_imports_no_tensorflow():
-    script = "import sys, multitask.evidence.collect\nprint('tensorflow' in sys.modules)"
+    script = "import sys, multitask.evidence.runs.collect\nprint('tensorflow' in sys.modules)"
     result = subprocess.run([sys.executable, "-c", script], env=ENV, capture_output=True,
                             text=True, check=True)
     assert result.stdout.strip() == "False"

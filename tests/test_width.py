@@ -7,11 +7,11 @@ import shutil
 import pandas as pd
 import pytest
 
-from tests.fake_grid import FOLDS, write_fake_grid
 from multitask.evidence.cli import main as tables_main
-from multitask.evidence.collect import run_rows
-from multitask.evidence.paper_results import TABLE_1
+from multitask.evidence.render.paper_results import TABLE_1
+from multitask.evidence.runs.collect import run_rows
 from multitask.grid.spec import Experiment
+from tests.fake_grid import FOLDS, write_fake_grid
 
 MODELS = (Experiment(variants=("A",)), Experiment(variants=("APoc",), weightings=("gradnorm",)))
 

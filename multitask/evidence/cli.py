@@ -145,9 +145,9 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
         seeds: only the runs of these seeds (None: all).
         finished_only: leave out the configurations with a run not finished yet.
     """
-    from .collect import per_fold
-    from .confusion import write_per_class
-    from .standalone import is_run_collection
+    from .render.confusion import write_per_class
+    from .runs.collect import per_fold
+    from .runs.standalone import is_run_collection
 
     if is_run_collection(grid_dir):
         return _run_collection_tables(grid_dir, out, allow_incomplete or finished_only, seeds)
@@ -160,12 +160,12 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
     written = _evidence_tables(Path(grid_dir), runs, folds, out, seeds, ours_only)
     written += write_per_class(Path(grid_dir), runs, folds, out, figures)
     if figures:
-        from .figures import all_figures
+        from .render.figures import all_figures
 
         written += all_figures(Path(grid_dir), folds, out / "figures", example,
                                gradnorm=not foreign)
     if curves and not foreign:
-        from .curves import training_curves
+        from .render.curves import training_curves
 
         written += training_curves(grid_dir, out / "figures" / "curves")
     return written
@@ -177,11 +177,11 @@ def _evidence_tables(grid_dir: Path, runs: pd.DataFrame, folds: pd.DataFrame, ou
     then the paper's tables and claims for Suturing, the conjecture's claims for another task."""
     from jigsaws_tools.task_definition import PAPER_TASK
 
-    from .captions import describe_runs
-    from .claims import CONJECTURE_CLAIMS
-    from .claims_table import write_claims
-    from .collect import (CONFIG_COLUMNS, completeness, expected_runs, grid_task_name, of_seeds,
-                          recorded_runs, summary)
+    from .render.captions import describe_runs
+    from .runs.collect import (CONFIG_COLUMNS, completeness, expected_runs, grid_task_name,
+                               of_seeds, recorded_runs, summary)
+    from .studies.claims import CONJECTURE_CLAIMS
+    from .studies.claims_table import write_claims
 
     expected = expected_runs(grid_dir, of_seeds(grid_dir, recorded_runs(grid_dir)[0], seeds))
     stats = summary(folds).merge(completeness(runs, expected), on=CONFIG_COLUMNS, how="left")
@@ -200,7 +200,7 @@ def _example(grid_dir: Path, folds: pd.DataFrame, example_trial: str | None
              ) -> tuple[str, str] | None:
     """The example figures' trial (``figures.example_trial``), chosen before anything is written
     (an unknown ``example_trial`` is an error); None, with a note, when no run kept predictions."""
-    from .figures import example_trial as choose_example
+    from .render.figures import example_trial as choose_example
 
     example = choose_example(grid_dir, folds, example_trial)
     if example is None:
@@ -214,9 +214,9 @@ def _runs(grid_dir: Path, allow_incomplete: bool, seeds: tuple[int, ...] | None,
           finished_only: bool):
     """``collect.run_rows``, each problem and configuration left out reported on stderr; and
     whether a run folder of other settings than the grid's was left out."""
-    from .checks import OTHER_SETTINGS
-    from .collect import LEFT_OUT, MISPLACED, run_rows
-    from .standalone import is_run_collection, standalone_rows
+    from .runs.checks import OTHER_SETTINGS
+    from .runs.collect import LEFT_OUT, MISPLACED, run_rows
+    from .runs.standalone import is_run_collection, standalone_rows
 
     if is_run_collection(grid_dir):
         runs, problems = standalone_rows(grid_dir, allow_incomplete or finished_only, seeds)
@@ -232,8 +232,8 @@ def _run_collection_tables(folder: Path, out: Path, allow_incomplete: bool,
                            seeds: tuple[int, ...] | None) -> list[Path]:
     """``runs.csv`` (with each run's folder), ``per_fold.csv`` and ``summary.csv`` of runs
     trained one by one (``standalone``)."""
-    from .collect import per_fold, summary
-    from .standalone import RUN_COLUMN
+    from .runs.collect import per_fold, summary
+    from .runs.standalone import RUN_COLUMN
 
     runs, _ = _runs(folder, allow_incomplete, seeds, finished_only=False)
     folds = per_fold(runs.drop(columns=RUN_COLUMN))
@@ -246,10 +246,10 @@ def _run_collection_tables(folder: Path, out: Path, allow_incomplete: bool,
 
 def _paper_tables(grid_dir: Path, runs, stats, out: Path, ours_only: bool) -> list[Path]:
     """Tables I-III against the paper and the annotation ablation (Suturing grids only)."""
-    from .captions import describe_runs
-    from .tables import (PAPER_TABLES, ablation_caption, annotation_ablation, paper_best,
-                         paper_caption, paper_comparison, table_runs, to_latex)
-    from .time_baseline import with_time_baseline
+    from .render.captions import describe_runs
+    from .render.tables import (PAPER_TABLES, ablation_caption, annotation_ablation, paper_best,
+                                paper_caption, paper_comparison, table_runs, to_latex)
+    from .statistics.time_baseline import with_time_baseline
 
     written = []
     for table in PAPER_TABLES:
@@ -276,7 +276,7 @@ def _paper_tables(grid_dir: Path, runs, stats, out: Path, ours_only: bool) -> li
 def _compare(grid_dir: Path, compare: list[str], minus: list[str] | None, metric: str,
              allow_incomplete: bool, seeds: tuple[int, ...] | None, finished_only: bool) -> str:
     """The paired statistics of one comparison, as text."""
-    from .paired import ConfigId, Contrast, NotPaired, config_labels, paired
+    from .statistics.paired import ConfigId, Contrast, NotPaired, config_labels, paired
 
     x, y = map(ConfigId.parse, compare)
     contrast = Contrast(x, y, tuple(map(ConfigId.parse, minus)) if minus else None)
@@ -427,7 +427,7 @@ def _left_alone(args: argparse.Namespace) -> tuple[str, ...]:
 
 def _confirm(args: argparse.Namespace) -> None:
     """``--confirm``: the plan's analysis into ``--out``, all files or none."""
-    from .confirm_report import write_confirmatory
+    from .studies.confirm_report import write_confirmatory
 
     check_output_folder(args.out, PROG, may_hold=True)
     with staged_outputs(args.out, CONFIRM_MANIFEST, PROG, args.overwrite) as staging:
@@ -440,7 +440,7 @@ def _confirm(args: argparse.Namespace) -> None:
 
 def _architectures(args: argparse.Namespace) -> None:
     """``--architectures``: the grids side by side into ``--out``, all files or none."""
-    from .architectures import write_architectures
+    from .studies.architectures import write_architectures
 
     for grid in args.architectures:
         if not grid.is_dir():
@@ -455,7 +455,7 @@ def _architectures(args: argparse.Namespace) -> None:
 
 def _width_entries(args: argparse.Namespace) -> list[tuple[Path, ...]]:
     """``--widths``: the grids of each width, GRID_DIR's first (``width.width_entry``)."""
-    from .width import width_entry
+    from .studies.width import width_entry
 
     return [width_entry(str(entry)) for entry in (args.grid_dir, *args.widths)]
 
@@ -479,7 +479,7 @@ def _run(args: argparse.Namespace) -> None:
         print(_compare(args.grid_dir, args.compare, args.minus, args.metric,
                        args.allow_incomplete, seeds, args.finished_only))
         return
-    from . import drawing
+    from .render import drawing
 
     out = args.out or args.grid_dir / "tables"
     check_output_folder(out, PROG, may_hold=True)   # beside grids, never in a run or grid's runs
@@ -491,11 +491,11 @@ def _run(args: argparse.Namespace) -> None:
     with staged_outputs(out, manifest, PROG, args.overwrite, record=record, kept=kept) \
             as staging, drawing.shown(PROG):
         if args.widths:
-            from .width import write_width
+            from .studies.width import write_width
 
             written = write_width(entries, staging, seeds)
         elif args.reference:
-            from .execution import write_execution
+            from .studies.execution import write_execution
 
             written, notes = write_execution(args.grid_dir, args.reference, args.margin,
                                              staging)

@@ -24,8 +24,8 @@ from rnn_seg.runs.folder import write_atomic
 from rnn_seg.runs.manifest import staged_outputs
 from rnn_seg.runs.outputs import check_output_folder
 
-from .markdown import markdown_table
-from .paired import ConfigId
+from ..render.markdown import markdown_table
+from ..statistics.paired import ConfigId
 
 PROG = "python -m multitask.evidence.tasks"
 #: The multi-task models compared with A (``<variant>-<weighting>``).

@@ -21,7 +21,7 @@ from itertools import groupby
 
 import pandas as pd
 
-from .collect import CONVERGENCE_COUNTS, LOWER_IS_BETTER, METRICS, finite, lookup
+from ..runs.collect import CONVERGENCE_COUNTS, LOWER_IS_BETTER, METRICS, finite, lookup
 from .latex import bold, escape, mean_std, number, requires
 from .paper_results import TABLE_1, TABLE_2, TABLE_2_RELATED, TABLE_3, Number
 

@@ -35,8 +35,8 @@ from jigsaws_tools.dataset import DataConfig
 from rnn_seg.encoders.config import ENCODERS
 from rnn_seg.runs.settings import settings_of
 
-from ..grid.spec import RunKey
-from ..models.run_record import RunRecord
+from ...grid.spec import RunKey
+from ...models.run_record import RunRecord
 
 #: The settings the runs of one configuration differ in: a table pools over them.
 POOLED = ("run.train.seed", "run.test_user")
