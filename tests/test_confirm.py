@@ -274,15 +274,15 @@ def test_the_command_writes_the_analysis_from_any_folder(project: Path, tmp_path
                                                          monkeypatch, capsys):
     monkeypatch.chdir(tmp_path.parent)
     out = project / "confirm"
-    assert tables_main(["--confirm", str(out / "plan.toml"), "--out", str(out)]) == 0
+    assert tables_main(["confirm", str(out / "plan.toml"), "--out", str(out)]) == 0
     table = pd.read_csv(out / "confirm.csv")
     assert set(table.part) == {"wide"} and "replication: not analysed" in capsys.readouterr().err
     assert (out / "plan.toml").read_text() == PLAN              # the plan is never written
     first = (out / "confirm.csv").read_bytes()
-    assert tables_main(["--confirm", str(out / "plan.toml"), "--out", str(out)]) == 0
+    assert tables_main(["confirm", str(out / "plan.toml"), "--out", str(out)]) == 0
     assert (out / "confirm.csv").read_bytes() == first
     with pytest.raises(SystemExit):
-        tables_main(["--confirm", str(out / "plan.toml"), "--out", str(out), "--seeds", "0"])
+        tables_main(["confirm", str(out / "plan.toml"), "--out", str(out), "--seeds", "0"])
     assert np.isfinite(table["diff"]).all()
 
 
@@ -353,7 +353,7 @@ def _report(project: Path, plan_text: str = PLAN) -> tuple[str, pd.DataFrame]:
     """confirm.md and confirm.csv as the command writes them for ``plan_text``."""
     out = project / "confirm"
     (out / "plan.toml").write_text(plan_text)
-    assert tables_main(["--confirm", str(out / "plan.toml"), "--out", str(out)]) == 0
+    assert tables_main(["confirm", str(out / "plan.toml"), "--out", str(out)]) == 0
     return (out / "confirm.md").read_text(), pd.read_csv(out / "confirm.csv")
 
 
@@ -421,11 +421,11 @@ def test_a_part_without_sensitivity_seeds_reports_no_sensitivity_analysis(projec
 
 def test_a_file_of_the_reports_name_is_replaced_only_with_overwrite(project: Path, capsys):
     """A confirm.md the command did not write is refused, and the refusal's advice (--overwrite)
-    is an option --confirm takes."""
+    is an option multitask-tables confirm takes."""
     out = project / "elsewhere"
     out.mkdir()
     (out / "confirm.md").write_text("mine\n")
-    command = ["--confirm", str(project / "confirm" / "plan.toml"), "--out", str(out)]
+    command = ["confirm", str(project / "confirm" / "plan.toml"), "--out", str(out)]
     assert tables_main(command) == 2
     assert "(--overwrite)" in capsys.readouterr().err
     assert (out / "confirm.md").read_text() == "mine\n" and not (out / "confirm.csv").exists()
@@ -446,7 +446,7 @@ def test_what_the_command_writes_does_not_depend_on_where_the_checkout_or_the_us
     reports = []
     for root in (project, elsewhere / "project"):
         out = root / "confirm"
-        assert tables_main(["--confirm", str(out / "plan.toml"), "--out", str(out)]) == 0
+        assert tables_main(["confirm", str(out / "plan.toml"), "--out", str(out)]) == 0
         reports.append((out / "confirm.md").read_text())
     assert reports[0] == reports[1]
     assert str(project) not in reports[0] and str(elsewhere) not in reports[0]

@@ -1,5 +1,5 @@
 """An independent re-implementation of ``results/confirm/PLAN.md``, checked against
-``multitask-tables --confirm`` on fake grids with chosen scores.
+``multitask-tables confirm`` on fake grids with chosen scores.
 
 Nothing here imports ``multitask.evidence.statistics.paired``: the sign vectors are enumerated
 one by one (``itertools.product``), the p-value is counted from PLAN.md's definition (the share
@@ -187,8 +187,8 @@ def project(root: Path, wide: dict | None, narrow: dict | None) -> Path:
 
 
 def run_confirm(plan: Path, out: Path) -> pd.DataFrame:
-    """``multitask-tables --confirm`` as a user runs it: its confirm.csv."""
-    assert tables_main(["--confirm", str(plan), "--out", str(out)]) == 0
+    """``multitask-tables confirm`` as a user runs it: its confirm.csv."""
+    assert tables_main(["confirm", str(plan), "--out", str(out)]) == 0
     return pd.read_csv(out / "confirm.csv")
 
 

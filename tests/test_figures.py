@@ -202,9 +202,9 @@ def test_tables_command_draws_curves_and_the_chosen_trial(tmp_path, capsys):
     grid = write_fake_grid(tmp_path / "grid", seeds=(0,), experiments=(
         Experiment(("A", "APr", "APc", "APoc"), ("fixed", "gradnorm")),))
     out = tmp_path / "tables"
-    assert tables_main([str(grid), "--out", str(out), "--example-trial", "nope"]) == 2
+    assert tables_main(["paper", str(grid), "--out", str(out), "--example-trial", "nope"]) == 2
     assert "example trial 'nope'" in capsys.readouterr().err and not out.exists()
-    assert tables_main([str(grid), "--out", str(out), "--curves",
+    assert tables_main(["paper", str(grid), "--out", str(out), "--curves",
                         "--example-trial", "Suturing_C002"]) == 0
     assert len(list((out / "figures" / "curves").glob("*.pdf"))) == 7
     said = capsys.readouterr().out.splitlines()          # off a terminal: a line per figure
@@ -215,7 +215,7 @@ def test_tables_command_draws_curves_and_the_chosen_trial(tmp_path, capsys):
                  "fold_accuracy", "gesture_vs_progress", "gradnorm_weights"):
         assert (out / "figures" / f"{name}.png").stat().st_size > 0
     figures_before = {p: p.read_bytes() for p in (out / "figures").rglob("*.png")}
-    assert tables_main([str(grid), "--out", str(out), "--no-figures"]) == 0   # tables only
+    assert tables_main(["paper", str(grid), "--out", str(out), "--no-figures"]) == 0   # tables only
     assert {p: p.read_bytes() for p in (out / "figures").rglob("*.png")} == figures_before
     listed = json.loads((out / "tables.json").read_text())["files"]
     assert "figures/curves/" + next((out / "figures" / "curves").glob("*.png")).name in listed
@@ -227,7 +227,7 @@ def test_seeds_name_each_configuration_they_leave_out(tmp_path, capsys):
     experiments = (Experiment(variants=("A", "APc"), seeds=(0, 1)),
                    Experiment(variants=("APoc",), weightings=("gradnorm",)))
     grid = write_fake_grid(tmp_path / "grid", seeds=(0,), experiments=experiments)
-    assert tables_main([str(grid), "--seeds", "1", "--no-figures", "--out",
+    assert tables_main(["paper", str(grid), "--seeds", "1", "--no-figures", "--out",
                         str(tmp_path / "t")]) == 0
     err = capsys.readouterr().err
     assert "left out: revised/bidirectional/APoc-gradnorm, no run of seed(s) 1" in err
@@ -243,7 +243,7 @@ def test_per_gesture_table_and_confusion_figure_from_saved_matrices(tmp_path, ca
     grid = write_fake_grid(tmp_path / "grid", seeds=(0,), per_class=True, experiments=(
         Experiment(("A", "APc"), ("fixed",)), Experiment(("APoc",), ("gradnorm",))))
     out = tmp_path / "tables"
-    assert tables_main([str(grid), "--out", str(out)]) == 0
+    assert tables_main(["paper", str(grid), "--out", str(out)]) == 0
     assert "per-class" not in capsys.readouterr().err
     assert (out / "figures" / "confusion.png").stat().st_size > 0
     table = pd.read_csv(out / "per_gesture.csv")
@@ -272,7 +272,7 @@ def test_per_gesture_table_and_confusion_figure_from_saved_matrices(tmp_path, ca
 def test_an_archive_without_confusion_matrices_is_tabulated_with_one_note(grid, tmp_path,
                                                                           capsys):
     out = tmp_path / "tables"
-    assert tables_main([str(grid), "--out", str(out), "--no-figures"]) == 0
+    assert tables_main(["paper", str(grid), "--out", str(out), "--no-figures"]) == 0
     notes = [line for line in capsys.readouterr().err.splitlines() if "per-gesture" in line]
     assert len(notes) == 1 and "predate per-class scores" in notes[0]
     assert not (out / "per_gesture.csv").exists() and (out / "summary.csv").is_file()

@@ -108,7 +108,7 @@ def _imports(module: str, source: str) -> set[str]:
 _BELOW_EVIDENCE = {"jigsaws_tools", "rnn_seg", "baseline", "multitask.models", "multitask.grid",
                    "multitask.inference"}
 #: ``multitask.evidence``'s wings in the order the evidence flows: each imports those before it.
-EVIDENCE_WINGS = ("runs", "statistics", "render", "studies")
+EVIDENCE_WINGS = ("runs", "statistics", "render", "studies", "commands")
 LAYERS = {
     "jigsaws_tools": set(),
     "rnn_seg": {"jigsaws_tools"},

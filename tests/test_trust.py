@@ -764,7 +764,7 @@ def _nan_accuracy(run: Path) -> None:
 
 
 def _tables(root: Path, capsys, *flags: str) -> tuple[int, str]:
-    code, _, err = _cli(tables_main, [str(root), "--no-figures", *flags], capsys)
+    code, _, err = _cli(tables_main, ["paper", str(root), "--no-figures", *flags], capsys)
     return code, err
 
 
@@ -850,8 +850,8 @@ def test_seeds_restrict_the_evidence_to_those_seeds_runs(tmp_path, capsys):
 
 def test_compare_reports_what_finished_only_left_out(tmp_path, capsys):
     _running_grid(tmp_path)
-    code, out, err = _cli(tables_main, [str(tmp_path), "--finished-only", "--compare",
-                                        "forward/A-fixed", "A-fixed", "--metric", "gesture_edit"],
+    code, out, err = _cli(tables_main, ["pair", str(tmp_path), "forward/A-fixed",
+                                        "A-fixed", "--finished-only", "--metric", "gesture_edit"],
                           capsys)
     assert code != 0 and "left out: revised/forward/A-fixed" in err, err
     assert "Traceback" not in err

@@ -12,6 +12,6 @@
 * ``drawing``: what ``multitask-tables`` is drawing, said while it works.
 
 May import ``..runs`` and ``..statistics`` (and ``multitask.grid``, ``multitask.models``,
-``jigsaws_tools``, ``rnn_seg``); not ``..studies``: a renderer knows how to
+``jigsaws_tools``, ``rnn_seg``); not ``..studies`` or ``..commands``: a renderer knows how to
 write a table, not which study asks (``tests/test_packaging.py`` checks it).
 """

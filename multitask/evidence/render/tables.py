@@ -182,7 +182,7 @@ def _row(label: str, config: str, metric: str, left: Number, right: Number, fold
 
 def _marked(label: str, *summary_rows: pd.Series) -> str:
     """``label``, followed by what its summary rows say against the evidence: "(incomplete: n/m
-    runs)" when a configuration lacks runs (``multitask-tables --allow-incomplete``), "(still
+    runs)" when a configuration lacks runs (``multitask-tables paper --allow-incomplete``), "(still
     falling: n runs)" and "(undecided: n runs)" for its runs of those three-way convergence
     verdicts (``rnn_seg.convergence``), in one parenthesis separated by "; "."""
     notes = []

@@ -7,6 +7,6 @@
   on the training folds and scored like the progress heads: the row a head must beat.
 
 May import ``..runs`` (and ``multitask.grid``, ``multitask.models``, ``jigsaws_tools``,
-``rnn_seg``); not ``..render`` or ``..studies`` (``tests/test_packaging.py``
+``rnn_seg``); not ``..render``, ``..studies`` or ``..commands`` (``tests/test_packaging.py``
 checks it).
 """

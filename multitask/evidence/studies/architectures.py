@@ -13,7 +13,7 @@ the grid records for them. A seed still training is left out and named in the ta
 metric, a run of other settings or another place, a stray folder) is an error, as for its own
 tables (``collect``).
 
-    multitask-tables --architectures results/grid results/paper/grid results/tcn/ed-tcn \\
+    multitask-tables architectures results/grid results/paper/grid results/tcn/ed-tcn \\
         results/tcn/ms-tcn --out results/tcn
 
 writes into ``--out``:
@@ -99,7 +99,7 @@ def architecture_evidence(grid: Path) -> ArchitectureEvidence:
                                 "results/tcn/ed-tcn)")
     if not (grid / GRID_RECORD).is_file():
         raise ValueError(f"{grid}: not a grid or scores archive (no {GRID_RECORD}); "
-                         "--architectures takes one grid per architecture")
+                         "multitask-tables architectures takes one grid per architecture")
     recorded, _ = recorded_runs(grid)
     complete, left_out, counts = _finished_seeds(grid, recorded)
     if not complete:

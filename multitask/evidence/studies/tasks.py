@@ -6,7 +6,7 @@ folds with its 95 % interval and verdict (``claims``: the paper's claims on Sutu
 conjecture's on the other tasks; both test the same contrasts of offline models on revised
 labels). Nothing is recomputed, so the summary agrees with each task's own tables.
 
-    python -m multitask.evidence.tasks Suturing=results Knot_Tying=results/tasks/Knot_Tying \\
+    multitask-tables tasks Suturing=results Knot_Tying=results/tasks/Knot_Tying \\
         Needle_Passing=results/tasks/Needle_Passing --out results/tasks
 
 writes ``tasks.csv`` (one row per task, model and score) and ``tasks.md`` (the table of
@@ -14,20 +14,15 @@ writes ``tasks.csv`` (one row per task, model and score) and ``tasks.md`` (the t
 """
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import pandas as pd
 
-from jigsaws_tools.cli.common import command_parser, run_command
 from rnn_seg.runs.folder import write_atomic
-from rnn_seg.runs.manifest import staged_outputs
-from rnn_seg.runs.outputs import check_output_folder
 
 from ..render.markdown import markdown_table
 from ..statistics.paired import ConfigId
 
-PROG = "python -m multitask.evidence.tasks"
 #: The multi-task models compared with A (``<variant>-<weighting>``).
 MODELS = ("APc-fixed", "APc-gradnorm", "APoc-fixed", "APoc-gradnorm")
 #: Score -> its name in the Markdown table.
@@ -96,36 +91,11 @@ def _cell(row) -> str:
     return f"{row.value:+.1f} [{row.ci_low:+.1f}, {row.ci_high:+.1f}] {row.verdict}"
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = command_parser(PROG, __doc__.split("\n\n")[0])
-    parser.add_argument("tasks", nargs="+", metavar="TASK=TABLES",
-                        help="a task's name and the folder of its tables, e.g. "
-                             "Knot_Tying=results/tasks/Knot_Tying")
-    parser.add_argument("--out", type=Path, required=True, metavar="DIR",
-                        help="where tasks.csv and tasks.md are written (listed in tasks.json; "
-                             "other files there stay)")
-    parser.add_argument("--overwrite", action="store_true",
-                        help="replace a tasks.csv or tasks.md that tasks.json does not list "
-                             "(default: refuse)")
-    args = parser.parse_args(argv)
-    folders = {}
-    for pair in args.tasks:
-        task, sep, tables = pair.partition("=")
-        if not sep or not task or not tables:
-            parser.error(f"expected TASK=TABLES, got {pair!r}")
-        folders[task] = Path(tables)
-    return run_command(PROG, args.verbose, lambda: _write(folders, args.out, args.overwrite))
-
-
-def _write(folders: dict[str, Path], out: Path, overwrite: bool) -> None:
-    check_output_folder(out, PROG, may_hold=True)
+def write_tasks(folders: dict[str, Path], out: Path) -> list[Path]:
+    """``tasks.csv`` and ``tasks.md`` of the tasks in ``folders`` (task -> the folder of its
+    tables) into ``out``; returns their paths."""
     table = task_table(folders)
-    with staged_outputs(out, "tasks.json", PROG, overwrite) as staging:
-        write_atomic(staging / "tasks.csv", table.to_csv(index=False, float_format="%.4f"))
-        write_atomic(staging / "tasks.md", markdown(table))
-    print(out / "tasks.csv")
-    print(out / "tasks.md")
-
-
-if __name__ == "__main__":
-    sys.exit(main())
+    written = [out / "tasks.csv", out / "tasks.md"]
+    write_atomic(written[0], table.to_csv(index=False, float_format="%.4f"))
+    write_atomic(written[1], markdown(table))
+    return written
