@@ -44,7 +44,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
-    return run_command(PROG, args.verbose, lambda: args.run(args))
+    return run_command(PROG, args.verbose, lambda: args.run(args), argv=argv)
 
 
 def parse_args(argv: list[str] | None = None) -> argparse.Namespace:

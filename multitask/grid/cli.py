@@ -34,8 +34,8 @@ from typing import Callable
 
 from baseline.options import add_threads_argument
 from jigsaws_tools.cli.arg_types import positive_int, thread_count
-from jigsaws_tools.cli.common import (command_parser, deprecated_alias, import_tensorflow,
-                                      run_command)
+from jigsaws_tools.cli.common import (Interrupted, command_parser, deprecated_alias,
+                                      import_tensorflow, run_command)
 from jigsaws_tools.cli.options import DEFAULT_DATA_DIR_TEXT
 from jigsaws_tools.errors import WriteFailed
 from jigsaws_tools.recording_format import RELEASE_LAYOUT_ONLY
@@ -107,7 +107,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--scheduler needs Dask: pip install 'mtrnn-jigsaws[dask]'")
     set_command([PROG, *(sys.argv[1:] if argv is None else argv)])
     return run_command(PROG, args.verbose, lambda: _run(args),
-                       layout_advice=RELEASE_LAYOUT_ONLY)
+                       layout_advice=RELEASE_LAYOUT_ONLY, argv=argv)
 
 
 def _check_grid_folder(out: Path) -> None:
@@ -218,9 +218,8 @@ def _run(args: argparse.Namespace) -> int:
             status = "FAILED" if failed else "FINISHED"
     except KeyboardInterrupt:
         status = "KILLED"
-        print(f"{PROG}: interrupted: queued runs cancelled, running ones stopped; run the same "
-              "command again to resume", file=sys.stderr)
-        return 130
+        raise Interrupted(f"{PROG}: interrupted: queued runs cancelled, running ones stopped; "
+                          "run the same command again to resume") from None
     finally:
         if tracker is not None:
             tracker.end_grid(status)

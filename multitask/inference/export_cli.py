@@ -45,7 +45,7 @@ def _export(args: argparse.Namespace) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    return run_command(PROG, args.verbose, lambda: _export(args))
+    return run_command(PROG, args.verbose, lambda: _export(args), argv=argv)
 
 
 if __name__ == "__main__":
