@@ -48,10 +48,10 @@ import pandas as pd
 
 from rnn_seg.runs.folder import FINISHED, RunFolderError, read_json
 
-from ..models.run_record import RunRecord
-from .collect import LEFT_OUT, IncompleteEvidence, key_from_path, recorded_runs, run_records
-from .paired import TIES, ConfigId, Contrast, StatsConfig, holm, paired
-from .pooling import MixedSettings, architecture
+from ...models.run_record import RunRecord
+from ..runs.collect import LEFT_OUT, IncompleteEvidence, key_from_path, recorded_runs, run_records
+from ..runs.pooling import MixedSettings, architecture
+from ..statistics.paired import TIES, ConfigId, Contrast, StatsConfig, holm, paired
 
 ROLES = ("primary", "secondary")
 COLUMNS = ["part", "family", "role", "analysis", "seeds", "comparison", "metric", "folds",

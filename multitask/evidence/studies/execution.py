@@ -59,14 +59,14 @@ import pandas as pd
 
 from rnn_seg.runs.folder import is_finished
 
-from ..grid.folder import GRID_RECORD
-from ..grid.spec import RunKey
-from ..models.run_record import RunRecord
-from ..models.variants import get_variant
-from .collect import recorded_runs, run_records
-from .paired import (ConfigId, Contrast, PairedResult, StatsConfig, config_labels, paired,
-                     paired_sides, seed_values)
-from .pooling import pool, record_key
+from ...grid.folder import GRID_RECORD
+from ...grid.spec import RunKey
+from ...models.run_record import RunRecord
+from ...models.variants import get_variant
+from ..runs.collect import recorded_runs, run_records
+from ..runs.pooling import pool, record_key
+from ..statistics.paired import (ConfigId, Contrast, PairedResult, StatsConfig, config_labels,
+                                 paired, paired_sides, seed_values)
 
 #: The settings an execution path may change among those that change results (``pooling``).
 EXECUTION = ("run.encoder.precision",)
