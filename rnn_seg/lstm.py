@@ -497,15 +497,19 @@ def runnable_loops(config: EncoderConfig) -> EncoderConfig:
 
 def runnable(loops: Loops, precision: Precision) -> Loops:
     """The loops that run here for ``loops``: ``auto`` is ``fused`` where ``rnn_seg.kernels``
-    builds and loads them for ``precision``, else ``graph``; ``fused`` falls back to ``graph``
-    there too, after one line on stderr saying why (once per process and reason)."""
+    builds and loads them for ``precision`` with a vector product (AVX2 or AVX-512), else
+    ``graph``; ``fused`` runs wherever the library loads, and falls back to ``graph`` where it
+    does not. Each fallback says why in one line on stderr (once per process and reason)."""
     if loops not in ("auto", "fused"):
         return loops
-    reason = _fused_unavailable(precision)
-    if reason is None:
-        return "fused"
-    _say_once(f"fused LSTM loops unavailable ({reason}): running the graph loops")
-    return "graph"
+    unavailable = _fused_unavailable(precision)
+    if unavailable:
+        _say_once(f"fused LSTM loops unavailable ({unavailable}): running the graph loops")
+        return "graph"
+    if loops == "auto" and _fused_slower():
+        _say_once(f"auto: {_fused_slower()}: running the graph loops")
+        return "graph"
+    return "fused"
 
 
 def loops_reason(asked: Loops, ran: Loops, precision: Precision) -> str:
@@ -514,10 +518,25 @@ def loops_reason(asked: Loops, ran: Loops, precision: Precision) -> str:
     if ran == asked:
         return "asked for"
     if ran == "graph":
-        return f"fused loops unavailable: {_fused_unavailable(precision)}"
+        return f"{'auto: ' if asked == 'auto' else ''}{_graph_because(precision)}"
     return (f"auto: the fused loops build and load here ({fused_build.describe()}); the fastest "
             "of this project's loops on AVX2 and AVX-512 processors at 128 and 1024 units "
-            "(docs/PERFORMANCE.md, \"Which loops auto runs\")")
+            f"({AUTO_EVIDENCE})")
+
+
+#: Where the measurements behind ``auto``'s choice are.
+AUTO_EVIDENCE = 'docs/PERFORMANCE.md, "Which loops auto runs"'
+#: The fused loops' float32 products that beat the graph loops (``rnn_seg.kernels.build``'s
+#: ``product_path``); the generic one, compiled for a processor without AVX2 and FMA, ran a sweep
+#: 1.9x (128 units) to 3.1x (1024) slower than the graph loops.
+FAST_PRODUCTS = ("AVX2", "AVX-512")
+
+
+def _graph_because(precision: Precision) -> str:
+    """Why the graph loops run in place of the fused ones (``runnable``)."""
+    unavailable = _fused_unavailable(precision)
+    return (f"fused loops unavailable: {unavailable}" if unavailable
+            else f"{_fused_slower()} ({AUTO_EVIDENCE})")
 
 
 @functools.lru_cache(maxsize=None)
@@ -525,6 +544,16 @@ def _fused_unavailable(precision: Precision) -> str | None:
     """``rnn_seg.kernels.build.unavailable``, asked once per process (a failed build is not
     retried)."""
     return fused_build.unavailable(precision)
+
+
+@functools.lru_cache(maxsize=None)
+def _fused_slower() -> str | None:
+    """Why ``auto`` passes over the loaded fused library (its product is not one of
+    ``FAST_PRODUCTS``), or None."""
+    product = fused_build.built_record().get("product", "an unrecorded")
+    if product in FAST_PRODUCTS:
+        return None
+    return f"the fused loops here run the {product} product, slower than the graph loops"
 
 
 @functools.lru_cache(maxsize=None)

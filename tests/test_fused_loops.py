@@ -1,9 +1,11 @@
 """The fused C++ loops (``loops = "fused"``, and ``"auto"``, the default, where they build): a run
 trains as on the graph loops; where they cannot be built, the graph loops run after one line saying
 why, and a failed build leaves nothing."""
+import functools
 import json
 import os
 import shutil
+import sys
 from dataclasses import replace
 
 import pytest
@@ -54,6 +56,8 @@ def test_the_fused_loops_build_wherever_a_compiler_is():
 
 
 @needs_fused
+@pytest.mark.skipif(lstm._fused_slower() is not None, reason="a generic fused library: auto "
+                    "runs the graph loops (test_auto_passes_over_a_generic_fused_library)")
 def test_the_default_loops_run_the_fused_ones_where_they_build(synth_dir, tmp_path):
     """``auto``, the default, is the fused loops here: the run computes what a ``fused`` run
     does, records ``auto`` as configured and ``fused`` as what ran."""
@@ -73,6 +77,34 @@ def test_unbuildable_fused_loops_fall_back_to_the_graph_loops_after_one_line(mon
     assert [e.config for e in encoders] == [replace(config, loops="graph")] * 2
     lines = capsys.readouterr().err.splitlines()
     assert lines == [f"fused LSTM loops unavailable ({reason}): running the graph loops"]
+
+
+@pytest.mark.parametrize("product, auto", [("AVX2", "fused"), ("AVX-512", "fused"),
+                                           ("generic (compiler vectors, no AVX2)", "graph"),
+                                           (None, "graph")])
+def test_auto_passes_over_a_generic_fused_library(monkeypatch, capsys, product, auto):
+    """A library built without AVX2 (``RNN_SEG_MARCH=x86-64``, an old processor) runs slower than
+    the graph loops: ``auto`` takes the graph loops and says why, in one line and in the run's
+    record; ``fused`` asked for by name still runs."""
+    record = {} if product is None else {"product": product}
+    monkeypatch.setattr(lstm, "_fused_unavailable", lambda precision: None)
+    monkeypatch.setattr(lstm.fused_build, "built_record", lambda: record)
+    monkeypatch.setattr(lstm.fused_build, "describe", lambda: f"{product} product (a test's)")
+    lstm._fused_slower.cache_clear()
+    monkeypatch.setattr(lstm, "_say_once", functools.lru_cache(maxsize=None)(
+        lambda line: print(line, file=sys.stderr)))
+    try:
+        assert lstm.runnable("auto", "fp32") == auto
+        assert lstm.runnable("fused", "fp32") == "fused"
+        said = capsys.readouterr().err.splitlines()
+        why = lstm.loops_reason("auto", auto, "fp32")
+    finally:
+        lstm._fused_slower.cache_clear()
+    if auto == "graph":
+        assert len(said) == 1 and said[0].startswith("auto: the fused loops here run the ")
+        assert "slower than the graph loops" in why and "Which loops auto runs" in why
+    else:
+        assert said == [] and why.startswith("auto: the fused loops build and load here")
 
 
 @pytest.mark.parametrize("compiler, message", [("no-such-compiler-49", r"no C\+\+ compiler"),
