@@ -518,7 +518,7 @@ def loops_reason(asked: Loops, ran: Loops, precision: Precision) -> str:
     if ran == asked:
         return "asked for"
     if ran == "graph":
-        return f"{'auto: ' if asked == 'auto' else ''}{_graph_because(precision)}"
+        return _graph_because(precision)
     return (f"auto: the fused loops build and load here ({fused_build.describe()}); the fastest "
             "of this project's loops on AVX2 and AVX-512 processors at 128 and 1024 units "
             f"({AUTO_EVIDENCE})")
@@ -536,7 +536,7 @@ def _graph_because(precision: Precision) -> str:
     """Why the graph loops run in place of the fused ones (``runnable``)."""
     unavailable = _fused_unavailable(precision)
     return (f"fused loops unavailable: {unavailable}" if unavailable
-            else f"{_fused_slower()} ({AUTO_EVIDENCE})")
+            else f"auto: {_fused_slower()} ({AUTO_EVIDENCE})")
 
 
 @functools.lru_cache(maxsize=None)
