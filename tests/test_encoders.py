@@ -295,6 +295,26 @@ def test_commands_train_predict_evaluate_and_export_a_tcn_run(synth_dir, tmp_pat
         trained["mean"]["gesture"]["accuracy"])
 
 
+def test_an_inner_run_holds_out_the_outer_test_user(synth_dir, tmp_path, monkeypatch, capsys):
+    """``--hold-out B --test-user C``: a validation run inside outer fold B's training users."""
+    monkeypatch.setenv("JIGSAWS_DIR", str(synth_dir))
+    out = tmp_path / "inner"
+    assert multitask_main(["--encoder", "ed-tcn", "--variant", "A", "--epochs", "1",
+                           "--test-user", "C", "--hold-out", "B", "--no-plots",
+                           "--out", str(out)]) == 0
+    assert json.loads((out / "config.json").read_text())["run"]["held_out_users"] == ["B"]
+    assert load_run(out).config.held_out_users == ("B",)
+    capsys.readouterr()
+    for hold_out, words in (("Z", "unknown held-out user 'Z' (--hold-out)"),
+                            ("C", "test user C is also held out")):
+        bad = tmp_path / f"bad-{hold_out}"
+        code = multitask_main(["--encoder", "ed-tcn", "--variant", "A", "--epochs", "1",
+                               "--test-user", "C", "--hold-out", hold_out, "--out", str(bad)])
+        err = capsys.readouterr().err.strip()
+        assert code != 0 and words in err and len(err.splitlines()) == 1, err
+        assert not bad.exists()
+
+
 def test_lstm_options_are_refused_with_a_tcn(synth_dir, tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("JIGSAWS_DIR", str(synth_dir))
     with pytest.raises(SystemExit) as exit_:
