@@ -86,7 +86,7 @@ def build_trainer(config: RunConfig, tasks: Sequence[Task], run_dir: Path,
     began = time.perf_counter()
     dataset = dataset or load_dataset(config.data)
     loading = time.perf_counter() - began
-    train, test = dataset.louo_split(config.test_user)
+    train, test = dataset.louo_split(config.test_user, config.held_out_users)
     model = SegmentationModel(dataset.num_features, config.encoder, tasks, config.train.seed)
     built = trainer(model, tasks, config.optim, config.train,
                     to_sequences(train, tasks, config.data), to_sequences(test, tasks, config.data),

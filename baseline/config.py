@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field, fields, is_dataclass
+from typing import ClassVar
 
 from jigsaws_tools.dataset import DataConfig, holds_unrecorded_default
 from jigsaws_tools.preprocessing import decimation
@@ -29,10 +30,22 @@ class RunConfig:
     encoder: EncoderConfig | EDTCNConfig | MSTCNConfig = field(default_factory=EncoderConfig)
     optim: OptimConfig = field(default_factory=OptimConfig)
     train: TrainConfig = field(default_factory=TrainConfig)
+    #: Users whose trials the run neither trains on nor is scored on, dropped before the split:
+    #: an outer fold's test user, when ``test_user`` is a validation user among its training
+    #: users (``results/tcn/PLAN_factors.md``). Not recorded while empty.
+    held_out_users: tuple[str, ...] = ()
+
+    unrecorded_defaults: ClassVar[tuple[str, ...]] = ("held_out_users",)
 
     def __post_init__(self):
         if not isinstance(self.test_user, str) or not self.test_user:
             raise ValueError(f"RunConfig.test_user must be a user letter (got {self.test_user!r})")
+        if not isinstance(self.held_out_users, tuple) or not all(
+                isinstance(u, str) and u for u in self.held_out_users):
+            raise ValueError(f"RunConfig.held_out_users must be a list of user letters "
+                             f"(got {self.held_out_users!r})")
+        if self.test_user in self.held_out_users:
+            raise ValueError(f"RunConfig: test user {self.test_user} is also held out")
         check_eval_points(self.train.eval_points, self.optim)
 
     def describe(self) -> str:
@@ -40,7 +53,8 @@ class RunConfig:
         configuration on a line of its own, a task by its name, a recording format without its
         file layout, a sequence of more than ``SHOWN_ITEMS`` items as ``76 (first ... last)``);
         config.json records every value in full."""
-        lines = [f"test user: {self.test_user}"]
+        lines = [f"test user: {self.test_user}" + (
+            f" (held out: {', '.join(self.held_out_users)})" if self.held_out_users else "")]
         for name in ("data", "encoder", "optim", "train"):
             lines += _describe(name, getattr(self, name))
         return "\n".join(_with_real_step(line, self.data) for line in lines)

@@ -47,6 +47,10 @@ def _add_data_options(parser: argparse.ArgumentParser) -> None:
     """The group "data": folder, task, labels, held-out user, features, recording format."""
     data = add_data_arguments(parser)
     add_test_user_argument(data)
+    data.add_argument("--hold-out", type=_users, default=(), metavar="U[,U...]",
+                      help="users in neither the training nor the test set: an outer fold's "
+                           "test user, when --test-user is a validation user among its "
+                           "training users (results/tcn/PLAN_factors.md)")
     data.add_argument("--features", choices=list(FEATURE_SETS), default=DataConfig.feature_set,
                       help="kinematic inputs: the paper's 14 PSM position, velocity and gripper "
                            "columns, all 38 PSM columns, or all 76")
@@ -142,6 +146,14 @@ def _add_run_options(run: argparse._ArgumentGroup, eval_points: tuple[int, ...])
                           "every evaluation point, or every checkpoint")
 
 
+def _users(text: str) -> tuple[str, ...]:
+    """``--hold-out``'s comma-separated user letters."""
+    users = tuple(u.strip() for u in text.split(","))
+    if not all(u.isalnum() for u in users):
+        raise argparse.ArgumentTypeError(f"expected comma-separated user letters, got {text!r}")
+    return users
+
+
 def add_test_user_argument(parser: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
     """``--test-user U``: the user held out by the leave-one-user-out fold."""
     parser.add_argument("--test-user", default=RunConfig.test_user, metavar="U",
@@ -195,10 +207,12 @@ def run_config_from_args(args: argparse.Namespace, optim: OptimConfig,
     data_dir = data_dir_from_args(args, task)
     require_layout(Path(data_dir), task, recording_format)  # before any output
     require_user(Path(data_dir), args.test_user, task, recording_format)   # file names only
+    for user in args.hold_out:
+        require_user(Path(data_dir), user, task, recording_format, "held-out user", "--hold-out")
     data = DataConfig(str(data_dir), feature_set=args.features, annotations=args.annotations,
                       task=task, recording_format=recording_format).with_resolved_data_dir()
     return RunConfig(data=data, test_user=args.test_user, encoder=encoder, optim=optim,
-                     train=train)
+                     train=train, held_out_users=args.hold_out)
 
 
 def _schedule_from_args(args: argparse.Namespace,

@@ -17,7 +17,7 @@ import zipfile
 import zlib
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Sequence
 
 import numpy as np
 
@@ -153,16 +153,23 @@ class Dataset:
     def num_features(self) -> int:
         return self.trials[0].inputs.shape[1]
 
-    def louo_split(self, test_user: str) -> tuple[list[Trial], list[Trial]]:
-        """Leave-one-user-out: ``(train trials, test trials)``, ``test_user``'s trials held out."""
-        if test_user not in self.users:
-            raise JigsawsError(f"unknown test user {test_user!r}; users are "
-                               f"{', '.join(self.users)}")
+    def louo_split(self, test_user: str, held_out: Sequence[str] = ()
+                   ) -> tuple[list[Trial], list[Trial]]:
+        """Leave-one-user-out: ``(train trials, test trials)``, ``test_user``'s trials held out;
+        the trials of the users in ``held_out`` are in neither (a validation run inside an outer
+        fold's training users)."""
+        for user in (test_user, *held_out):
+            if user not in self.users:
+                raise JigsawsError(f"unknown {'test' if user == test_user else 'held-out'} user "
+                                   f"{user!r}; users are {', '.join(self.users)}")
         if len(self.users) < 2:
             raise JigsawsError(f"{self.config.data_dir}: only user {test_user} has complete "
                                f"{self.config.task.name} trials; leave-one-user-out needs at "
                                f"least two users")
-        train = [t for t in self.trials if t.user != test_user]
+        train = [t for t in self.trials if t.user != test_user and t.user not in held_out]
+        if not train:
+            raise JigsawsError(f"no training user left: {test_user} tested, "
+                               f"{', '.join(held_out)} held out")
         test = [t for t in self.trials if t.user == test_user]
         return train, test
 

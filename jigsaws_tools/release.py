@@ -215,13 +215,14 @@ def discover(root: Path | str, task: TaskDefinition = SUTURING,
 
 
 def require_user(root: Path | str, user: str, task: TaskDefinition = SUTURING,
-                 recording_format: RecordingFormat = JIGSAWS_FORMAT) -> None:
+                 recording_format: RecordingFormat = JIGSAWS_FORMAT,
+                 role: str = "test user", option: str = "--test-user") -> None:
     """Raise a one-line ``JigsawsError`` unless the folder ``root`` holds complete trials of
-    ``user`` (a test user, ``--test-user``), naming the users it holds; from the file names
-    alone (``discover``), before any recording is read."""
+    ``user`` (the ``role`` the ``option`` gives it), naming the users it holds; from the file
+    names alone (``discover``), before any recording is read."""
     index = discover(root, task, recording_format)
     if user not in index.users:
-        raise JigsawsError(f"unknown test user {user!r} (--test-user): {root} holds "
+        raise JigsawsError(f"unknown {role} {user!r} ({option}): {root} holds "
                            f"{task.name} trials of users {', '.join(index.users)}")
 
 

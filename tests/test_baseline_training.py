@@ -1,5 +1,6 @@
 """Model A trains, writes its outputs, resumes after interruption, and runs at paper size."""
 import json
+from dataclasses import replace
 
 import numpy as np
 import pandas as pd
@@ -35,6 +36,24 @@ def test_model_a_beats_majority_on_held_out_user(synth_dir, tmp_path, bidirectio
     _, test = load_dataset(config.data).louo_split("B")
     chance = _majority_accuracy(test)
     assert result["mean"]["gesture"]["accuracy"] > chance + 30, (result["mean"], chance)
+
+
+def test_an_inner_run_neither_trains_nor_tests_on_its_held_out_user(synth_dir, tmp_path):
+    """A validation run inside outer fold B: user C is scored, B is in neither set."""
+    from baseline.builder import build_trainer, gesture_task
+    from jigsaws_tools.errors import JigsawsError
+
+    config = replace(_config(synth_dir, epochs=1), test_user="C", held_out_users=("B",))
+    dataset = load_dataset(config.data)
+    trainer = build_trainer(config, [gesture_task()], tmp_path / "run", dataset,
+                            log=lambda m: None)
+    users = lambda names: {n.rsplit("_", 1)[-1][0] for n in names}
+    assert users(trainer.test.names) == {"C"}
+    assert users(trainer.train.names) == set(dataset.users) - {"B", "C"}
+    with pytest.raises(JigsawsError, match="unknown held-out user 'Z'"):
+        dataset.louo_split("C", ("Z",))
+    with pytest.raises(JigsawsError, match="no training user left"):
+        dataset.louo_split("C", tuple(u for u in dataset.users if u != "C"))
 
 
 def test_run_outputs(synth_dir, tmp_path):

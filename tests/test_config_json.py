@@ -101,3 +101,17 @@ def test_describe_summarises_long_sequences_that_config_json_records_in_full():
     saved = _saved(config)
     assert saved["data"]["recording_format"]["columns"] == list(JIGSAWS_FORMAT.columns)
     assert saved["train"]["eval_points"] == list(range(10, 130, 10))
+
+
+def test_held_out_users_are_recorded_only_when_given():
+    """An inner (validation) run of an outer fold: recorded and restored; a plain run's record
+    has no such key, so earlier settings hashes stay."""
+    inner = replace(_run_config(), held_out_users=("B",))
+    assert _saved(inner)["held_out_users"] == ["B"]
+    assert from_jsonable(RunConfig, _saved(inner)) == inner
+    assert "held_out_users" not in _saved(_run_config())
+    assert "(held out: B)" in inner.describe().splitlines()[0]
+    with pytest.raises(ValueError, match="test user C is also held out"):
+        replace(_run_config(), held_out_users=("C",))
+    with pytest.raises(ValueError, match="held_out_users must be a list of user letters"):
+        replace(_run_config(), held_out_users="B")

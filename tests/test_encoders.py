@@ -9,8 +9,10 @@ import tensorflow as tf
 
 from baseline.config import RunConfig
 from jigsaws_tools.dataset import DataConfig, load_dataset
+from jigsaws_tools.preprocessing import PreprocessConfig
 from multitask.evidence.statistics.time_baseline import chance_accuracy
-from multitask.grid.spec import spec_from_dict
+from multitask.grid.folder import comparable_spec
+from multitask.grid.spec import RunKey, run_config, spec_from_dict, spec_payload
 from multitask.inference.evaluate_cli import main as evaluate_main
 from multitask.inference.export_cli import main as export_main
 from multitask.inference.predict_cli import main as predict_main
@@ -249,17 +251,20 @@ def test_every_variant_builds_and_trains_one_sweep(tmp_path, kind):
         assert losses.shape == (len(tasks),) and all(g is not None for g in grads), name
 
 
-@pytest.mark.parametrize("kind,config,epochs,lr", [
-    ("ed-tcn", EDTCNConfig(filters=(16, 24)), 25, 1e-3),
-    ("ms-tcn", MSTCNConfig(stages=2, layers=6, filters=16), 12, 3e-3)])
+@pytest.mark.parametrize("kind,config,epochs,lr,factor", [
+    ("ed-tcn", EDTCNConfig(filters=(16, 24)), 25, 1e-3, 6),
+    ("ed-tcn", EDTCNConfig(filters=(16, 24), kernel=15), 25, 1e-3, 10),    # Lea et al.'s 3 Hz
+    ("ms-tcn", MSTCNConfig(stages=2, layers=6, filters=16), 12, 3e-3, 6)])
 def test_tcn_learns_above_chance_on_a_held_out_user(synth_dir, tmp_path, kind, config, epochs,
-                                                    lr):
-    """Small models with their reference optimiser (a higher rate for MS-TCN's few sweeps)."""
+                                                    lr, factor):
+    """Small models with their reference optimiser (a higher rate for MS-TCN's few sweeps);
+    ED-TCN also at its reference's rate, one labelled frame in ``factor``."""
     variant = get_variant("APc")
     optim = replace(variant.optim(kind), total=epochs, decay_start=epochs, learning_rate=lr)
-    run = RunConfig(data=DataConfig(str(synth_dir)), test_user="C", encoder=config, optim=optim,
+    data = DataConfig(str(synth_dir), preprocessing=PreprocessConfig(resample_factor=factor))
+    run = RunConfig(data=data, test_user="C", encoder=config, optim=optim,
                     train=TrainConfig(batch_size=3, eval_points=(epochs,), plots="none"))
-    result = train_variant(variant, "fixed", run, tmp_path / kind, log=lambda m: None)
+    result = train_variant(variant, "fixed", run, tmp_path / f"{kind}-{factor}", log=lambda m: None)
     _, test = load_dataset(run.data).louo_split("C")
     for task, field in (("gesture", "gestures"), ("progress", "progress")):
         chance = chance_accuracy([getattr(t, field) for t in test])
@@ -290,6 +295,26 @@ def test_commands_train_predict_evaluate_and_export_a_tcn_run(synth_dir, tmp_pat
         trained["mean"]["gesture"]["accuracy"])
 
 
+def test_an_inner_run_holds_out_the_outer_test_user(synth_dir, tmp_path, monkeypatch, capsys):
+    """``--hold-out B --test-user C``: a validation run inside outer fold B's training users."""
+    monkeypatch.setenv("JIGSAWS_DIR", str(synth_dir))
+    out = tmp_path / "inner"
+    assert multitask_main(["--encoder", "ed-tcn", "--variant", "A", "--epochs", "1",
+                           "--test-user", "C", "--hold-out", "B", "--no-plots",
+                           "--out", str(out)]) == 0
+    assert json.loads((out / "config.json").read_text())["run"]["held_out_users"] == ["B"]
+    assert load_run(out).config.held_out_users == ("B",)
+    capsys.readouterr()
+    for hold_out, words in (("Z", "unknown held-out user 'Z' (--hold-out)"),
+                            ("C", "test user C is also held out")):
+        bad = tmp_path / f"bad-{hold_out}"
+        code = multitask_main(["--encoder", "ed-tcn", "--variant", "A", "--epochs", "1",
+                               "--test-user", "C", "--hold-out", hold_out, "--out", str(bad)])
+        err = capsys.readouterr().err.strip()
+        assert code != 0 and words in err and len(err.splitlines()) == 1, err
+        assert not bad.exists()
+
+
 def test_lstm_options_are_refused_with_a_tcn(synth_dir, tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("JIGSAWS_DIR", str(synth_dir))
     with pytest.raises(SystemExit) as exit_:
@@ -308,6 +333,28 @@ def test_grid_specs_choose_an_encoder_and_refuse_lstm_settings():
         spec_from_dict({"encoder": "ed-tcn", "hidden": 64}, source="s.toml")
     with pytest.raises(ValueError, match="encoder must be one of"):
         spec_from_dict({"encoder": "tcn"})
+
+
+def test_grid_specs_set_the_sample_rate_and_ed_tcns_kernel(synth_dir):
+    """Lea et al.'s released JIGSAWS ED-TCN: 3 Hz (one labelled frame in 10), 15-sample
+    kernels; a spec without the keys compares equal to a grid.json written before them."""
+    spec = spec_from_dict({"encoder": "ed-tcn", "data_dir": str(synth_dir),
+                           "resample_factor": 10, "kernel": 15})
+    config = run_config(spec, RunKey("original", "bidirectional", "A", "fixed", 0, "B"))
+    assert config.encoder.kernel == 15 and config.encoder.filters == (64, 96)
+    assert config.data.preprocessing.sample_hz == 3.0
+    plain = spec_from_dict({"encoder": "ed-tcn", "data_dir": str(synth_dir)})
+    default = run_config(plain, RunKey("original", "bidirectional", "A", "fixed", 0, "B"))
+    assert default.encoder.kernel == 10 and default.data.preprocessing.sample_hz == 5.0
+    older = {k: v for k, v in spec_payload(plain).items() if k not in ("kernel", "resample_factor")}
+    assert comparable_spec(older) == comparable_spec(spec_payload(plain))
+    assert comparable_spec(spec_payload(spec)) != comparable_spec(spec_payload(plain))
+    for encoder in ("ms-tcn", "lstm"):
+        with pytest.raises(ValueError, match=f"kernel is ED-TCN's setting .encoder is '{encoder}'"):
+            spec_from_dict({"encoder": encoder, "kernel": 15})
+    for key in ("kernel", "resample_factor"):
+        with pytest.raises(ValueError, match=f"{key}"):
+            spec_from_dict({"encoder": "ed-tcn", key: 0}, source="s.toml")
 
 
 def test_a_config_without_encoder_kind_is_an_lstm():

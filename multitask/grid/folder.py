@@ -23,7 +23,8 @@ LOCATION_KEYS = ("data_dir",)
 #: Spec keys that say how the runs compute, not what: a grid may resume with other values.
 EXECUTION_KEYS = ("loops",)
 #: Spec keys added after grid.json was first written -> the value their absence meant.
-IMPLIED_BY_OLDER_RECORDS = {"schedule_factors": {}, "encoder": "lstm"}
+IMPLIED_BY_OLDER_RECORDS = {"schedule_factors": {}, "encoder": "lstm", "resample_factor": None,
+                            "kernel": None}
 
 
 def read_record(grid_dir: Path | str) -> dict | None:

@@ -39,6 +39,7 @@ Example spec (every key optional)::
     ordinal_loss = "sum"          # the ordered progress head's loss: "sum" (paper) or "mean"
     relative_rate = "chen"        # GradNorm's r_i: "chen" (ratio mean) or "paper" (loss mean)
     encoder = "lstm"              # or "ed-tcn", "ms-tcn": their reference settings and schedule
+    resample_factor = 6           # one labelled 30 Hz frame in 6: the model's 5 Hz (10: 3 Hz)
 
     [[experiments]]
     variants = ["A", "APc"]
@@ -52,6 +53,10 @@ optimiser, batch size and length (``rnn_seg.encoders.config.SCHEDULES``), scaled
 preset's ``schedule_scale`` (``quick``: 4x shorter), never by the LSTM-measured
 ``schedule_factors``; ``hidden``, ``epochs``, ``schedule_factors``, ``precision`` and ``loops``,
 the LSTM's, are refused with it. ``directions = ["forward"]`` makes its convolutions causal.
+``resample_factor`` (any encoder) and ``kernel`` (ED-TCN only, in samples) change the model's
+sample rate and ED-TCN's kernel, e.g. Lea et al.'s released JIGSAWS model: 3 Hz, 15 samples
+(``resample_factor = 10``, ``kernel = 15``; docs/REPRODUCTION.md, "ED-TCN at its reference's
+rate"); without them a run keeps the paper's 5 Hz and ED-TCN's 2 s kernel.
 
 The keys ``data`` and ``folds`` of earlier versions are read as ``data_dir`` and ``test_users``,
 with a deprecation warning.
@@ -66,6 +71,7 @@ from pathlib import Path
 from baseline.config import DIRECTIONS, RunConfig
 from jigsaws_tools.annotations import ANNOTATION_VERSIONS
 from jigsaws_tools.dataset import DataConfig, default_cache_dir, default_data_dir
+from jigsaws_tools.preprocessing import PreprocessConfig
 from jigsaws_tools.release import discover
 from jigsaws_tools.synth import SynthConfig, ensure_release
 from jigsaws_tools.task_definition import PAPER_TASK, TaskDefinition, load_task
@@ -160,9 +166,13 @@ def run_config(spec: GridSpec, key: RunKey) -> RunConfig:
     encoder = (EncoderConfig(hidden=budget.hidden, bidirectional=bidirectional,
                              precision=spec.precision, loops=spec.loops)
                if spec.encoder == "lstm" else encoder_config(spec.encoder, not bidirectional))
+    if spec.kernel is not None:
+        encoder = replace(encoder, kernel=spec.kernel)
+    preprocessing = (PreprocessConfig() if spec.resample_factor is None
+                     else PreprocessConfig(resample_factor=spec.resample_factor))
     return RunConfig(
         data=DataConfig(str(spec.release_dir()), annotations=key.annotations,
-                        task=spec.task_definition()),
+                        preprocessing=preprocessing, task=spec.task_definition()),
         test_user=key.fold,
         encoder=encoder,
         optim=optim,
@@ -343,6 +353,8 @@ class GridSpec:
     ordinal_loss: str = HeadConfig.ordinal_loss
     relative_rate: str = GradNormConfig.relative_rate
     encoder: str = ENCODERS[0]
+    resample_factor: int | None = None     # None = PreprocessConfig's (5 Hz)
+    kernel: int | None = None              # ED-TCN's, in samples; None = its reference's
     experiments: tuple[Experiment, ...] = PAPER_EXPERIMENTS
 
     def __post_init__(self):
@@ -373,7 +385,9 @@ class GridSpec:
                 raise ValueError(f"test_users must be a list of user letters (got {user!r})")
         if self.seeds is not None:
             _require_seeds("seeds", self.seeds)
-        for name in ("hidden", "epochs"):
+        if self.kernel is not None and self.encoder != "ed-tcn":
+            raise ValueError(f"kernel is ED-TCN's setting (encoder is {self.encoder!r})")
+        for name in ("hidden", "epochs", "resample_factor", "kernel"):
             if getattr(self, name) is not None:
                 require_number(name, getattr(self, name), integer=True, low=1)
         if self.schedule_factors is not None:

@@ -152,10 +152,10 @@ def checkpoint_point(run: TrainedRun, dataset: Dataset) -> tuple[int, str]:
     """The checkpoint's position in the run's schedule unit (e.g. ``(120, "epochs")``), or in
     sweeps when it is not a whole number of units or the run's training set is not in
     ``dataset``."""
-    if run.config.test_user in dataset.users:
-        train, _ = dataset.louo_split(run.config.test_user)
-        per_unit = run.config.optim.sweeps(1, sweeps_per_epoch(len(train),
-                                                                run.config.train.batch_size))
+    config = run.config
+    if {config.test_user, *config.held_out_users} <= set(dataset.users):
+        train, _ = dataset.louo_split(config.test_user, config.held_out_users)
+        per_unit = config.optim.sweeps(1, sweeps_per_epoch(len(train), config.train.batch_size))
         if run.checkpoint % per_unit == 0:
-            return run.checkpoint // per_unit, run.config.optim.unit
+            return run.checkpoint // per_unit, config.optim.unit
     return run.checkpoint, "sweeps"

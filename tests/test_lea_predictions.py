@@ -1,0 +1,78 @@
+"""bench/lea_predictions.py: aligning a reference's released predictions to our labels."""
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+_PATH = Path(__file__).resolve().parents[1] / "bench" / "lea_predictions.py"
+_spec = importlib.util.spec_from_file_location("lea_predictions", _PATH)
+lea = importlib.util.module_from_spec(_spec)
+sys.modules["lea_predictions"] = lea
+_spec.loader.exec_module(lea)
+
+
+def _trial_labels(rng, n=437):
+    """``[n]`` 30 Hz labels: unlabelled frames first, then segments of 40-120 frames."""
+    out = [np.full(7, -1)]
+    while sum(map(len, out)) < n:
+        out.append(np.full(rng.integers(40, 120), rng.integers(0, 10)))
+    return np.concatenate(out)[:n]
+
+
+def _cell(sequences):
+    """A MATLAB cell row ``[1, N]`` of ``[1, T_i]`` rows, as the reference saves lists."""
+    out = np.empty((1, len(sequences)), dtype=object)
+    for i, s in enumerate(sequences):
+        out[0, i] = np.asarray(s)[None, :]
+    return out
+
+
+@pytest.mark.parametrize("stride", [3, 5, 10])
+def test_stride_found_also_without_the_last_sample(stride):
+    labels = np.repeat(np.arange(12) % 4, 37)
+    assert lea.stride_of(labels[::stride], labels, "t") == stride
+    assert lea.stride_of(labels[::stride][:-1], labels, "t") == stride
+
+
+def test_labels_that_match_no_stride_name_the_trial():
+    labels = np.repeat(np.arange(12) % 4, 37)
+    wrong = labels[::10].copy()
+    wrong[3] = 9
+    with pytest.raises(lea.UnusableFile, match="Split_2.mat: Suturing_C001"):
+        lea.stride_of(wrong, labels, "Split_2.mat: Suturing_C001")
+
+
+def test_held_predictions_take_the_last_sample_at_or_before_each_frame():
+    pred = np.array([0, 1, 2, 3])                 # at labelled frames 0, 10, 20, 30
+    assert lea.held(pred, 10, 35, step=6).tolist() == [0, 0, 1, 1, 2, 3]
+
+
+def test_a_split_is_scored_against_our_labels_at_their_stride(tmp_path):
+    from scipy.io import savemat
+
+    rng = np.random.default_rng(0)
+    trials = {"Suturing_C001": _trial_labels(rng), "Suturing_C002": _trial_labels(rng)}
+    perfect, wrong = [], []
+    for labels in trials.values():
+        y = labels[labels >= 0][::10]
+        perfect.append(y)
+        wrong.append((y + 1) % 10)
+    savemat(tmp_path / "2.mat", {"P": _cell([perfect[0], wrong[1]]), "Y": _cell(perfect)})
+    scored = lea.score_split(tmp_path / "2.mat", list(trials), "C", trials.__getitem__,
+                             {"Suturing_C001"})
+    assert [t.stride for t in scored] == [10, 10]
+    assert [t.in_our_release for t in scored] == [True, False]
+    assert scored[0].scores["accuracy"] == 100.0 and scored[1].scores["accuracy"] == 0.0
+    assert scored[0].scores_5hz["edit"] == 100.0
+
+
+def test_a_split_file_with_other_trials_is_refused(tmp_path):
+    from scipy.io import savemat
+
+    y = np.zeros(5, dtype=np.int64)
+    savemat(tmp_path / "1.mat", {"P": _cell([y]), "Y": _cell([y])})
+    with pytest.raises(lea.UnusableFile, match="1 predicted sequences, but its split's test.txt"
+                                               " names 2 trials"):
+        lea.score_split(tmp_path / "1.mat", ["a", "b"], "B", None, set())
