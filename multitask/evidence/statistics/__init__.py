@@ -3,6 +3,9 @@
 * ``paired``: paired statistics over LOUO folds: a configuration or a contrast of several
   (``ConfigId``, ``Contrast``), the exact sign-flip test and the interval that inverts it, power,
   Holm's correction (read first);
+* ``design``: what a design of folds x seeds can detect: the variance of a per-fold difference
+  split into the seeds' part and the folds' part with their intervals, and the test's power as
+  seeds or folds grow;
 * ``time_baseline``: a trial's progress stage read from its time alone (de Boer et al.), fitted
   on the training folds and scored like the progress heads: the row a head must beat.
 

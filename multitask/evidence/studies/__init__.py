@@ -15,6 +15,7 @@ of ``multitask.evidence``).
 * ``confirm``: a pre-registered confirmatory analysis, run as its plan file says;
   ``exploratory``: the exploratory analyses its plan names, apart from its rows;
   ``confirm_report``: both written out, with ``confirm.md``, the outcome in the plan's words;
+  ``design``: what the plan's folds x seeds could detect (variance shares, power);
 * ``tasks``: the JIGSAWS tasks side by side, from each task's tables.
 
 A new study is a module here and its subcommand in ``..commands`` (how: ``..commands``).
