@@ -45,17 +45,12 @@ def synth_dir(tmp_path_factory) -> Path:
     return write_release(tmp_path_factory.mktemp("synth") / "Suturing", SynthConfig(seed=0))
 
 
-@pytest.fixture(scope="session")
-def _suite_cache(tmp_path_factory) -> Path:
-    """The suite's own cache folder (built kernels, synthetic releases, preprocessed data), one
-    per run: xdist's workers, whose temporary folders are siblings, share their parent's."""
-    base = tmp_path_factory.getbasetemp()
-    return (base.parent if "PYTEST_XDIST_WORKER" in os.environ else base) / "cache"
-
-
 @pytest.fixture(autouse=True)
-def _isolated_cache(_suite_cache, monkeypatch):
-    monkeypatch.setenv("JIGSAWS_CACHE_DIR", str(_suite_cache))
+def _isolated_cache(tmp_path_factory, monkeypatch):
+    """The suite's own cache folder (built kernels, synthetic releases, preprocessed data), one
+    per process: each xdist worker builds its own kernel library at its start, beside the other's
+    (one shared build would leave the other worker waiting on its lock)."""
+    monkeypatch.setenv("JIGSAWS_CACHE_DIR", str(tmp_path_factory.getbasetemp() / "cache"))
 
 
 @pytest.fixture(autouse=True)
