@@ -11,7 +11,7 @@ import pytest
 from baseline.builder import train_baseline
 from baseline.config import RunConfig
 from jigsaws_tools.dataset import DataConfig
-from multitask.evidence.execution import _path
+from multitask.evidence.studies.execution import _path
 from multitask.models.run_record import read_run_record
 from rnn_seg import lstm
 from rnn_seg.lstm import EncoderConfig
