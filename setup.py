@@ -59,7 +59,9 @@ setup(
     extras_require={
         # Dask distributed: runs the grid's jobs on a cluster (multitask-grid --scheduler)
         "dask": ["dask[distributed]>=2026.8"],
-        "test": ["pytest>=9,<10", "dask[distributed]>=2026.8", "mlflow-skinny>=3.17,<4"],
+        # pytest-xdist: the suite on every core (tests/conftest.py)
+        "test": ["pytest>=9,<10", "pytest-xdist>=3.8,<4", "dask[distributed]>=2026.8",
+                 "mlflow-skinny>=3.17,<4"],
         # MLflow's tracking client: multitask-train / multitask-grid --mlflow URI
         "mlflow": ["mlflow-skinny>=3.17,<4"],
         # TensorBoard, to view what --tensorboard writes (training writes it without)

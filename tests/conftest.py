@@ -1,4 +1,10 @@
-"""Shared fixtures: the real release when present (``JIGSAWS_DIR`` overrides), a synthetic one always."""
+"""Shared fixtures: the real release when present (``JIGSAWS_DIR`` overrides), a synthetic one always.
+
+With pytest-xdist installed (the ``test`` extra), the suite runs on every core this process may
+use, one worker process per core, each test file on one worker (``--dist loadfile``: a file's
+module fixtures are made once); ``-n N`` chooses the count, ``-n 0`` or ``-p no:xdist`` runs in
+this process.
+"""
 from __future__ import annotations
 
 import os
@@ -10,6 +16,20 @@ from jigsaws_tools.dataset import default_data_dir
 from jigsaws_tools.synth import SynthConfig, write_release
 
 os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "2")
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_cmdline_main(config: pytest.Config) -> None:
+    """``-n <cores> --dist loadfile`` unless the command chose a count, debugs (``--pdb``), or
+    this is already a worker. Runs before xdist's own hook, which turns the count into workers."""
+    if (not config.pluginmanager.hasplugin("xdist") or config.option.numprocesses is not None
+            or config.option.usepdb or "PYTEST_XDIST_WORKER" in os.environ):
+        return
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    if (cores or 1) > 1:
+        config.option.numprocesses = cores
+        if config.option.dist == "no":
+            config.option.dist = "loadfile"
 
 
 @pytest.fixture(scope="session")
@@ -27,6 +47,9 @@ def synth_dir(tmp_path_factory) -> Path:
 
 @pytest.fixture(autouse=True)
 def _isolated_cache(tmp_path_factory, monkeypatch):
+    """The suite's own cache folder (built kernels, synthetic releases, preprocessed data), one
+    per process: each xdist worker builds its own kernel library at its start, beside the other's
+    (one shared build would leave the other worker waiting on its lock)."""
     monkeypatch.setenv("JIGSAWS_CACHE_DIR", str(tmp_path_factory.getbasetemp() / "cache"))
 
 

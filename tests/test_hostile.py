@@ -294,7 +294,7 @@ def _writing_to(command: str, out: str, trained: Path, grid: Path, small_dir: Pa
     recording = next((small_dir / "kinematics" / "AllGestures").glob("*.txt"))
     return {"export": (export_main, [str(trained), "--out", out]),
             "predict": (predict_main, [str(trained), str(recording), "--out", out]),
-            "tables": (tables_main, [str(grid), "--out", out, "--no-figures"]),
+            "tables": (tables_main, ["paper", str(grid), "--out", out, "--no-figures"]),
             "train": (train_main, [*TINY, "--data-dir", str(small_dir), "--out", out])}[command]
 
 
