@@ -426,9 +426,13 @@ def _left_alone(args: argparse.Namespace) -> tuple[str, ...]:
 
 
 def _confirm(args: argparse.Namespace) -> None:
-    """``--confirm``: the plan's analysis into ``--out``, all files or none."""
+    """``--confirm``: the plan's analysis into ``--out``, all files or none; the plan and its
+    exploratory file are checked before ``--out``'s lock is taken."""
+    from .confirm import read_plan
     from .confirm_report import write_confirmatory
+    from .exploratory import EXPLORATORY_FILE, read_exploratory
 
+    read_exploratory(args.confirm.parent / EXPLORATORY_FILE, read_plan(args.confirm))
     check_output_folder(args.out, PROG, may_hold=True)
     with staged_outputs(args.out, CONFIRM_MANIFEST, PROG, args.overwrite) as staging:
         written, skipped = write_confirmatory(args.confirm, staging)
