@@ -106,6 +106,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from jigsaws_tools.cli.arg_types import non_negative_int, positive_float
 from jigsaws_tools.cli.common import command_parser, run_command
 from rnn_seg.runs.manifest import staged_outputs
 from rnn_seg.runs.outputs import check_output_folder
@@ -359,7 +360,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="compare GRID_DIR's execution path (fused loops, bfloat16) with this "
                              "grid's, paired by fold; needs --margin and --out; writes "
                              "execution*.csv (default: none, write the tables)")
-    parser.add_argument("--margin", type=float, metavar="POINTS",
+    parser.add_argument("--margin", type=positive_float, metavar="POINTS",
                         help="with --reference: the equivalence margin in percentage points, "
                              "e.g. 2.0 (required with --reference)")
     parser.add_argument("--allow-incomplete", action="store_true",
@@ -368,7 +369,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--finished-only", action="store_true",
                         help="for a grid still running: leave out every configuration with a run "
                              "not finished yet, and list them (default: refuse)")
-    parser.add_argument("--seeds", type=int, nargs="+", metavar="K",
+    parser.add_argument("--seeds", type=non_negative_int, nargs="+", metavar="K",
                         help="only the runs of these seeds, e.g. --seeds 0 (default: every "
                              "recorded run)")
     return parser
