@@ -59,9 +59,11 @@ setup(
     extras_require={
         # Dask distributed: runs the grid's jobs on a cluster (multitask-grid --scheduler)
         "dask": ["dask[distributed]>=2026.8"],
-        "test": ["pytest>=9,<10", "dask[distributed]>=2026.8", "mlflow-skinny>=3.17,<4"],
-        # MLflow's tracking client: multitask-train / multitask-grid --mlflow URI
-        "mlflow": ["mlflow-skinny>=3.17,<4"],
+        "test": ["pytest>=9,<10", "dask[distributed]>=2026.8", "mlflow-skinny>=3.17,<4",
+                 "sqlalchemy>=2.1,<3", "alembic>=1.20,<2"],
+        # MLflow's tracking client: multitask-train / multitask-grid --mlflow URI; SQLAlchemy and
+        # alembic for its database stores (sqlite:///mlflow.db), which mlflow-skinny leaves out
+        "mlflow": ["mlflow-skinny>=3.17,<4", "sqlalchemy>=2.1,<3", "alembic>=1.20,<2"],
         # TensorBoard, to view what --tensorboard writes (training writes it without)
         "tensorboard": ["tensorboard>=2.21,<3"],
         # PyTorch, a peer bench/lstm_sweep.py times beside rnn_seg (pinned: numbers name one version)
