@@ -10,7 +10,8 @@ with the differences unless ``--restart``. One grid process per folder (a lock);
 every run at once, resumably.
 
 While it trains, the grid shows runs done / running / queued, each running run's epoch and ETA
-and the grid's ETA: a live panel on a terminal, else a status line a minute when it changed
+and the grid's ETA: a live panel on a terminal, else (a file, a pipe, ``TERM=dumb``) a status
+line a minute when it changed
 (``multitask.grid.progress``); a worker that dies is named, and its runs re-queued.
 ``--mlflow URI`` logs the grid to MLflow as a parent run and each run as it finishes
 (``rnn_seg.runs.tracking``).
@@ -188,16 +189,14 @@ def _run(args: argparse.Namespace) -> int:
         from rnn_seg.runs.tracking import Tracker
         tracker = Tracker(args.mlflow)                       # checked before any work
     import_tensorflow()          # quietly: checking run folders builds the runs' tasks
-    from rich.console import Console
-
     from .executors import run_grid
+    from .progress import live_console
     from .record import prepare_grid
     from .spec import spec_payload
 
     def log(message: str) -> None:
         print(message, flush=True)
 
-    console = Console()
     status = "FAILED"
     try:
         with hold_folder(args.out, "grid folder"):
@@ -214,7 +213,7 @@ def _run(args: argparse.Namespace) -> int:
                         after_run(args.out / key.path())
             failed = run_grid(spec, keys, args.out, args.workers, args.scheduler, args.threads,
                               args.stack, log=log, after_job=after_job, after_run=after_run,
-                              live=console if console.is_terminal else None)
+                              live=live_console())
             status = "FAILED" if failed else "FINISHED"
     except KeyboardInterrupt:
         status = "KILLED"
