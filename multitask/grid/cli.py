@@ -173,17 +173,7 @@ def _run(args: argparse.Namespace) -> int:
           f"schedule {budget.describe_schedule()}, seeds {sorted({k.seed for k in keys})}, "
           f"data {spec.data_dir}", flush=True)
     if args.dry_run:
-        if args.archive:                                  # refused now, as it would be then
-            from .archive import check_destination
-            check_destination(args.out, args.archive)
-            print(f"archive: {args.archive} would be kept up to date (not written in a dry run)")
-        pending = [key for key in keys if not is_finished(args.out / key.path())]
-        for group in job_groups(pending, args.stack):           # in the order they run
-            for key in group:
-                print(key.path())
-        print(f"{len(keys)} runs, {len(keys) - len(pending)} already finished, "
-              f"{len(pending)} to run")
-        return 0
+        return _dry_run(args, spec, keys)
     tracker = None
     if args.mlflow:
         from rnn_seg.runs.tracking import Tracker
@@ -229,6 +219,40 @@ def _run(args: argparse.Namespace) -> int:
             print(f"  {key.path()}: {message}", file=sys.stderr)
         return 1
     print(f"grid complete: {len(keys)} runs in {args.out}; tables: multitask-tables {args.out}")
+    return 0
+
+
+def _dry_run(args: argparse.Namespace, spec: GridSpec, keys: list) -> int:
+    """What the launch would do over ``--out``, decided by its own checks, writing nothing: its
+    lock, its record and run folders (``record.plan_launch``: another spec or runs of other
+    settings refused as the launch refuses them), the archive folder as it would be checked after
+    them; then each run it would train, resume or train afresh, in the order they run."""
+    from rnn_seg.runs.folder import trained_units
+    from rnn_seg.runs.lock import check_free
+
+    import_tensorflow()          # quietly: checking run folders builds the runs' tasks
+    from .record import plan_launch
+
+    check_free(args.out, "grid folder")
+    cleared, record = plan_launch(args.out, spec, keys, args.restart)
+    afresh = {str(key.path()) for key in cleared}
+    if args.archive:                                  # refused now, as it would be then
+        from .archive import check_destination
+        check_destination(args.out, args.archive,
+                          {**record, "runs": [r for r in record["runs"] if r not in afresh]})
+        print(f"archive: {args.archive} would be kept up to date (not written in a dry run)")
+    pending = [key for key in keys
+               if str(key.path()) in afresh or not is_finished(args.out / key.path())]
+    resumed = 0
+    for group in job_groups(pending, args.stack, grid=keys):    # in the order they run
+        for key in group:
+            done = 0.0 if str(key.path()) in afresh else trained_units(args.out / key.path())
+            resumed += done > 0
+            note = (" (other settings: cleared, trained afresh)" if str(key.path()) in afresh
+                    else f" (resumes after {done:g} of its epochs)" if done else "")
+            print(f"{key.path()}{note}")
+    print(f"{len(keys)} runs, {len(keys) - len(pending)} already finished, "
+          f"{len(pending)} to run ({resumed} resumed, {len(afresh)} trained afresh)")
     return 0
 
 
