@@ -85,6 +85,10 @@ BAD_PLANS = {
     "a misspelt direction": ('x = "APc-fixed"', 'x = "backward/APc-fixed"', "endpoints[1].x"),
     "a misspelt metric": ('metric = "gesture_accuracy"', 'metric = "gesture_acuracy"',
                           "endpoints[0].metric"),
+    "a misspelt task's score": ('metric = "gesture_accuracy"', 'metric = "gestures_f1_G2"',
+                                "endpoints[0].metric"),
+    "a width of 1000.0": ('grid = "grids/wide"', 'grid = "grids/wide"\nhidden = 1e3',
+                          "parts[0].hidden must be an integer"),
 }
 
 
@@ -121,6 +125,20 @@ def test_a_configuration_the_grid_lacks_is_named_not_taken_for_an_incomplete_gri
                                  "the plan tests: APr-fixed: no run of this configuration (the "
                                  "grid holds A-fixed, APc-fixed, APoc-gradnorm)")
     assert "complete grids only" not in skipped[0]
+
+
+@pytest.mark.parametrize("metric", ["gesture_accuracy_poled", "gesture_f1_G99"])
+def test_a_metric_the_grids_runs_have_not_is_named_as_the_plans_error(
+        project: Path, metric: str):  # noqa: F811
+    """A per-class score's class is the task's, known from the grid only: a class the runs have
+    not is a ``PlanError`` naming the plan, the part and the metric when the part is analysed
+    (not a part reported as incomplete)."""
+    plan = project / "confirm" / "plan.toml"
+    plan.write_text(PLAN.replace('metric = "gesture_accuracy"', f'metric = "{metric}"'))
+    with pytest.raises(PlanError, match=re.escape(f"{plan}: part wide, family secondary: metric "
+                                                  f"{metric!r} is not a score of the runs of "
+                                                  "grids/wide")):
+        analyse(read_plan(plan))
 
 
 EXPLORATORY = """

@@ -75,6 +75,8 @@ PER_FOLD_COLUMNS = ["part", "analysis", "comparison", "metric", "fold", "differe
 SHOWN_PROBLEMS = 3
 #: Decimals of an interval end when it is compared with a paper's gain (PLAN.md, ``shown``).
 DECIMALS = 2
+#: The tasks whose per-class scores a metric may name (``gesture_f1_G2``).
+TASKS = ("gesture", "progress")
 
 
 #: The keys a plan's tables may hold; any other is refused (a misspelt key is not ignored).
@@ -83,6 +85,10 @@ KEYS = {"plan": {"confidence", "parts"},
                  "rule_out_below", "families"},
         "family": {"name", "role", "endpoints"},
         "endpoint": {"x", "y", "metric", "paper_gain"}}
+
+
+#: What a plan's value of each type is called in a message.
+TYPE_NAMES = {float: "a float", int: "an integer", str: "a string", list: "a list"}
 
 
 class PlanError(ValueError):
@@ -173,7 +179,7 @@ def plan_value(table: dict, key: str, kind: type, path: Path, where: str):
     ok = isinstance(value, kind) or (kind is float and isinstance(value, int))
     name = f"{where}.{key}" if where else key
     if value is None or not ok or isinstance(value, bool):
-        raise PlanError(f"{path}: {name} must be a {kind.__name__} (value: {value!r})")
+        raise PlanError(f"{path}: {name} must be {TYPE_NAMES[kind]} (value: {value!r})")
     if kind is float and not math.isfinite(value):
         raise PlanError(f"{path}: {name} must be a finite number (value: {value!r})")
     if kind is str:
@@ -300,7 +306,8 @@ def _endpoint(entry: dict, path: Path, where: str) -> Endpoint:
     for side in ("x", "y"):
         plan_config(entry, side, path, where)
     metric = plan_value(entry, "metric", str, path, where)
-    if metric not in METRICS and not per_class(metric.partition("_")[2]):
+    task, _, score = metric.partition("_")
+    if metric not in METRICS and not (task in TASKS and per_class(score)):
         raise PlanError(f"{path}: {where}.metric: {metric!r} is not a score of the runs "
                         f"({', '.join(METRICS)}, or a per-class score such as "
                         "gesture_f1_G2)")
@@ -334,6 +341,7 @@ def analyse(plan: Plan) -> tuple[pd.DataFrame, pd.DataFrame, list[str]]:
         if found is None:
             continue
         runs, _ = found
+        _check_metrics(plan, part, runs)
         analyses = {"planned": part.seeds}
         if part.sensitivity_seeds:
             analyses["sensitivity"] = part.sensitivity_seeds
@@ -342,6 +350,18 @@ def analyse(plan: Plan) -> tuple[pd.DataFrame, pd.DataFrame, list[str]]:
             endpoint_rows(part, analysis, seeds, runs[runs.seed.isin(seeds)], config, rows,
                           per_fold)
     return tables(rows, per_fold) + (skipped,)
+
+
+def _check_metrics(plan: Plan, part: Part, runs: pd.DataFrame) -> None:
+    """Raise ``PlanError`` for an endpoint of ``part`` on a metric its grid's runs have not (a
+    per-class score of a class the task has not, ``gesture_f1_G99``): the plan is wrong, not
+    the grid incomplete."""
+    for family in part.families:
+        for endpoint in family.endpoints:
+            if endpoint.metric not in runs.columns:
+                raise PlanError(f"{plan.path}: part {part.name}, family {family.name}: metric "
+                                f"{endpoint.metric!r} is not a score of the runs of "
+                                f"{as_named(str(part.grid), part.grid, part.grid_name)}")
 
 
 def tables(rows: list[dict], per_fold: list[dict]) -> tuple[pd.DataFrame, pd.DataFrame]:
