@@ -246,3 +246,14 @@ def test_a_fifo_plan_is_refused_before_the_outputs_lock_is_taken(tmp_path: Path,
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and f"{tmp_path / name}: a FIFO (named pipe)" in err
     assert not out.exists()
+
+
+def test_every_toml_file_is_read_by_the_one_reader():
+    """Only ``jigsaws_tools/toml_files.py`` parses TOML (``tomllib``): a reader of its own would
+    miss its protections."""
+    root = Path(__file__).resolve().parents[1]
+    parsers = sorted(str(path.relative_to(root))
+                     for package in ("jigsaws_tools", "rnn_seg", "baseline", "multitask")
+                     for path in (root / package).rglob("*.py")
+                     if re.search(r"^\s*(import tomllib|from tomllib)", path.read_text(), re.M))
+    assert parsers == ["jigsaws_tools/toml_files.py"]
