@@ -25,7 +25,7 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     set_command([PROG, *(sys.argv[1:] if argv is None else argv)])
-    return run_command(PROG, args.verbose, lambda: _train(args))
+    return run_command(PROG, args.verbose, lambda: _train(args), argv=argv)
 
 
 def _train(args: argparse.Namespace) -> int:

@@ -4,8 +4,9 @@ Shared by ``baseline-train`` and ``multitask-train``, inside
 ``jigsaws_tools.cli.common.run_command``: errors a user can act on (bad values or data, a folder
 in use or holding other settings) propagate to it, which prints one line ``prog: error: ...``
 (and the traceback with ``-v``) and exits with 2, and so does a write refused for lack of space
-(``prog: failed: ...``, exit 1). Handled here: a loss that diverged (one line, exit 1) and
-Ctrl-C during training, which leaves a resumable run (exit 130 and how to resume).
+(``prog: failed: ...``, exit 1). Handled here: a loss that diverged (one line, exit 1); Ctrl-C
+during training leaves a resumable run and goes on to ``run_command`` as an ``Interrupted`` that
+says how to resume (exit 130, or the interrupt re-raised to a Python caller).
 """
 from __future__ import annotations
 
@@ -13,13 +14,13 @@ import sys
 from pathlib import Path
 from typing import Callable, TypeVar
 
-from jigsaws_tools.cli.common import import_tensorflow
+from jigsaws_tools.cli.common import Interrupted, import_tensorflow
 from rnn_seg.runs.lock import hold_folder
 from rnn_seg.runs.outputs import check_output_folder
 
 Config = TypeVar("Config")
 
-EXIT_FAILED, EXIT_INTERRUPTED = 1, 130
+EXIT_FAILED = 1
 
 
 def run_training(prog: str, out: Path, configure: Callable[[], Config],
@@ -42,7 +43,7 @@ def run_training(prog: str, out: Path, configure: Callable[[], Config],
     Raises:
         The errors of ``configure``, ``train`` and the lock (``FolderLockedError``) other than
         ``TrainingDiverged``, for ``run_command`` to report (a write refused for lack of space
-        included).
+        included); ``Interrupted`` for Ctrl-C, saying how to resume.
     """
     check_output_folder(out, prog, may_be_run=True)
     config = configure()
@@ -56,6 +57,5 @@ def run_training(prog: str, out: Path, configure: Callable[[], Config],
         print(f"{prog}: failed: {error}", file=sys.stderr)
         return EXIT_FAILED, None
     except KeyboardInterrupt:
-        print(f"{prog}: interrupted; run the same command again to resume {out} from its last "
-              "checkpoint", file=sys.stderr)
-        return EXIT_INTERRUPTED, None
+        raise Interrupted(f"{prog}: interrupted; run the same command again to resume {out} "
+                          "from its last checkpoint") from None

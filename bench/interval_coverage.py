@@ -13,7 +13,7 @@ import argparse
 import numpy as np
 from scipy import stats
 
-from multitask.evidence.paired import SignFlip
+from multitask.evidence.statistics.paired import SignFlip
 
 
 def main() -> None:

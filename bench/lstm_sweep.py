@@ -19,6 +19,13 @@ ratios to the floor, the reference and the peers, and peak memory.
     python bench/lstm_sweep.py --threads 1,2     # force a thread plan (intra, inter) on rnn_seg
                                                  # and the peers
     python bench/lstm_sweep.py --impl rnn_seg torch keras     # a subset
+    python bench/lstm_sweep.py --isa avx2      # the AVX2 contest on an AVX-512 machine: the fused
+                                               # loops built for haswell, oneDNN (TensorFlow's
+                                               # and PyTorch's) limited to AVX2
+
+It prints the processor, its vector width and, for the fused loops, which product the library
+runs (``rnn_seg.kernels``: AVX-512 or AVX2), and which loops ``auto`` (the default) runs here
+beside the fastest of ours measured.
 """
 from __future__ import annotations
 
@@ -41,6 +48,10 @@ IMPLEMENTATIONS = ("rnn_seg", "rnn_seg_bf16", "rnn_seg_xla", "rnn_seg_fused",
                    "rnn_seg_fused_bf16", "per_gate", "torch", "torch_bf16", "keras", "keras_bf16")
 #: Each peer's package (the first part of its name) and how to install it.
 PEERS = {"torch": "pip install -e '.[bench]'", "keras": "pip install keras"}
+#: ``--isa`` -> the environment every worker gets: the fused loops' build target and oneDNN's.
+ISA_LIMITS = {"native": {}, "avx2": {"RNN_SEG_MARCH": "haswell", "ONEDNN_MAX_CPU_ISA": "AVX2"}}
+#: Our implementations by the loops they run (``auto`` is one of them: which, ``rnn_seg.lstm``).
+OUR_LOOPS = {"rnn_seg": "graph", "rnn_seg_xla": "xla", "rnn_seg_fused": "fused"}
 #: (label, slower, faster): each prints ``slower``'s median over ``faster``'s when both ran.
 RATIOS = (("rnn_seg vs per_gate", "per_gate", "rnn_seg"),
           ("bf16 vs fp32", "rnn_seg", "rnn_seg_bf16"),
@@ -126,8 +137,12 @@ def worker(impl: str, hidden: int, steps: int, repeats: int, plan: str | None = 
         start = time.perf_counter()
         sweep()
         times.append(time.perf_counter() - start)
-    return {"impl": impl, "hidden": hidden, "times": times, "peak_mb": _peak_mb(),
-            "threads": threads}
+    result = {"impl": impl, "hidden": hidden, "times": times, "peak_mb": _peak_mb(),
+              "threads": threads}
+    if "fused" in impl:
+        from rnn_seg.kernels.build import describe
+        result["product"] = describe()
+    return result
 
 
 def _peak_mb() -> float:
@@ -225,6 +240,9 @@ def main() -> None:
     parser.add_argument("--threads", help="thread plan 'intra,inter' for rnn_seg and the peers "
                                           "(default: rnn_seg its own plan, rnn_seg.threads; the "
                                           "peers every core, intra = inter = cores)")
+    parser.add_argument("--isa", choices=ISA_LIMITS, default="native",
+                        help="instruction sets for ours and the peers: native (default), or avx2: "
+                             "the fused loops built for haswell and oneDNN limited to AVX2")
     parser.add_argument("--worker", nargs=2, metavar=("IMPL", "HIDDEN"), help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
@@ -233,9 +251,11 @@ def main() -> None:
                   else worker(impl, hidden, args.steps, args.repeats, args.threads))
         print(json.dumps(result))
         return
+    os.environ.update(ISA_LIMITS[args.isa])
     impls = _runnable(args.impl)
     print(f"training sweep: bidirectional LSTM, B={B}, F={F}, T={args.steps}, "
           f"{args.repeats} timed repeats after one warm-up; {os.cpu_count()} cores")
+    print(_processor(args.isa))
     if any(impl.split("_")[0] in PEERS for impl in impls):
         print("peers (torch, keras): LSTM cells without peepholes, one input dropout mask for "
               "both directions (bench/lstm_peers.py)")
@@ -278,10 +298,40 @@ def _sweep_size(hidden: int, impls: list[str], args: argparse.Namespace) -> None
         print(f"H={hidden:5d} {impl:12s} median {medians[impl]:7.3f} s  "
               f"(min {min(res['times']):.3f}, max {max(res['times']):.3f})  "
               f"{medians[impl] / floor:.2f}x floor  peak RSS {res['peak_mb']:6.0f} MB  "
-              f"threads (intra, inter) {res['threads']}")
+              f"threads (intra, inter) {res['threads']}"
+              + (f"  product: {res['product']}" if "product" in res else ""))
     for label, slower, faster in RATIOS:
         if {slower, faster} <= set(medians):
             print(f"H={hidden:5d} speed-up {label}: {medians[slower] / medians[faster]:.2f}x")
+    _auto_line(hidden, medians)
+
+
+def _processor(isa: str) -> str:
+    """One line: the processor, its widest float vectors, and any ``--isa`` limit."""
+    from rnn_seg.config import cpu_flags
+    from rnn_seg.runs.provenance import cpu_model
+
+    flags = cpu_flags()
+    width = ("512-bit (AVX-512)" if "avx512f" in flags else
+             "256-bit (AVX2)" if "avx2" in flags else "128-bit or less (no AVX2)")
+    limit = "" if isa == "native" else (
+        f"; limited to {isa.upper()}: " + ", ".join(f"{k}={v}" for k, v in ISA_LIMITS[isa].items()))
+    return f"processor: {cpu_model()}, {width} vectors{' + bf16' if 'avx512_bf16' in flags else ''}{limit}"
+
+
+def _auto_line(hidden: int, medians: dict[str, float]) -> None:
+    """Which of our loops ``auto`` runs here, beside the fastest of ours measured (float32)."""
+    ours = {OUR_LOOPS[impl]: medians[impl] for impl in OUR_LOOPS if impl in medians}
+    if len(ours) < 2:
+        return
+    from rnn_seg.lstm import runnable
+    chosen = runnable("auto", "fp32")
+    fastest = min(ours, key=ours.get)
+    if chosen not in ours:
+        print(f"H={hidden:5d} auto runs the {chosen} loops (not measured here)")
+        return
+    print(f"H={hidden:5d} auto runs the {chosen} loops: {ours[chosen]:.3f} s; the fastest of ours "
+          f"measured, {fastest}: {ours[fastest]:.3f} s ({ours[chosen] / ours[fastest] - 1:+.0%})")
 
 
 def _plan(impl: str, threads: str | None) -> str | None:

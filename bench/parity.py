@@ -53,7 +53,7 @@ def run_grid(out: Path, name: str, workers: int) -> Path:
 
 
 def per_fold(grid: Path) -> pd.DataFrame:
-    from multitask.evidence.collect import run_rows
+    from multitask.evidence.runs.collect import run_rows
 
     runs, _ = run_rows(grid)
     runs = runs[runs.direction == "bidirectional"]

@@ -120,16 +120,16 @@ class RecordingFormat:
 
 def another_layout_hint() -> str:
     """The advice that ends an error about a folder or a recording read in the release's layout
-    that holds something else (README, "Your own recordings", shows a format file): to give
+    that holds something else (docs/DATA.md, "Your own recordings", shows a format file): to give
     ``--format``. A command that takes no ``--format`` replaces it with its own advice
     (``jigsaws_tools.cli.common.run_command``'s ``layout_advice``, e.g. ``RELEASE_LAYOUT_ONLY``)."""
-    return ("recordings of another layout need --format FILE.toml (README, 'Your own "
+    return ("recordings of another layout need --format FILE.toml (docs/DATA.md, 'Your own "
             "recordings')")
 
 
 #: The advice of a command that reads the release's layout only (``another_layout_hint``).
 RELEASE_LAYOUT_ONLY = ("this command reads the JIGSAWS release's layout only (recordings of "
-                       "another layout: README, 'Your own recordings')")
+                       "another layout: docs/DATA.md, 'Your own recordings')")
 
 
 def load_format(recording_format: str | Path | RecordingFormat | None) -> RecordingFormat:

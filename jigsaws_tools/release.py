@@ -137,8 +137,8 @@ def require_layout(root: Path, task: TaskDefinition = SUTURING,
     (``_refuse_another_layout``)."""
     hint = OBTAIN_HINT if recording_format.is_default else (
         f"a {recording_format.name} data folder holds the folders its format's [files] names: "
-        f"{recording_format.recordings} and {recording_format.transcriptions} (README, 'Your "
-        f"own recordings')")
+        f"{recording_format.recordings} and {recording_format.transcriptions} (docs/DATA.md, "
+        f"'Your own recordings')")
     if not root.is_dir():
         what = "JIGSAWS" if recording_format.is_default else f"{recording_format.name} data"
         raise ReleaseNotFoundError(root, f"{what} {task.name} folder", hint)

@@ -95,7 +95,7 @@ def main(argv: list[str] | None = None) -> int:
     if unused:
         parser.refuse(unused)
     set_command([PROG, *(sys.argv[1:] if argv is None else argv)])
-    return run_command(PROG, args.verbose, lambda: _train(args, variant))
+    return run_command(PROG, args.verbose, lambda: _train(args, variant), argv=argv)
 
 
 def unused_options(args: argparse.Namespace, variant: Variant) -> str | None:

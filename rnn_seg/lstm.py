@@ -359,6 +359,7 @@ class RecurrentEncoder(tf.Module):
         super().__init__(name="encoder")
         self.asked_loops = config.loops          # before ``auto`` (or a fallback) is resolved
         self.config = config = runnable_loops(config)
+        self.loops_why = loops_reason(self.asked_loops, config.loops, config.precision)
         self.cells = {
             d: [LSTMCellWeights(input_size if layer == 0 else config.hidden, config.hidden,
                                 config.init_scale, rng, name=f"{d}_layer{layer}")
@@ -375,8 +376,12 @@ class RecurrentEncoder(tf.Module):
         path (``runnable``'s fallback aside), so its provenance, ``load_run`` and the execution
         comparisons read what trained it. Explicit loops are kept: a run may resume on any.
         Call before the first trace."""
-        if self.asked_loops == "auto" and started in RUNNABLE_LOOPS:
+        if self.asked_loops == "auto" and started in RUNNABLE_LOOPS \
+                and started != self.config.loops:
             self.config = runnable_loops(replace(self.config, loops=started))
+            self.loops_why = (f"auto: the loops the run started on ({started})"
+                              if self.config.loops == started else
+                              loops_reason(started, self.config.loops, self.config.precision))
 
     @property
     def dropout_calls(self) -> int:
@@ -501,6 +506,18 @@ def runnable(loops: Loops, precision: Precision) -> Loops:
         return "fused"
     _say_once(f"fused LSTM loops unavailable ({reason}): running the graph loops")
     return "graph"
+
+
+def loops_reason(asked: Loops, ran: Loops, precision: Precision) -> str:
+    """Why a process runs ``ran`` loops where ``asked`` was asked for (``runnable``), in words
+    for a run's record."""
+    if ran == asked:
+        return "asked for"
+    if ran == "graph":
+        return f"fused loops unavailable: {_fused_unavailable(precision)}"
+    return (f"auto: the fused loops build and load here ({fused_build.describe()}); the fastest "
+            "of this project's loops on AVX2 and AVX-512 processors at 128 and 1024 units "
+            "(docs/PERFORMANCE.md, \"Which loops auto runs\")")
 
 
 @functools.lru_cache(maxsize=None)

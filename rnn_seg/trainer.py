@@ -20,8 +20,10 @@ A run directory holds::
     metrics.json                 every evaluation point, their mean, the confusion matrices summed
                                  over the points, and whether the training loss had stopped
                                  falling (``rnn_seg.convergence``)
-    finished.json                written last (settings hash, start and end time, provenance); a
-                                 run without it is incomplete and resumes
+    finished.json                written last (settings hash, start and end time, provenance, the
+                                 training segments: which loops and precision trained which
+                                 sweeps, and why; rnn_seg.runs.segments); a run without it is
+                                 incomplete and resumes
     .lock                        while a process trains the run: its lock (rnn_seg.runs.lock)
 
 A run folder always matches its weights: launching a run into a folder that records other settings
@@ -57,6 +59,7 @@ from .sweeps import make_sweep, pad_sweep, reset_flags, sweep_indices, sweeps_pe
 from .predictions import prediction_csv, prediction_table
 from .tasks import Task, task_metrics, task_scores
 from .runs.provenance import now, provenance, started_loops
+from .runs.segments import SEGMENTS, closed, earlier_segments, session_segment
 from .runs.settings import SettingsMismatchError, check_run_dir, settings_hash
 from .runs.timing import PhaseClock
 
@@ -192,10 +195,12 @@ class Trainer:
         self._test_outputs_at: tuple[int, dict] | None = None   # (sweep, outputs) of the test set
         self._store: CheckpointStore | None = None                  # set by prepare()
         self._record: dict = {}                                     # config.json, by prepare()
+        self._segments: list[dict] = []                             # by resume()
         self._losses: list[np.ndarray] = []                         # since the last progress line
         self._summaries: tf.summary.SummaryWriter | None = None     # with config.tensorboard
         self._started = time.time()
         self._last_line = (0, self._started)                       # (sweeps done, time)
+        self._first_sweep: tuple[int, float] | None = None           # this session's, when done
 
     @property
     def sweeps_per_unit(self) -> int:
@@ -364,6 +369,9 @@ class Trainer:
         self._last_line = (done, self._started)
         if done:
             self._continue_clock(done)
+        self._segments = [*earlier_segments(self._store.clock(done) if done else None, done,
+                                            self._record),
+                          session_segment(self.model.encoder, done)]
         return done
 
     def _continue_clock(self, done: int) -> None:
@@ -388,6 +396,8 @@ class Trainer:
         """
         losses = self.record(out)
         done = sweep + 1
+        if self._first_sweep is None:
+            self._first_sweep = (done, time.time())
         if not np.all(np.isfinite(losses)):
             self._diverged(done, losses)
         self._losses.append(losses)
@@ -403,7 +413,8 @@ class Trainer:
                 or done % (self.sweeps_per_unit * self.config.checkpoint_every) == 0):
             with self.clock.phase("checkpoint"):
                 self._store.save(done, {"phases": self.clock.report(),
-                                        "elapsed_seconds": time.time() - self._started})
+                                        "elapsed_seconds": time.time() - self._started,
+                                        SEGMENTS: closed(self._segments, done)})
 
     def log_columns(self) -> dict[str, list[str]]:
         """The columns of the run's CSV logs (``rnn_seg.runs.logs``) it knows: ``history.csv``'s,
@@ -432,9 +443,8 @@ class Trainer:
         """One ``history.csv`` row and one short progress line: the training losses of the sweeps
         since the last line (free), time per unit and ETA, and every ``monitor_every`` units the
         test set's scores (and the training set's with ``monitor_train``)."""
-        now = time.time()
-        unit_seconds = ((now - self._last_line[1]) * self.sweeps_per_unit
-                        / max(1, done - self._last_line[0]))
+        now, since = time.time(), self._last_line
+        unit_seconds = (now - since[1]) * self.sweeps_per_unit / max(1, done - since[0])
         self._last_line = (done, now)
         scores = {}
         if self.config.monitor_train:
@@ -447,11 +457,24 @@ class Trainer:
         self._append_history(row)
         self._write_summaries(row)
         self._on_log(done)
-        self.log(self._progress_line(row))
+        self.log(self._progress_line(row, self._seconds_left(done, now, since)))
 
-    def _progress_line(self, row: dict) -> str:
+    def _seconds_left(self, done: int, now: float, since: tuple[int, float]) -> float:
+        """The ETA after ``done`` sweeps: the sweeps left at the pace of those since the last
+        line (``since``: sweeps done and time then). When those begin with this session's first
+        sweep, its time is left out: it holds TensorFlow's one-off work (graph optimisation,
+        the kernels' first calls), which the first line's ETA of a short run counted once per
+        sweep left (a 3-minute run's first ETA read 12 minutes)."""
+        first_done, first_time = self._first_sweep or since
+        if since[0] < first_done < done:
+            since = (first_done, first_time)
+        per_sweep = (now - since[1]) / max(1, done - since[0])
+        return (self.total_sweeps - done) * per_sweep
+
+    def _progress_line(self, row: dict, seconds_left: float) -> str:
         """``[B] epoch 12/30  loss gesture 0.412 progress 0.233  test acc/edit gesture 84.1/80.2
-        1.8 s/epoch  ETA 0:00:32``."""
+        1.8 s/epoch  ETA 0:00:32``: the time per unit measured since the last line, and the time
+        left (``_seconds_left``)."""
         unit = self.optim.unit_name
         losses = " ".join(f"{t.name} {row[f'loss_{t.name}']:.3f}" for t in self.tasks)
         parts = [f"[{self.run_dir.name}] {unit} {row['n']:g}/{self.optim.total}", f"loss {losses}"]
@@ -461,9 +484,8 @@ class Trainer:
                     f"{t.name} {row[f'{split}_{t.name}_acc']:.1f}/"
                     f"{row[f'{split}_{t.name}_edit']:.1f}"
                     for t in self.tasks))
-        left = (self.total_sweeps - row["sweep"]) / self.sweeps_per_unit
         parts.append(f"{row['unit_seconds']:.1f} s/{unit}  ETA "
-                     f"{timedelta(seconds=round(left * row['unit_seconds']))}")
+                     f"{timedelta(seconds=round(seconds_left))}")
         return "  ".join(parts)
 
     def _write_summaries(self, row: dict) -> None:
@@ -550,7 +572,7 @@ class Trainer:
         mark_finished(self.run_dir, {
             "sweeps": self.total_sweeps, "settings_hash": self.settings_hash,
             "started": self._record.get("provenance", {}).get("started"), "finished": now(),
-            "provenance": provenance()})
+            "provenance": provenance(), SEGMENTS: closed(self._segments, self.total_sweeps)})
         return read_json(self.run_dir / "metrics.json")
 
 

@@ -11,15 +11,15 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from multitask.evidence.architectures import (ArchitectureEvidence, architecture_markdown,
-                                              architecture_table, measured_table2,
-                                              read_architectures, runs_of)
-from multitask.evidence.claims import TCN_CLAIMS, Claim, evaluate
-from multitask.evidence.claims_table import claims_note
 from multitask.evidence.cli import main as tables_main
-from multitask.evidence.latex import required_packages
-from multitask.evidence.paired import ConfigId, Contrast, holm
-from multitask.evidence.pooling import MixedArchitectures, apart
+from multitask.evidence.render.latex import required_packages
+from multitask.evidence.runs.pooling import MixedArchitectures, apart
+from multitask.evidence.statistics.paired import ConfigId, Contrast, holm
+from multitask.evidence.studies.architectures import (ArchitectureEvidence, architecture_markdown,
+                                                      architecture_table, measured_table2,
+                                                      read_architectures, runs_of)
+from multitask.evidence.studies.claims import TCN_CLAIMS, Claim, evaluate
+from multitask.evidence.studies.claims_table import claims_note
 from multitask.grid.spec import Experiment
 from multitask.models.run_record import read_run_record
 from tests.fake_grid import FOLDS, write_fake_grid
@@ -253,7 +253,7 @@ def test_a_run_without_timing_is_named_and_left_out_of_the_cost(grids, tmp_path)
 # --- The command ----------------------------------------------------------------------------
 
 def test_one_command_writes_every_file_and_again_the_same_bytes(grids, tmp_path, capsys):
-    args = ["--architectures", str(grids["lstm"]), str(grids["ed-tcn"]), str(grids["ms-tcn"])]
+    args = ["architectures", str(grids["lstm"]), str(grids["ed-tcn"]), str(grids["ms-tcn"])]
     assert tables_main([*args, "--out", str(tmp_path / "a")]) == 0
     assert tables_main([*args, "--out", str(tmp_path / "b")]) == 0
     names = {"architectures.csv", "architectures.tex", "architectures.md", "claims.csv",
@@ -280,10 +280,10 @@ def test_command_errors_are_one_line_exit_2_and_write_nothing(grids, tmp_path, c
     args = {"missing": [str(tmp_path / "nowhere")], "not a grid": [str(tmp_path / "plain")],
             "twice": [grid, grid + "/"], "same architecture": [grid, str(copy)],
             "with GRID_DIR": [grid]}[case]
-    argv = ["--architectures", *args, "--out", str(out)]
-    if case == "with GRID_DIR":
+    argv = ["architectures", *args, "--out", str(out)]
+    if case == "with GRID_DIR":              # the flag form of earlier versions, checked as it was
         with pytest.raises(SystemExit) as exit_info:
-            tables_main([grid, *argv])
+            tables_main([grid, "--architectures", *args, "--out", str(out)])
         assert exit_info.value.code == 2
     else:
         assert tables_main(argv) == 2
@@ -341,7 +341,7 @@ def test_the_latex_compiles_and_fits_an_ieee_page(grids, tmp_path):
                               experiments=TCN_EXPERIMENTS[:2], seconds=3000.0)
     _unfinish(partial, "A-fixed", 1, "BCDEF")
     out = tmp_path / "out"
-    assert tables_main(["--architectures", str(grids["lstm"]), str(partial),
+    assert tables_main(["architectures", str(grids["lstm"]), str(partial),
                         str(grids["ed-tcn"]), str(grids["ms-tcn"]), "--out", str(out)]) == 0
     for name in ("architectures", "claims", "table2"):
         tex = (out / f"{name}.tex").read_text()
@@ -356,14 +356,14 @@ def test_the_latex_compiles_and_fits_an_ieee_page(grids, tmp_path):
 
 def test_one_table_never_holds_runs_of_two_encoders(grids, tmp_path, capsys):
     """Runs trained one by one: an LSTM's model A and an ED-TCN's APc would be rows of one
-    table, and --compare would pair them as one model's configurations."""
+    table, and multitask-tables pair would pair them as one model's configurations."""
     collection = tmp_path / "runs"
     for name, grid, config in (("lstm_A", grids["lstm"], "A-fixed"),
                                ("edtcn_APc", grids["ed-tcn"], "APc-fixed")):
         shutil.copytree(grid / "runs/revised/bidirectional" / config / "seed0/B",
                         collection / name)
-    assert tables_main([str(collection), "--out", str(tmp_path / "tables")]) == 2
+    assert tables_main(["runs", str(collection), "--out", str(tmp_path / "tables")]) == 2
     error = capsys.readouterr().err
     assert "runs of several encoders (ed-tcn (" in error and "lstm (" in error
-    assert "--architectures" in error and len(error.strip().splitlines()) == 1
+    assert "multitask-tables architectures" in error and len(error.strip().splitlines()) == 1
     assert not (tmp_path / "tables").exists()

@@ -66,15 +66,15 @@ def test_an_archive_never_replaces_the_archive_of_another_spec(fake_grid, tmp_pa
     narrow = _grid_with_spec(fake_grid, tmp_path / "narrow", hidden=8)
     wide = _grid_with_spec(fake_grid, tmp_path / "wide", hidden=16)
     dest = tmp_path / "archive"
-    assert tables_main([str(narrow), "--archive", str(dest)]) == 0
+    assert tables_main(["archive", str(narrow), str(dest)]) == 0
     before = visible(dest)
     capsys.readouterr()
-    assert tables_main([str(wide), "--archive", str(dest)]) == 2
+    assert tables_main(["archive", str(wide), str(dest)]) == 2
     err = _one_line(capsys.readouterr().err)
     assert "holds the archive of another grid" in err and "hidden" in err
     assert visible(dest) == before
     moved = _grid_with_spec(fake_grid, tmp_path / "moved", hidden=8)      # only data_dir differs
-    assert tables_main([str(moved), "--archive", str(dest)]) == 0
+    assert tables_main(["archive", str(moved), str(dest)]) == 0
     assert read_json(dest / "archive.json")["source"] == str(moved.resolve())
 
 
@@ -92,7 +92,7 @@ def test_an_archive_is_never_written_inside_a_run_or_a_grid(fake_grid, tmp_path,
     for dest, says in ((run / "archive", "neither inside the other"),
                        (other_run / "arc", "inside the run folder"),
                        (other / "archives" / "mine", "inside the grid folder")):
-        assert tables_main([str(grid), "--archive", str(dest)]) == 2
+        assert tables_main(["archive", str(grid), str(dest)]) == 2
         assert says in _one_line(capsys.readouterr().err)
     assert before == {folder: sorted(p.relative_to(folder) for p in folder.rglob("*"))
                       for folder in (grid, other)}
@@ -111,7 +111,7 @@ def test_an_archive_copies_only_the_runs_own_regular_files(fake_grid, tmp_path, 
     else:
         os.mkfifo(run / "history.csv")
     with at_most(60):
-        assert tables_main([str(grid), "--archive", str(tmp_path / "archive")]) == 2
+        assert tables_main(["archive", str(grid), str(tmp_path / "archive")]) == 2
     err = _one_line(capsys.readouterr().err)
     assert f"{run / 'history.csv'}:" in err
     assert ("symbolic link" if kind == "symlink" else "not a regular file") in err
@@ -122,7 +122,7 @@ def test_an_archive_copies_only_the_runs_own_regular_files(fake_grid, tmp_path, 
 def test_a_full_disk_while_archiving_names_the_file_at_its_place(fake_grid, tmp_path, capsys,
                                                                 monkeypatch):
     dest = tmp_path / "archive"
-    assert tables_main([str(fake_grid), "--archive", str(dest)]) == 0
+    assert tables_main(["archive", str(fake_grid), str(dest)]) == 0
     before = visible(dest)
 
     def full(*args, **kwargs):
@@ -130,7 +130,7 @@ def test_a_full_disk_while_archiving_names_the_file_at_its_place(fake_grid, tmp_
 
     monkeypatch.setattr(shutil, "copyfileobj", full)
     capsys.readouterr()
-    assert tables_main([str(fake_grid), "--archive", str(dest)]) == 1
+    assert tables_main(["archive", str(fake_grid), str(dest)]) == 1
     err = _one_line(capsys.readouterr().err)
     assert f"cannot write {dest / 'grid.json'} (No space left on device)" in err
     assert "MB free" in err and "checkpoint" not in err and "Traceback" not in err
@@ -143,7 +143,7 @@ def test_a_full_disk_while_writing_tables_leaves_the_earlier_tables(fake_grid, t
     """The disk fills at the first file written: one line naming that file at its place in
     --out and the space left; the earlier tables stay, whole, and nothing hidden is left."""
     out = tmp_path / "tables"
-    assert tables_main([str(fake_grid / "runs"), "--out", str(out)]) == 0
+    assert tables_main(["runs", str(fake_grid / "runs"), "--out", str(out)]) == 0
     before = visible(out)
     opened = os.fdopen
 
@@ -155,7 +155,7 @@ def test_a_full_disk_while_writing_tables_leaves_the_earlier_tables(fake_grid, t
 
     monkeypatch.setattr(os, "fdopen", full_disk)
     capsys.readouterr()
-    assert tables_main([str(fake_grid / "runs"), "--out", str(out)]) == 1
+    assert tables_main(["runs", str(fake_grid / "runs"), "--out", str(out)]) == 1
     err = _one_line(capsys.readouterr().err)
     assert re.search(rf"cannot write {re.escape(str(out))}/\w+\.csv \(No space left on device\); "
                      r"\d+ MB free", err), err
@@ -199,7 +199,7 @@ def test_a_fifo_in_a_run_never_hangs_the_tables(fake_grid, tmp_path, capsys, nam
     (run / name).unlink()
     os.mkfifo(run / name)
     with at_most(60):
-        code = tables_main([str(grid), "--out", str(tmp_path / "tables"), "--no-figures"])
+        code = tables_main(["paper", str(grid), "--out", str(tmp_path / "tables"), "--no-figures"])
     err = capsys.readouterr().err
     if name == "metrics.json":         # read by every table; the others where needed
         assert code == 2 and f"{run / name}: a FIFO (named pipe), not a regular file" in err

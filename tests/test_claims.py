@@ -10,15 +10,15 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from multitask.evidence.claims import (CLAIMS, COLUMNS, MIN_PAIRS, VERDICTS, Claim, evaluate,
-                                       paper_difference, paper_value, smallest_adjusted_p,
-                                       verdict)
-from multitask.evidence.claims_table import claims_latex, write_claims
-from multitask.evidence.collect import LOWER_IS_BETTER, METRICS
-from multitask.evidence.latex import escape, required_packages
-from multitask.evidence.paired import (ConfigId, Contrast, NotPaired, SignFlip, StatsConfig,
-                                       holm, paired, power)
 from multitask.evidence.cli import main as tables_main
+from multitask.evidence.render.latex import escape, required_packages
+from multitask.evidence.runs.collect import LOWER_IS_BETTER, METRICS
+from multitask.evidence.statistics.paired import (ConfigId, Contrast, NotPaired, SignFlip,
+                                                  StatsConfig, holm, paired, power)
+from multitask.evidence.studies.claims import (CLAIMS, COLUMNS, MIN_PAIRS, VERDICTS, Claim,
+                                               evaluate, paper_difference, paper_value,
+                                               smallest_adjusted_p, verdict)
+from multitask.evidence.studies.claims_table import claims_latex, write_claims
 from multitask.grid.spec import RunKey
 from tests.fake_grid import write_fake_run
 
@@ -428,7 +428,7 @@ def _write_grid(root, runs: pd.DataFrame) -> None:
 
 def test_cli_writes_the_claims_and_compares_two_configurations(tmp_path, capsys):
     _write_grid(tmp_path, _runs({APC: 2.0, A: 0.0}, np.random.default_rng(13), seeds=2))
-    assert tables_main([str(tmp_path), "--no-figures"]) == 0
+    assert tables_main(["paper", str(tmp_path), "--no-figures"]) == 0
     claims = pd.read_csv(tmp_path / "tables" / "claims.csv")
     assert list(claims.columns) == COLUMNS
     row = claims.set_index("claim").loc["segmental:APc-fixed:gesture_edit"]
@@ -443,7 +443,7 @@ def test_cli_writes_the_claims_and_compares_two_configurations(tmp_path, capsys)
     assert settings["statistics"] == {"confidence": 0.95, "power_samples": 1_000_000,
                                       "power_seed": 0}
     capsys.readouterr()
-    assert tables_main([str(tmp_path), "--compare", "APc-fixed", "A", "--metric",
+    assert tables_main(["pair", str(tmp_path), "APc-fixed", "A", "--metric",
                         "gesture_edit"]) == 0
     out = capsys.readouterr().out
     assert "APc-fixed - A-fixed on gesture_edit" in out and "8 folds, 2 seed(s)" in out
@@ -451,20 +451,20 @@ def test_cli_writes_the_claims_and_compares_two_configurations(tmp_path, capsys)
 
 def test_cli_errors_are_one_line_and_exit_2(tmp_path, capsys):
     _write_grid(tmp_path, _runs({A: 0.0}, np.random.default_rng(14), folds=("B", "C")))
-    assert tables_main([str(tmp_path), "--compare", "APx-fixed", "A-fixed", "--metric",
+    assert tables_main(["pair", str(tmp_path), "APx-fixed", "A-fixed", "--metric",
                         "gesture_edit"]) == 2
     error = capsys.readouterr().err
     assert "no finished runs of APx-fixed" in error and "holds A-fixed" in error
     assert "Traceback" not in error
-    assert tables_main([str(tmp_path), "--compare", "sideways/A-fixed", "A-fixed", "--metric",
+    assert tables_main(["pair", str(tmp_path), "sideways/A-fixed", "A-fixed", "--metric",
                         "gesture_edit"]) == 2
     assert "'sideways'" in capsys.readouterr().err
-    assert tables_main([str(tmp_path), "--compare", "A-fixed", "A-fixed", "--metric", "f1"]) == 2
+    assert tables_main(["pair", str(tmp_path), "A-fixed", "A-fixed", "--metric", "f1"]) == 2
     error = capsys.readouterr().err
     assert "known: gesture_accuracy, gesture_edit and the per-class scores" in error
     assert len(error.splitlines()) == 1                  # every score the table has, one line
     with pytest.raises(SystemExit) as exit_info:
-        tables_main([str(tmp_path), "--compare", "APc-fixed", "A-fixed"])
+        tables_main(["pair", str(tmp_path), "APc-fixed", "A-fixed"])
     assert exit_info.value.code == 2
 
 

@@ -1,4 +1,5 @@
-"""The pre-registered confirmatory analysis (``multitask.evidence.confirm``, ``--confirm``)."""
+"""The pre-registered confirmatory analysis (``multitask.evidence.studies.confirm``,
+``multitask-tables confirm``)."""
 from __future__ import annotations
 
 import json
@@ -10,8 +11,8 @@ import pandas as pd
 import pytest
 
 from multitask.evidence.cli import main as tables_main
-from multitask.evidence.collect import run_rows
-from multitask.evidence.confirm import Part, PlanError, analyse, outcome, read_plan
+from multitask.evidence.runs.collect import run_rows
+from multitask.evidence.studies.confirm import Part, PlanError, analyse, outcome, read_plan
 from multitask.grid.spec import Experiment
 from tests.fake_grid import FOLDS, write_fake_grid
 
@@ -218,7 +219,7 @@ def test_the_rule_out_criterion_reads_our_upper_end_with_two_decimals(project: P
                                                                      apoc_high, excluded):
     """PLAN.md: "The paper's gains are compared to the interval with their published digit and
     ours with two decimals": an upper end of 2.996 is 3.00, not below the paper's +3.0."""
-    from multitask.evidence import confirm
+    from multitask.evidence.studies import confirm
 
     real = confirm.paired
 
@@ -273,15 +274,15 @@ def test_the_command_writes_the_analysis_from_any_folder(project: Path, tmp_path
                                                          monkeypatch, capsys):
     monkeypatch.chdir(tmp_path.parent)
     out = project / "confirm"
-    assert tables_main(["--confirm", str(out / "plan.toml"), "--out", str(out)]) == 0
+    assert tables_main(["confirm", str(out / "plan.toml"), "--out", str(out)]) == 0
     table = pd.read_csv(out / "confirm.csv")
     assert set(table.part) == {"wide"} and "replication: not analysed" in capsys.readouterr().err
     assert (out / "plan.toml").read_text() == PLAN              # the plan is never written
     first = (out / "confirm.csv").read_bytes()
-    assert tables_main(["--confirm", str(out / "plan.toml"), "--out", str(out)]) == 0
+    assert tables_main(["confirm", str(out / "plan.toml"), "--out", str(out)]) == 0
     assert (out / "confirm.csv").read_bytes() == first
     with pytest.raises(SystemExit):
-        tables_main(["--confirm", str(out / "plan.toml"), "--out", str(out), "--seeds", "0"])
+        tables_main(["confirm", str(out / "plan.toml"), "--out", str(out), "--seeds", "0"])
     assert np.isfinite(table["diff"]).all()
 
 
@@ -289,7 +290,7 @@ def test_a_tie_lost_to_float_rounding_still_counts():
     """A fold difference that is 0 but computed as 5.6e-17 (0.1 + 0.2 - 0.3), or folds whose
     differences sum to 0 up to rounding, count as the exact ties they are: the p-value and the
     interval do not depend on how the seed means were rounded."""
-    from multitask.evidence.paired import SignFlip
+    from multitask.evidence.statistics.paired import SignFlip
 
     exact = np.array([0.0, 1.0, 2.0, 1.5, 0.5, 3.0, 1.0, 2.5])
     rounded = exact.copy()
@@ -352,7 +353,7 @@ def _report(project: Path, plan_text: str = PLAN) -> tuple[str, pd.DataFrame]:
     """confirm.md and confirm.csv as the command writes them for ``plan_text``."""
     out = project / "confirm"
     (out / "plan.toml").write_text(plan_text)
-    assert tables_main(["--confirm", str(out / "plan.toml"), "--out", str(out)]) == 0
+    assert tables_main(["confirm", str(out / "plan.toml"), "--out", str(out)]) == 0
     return (out / "confirm.md").read_text(), pd.read_csv(out / "confirm.csv")
 
 
@@ -388,7 +389,7 @@ def test_the_reports_numbers_are_the_analysis_rounded_as_the_plan_says(project: 
 
 
 def test_the_report_labels_exploratory_rows_and_keeps_them_out_of_the_outcomes(project: Path):
-    from multitask.evidence.confirm_report import confirm_markdown
+    from multitask.evidence.studies.confirm_report import confirm_markdown
 
     plan = read_plan(project / "confirm" / "plan.toml")
     table, _, skipped = analyse(plan)
@@ -420,11 +421,11 @@ def test_a_part_without_sensitivity_seeds_reports_no_sensitivity_analysis(projec
 
 def test_a_file_of_the_reports_name_is_replaced_only_with_overwrite(project: Path, capsys):
     """A confirm.md the command did not write is refused, and the refusal's advice (--overwrite)
-    is an option --confirm takes."""
+    is an option multitask-tables confirm takes."""
     out = project / "elsewhere"
     out.mkdir()
     (out / "confirm.md").write_text("mine\n")
-    command = ["--confirm", str(project / "confirm" / "plan.toml"), "--out", str(out)]
+    command = ["confirm", str(project / "confirm" / "plan.toml"), "--out", str(out)]
     assert tables_main(command) == 2
     assert "(--overwrite)" in capsys.readouterr().err
     assert (out / "confirm.md").read_text() == "mine\n" and not (out / "confirm.csv").exists()
@@ -445,7 +446,7 @@ def test_what_the_command_writes_does_not_depend_on_where_the_checkout_or_the_us
     reports = []
     for root in (project, elsewhere / "project"):
         out = root / "confirm"
-        assert tables_main(["--confirm", str(out / "plan.toml"), "--out", str(out)]) == 0
+        assert tables_main(["confirm", str(out / "plan.toml"), "--out", str(out)]) == 0
         reports.append((out / "confirm.md").read_text())
     assert reports[0] == reports[1]
     assert str(project) not in reports[0] and str(elsewhere) not in reports[0]

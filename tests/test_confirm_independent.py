@@ -1,11 +1,11 @@
 """An independent re-implementation of ``results/confirm/PLAN.md``, checked against
-``multitask-tables --confirm`` on fake grids with chosen scores.
+``multitask-tables confirm`` on fake grids with chosen scores.
 
-Nothing here imports ``multitask.evidence.paired``: the sign vectors are enumerated one by one
-(``itertools.product``), the p-value is counted from PLAN.md's definition (the share of the 2^8
-sign vectors whose flipped sum is at least the observed sum in absolute value), and the 95 %
-interval is found by bisection on that p-value, not from subset means. The plan read is the
-committed ``results/confirm/plan.toml`` itself, in a copy of the repository's layout."""
+Nothing here imports ``multitask.evidence.statistics.paired``: the sign vectors are enumerated
+one by one (``itertools.product``), the p-value is counted from PLAN.md's definition (the share
+of the 2^8 sign vectors whose flipped sum is at least the observed sum in absolute value), and
+the 95 % interval is found by bisection on that p-value, not from subset means. The plan read is
+the committed ``results/confirm/plan.toml`` itself, in a copy of the repository's layout."""
 from __future__ import annotations
 
 import itertools
@@ -187,8 +187,8 @@ def project(root: Path, wide: dict | None, narrow: dict | None) -> Path:
 
 
 def run_confirm(plan: Path, out: Path) -> pd.DataFrame:
-    """``multitask-tables --confirm`` as a user runs it: its confirm.csv."""
-    assert tables_main(["--confirm", str(plan), "--out", str(out)]) == 0
+    """``multitask-tables confirm`` as a user runs it: its confirm.csv."""
+    assert tables_main(["confirm", str(plan), "--out", str(out)]) == 0
     return pd.read_csv(out / "confirm.csv")
 
 
@@ -215,7 +215,7 @@ def compare(table: pd.DataFrame, expected: pd.DataFrame, tolerance: float) -> No
 def check(tmp_path: Path, wide_effects: dict | None, narrow_effects: dict | None) -> pd.DataFrame:
     """Run the command on grids with these effects and compare every row with the reference,
     from the in-memory table (to 1e-9) and from confirm.csv (to its 4 decimals)."""
-    from multitask.evidence.confirm import analyse, read_plan
+    from multitask.evidence.studies.confirm import analyse, read_plan
 
     wide = (chosen_scores(wide_effects, (A, APOC, APC), WIDE_SEEDS)
             if wide_effects is not None else None)
@@ -304,7 +304,7 @@ def test_the_rule_out_criterion_at_its_boundary(tmp_path: Path, apoc, apc, exclu
 def test_mixed_seed_counts_are_refused_and_the_other_part_still_analysed(tmp_path: Path, spoil):
     """A fold of part 1 where one configuration has 2 seeds instead of 3 (its third unfinished, or
     never recorded): part 1 gets no row, part 2 its full rows, as the reference computes them."""
-    from multitask.evidence.confirm import analyse, read_plan
+    from multitask.evidence.studies.confirm import analyse, read_plan
 
     narrow = chosen_scores({(APOC, "gesture_edit"): CLEAR}, (A, APOC), NARROW_SEEDS)
     plan = project(tmp_path, chosen_scores({(APOC, "gesture_edit"): CLEAR}, (A, APOC, APC),
@@ -348,8 +348,8 @@ def test_the_exploratory_seed_0_analysis_pools_the_width_grids_seed_0(tmp_path: 
     """PLAN.md part 2: "labelled exploratory, the same analysis with seed 0 pooled (seeds 0-5;
     A's seed 0 from results/width/h512-a180/, APoc's from results/width/h512/)": in its own
     file, the planned rows as without it."""
-    from multitask.evidence.confirm import read_plan
-    from multitask.evidence.exploratory import analyse_exploratory, read_exploratory
+    from multitask.evidence.studies.confirm import read_plan
+    from multitask.evidence.studies.exploratory import analyse_exploratory, read_exploratory
 
     narrow = chosen_scores({(APOC, "gesture_edit"): MIXED, (APOC, "gesture_f1@10"): CLEAR},
                            (A, APOC), NARROW_SEEDS)
@@ -386,8 +386,8 @@ def test_the_exploratory_seed_0_analysis_pools_the_width_grids_seed_0(tmp_path: 
 
 
 def test_no_exploratory_look_before_the_part_is_complete(tmp_path: Path):
-    from multitask.evidence.confirm import read_plan
-    from multitask.evidence.exploratory import analyse_exploratory, read_exploratory
+    from multitask.evidence.studies.confirm import read_plan
+    from multitask.evidence.studies.exploratory import analyse_exploratory, read_exploratory
 
     narrow = chosen_scores({}, (A, APOC), NARROW_SEEDS)
     plan_path = project(tmp_path, None, narrow)
@@ -403,8 +403,8 @@ def test_no_exploratory_look_before_the_part_is_complete(tmp_path: Path):
 
 
 def test_borrowed_runs_of_other_settings_are_not_pooled(tmp_path: Path):
-    from multitask.evidence.confirm import read_plan
-    from multitask.evidence.exploratory import analyse_exploratory, read_exploratory
+    from multitask.evidence.studies.confirm import read_plan
+    from multitask.evidence.studies.exploratory import analyse_exploratory, read_exploratory
 
     plan_path = project(tmp_path, None, chosen_scores({}, (A, APOC), NARROW_SEEDS))
     width_grids(tmp_path, chosen_scores({}, (A, APOC), (0, 1, 2)))

@@ -1,11 +1,13 @@
-"""The JIGSAWS tasks side by side (multitask.evidence.tasks): read from each task's tables."""
+"""The JIGSAWS tasks side by side (``multitask-tables tasks``,
+``multitask.evidence.studies.tasks``): read from each task's tables."""
 from __future__ import annotations
 
 from pathlib import Path
 
 import pandas as pd
 
-from multitask.evidence.tasks import MODELS, SCORES, main
+from multitask.evidence.cli import main as tables_main
+from multitask.evidence.studies.tasks import MODELS, SCORES
 
 
 def _tables(folder: Path, shift: float, seeds: int) -> Path:
@@ -26,7 +28,8 @@ def _tables(folder: Path, shift: float, seeds: int) -> Path:
 
 def test_each_task_keeps_the_numbers_of_its_own_tables(tmp_path):
     one, two = _tables(tmp_path / "one", 1.0, 3), _tables(tmp_path / "two", -2.0, 1)
-    assert main([f"Suturing={one}", f"Needle_Passing={two}", "--out", str(tmp_path / "out")]) == 0
+    assert tables_main(["tasks", f"Suturing={one}", f"Needle_Passing={two}",
+                        "--out", str(tmp_path / "out")]) == 0
     table = pd.read_csv(tmp_path / "out" / "tasks.csv")
     assert list(dict.fromkeys(table.task)) == ["Suturing", "Needle_Passing"]
     a = table[(table.task == "Needle_Passing") & (table.model == "A")]
@@ -42,7 +45,7 @@ def test_a_task_without_a_contrast_is_one_line_naming_its_file(tmp_path, capsys)
     folder = _tables(tmp_path / "one", 0.0, 1)
     claims = pd.read_csv(folder / "claims.csv")
     claims[claims.comparison != "APc-fixed - A-fixed"].to_csv(folder / "claims.csv", index=False)
-    assert main([f"Knot_Tying={folder}", "--out", str(tmp_path / "out")]) == 2
+    assert tables_main(["tasks", f"Knot_Tying={folder}", "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and str(folder / "claims.csv") in err and "APc-fixed" in err
     assert not (tmp_path / "out").exists()

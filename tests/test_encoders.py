@@ -9,7 +9,7 @@ import tensorflow as tf
 
 from baseline.config import RunConfig
 from jigsaws_tools.dataset import DataConfig, load_dataset
-from multitask.evidence.time_baseline import chance_accuracy
+from multitask.evidence.statistics.time_baseline import chance_accuracy
 from multitask.grid.spec import spec_from_dict
 from multitask.inference.evaluate_cli import main as evaluate_main
 from multitask.inference.export_cli import main as export_main
@@ -25,8 +25,8 @@ from rnn_seg.encoders.config import EDTCNConfig, MSTCNConfig
 from rnn_seg.encoders.ms_tcn import smoothing, stage_loss
 from rnn_seg.model import SegmentationModel
 from rnn_seg.optim import ADAM_BETAS, ADAM_EPSILON, RMSPROP_EPSILON, RMSPROP_RHO, build_optimizer
-from rnn_seg.tasks import SoftmaxClassification
 from rnn_seg.stack import TrainerStack
+from rnn_seg.tasks import SoftmaxClassification
 from rnn_seg.trainer import SequenceSet, Trainer
 
 F, T = 6, 45

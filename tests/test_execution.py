@@ -1,4 +1,5 @@
-"""An execution path against its reference (``multitask-tables GRID --reference REF --margin M``),
+"""An execution path against its reference (``multitask-tables execution GRID --reference REF
+--margin M``),
 on fake grids that differ only in the path their config.json files record."""
 from __future__ import annotations
 
@@ -10,9 +11,9 @@ import pandas as pd
 import pytest
 
 from multitask.evidence.cli import main as tables_main
-from multitask.evidence.collect import run_rows
-from multitask.evidence.execution import SMALL_SHIFT, outcome, shift_note
-from multitask.evidence.paired import StatsConfig, paired_sides
+from multitask.evidence.runs.collect import run_rows
+from multitask.evidence.statistics.paired import StatsConfig, paired_sides
+from multitask.evidence.studies.execution import SMALL_SHIFT, outcome, shift_note
 from multitask.grid.spec import Experiment
 from tests.fake_grid import FOLDS, write_fake_grid
 
@@ -30,8 +31,8 @@ def _fold_means(grid, variant, metric):
 
 
 def _compare(option, reference, out, margin="2.0"):
-    return tables_main([str(option), "--reference", str(reference), "--margin", margin,
-                        "--out", str(out)])
+    return tables_main(["execution", str(option), "--reference", str(reference),
+                        "--margin", margin, "--out", str(out)])
 
 
 def test_option_minus_reference_per_configuration_and_score(tmp_path):
@@ -209,7 +210,19 @@ def test_what_cannot_be_compared_is_a_one_line_error_and_writes_nothing(tmp_path
     assert not (tmp_path / "out").exists()
 
 
-def test_reference_and_margin_go_together(tmp_path, capsys):
+@pytest.mark.parametrize("extra,message", [
+    (["--margin", "2"], "the following arguments are required: --reference"),
+    (["--reference", "REF"], "the following arguments are required: --margin")])
+def test_reference_and_margin_go_together(tmp_path, capsys, extra, message):
+    grid = _grid(tmp_path, "g", 0)
+    extra = [str(grid) if word == "REF" else word for word in extra]
+    with pytest.raises(SystemExit) as exit_:
+        tables_main(["execution", str(grid), *extra, "--out", str(tmp_path / "out")])
+    assert exit_.value.code == 2 and message in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
+
+
+def test_the_flag_form_still_checks_its_options_as_it_did(tmp_path, capsys):
     grid = _grid(tmp_path, "g", 0)
     for extra in (["--margin", "2"], ["--reference", str(grid)]):
         with pytest.raises(SystemExit) as exit_:
@@ -240,10 +253,11 @@ def test_a_second_call_replaces_the_first_and_a_failed_one_leaves_it(tmp_path):
     assert {path.name: path.read_bytes() for path in out.iterdir()} == written
 
 
-def test_the_help_shows_the_example_command_on_two_lines():
-    from multitask.evidence import cli
-
-    assert "--margin 2.0 \\\n        --out results/precision/bf16-vs-fp32" in cli.__doc__
+def test_the_help_shows_the_example_command_on_two_lines(capsys):
+    with pytest.raises(SystemExit):
+        tables_main(["execution", "--help"])
+    example = "--margin 2.0 \\\n        --out results/precision/bf16-vs-fp32"
+    assert example in capsys.readouterr().out
 
 
 def test_progress_only_models_are_left_out_with_a_note(tmp_path, capsys):
@@ -310,7 +324,7 @@ def test_scores_archives_compare_as_their_grids(tmp_path):
     reference = _grid(tmp_path, "ref", 0)
     option = _grid(tmp_path, "fused", 1, loops="fused")
     for grid in (reference, option):
-        assert tables_main([str(grid), "--archive", str(tmp_path / f"{grid.name}-archive")]) == 0
+        assert tables_main(["archive", str(grid), str(tmp_path / f"{grid.name}-archive")]) == 0
     assert _compare(option, reference, tmp_path / "grids") == 0
     assert _compare(tmp_path / "fused-archive", tmp_path / "ref-archive",
                     tmp_path / "archives") == 0

@@ -16,10 +16,10 @@ from matplotlib.container import ErrorbarContainer  # noqa: E402
 
 from jigsaws_tools.plots import (Ribbon, class_colours, draw_ribbon,  # noqa: E402
                                  layout_with_legends, task_colours)
-from multitask.evidence import curves, figures  # noqa: E402
-from multitask.evidence.collect import per_fold, run_rows  # noqa: E402
-from multitask.grid.spec import Experiment  # noqa: E402
 from multitask.evidence.cli import main as tables_main  # noqa: E402
+from multitask.evidence.render import curves, figures  # noqa: E402
+from multitask.evidence.runs.collect import per_fold, run_rows  # noqa: E402
+from multitask.grid.spec import Experiment  # noqa: E402
 from tests.fake_grid import (ABSENT, FOLDS, GESTURES, NEVER_RECOGNISED,  # noqa: E402
                              write_fake_grid)
 
@@ -33,7 +33,8 @@ def grid(tmp_path_factory):
 
 @pytest.fixture()
 def captured(monkeypatch):
-    """The figures ``multitask.evidence.figures.save`` is given, by file name, instead of files."""
+    """The figures ``multitask.evidence.render.figures.save`` is given, by file name, instead of
+    files."""
     shown: dict[str, plt.Figure] = {}
 
     def keep(fig, out_dir, name):
@@ -201,9 +202,9 @@ def test_tables_command_draws_curves_and_the_chosen_trial(tmp_path, capsys):
     grid = write_fake_grid(tmp_path / "grid", seeds=(0,), experiments=(
         Experiment(("A", "APr", "APc", "APoc"), ("fixed", "gradnorm")),))
     out = tmp_path / "tables"
-    assert tables_main([str(grid), "--out", str(out), "--example-trial", "nope"]) == 2
+    assert tables_main(["paper", str(grid), "--out", str(out), "--example-trial", "nope"]) == 2
     assert "example trial 'nope'" in capsys.readouterr().err and not out.exists()
-    assert tables_main([str(grid), "--out", str(out), "--curves",
+    assert tables_main(["paper", str(grid), "--out", str(out), "--curves",
                         "--example-trial", "Suturing_C002"]) == 0
     assert len(list((out / "figures" / "curves").glob("*.pdf"))) == 7
     said = capsys.readouterr().out.splitlines()          # off a terminal: a line per figure
@@ -214,7 +215,7 @@ def test_tables_command_draws_curves_and_the_chosen_trial(tmp_path, capsys):
                  "fold_accuracy", "gesture_vs_progress", "gradnorm_weights"):
         assert (out / "figures" / f"{name}.png").stat().st_size > 0
     figures_before = {p: p.read_bytes() for p in (out / "figures").rglob("*.png")}
-    assert tables_main([str(grid), "--out", str(out), "--no-figures"]) == 0   # tables only
+    assert tables_main(["paper", str(grid), "--out", str(out), "--no-figures"]) == 0   # tables only
     assert {p: p.read_bytes() for p in (out / "figures").rglob("*.png")} == figures_before
     listed = json.loads((out / "tables.json").read_text())["files"]
     assert "figures/curves/" + next((out / "figures" / "curves").glob("*.png")).name in listed
@@ -226,7 +227,7 @@ def test_seeds_name_each_configuration_they_leave_out(tmp_path, capsys):
     experiments = (Experiment(variants=("A", "APc"), seeds=(0, 1)),
                    Experiment(variants=("APoc",), weightings=("gradnorm",)))
     grid = write_fake_grid(tmp_path / "grid", seeds=(0,), experiments=experiments)
-    assert tables_main([str(grid), "--seeds", "1", "--no-figures", "--out",
+    assert tables_main(["paper", str(grid), "--seeds", "1", "--no-figures", "--out",
                         str(tmp_path / "t")]) == 0
     err = capsys.readouterr().err
     assert "left out: revised/bidirectional/APoc-gradnorm, no run of seed(s) 1" in err
@@ -237,12 +238,12 @@ def test_seeds_name_each_configuration_they_leave_out(tmp_path, capsys):
 def test_per_gesture_table_and_confusion_figure_from_saved_matrices(tmp_path, capsys):
     import json
 
-    from multitask.evidence.confusion import row_normalised
+    from multitask.evidence.render.confusion import row_normalised
 
     grid = write_fake_grid(tmp_path / "grid", seeds=(0,), per_class=True, experiments=(
         Experiment(("A", "APc"), ("fixed",)), Experiment(("APoc",), ("gradnorm",))))
     out = tmp_path / "tables"
-    assert tables_main([str(grid), "--out", str(out)]) == 0
+    assert tables_main(["paper", str(grid), "--out", str(out)]) == 0
     assert "per-class" not in capsys.readouterr().err
     assert (out / "figures" / "confusion.png").stat().st_size > 0
     table = pd.read_csv(out / "per_gesture.csv")
@@ -261,7 +262,7 @@ def test_per_gesture_table_and_confusion_figure_from_saved_matrices(tmp_path, ca
     saved = [json.loads((grid / f"runs/revised/bidirectional/A-fixed/seed0/{f}/metrics.json")
                         .read_text())["mean"]["gesture"]["f1_G3"] for f in FOLDS]
     assert rows.loc[("A-fixed", "G3"), "f1"] == pytest.approx(np.mean(saved), abs=1e-4)
-    from multitask.evidence.collect import per_class         # NaN allowed for these alone
+    from multitask.evidence.runs.collect import per_class  # NaN allowed for these alone
     assert per_class("f1_G3") and per_class("precision_reach") and per_class("accuracy_G1")
     assert not any(map(per_class, ("accuracy", "f1@10", "f1@10_pooled", "accuracy_pooled")))
     shares = row_normalised(np.array([[3, 1], [0, 0]]))
@@ -271,7 +272,7 @@ def test_per_gesture_table_and_confusion_figure_from_saved_matrices(tmp_path, ca
 def test_an_archive_without_confusion_matrices_is_tabulated_with_one_note(grid, tmp_path,
                                                                           capsys):
     out = tmp_path / "tables"
-    assert tables_main([str(grid), "--out", str(out), "--no-figures"]) == 0
+    assert tables_main(["paper", str(grid), "--out", str(out), "--no-figures"]) == 0
     notes = [line for line in capsys.readouterr().err.splitlines() if "per-gesture" in line]
     assert len(notes) == 1 and "predate per-class scores" in notes[0]
     assert not (out / "per_gesture.csv").exists() and (out / "summary.csv").is_file()
@@ -302,8 +303,8 @@ def test_every_pdf_has_truetype_fonts_and_fits_a_column_or_the_page_at_8_pt(tmp_
     wider than the column (3.5 in) or the text (7.16 in) it is meant for, so that it prints at
     its own size, and text of 8 pt or larger (mathtext sub- and superscripts are 0.7 of it)."""
     from jigsaws_tools.plots import COLUMN_INCHES, MIN_TEXT_PT, PAGE_INCHES
-    from multitask.evidence.confusion import write_per_class
-    from multitask.evidence.width import write_width
+    from multitask.evidence.render.confusion import write_per_class
+    from multitask.evidence.studies.width import write_width
     from tests.pdf_pages import read_pdf_page
 
     grid = write_fake_grid(tmp_path / "grid", seeds=(0,), per_class=True, experiments=(

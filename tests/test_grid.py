@@ -15,11 +15,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from multitask.grid.spec import (Experiment, GridSpec, RunKey, expand, job_groups, load_spec,
-                                 run_config, spec_from_dict, stack_groups, with_budget)
+from multitask.evidence.cli import main as tables_main
 from multitask.grid.cli import main as grid_main
 from multitask.grid.executors import run_grid
-from multitask.evidence.cli import main as tables_main
+from multitask.grid.spec import (Experiment, GridSpec, RunKey, expand, job_groups, load_spec,
+                                 run_config, spec_from_dict, stack_groups, with_budget)
 from multitask.models.variants import get_variant
 
 TINY = """
@@ -164,7 +164,7 @@ def test_tiny_grid_end_to_end(tiny_grid):
     metrics = _metrics(tiny_grid)
     assert len(metrics) == 4
     assert all(m["gesture"]["accuracy"] > 0 for m in metrics.values())
-    assert tables_main([str(tiny_grid)]) == 0
+    assert tables_main(["paper", str(tiny_grid)]) == 0
     tables = tiny_grid / "tables"
     for name in ("runs.csv", "per_fold.csv", "summary.csv", "table1.csv", "table1.tex"):
         assert (tables / name).stat().st_size > 0
@@ -173,7 +173,7 @@ def test_tiny_grid_end_to_end(tiny_grid):
 
 
 def test_table_csv_matches_the_per_fold_numbers(tiny_grid):
-    tables_main([str(tiny_grid), "--no-figures"])
+    tables_main(["paper", str(tiny_grid), "--no-figures"])
     folds = pd.read_csv(tiny_grid / "tables" / "per_fold.csv")
     table = pd.read_csv(tiny_grid / "tables" / "table1.csv")
     baseline = table[table.config == "time-offline"]            # the time-only progress row
@@ -189,7 +189,7 @@ def test_table_csv_matches_the_per_fold_numbers(tiny_grid):
 
 
 def test_latex_table_shape(tiny_grid):
-    tables_main([str(tiny_grid), "--no-figures"])
+    tables_main(["paper", str(tiny_grid), "--no-figures"])
     tex = (tiny_grid / "tables" / "table1.tex").read_text()
     for env in ("table", "tabular"):
         assert tex.count(rf"\begin{{{env}}}") == tex.count(rf"\end{{{env}}}") == 1
@@ -333,7 +333,7 @@ def test_run_key_paths_are_unique():
 
 
 def test_annotation_ablation_reports_revised_minus_original():
-    from multitask.evidence.tables import annotation_ablation, to_latex
+    from multitask.evidence.render.tables import annotation_ablation, to_latex
 
     summary = pd.DataFrame([
         {"annotations": a, "direction": "bidirectional", "variant": v, "weighting": "fixed",
@@ -349,7 +349,7 @@ def test_annotation_ablation_reports_revised_minus_original():
 
 
 def test_runs_table_records_convergence(tiny_grid):
-    tables_main([str(tiny_grid), "--no-figures"])
+    tables_main(["paper", str(tiny_grid), "--no-figures"])
     runs = pd.read_csv(tiny_grid / "tables" / "runs.csv")
     assert {"convergence", "converged", "loss_drop", "loss_drop_se"} <= set(runs.columns)
     assert (runs["loss_drop_se"].isna() == runs["loss_drop"].isna()).all()
@@ -365,7 +365,7 @@ def test_runs_saved_before_the_standard_error_get_it_from_their_history(tmp_path
     takes the standard error from history.csv with the saved criterion, and keeps the saved
     verdict and loss_drop; a history that cannot give it leaves it blank, never an error."""
     from fake_grid import write_fake_grid
-    from multitask.evidence.collect import run_rows
+    from multitask.evidence.runs.collect import run_rows
     from rnn_seg.convergence import history_convergence
     from rnn_seg.runs.folder import read_json, write_json
 
@@ -393,7 +393,7 @@ def test_runs_saved_before_the_standard_error_get_it_from_their_history(tmp_path
 
 
 def test_tables_carry_rounded_and_raw_mae():
-    from multitask.evidence.tables import PAPER_TABLES, paper_comparison
+    from multitask.evidence.render.tables import PAPER_TABLES, paper_comparison
 
     summary = pd.DataFrame([{"annotations": "revised", "direction": "bidirectional",
                              "variant": "APr", "weighting": "fixed", "folds": 8, "still_falling": 0,
@@ -431,7 +431,7 @@ def test_experiments_may_name_their_own_seeds_first_seeds_run_first_then_by_conf
 
 
 def test_tables_mark_runs_still_falling_and_name_undecided_ones_in_the_note():
-    from multitask.evidence.tables import PAPER_TABLES, paper_comparison, to_latex
+    from multitask.evidence.render.tables import PAPER_TABLES, paper_comparison, to_latex
 
     row = {"annotations": "revised", "direction": "bidirectional", "weighting": "fixed",
            "folds": 8, "gesture_accuracy_mean": 85.0, "gesture_accuracy_std": 5.0}
@@ -499,7 +499,7 @@ def test_scores_archive_tabulates_and_continues_like_its_grid(tmp_path, tiny_spe
     """An archive keeps each finished run's config, metrics and logs (no weights, no
     predictions): its tables are the grid's, and a copy of it resumes with nothing to train."""
     archive = tmp_path / "archive"
-    assert tables_main([str(tiny_grid), "--archive", str(archive)]) == 0
+    assert tables_main(["archive", str(tiny_grid), str(archive)]) == 0
     assert "4 of 4 runs archived" in capsys.readouterr().out
     runs = sorted(p.parent for p in archive.glob("runs/*/*/*/*/*/finished.json"))
     assert len(runs) == 4
@@ -508,7 +508,7 @@ def test_scores_archive_tabulates_and_continues_like_its_grid(tmp_path, tiny_spe
         assert not {"checkpoints", "eval", "train.log"} & {p.name for p in run.iterdir()}
     tables = {grid: tmp_path / "tables" / grid.name for grid in (tiny_grid, archive)}
     for grid, out in tables.items():
-        assert tables_main([str(grid), "--out", str(out), "--no-figures"]) == 0
+        assert tables_main(["paper", str(grid), "--out", str(out), "--no-figures"]) == 0
     for name in ("runs.csv", "summary.csv", "claims.csv"):
         pd.testing.assert_frame_equal(pd.read_csv(tables[tiny_grid] / name),
                                       pd.read_csv(tables[archive] / name))
@@ -526,24 +526,25 @@ def test_scores_archive_tabulates_and_continues_like_its_grid(tmp_path, tiny_spe
 def test_tables_of_an_archive_draw_what_needs_no_predictions_and_remove_the_rest(
         tmp_path, tiny_grid, capsys):
     archive, out = tmp_path / "archive", tmp_path / "tables"
-    assert tables_main([str(tiny_grid), "--archive", str(archive)]) == 0
-    assert tables_main([str(tiny_grid), "--out", str(out)]) == 0
+    assert tables_main(["archive", str(tiny_grid), str(archive)]) == 0
+    assert tables_main(["paper", str(tiny_grid), "--out", str(out)]) == 0
     figures = {p.name: p.stat().st_mtime_ns for p in (out / "figures").iterdir()}
     assert "segmentation_example.png" in figures
     capsys.readouterr()
-    assert tables_main([str(archive), "--out", str(out)]) == 0
+    assert tables_main(["paper", str(archive), "--out", str(out)]) == 0
     assert "no example-trial figures" in capsys.readouterr().err
     redrawn = {p.name: p.stat().st_mtime_ns for p in (out / "figures").iterdir()}
     assert redrawn.keys() == {n for n in figures if "_example." not in n}
     assert all(redrawn[name] > figures[name] for name in redrawn)
-    assert tables_main([str(archive), "--out", str(out), "--example-trial", "Suturing_B001"]) == 2
+    assert tables_main(["paper", str(archive), "--out", str(out),
+                        "--example-trial", "Suturing_B001"]) == 2
     assert "kept its predictions" in capsys.readouterr().err
 
 
 def test_an_archived_run_of_other_settings_is_never_taken_for_the_specs(tmp_path, tiny_spec,
                                                                          tiny_grid, capsys):
     copy = tmp_path / "continued"
-    assert tables_main([str(tiny_grid), "--archive", str(copy)]) == 0
+    assert tables_main(["archive", str(tiny_grid), str(copy)]) == 0
     config = copy / RunKey("revised", "bidirectional", "A", "fixed", 0, "C").path() / "config.json"
     saved = json.loads(config.read_text())
     saved["run"]["encoder"]["hidden"] = 32
@@ -595,7 +596,7 @@ def test_a_dry_run_checks_the_archive_folder_and_writes_nothing(tmp_path, tiny_s
     assert "neither inside the other" in capsys.readouterr().err
     assert grid_main([*command, "--archive", str(archive)]) == 0
     assert "not written in a dry run" in capsys.readouterr().out and not archive.exists()
-    assert tables_main([str(grid), "--archive", str(archive)]) == 0       # 4 finished runs
+    assert tables_main(["archive", str(grid), str(archive)]) == 0       # 4 finished runs
     fresh = ["--spec", str(tiny_spec), "--out", str(tmp_path / "fresh"), "--dry-run"]
     assert grid_main([*fresh, "--archive", str(archive)]) == 2           # would lose them
     assert "replacing it would lose them" in capsys.readouterr().err
@@ -608,11 +609,11 @@ def test_archive_leaves_out_unfinished_runs_and_replaces_only_an_archive(tmp_pat
     run = grid / RunKey("revised", "bidirectional", "APc", "fixed", 0, "B").path()
     (run / "finished.json").unlink()
     archive = tmp_path / "archive"
-    assert tables_main([str(grid), "--archive", str(archive)]) == 0
+    assert tables_main(["archive", str(grid), str(archive)]) == 0
     assert "3 of 4 runs archived" in capsys.readouterr().out
-    assert tables_main([str(tiny_grid), "--archive", str(archive)]) == 0    # replaces it
+    assert tables_main(["archive", str(tiny_grid), str(archive)]) == 0    # replaces it
     assert len(list(archive.glob("runs/**/finished.json"))) == 4
-    assert tables_main([str(grid), "--archive", str(archive)]) == 2         # would lose a run
+    assert tables_main(["archive", str(grid), str(archive)]) == 2         # would lose a run
     assert f"1 finished run(s) that {grid} does not" in capsys.readouterr().err
     assert len(list(archive.glob("runs/**/finished.json"))) == 4
     notes = tmp_path / "notes"
@@ -622,18 +623,18 @@ def test_archive_leaves_out_unfinished_runs_and_replaces_only_an_archive(tmp_pat
     link.symlink_to(archive)
     for dest, says in ((notes, "holds todo.txt"), (grid, "neither inside the other"),
                        (grid / "archive", "neither inside the other"), (link, "symbolic link")):
-        assert tables_main([str(grid), "--archive", str(dest)]) == 2
+        assert tables_main(["archive", str(grid), str(dest)]) == 2
         assert says in capsys.readouterr().err
-    assert tables_main([str(archive), "--archive", str(grid)]) == 2         # a grid, not an archive
+    assert tables_main(["archive", str(archive), str(grid)]) == 2         # a grid, not an archive
     assert "holds" in capsys.readouterr().err and (run / "checkpoints").is_dir()
     assert [p.name for p in notes.iterdir()] == ["todo.txt"]
     (run / "finished.json").write_text("{}")
     (run / "metrics.json").unlink()
-    assert tables_main([str(grid), "--archive", str(tmp_path / "new")]) == 2
+    assert tables_main(["archive", str(grid), str(tmp_path / "new")]) == 2
     assert "without metrics.json" in capsys.readouterr().err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["archive", "grid", "link", "notes"]
     with pytest.raises(SystemExit):
-        tables_main([str(grid), "--archive", str(archive), "--out", str(notes)])
+        tables_main(["archive", str(grid), str(archive), "--out", str(notes)])
     assert "leave out --out" in capsys.readouterr().err
 
 
@@ -726,7 +727,7 @@ def test_a_dry_run_says_which_runs_resume_and_which_are_trained_afresh(
         holder.kill()
         holder.wait()
     archive, copy = tmp_path / "archive", tmp_path / "copy"
-    assert tables_main([str(tiny_grid), "--archive", str(archive)]) == 0
+    assert tables_main(["archive", str(tiny_grid), str(archive)]) == 0
     shutil.copytree(archive, copy)
     capsys.readouterr()
     assert grid_main(["--spec", str(tiny_spec), "--out", str(copy), "--dry-run"]) == 0

@@ -364,32 +364,35 @@ def test_tables_never_write_over_a_file_they_did_not_write(tiny_grid, tmp_path, 
     (out / "runs.csv").write_text("mine")
     (out / "notes.txt").write_text("mine")
     before = _snapshot(out)
-    code, err = _cli(tables_main, [str(tiny_grid), "--out", str(out), "--no-figures"], capsys)
+    code, err = _cli(tables_main, ["paper", str(tiny_grid), "--out", str(out), "--no-figures"],
+                     capsys)
     _refused(code, err, f"{out / 'runs.csv'} exists and is not an output of multitask-tables")
     assert _snapshot(out) == before
-    assert tables_main([str(tiny_grid), "--out", str(out), "--no-figures", "--overwrite"]) == 0
-    assert tables_main([str(tiny_grid), "--out", str(out), "--no-figures"]) == 0
-    assert tables_main([str(tiny_grid), "--out", str(tmp_path / "fresh"), "--no-figures"]) == 0
+    assert tables_main(["paper", str(tiny_grid), "--out", str(out), "--no-figures",
+                        "--overwrite"]) == 0
+    assert tables_main(["paper", str(tiny_grid), "--out", str(out), "--no-figures"]) == 0
+    assert tables_main(["paper", str(tiny_grid), "--out", str(tmp_path / "fresh"),
+                        "--no-figures"]) == 0
     assert (out / "notes.txt").read_text() == "mine"
     assert (out / "runs.csv").read_bytes() == (tmp_path / "fresh" / "runs.csv").read_bytes()
 
 
 def test_tables_of_a_mistyped_grid_name_the_missing_folder(tmp_path, capsys):
     out = tmp_path / "tables"
-    code, err = _cli(tables_main, [str(tmp_path / "gird"), "--out", str(out)], capsys)
+    code, err = _cli(tables_main, ["paper", str(tmp_path / "gird"), "--out", str(out)], capsys)
     _refused(code, err, f"{tmp_path / 'gird'}: no such folder")
     assert not out.exists()
 
 
 def test_tables_refuse_a_run_folder_and_write_beside_grids(tiny_grid, trained, tmp_path, capsys):
     before = _snapshot(trained)
-    code, err = _cli(tables_main, [str(tiny_grid), "--out", str(trained), "--no-figures"],
+    code, err = _cli(tables_main, ["paper", str(tiny_grid), "--out", str(trained), "--no-figures"],
                      capsys)
     _refused(code, err, str(trained), "run folder")
     assert _snapshot(trained) == before
     beside = tmp_path / "results"
     _copy_grid(tiny_grid, beside / "grid")
-    assert tables_main([str(beside / "grid"), "--out", str(beside), "--no-figures"]) == 0
+    assert tables_main(["paper", str(beside / "grid"), "--out", str(beside), "--no-figures"]) == 0
     assert (beside / "runs.csv").is_file()
 
 
@@ -438,7 +441,7 @@ def test_a_grid_record_cannot_lead_an_archive_outside_its_destination(tmp_path, 
     grid.mkdir()
     (grid / "grid.json").write_text(json.dumps({"runs": ["runs/../../escaped"]}))
     dest = tmp_path / "archives" / "a"
-    code, err = _cli(tables_main, [str(grid), "--archive", str(dest)], capsys)
+    code, err = _cli(tables_main, ["archive", str(grid), str(dest)], capsys)
     _refused(code, err, str(grid / "grid.json"), "runs/../../escaped")
     assert not (tmp_path / "archives").exists() or not any((tmp_path / "archives").rglob("*"))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["escaped", "grid"]
@@ -599,7 +602,8 @@ def _run(grid: Path, variant: str, fold: str) -> Path:
 
 
 def test_tables_of_the_grid_as_trained(tiny_grid, tmp_path, capsys):
-    code, err = _cli(tables_main, [str(tiny_grid), "--out", str(tmp_path / "tables")], capsys)
+    code, err = _cli(tables_main, ["paper", str(tiny_grid), "--out", str(tmp_path / "tables")],
+                     capsys)
     assert code == 0, err
     assert len(pd.read_csv(tmp_path / "tables" / "runs.csv")) == 4
 
@@ -615,7 +619,7 @@ def test_tables_refuse_a_run_folder_retrained_by_hand_with_other_settings(
                        "--out", str(by_hand)]) == 0
     shutil.rmtree(retrained)
     by_hand.rename(retrained)
-    code, err = _cli(tables_main, [str(grid), "--out", str(tmp_path / "tables")], capsys)
+    code, err = _cli(tables_main, ["paper", str(grid), "--out", str(tmp_path / "tables")], capsys)
     assert code == 2 and "Traceback" not in err
     assert f"other settings than the grid's spec: {retrained}" in err
     assert "run.encoder.hidden: 12 -> 8" in err
@@ -628,7 +632,7 @@ def test_tables_refuse_a_run_copied_into_another_configurations_folder(tiny_grid
     target = _run(grid, "APc", "B")
     shutil.rmtree(target)
     shutil.copytree(_run(grid, "A", "B"), target)
-    code, err = _cli(tables_main, [str(grid), "--out", str(tmp_path / "tables")], capsys)
+    code, err = _cli(tables_main, ["paper", str(grid), "--out", str(tmp_path / "tables")], capsys)
     assert code == 2 and f"other settings than the grid's spec: {target}" in err
     assert 'variant: "A" -> "APc"' in err
 
@@ -639,7 +643,7 @@ def test_allow_incomplete_leaves_a_run_of_other_settings_out_and_marks_it(tiny_g
     target = _run(grid, "A", "C")
     shutil.rmtree(target)
     shutil.copytree(_run(grid, "A", "B"), target)             # fold B's run as fold C's
-    code, err = _cli(tables_main, [str(grid), "--out", str(tmp_path / "tables"),
+    code, err = _cli(tables_main, ["paper", str(grid), "--out", str(tmp_path / "tables"),
                                    "--allow-incomplete", "--no-figures"], capsys)
     assert code == 0 and 'run.test_user: "B" -> "C"' in err, err
     runs = pd.read_csv(tmp_path / "tables" / "runs.csv")
@@ -654,7 +658,7 @@ def test_figures_never_read_a_run_folder_the_tables_left_out(tiny_grid, tmp_path
     shutil.rmtree(target)
     shutil.copytree(_run(grid, "A", "B"), target)             # model A's run as APc's
     out = tmp_path / "tables"
-    code, err = _cli(tables_main, [str(grid), "--out", str(out), "--allow-incomplete",
+    code, err = _cli(tables_main, ["paper", str(grid), "--out", str(out), "--allow-incomplete",
                                    "--curves"], capsys)
     assert code == 0 and "Traceback" not in err, err
     assert "no example-trial, GradNorm-weight or training-curve figures" in err
@@ -670,7 +674,7 @@ def test_a_malformed_config_of_a_grid_run_is_one_line_naming_it(tiny_grid, tmp_p
     grid = _copy_grid(tiny_grid, tmp_path / "grid")
     config = _run(grid, "A", "B") / "config.json"
     config.write_text(text)
-    code, err = _cli(tables_main, [str(grid), "--out", str(tmp_path / "tables")], capsys)
+    code, err = _cli(tables_main, ["paper", str(grid), "--out", str(tmp_path / "tables")], capsys)
     assert code == 2 and "Traceback" not in err and str(config.parent) in err, err
 
 
@@ -679,6 +683,6 @@ def test_a_malformed_history_read_back_for_the_curves_is_one_line_naming_it(tiny
     grid = _copy_grid(tiny_grid, tmp_path / "grid")
     history = _run(grid, "APc", "C") / "history.csv"
     history.write_text(history.read_text() + ",".join(["9"] * 40) + "\n")   # 40 fields
-    code, err = _cli(tables_main, [str(grid), "--out", str(tmp_path / "tables"), "--no-figures",
-                                   "--curves"], capsys)
+    code, err = _cli(tables_main, ["paper", str(grid), "--out", str(tmp_path / "tables"),
+                                   "--no-figures", "--curves"], capsys)
     _refused(code, err, f"{history}: unreadable CSV log")

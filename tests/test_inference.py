@@ -1,6 +1,7 @@
 """Using a trained run: predict new recordings, evaluate saved weights, stream, export, the API."""
 import json
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -290,9 +291,27 @@ def test_streaming_equals_the_whole_sequence_under_causal_preprocessing(fw_run, 
                                rtol=1e-5, atol=1e-5)
     predictor.reset()
     first = predictor.push(kinematics[0])
-    assert first.frame == 1 and first.labels["gesture"] in GESTURES
+    assert first.frame == 1 and first.label_names["gesture"] == GESTURES[first.labels["gesture"]]
     assert all(predictor.push(frame) is None for frame in kinematics[1:6])
     assert predictor.push(kinematics[6]).frame == 7
+
+
+def test_labels_are_class_indices_and_label_names_their_names_offline_and_streaming(
+        fw_run, synth_dir):
+    """One convention: ``labels`` are class indices (as the SavedModel's outputs), ``label_names``
+    the classes' names (as every predictions CSV), for a recording and for a streamed sample."""
+    run = load_run(fw_run)
+    kinematics = read_kinematics(_held_out(synth_dir)[0])[:300]
+    offline = run.predict(kinematics)
+    indices, names = offline.labels("gesture"), offline.label_names("gesture")
+    assert indices.dtype.kind == "i" and len(indices) == len(names) == len(kinematics)
+    assert list(names) == [GESTURES[i] for i in indices] == list(offline.table()["gesture"])
+    predictor = StreamingPredictor(run)
+    samples = [s for s in map(predictor.push, kinematics) if s is not None]
+    streamed = stream_recording(predictor, kinematics)
+    assert [s.labels["gesture"] for s in samples] == list(streamed.sample_labels("gesture"))
+    assert all(isinstance(s.labels["gesture"], int)
+               and s.label_names["gesture"] == GESTURES[s.labels["gesture"]] for s in samples)
 
 
 def test_stream_evaluation_scores_the_offline_samples(fw_run, tmp_path):
@@ -388,10 +407,11 @@ def test_exported_model_alone_reproduces_multitask_predict(bi_run, synth_dir, tm
     assert predict_main([str(bi_run), str(kinematics), "--out", str(tmp_path / "pred"),
                          "--no-plots"]) == 0
     assert export_main([str(bi_run), "--out", str(tmp_path / "saved")]) == 0
-    subprocess.run([sys.executable, "-c", _FRESH_PROCESS, str(tmp_path / "saved"),
-                    str(kinematics), str(tmp_path / "out.npz")],
-                   check=True, cwd=tmp_path, env={k: v for k, v in os.environ.items()
-                                                  if k != "PYTHONPATH"})
+    loaded = subprocess.run([sys.executable, "-c", _FRESH_PROCESS, str(tmp_path / "saved"),
+                             str(kinematics), str(tmp_path / "out.npz")],
+                            check=True, cwd=tmp_path, capture_output=True, text=True,
+                            env={k: v for k, v in os.environ.items() if k != "PYTHONPATH"})
+    assert "custom gradients" not in loaded.stderr, loaded.stderr     # a user's load is quiet
     exported = np.load(tmp_path / "out.npz")
     table = pd.read_csv(tmp_path / "pred" / f"{kinematics.stem}.csv")
     np.testing.assert_array_equal(exported["frame"], table["frame"])
@@ -403,7 +423,12 @@ def test_exported_model_alone_reproduces_multitask_predict(bi_run, synth_dir, tm
         np.testing.assert_allclose(exported[f"{task}_scores"], table.filter(like=prefix),
                                    atol=1e-5)              # the CSV's 5 decimals, float32 outputs
     description = json.loads((tmp_path / "saved" / "assets.extra" / "model.json").read_text())
-    assert description["tasks"][0]["classes"] == list(GESTURES)
+    assert description["tasks"]["gesture"]["classes"] == list(GESTURES)
+    assert list(description["tasks"]) == ["gesture", "progress"]
+    for signature in description["signatures"].values():     # every path it names is there
+        for text in signature["outputs"].values():
+            for task, key in re.findall(r"\btasks\.(\w+)\.(\w+)", text):
+                assert key in description["tasks"][task], text
     assert description["preprocessing"]["feature_columns_1based"][:3] == [39, 40, 41]
     assert export_main([str(bi_run), "--out", str(tmp_path / "saved")]) == 2
     model = tf.saved_model.load(str(tmp_path / "saved"))

@@ -9,9 +9,9 @@ from pathlib import Path
 
 import pytest
 
-from multitask.grid.spec import Experiment
-from multitask.evidence.latex import escape, mean_std, number, required_packages
 from multitask.evidence.cli import main as tables_main
+from multitask.evidence.render.latex import escape, mean_std, number, required_packages
+from multitask.grid.spec import Experiment
 from tests.fake_grid import FOLDS, TRIALS, write_fake_grid
 
 #: IEEE conference page (IEEEtran): 43pc text width, two 21pc columns.
@@ -91,7 +91,7 @@ def test_captions_state_data_folds_budget_and_seeds(tables):
 def test_captions_name_the_variants_with_longer_schedules(tmp_path):
     grid = write_fake_grid(tmp_path / "grid", seeds=(0,), schedule_factors={"APoc": 1.5},
                            experiments=(Experiment(("A", "APc", "APoc", "Pc")),))
-    assert tables_main([str(grid), "--no-figures", "--out", str(tmp_path / "out")]) == 0
+    assert tables_main(["paper", str(grid), "--no-figures", "--out", str(tmp_path / "out")]) == 0
     assert "12 epochs (18 for APoc; 8 for Pc)" in (tmp_path / "out" / "table1.tex").read_text()
 
 
@@ -101,7 +101,7 @@ def test_runs_without_their_configuration_get_no_caption(tmp_path, capsys):
     grid = write_fake_grid(tmp_path / "grid", seeds=(0,), experiments=(Experiment(("A",)),))
     missing = next(grid.glob("runs/**/config.json"))
     missing.unlink()
-    assert tables_main([str(grid), "--no-figures", "--out", str(tmp_path / "out")]) == 2
+    assert tables_main(["paper", str(grid), "--no-figures", "--out", str(tmp_path / "out")]) == 2
     assert f"{missing}: not found" in capsys.readouterr().err
     assert not (tmp_path / "out").exists()
 

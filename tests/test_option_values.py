@@ -68,13 +68,16 @@ def test_every_option_refuses_an_empty_or_blank_value(capsys, value):
     assert checked > 100                    # every command's path, URI, name and number options
 
 
-@pytest.mark.parametrize("option", ["--out", "--archive"])
-def test_an_empty_output_path_writes_nothing(tmp_path, monkeypatch, capsys, option):
+@pytest.mark.parametrize("argv, shown", [(["paper", "grid", "--out", ""], "--out"),
+                                         (["archive", "grid", ""], "DIR"),
+                                         (["grid", "--out", ""], "--out"),        # old forms
+                                         (["grid", "--archive", ""], "--archive")])
+def test_an_empty_output_path_writes_nothing(tmp_path, monkeypatch, capsys, argv, shown):
     """``multitask-tables GRID --out ""`` wrote its tables into the current folder."""
     monkeypatch.chdir(tmp_path)
     (tmp_path / "grid").mkdir()
     with pytest.raises(SystemExit) as stopped:
-        tables_main(["grid", option, ""])
+        tables_main(argv)
     assert stopped.value.code == 2
-    assert f"argument {option}: expected a value, got ''" in capsys.readouterr().err
+    assert f"argument {shown}: expected a value, got ''" in capsys.readouterr().err
     assert sorted(p.name for p in tmp_path.iterdir()) == ["grid"]

@@ -1,7 +1,7 @@
 """A confirmatory plan cannot say what its numbers do not (issue 66, item 3), and no TOML file the
 project reads can crash its reader.
 
-A plan (``multitask.evidence.confirm``) and its exploratory file are checked as strictly as a grid
+A plan (``multitask.evidence.studies.confirm``) and its exploratory file are checked as strictly as a grid
 spec: every number finite and in range, outcomes three distinct words, one-line names and titles,
 configurations and metrics that exist, no endpoint twice in a family. Every TOML file (task
 definitions, recording formats, grid specs, plans, exploratory files) is read by
@@ -21,8 +21,8 @@ from jigsaws_tools.recording_format import load_format
 from jigsaws_tools.task_definition import read_task_file
 from jigsaws_tools.toml_files import MAX_TOML_BYTES, read_toml
 from multitask.evidence.cli import main as tables_main
-from multitask.evidence.confirm import PlanError, analyse, read_plan
-from multitask.evidence.exploratory import read_exploratory
+from multitask.evidence.studies.confirm import PlanError, analyse, read_plan
+from multitask.evidence.studies.exploratory import read_exploratory
 from multitask.grid.spec import load_spec
 from test_archive_and_inputs import at_most
 from test_confirm import PLAN, project  # noqa: F401  (a fixture)
@@ -106,7 +106,7 @@ def test_a_plan_that_says_what_its_numbers_do_not_is_refused_naming_the_key(
         read_plan(plan)
     assert str(refused.value).startswith(f"{plan}: ") and "\n" not in str(refused.value)
     out = tmp_path / "out"
-    assert tables_main(["--confirm", str(plan), "--out", str(out)]) == 2
+    assert tables_main(["confirm", str(plan), "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and key in err and str(plan) in err
     assert not out.exists()
@@ -242,7 +242,7 @@ def test_a_fifo_plan_is_refused_before_the_outputs_lock_is_taken(tmp_path: Path,
     os.mkfifo(tmp_path / name)
     out = tmp_path / "out"
     with at_most(60):
-        assert tables_main(["--confirm", str(plan), "--out", str(out)]) == 2
+        assert tables_main(["confirm", str(plan), "--out", str(out)]) == 2
     err = capsys.readouterr().err.strip()
     assert "\n" not in err and f"{tmp_path / name}: a FIFO (named pipe)" in err
     assert not out.exists()

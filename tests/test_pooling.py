@@ -15,6 +15,7 @@ import pandas as pd
 import pytest
 
 from multitask.evidence.cli import main as tables_main
+from multitask.evidence.runs.standalone import is_run_collection
 from multitask.grid.spec import Experiment, RunKey
 from multitask.models.run_record import read_run_config
 from rnn_seg.runs.folder import RunFolderError, read_json, write_json
@@ -30,8 +31,10 @@ def _key(fold: str, variant: str = "A", seed: int = 0) -> RunKey:
 
 
 def _tables(folder: Path, capsys, *options: str) -> tuple[int, str]:
-    """``multitask-tables FOLDER --no-figures --out FOLDER/../out``; exit code and stderr."""
-    code = tables_main([str(folder), "--no-figures", "--out", str(folder.parent / "out"),
+    """``multitask-tables paper FOLDER --no-figures --out FOLDER/../out`` (``runs FOLDER`` for
+    runs trained one by one); exit code and stderr."""
+    study = ["runs"] if is_run_collection(folder) else ["paper", "--no-figures"]
+    code = tables_main([study[0], str(folder), *study[1:], "--out", str(folder.parent / "out"),
                         *options])
     return code, capsys.readouterr().err
 
@@ -197,7 +200,7 @@ def test_a_grid_of_mixed_widths_without_a_spec_is_refused(tmp_path, capsys):
 def test_compare_pools_by_the_same_rule(tmp_path, capsys):
     grid = _grid_without_spec(tmp_path / "grid")
     _edit(grid / A_FIXED / "D" / "config.json", lambda c: c["run"]["optim"].update(total=99))
-    code = tables_main([str(grid), "--compare", "APc-fixed", "A-fixed", "--metric",
+    code = tables_main(["pair", str(grid), "APc-fixed", "A-fixed", "--metric",
                         "gesture_accuracy"])
     _refused(code, capsys.readouterr().err, "run.optim.total")
 
@@ -210,12 +213,12 @@ def _width_grids(root: Path) -> list[Path]:
 
 
 def test_widths_refuse_a_grid_folder_without_its_record(tmp_path, capsys):
-    """--widths over a grid without grid.json and with a run of A removed: not 7 folds of A
+    """The width study over a grid without grid.json and with a run of A removed: not 7 folds of A
     beside 8 of APoc, but a refusal saying the grid's runs are unknown."""
     narrow, wide = _width_grids(tmp_path)
     (wide / "grid.json").unlink()
     shutil.rmtree(wide / A_FIXED / "C")
-    code = tables_main([str(narrow), "--widths", str(wide), "--out", str(tmp_path / "w")])
+    code = tables_main(["width", str(narrow), str(wide), "--out", str(tmp_path / "w")])
     _refused(code, capsys.readouterr().err, f"{wide}: not a grid: {wide / 'grid.json'} missing")
     assert not (tmp_path / "w").exists()
 
@@ -223,7 +226,7 @@ def test_widths_refuse_a_grid_folder_without_its_record(tmp_path, capsys):
 def test_widths_refuse_a_models_runs_of_other_settings(tmp_path, capsys):
     narrow, wide = _width_grids(tmp_path)
     _edit(wide / A_FIXED / "C" / "config.json", lambda c: c["run"]["train"].update(batch_size=3))
-    code = tables_main([str(narrow), "--widths", str(wide), "--out", str(tmp_path / "w")])
+    code = tables_main(["width", str(narrow), str(wide), "--out", str(tmp_path / "w")])
     _refused(code, capsys.readouterr().err, "run.train.batch_size")
 
 
@@ -232,7 +235,7 @@ def test_widths_refuse_grids_whose_models_differ_in_more_than_width_and_schedule
     narrow, wide = _width_grids(tmp_path)
     for config in wide.glob("runs/**/config.json"):
         _edit(config, lambda c: c["run"]["encoder"].update(precision="bf16"))
-    code = tables_main([str(narrow), "--widths", str(wide), "--out", str(tmp_path / "w")])
+    code = tables_main(["width", str(narrow), str(wide), "--out", str(tmp_path / "w")])
     _refused(code, capsys.readouterr().err, "the grids of the width study",
              "run.encoder.precision")
 
@@ -360,8 +363,8 @@ def test_a_grid_record_with_a_run_path_of_the_wrong_shape_is_one_line(tmp_path, 
     narrow, wide = _width_grids(tmp_path)
     _edit(wide / "grid.json", lambda r: r["runs"].append(path))
     record = wide / "grid.json"
-    for argv in ([str(wide), "--no-figures", "--out", str(tmp_path / "t")],
-                 [str(narrow), "--widths", str(wide), "--out", str(tmp_path / "w")]):
+    for argv in (["paper", str(wide), "--no-figures", "--out", str(tmp_path / "t")],
+                 ["width", str(narrow), str(wide), "--out", str(tmp_path / "w")]):
         code = tables_main(argv)
         err = capsys.readouterr().err
         _refused(code, err, f"{record}: runs: {path!r}")

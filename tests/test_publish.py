@@ -182,10 +182,10 @@ def test_tables_killed_at_any_step_over_an_earlier_output_are_all_old_or_all_new
     out = tmp_path / "results"
     out.mkdir()
     (out / "README.md").write_text("mine")
-    assert tables_main([str(fake_grid), "--out", str(out), "--no-figures"]) == 0
+    assert tables_main(["paper", str(fake_grid), "--out", str(out), "--no-figures"]) == 0
     old = visible(out)
     taken = observed_steps(monkeypatch, out, tmp_path / "killed")
-    assert tables_main([str(fake_grid / "runs"), "--out", str(out)]) == 0
+    assert tables_main(["runs", str(fake_grid / "runs"), "--out", str(out)]) == 0
     new = visible(out)
     assert len(old) == 17 and len(new) == 5 and old != new
     assert len(taken) > 12
@@ -206,11 +206,11 @@ def test_an_archive_killed_at_any_step_over_an_earlier_one_is_the_old_or_the_new
     dest = tmp_path / "place" / "archive"
     unfinished = next((grid / "runs").glob("*/*/*/*/B"))
     (unfinished / "finished.json").rename(unfinished / "later.json")
-    assert tables_main([str(grid), "--archive", str(dest)]) == 0
+    assert tables_main(["archive", str(grid), str(dest)]) == 0
     old = visible(dest)
     (unfinished / "later.json").rename(unfinished / "finished.json")
     taken = observed_steps(monkeypatch, dest.parent, tmp_path / "killed")
-    assert tables_main([str(grid), "--archive", str(dest)]) == 0
+    assert tables_main(["archive", str(grid), str(dest)]) == 0
     new = visible(dest)
     assert len(new) > len(old)
     assert [step for step, _ in taken] == ["swap", "remove old"]
@@ -305,7 +305,7 @@ def test_an_archive_leaves_the_users_folders_of_its_hidden_names(fake_grid, tmp_
     """Issue 66: ``.A.mynotes1.tmp/`` and ``.A.backup_1.old.tmp/`` beside an archive ``A`` are
     the user's: the next archive into ``A`` leaves them (and the other look-alikes) whole."""
     dest = tmp_path / "place" / "A"
-    assert tables_main([str(fake_grid), "--archive", str(dest)]) == 0
+    assert tables_main(["archive", str(fake_grid), str(dest)]) == 0
     users = _users_lookalikes(dest.parent, "A")
-    assert tables_main([str(fake_grid), "--archive", str(dest)]) == 0
+    assert tables_main(["archive", str(fake_grid), str(dest)]) == 0
     assert _hidden(dest.parent, tmp_path / "elsewhere") == users

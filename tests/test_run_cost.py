@@ -136,3 +136,31 @@ def test_progress_lines_say_what_their_numbers_are(tmp_path):
     assert "loss gesture" in progress[0] and "acc/edit" not in progress[0]
     assert "train acc/edit gesture" in progress[1] and "test acc/edit gesture" in progress[1]
     assert all(" s/epoch  ETA " in line for line in progress)
+
+
+def test_the_first_lines_eta_leaves_out_the_sessions_first_sweep(tmp_path, monkeypatch):
+    """TensorFlow's one-off work lands in a session's first sweep (here 10 s, then 1 s a sweep,
+    on a clock that moves only while a sweep trains). The first line measures its epoch as it
+    was (12 s for 3 sweeps) but gives the time left at the pace of the sweeps after the first:
+    9 sweeps left, 9 s, not 3 epochs at 12 s; later lines keep their own pace."""
+    import types
+
+    import rnn_seg.trainer
+
+    clock = {"now": 1000.0}
+    monkeypatch.setattr(rnn_seg.trainer, "time", types.SimpleNamespace(time=lambda: clock["now"]))
+    lines = []
+    trainer = _trainer(tmp_path / "run")
+    trainer.log = lines.append
+    step = trainer.step
+
+    def timed(sweep, learning_rate):
+        clock["now"] += 10.0 if sweep == 0 else 1.0
+        return step(sweep, learning_rate)
+
+    monkeypatch.setattr(trainer, "step", timed)
+    trainer.run()
+    progress = [line for line in lines if line.startswith("[run] epoch")]
+    assert trainer.sweeps_per_unit == 3 and len(progress) == EPOCHS
+    assert progress[0].endswith("12.0 s/epoch  ETA 0:00:09")
+    assert progress[1].endswith("3.0 s/epoch  ETA 0:00:06")

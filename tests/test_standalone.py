@@ -29,7 +29,7 @@ def runs(tmp_path_factory) -> Path:
 
 def test_a_folder_of_runs_is_tabulated_from_their_configs(runs, tmp_path, capsys):
     out = tmp_path / "tables"
-    assert tables_main([str(runs), "--out", str(out)]) == 0
+    assert tables_main(["runs", str(runs), "--out", str(out)]) == 0
     assert "runs trained one by one" in capsys.readouterr().err
     table = pd.read_csv(out / "runs.csv").set_index("run")
     assert set(table.index) == {"A_B", "older/A_C", "APc_B"}
@@ -42,7 +42,7 @@ def test_a_folder_of_runs_is_tabulated_from_their_configs(runs, tmp_path, capsys
 
 
 def test_one_run_folder_is_a_table_of_one_run(runs, tmp_path):
-    assert tables_main([str(runs / "A_B"), "--out", str(tmp_path / "one")]) == 0
+    assert tables_main(["runs", str(runs / "A_B"), "--out", str(tmp_path / "one")]) == 0
     assert pd.read_csv(tmp_path / "one" / "runs.csv").run.tolist() == ["."]
 
 
@@ -51,12 +51,13 @@ def test_a_copy_of_a_run_and_an_unfinished_run_are_named(runs, tmp_path, capsys)
     shutil.copytree(runs, mine)
     shutil.copytree(mine / "A_B", mine / "A_B.copy")
     (mine / "APc_B" / "finished.json").unlink()
-    assert tables_main([str(mine), "--out", str(tmp_path / "refused")]) == 2
+    assert tables_main(["runs", str(mine), "--out", str(tmp_path / "refused")]) == 2
     err = capsys.readouterr().err
     assert "Traceback" not in err and f"not finished: {mine / 'APc_B'}" in err
     assert (f"{mine / 'A_B.copy'}: a second run of the same settings, seed and fold as "
             f"{mine / 'A_B'}") in err
     assert not (tmp_path / "refused").exists()
-    assert tables_main([str(mine), "--out", str(tmp_path / "rest"), "--allow-incomplete"]) == 0
+    assert tables_main(["runs", str(mine), "--out", str(tmp_path / "rest"),
+                        "--allow-incomplete"]) == 0
     assert f"left out: {mine / 'A_B.copy'}" in capsys.readouterr().err
     assert pd.read_csv(tmp_path / "rest" / "runs.csv").run.tolist() == ["A_B", "older/A_C"]

@@ -296,7 +296,7 @@ def test_knot_tying_grid_tables_and_figures(tmp_path, capsys):
     grid = tmp_path / "grid"
     assert grid_main(["--spec", str(spec), "--out", str(grid)]) == 0
     assert "task Knot_Tying" in capsys.readouterr().out
-    assert tables_main([str(grid)]) == 0
+    assert tables_main(["paper", str(grid)]) == 0
     tables = grid / "tables"
     assert (tables / "summary.csv").is_file() and not list(tables.glob("table*.csv"))
     summary = pd.read_csv(tables / "summary.csv")
@@ -330,7 +330,7 @@ def test_a_grid_of_ones_own_task_tabulates_where_its_task_file_is_not(tmp_path, 
     assert grid_main(["--spec", str(spec), "--out", str(grid)]) == 0
     definition.rename(tmp_path / "elsewhere.toml")
     with caplog.at_level(logging.WARNING):
-        assert tables_main([str(grid), "--no-figures"]) == 0
+        assert tables_main(["paper", str(grid), "--no-figures"]) == 0
     assert (grid / "tables" / "summary.csv").is_file()
     assert any(str(definition) in r.getMessage() and "not checked" in r.getMessage()
                for r in caplog.records)

@@ -4,9 +4,9 @@ import pandas as pd
 import pytest
 
 from jigsaws_tools.dataset import DataConfig, load_dataset
-from multitask.evidence.tables import PAPER_TABLES
-from multitask.evidence.time_baseline import (TimeBaseline, chance_accuracy, fold_scores, scores,
-                                              time_baseline_rows)
+from multitask.evidence.render.tables import PAPER_TABLES
+from multitask.evidence.statistics.time_baseline import (TimeBaseline, chance_accuracy, fold_scores,
+                                                         scores, time_baseline_rows)
 
 
 def _ramp(length, stages=5):

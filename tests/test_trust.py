@@ -33,7 +33,8 @@ from multitask.grid.record import prepare_grid
 from multitask.grid.spec import expand, load_spec, with_budget
 from multitask.evidence.cli import main as tables_main
 from multitask.train_cli import main as multitask_main
-from rnn_seg.runs.checkpoints import CheckpointStore, checkpoint_prefix, restore_weights
+from rnn_seg.runs.checkpoints import (CheckpointStore, checkpoint_prefix, checkpoint_sweeps,
+                                      restore_weights)
 from rnn_seg.runs import lock
 from rnn_seg.runs.lock import hold_folder
 from rnn_seg.lstm import EncoderConfig
@@ -535,6 +536,31 @@ def test_ctrl_c_stops_training_cleanly_and_it_resumes(tmp_path, small_dir):
     assert "resuming from sweep" in again.stdout and "done:" in again.stdout
 
 
+def test_ctrl_c_in_a_command_called_from_python_reaches_the_caller(tmp_path, small_dir, capsys,
+                                                                  monkeypatch):
+    """``main(argv)`` called from Python (a test, a notebook): Ctrl-C during training leaves the
+    run resumable and says so once, then reaches the caller, so that one Ctrl-C ends a test run
+    (the same command as a program exits with 130, above)."""
+    from rnn_seg.trainer import Trainer
+
+    def ctrl_c(self, sweep, lr, out):
+        if sweep == 2:
+            raise KeyboardInterrupt
+        return after_sweep(self, sweep, lr, out)
+
+    after_sweep = Trainer.after_sweep
+    monkeypatch.setattr(Trainer, "after_sweep", ctrl_c)
+    out = tmp_path / "x"
+    command = [*TINY, "--data-dir", str(small_dir), "--out", str(out)]
+    with pytest.raises(KeyboardInterrupt):
+        multitask_main(command)
+    err = capsys.readouterr().err
+    assert err.count("multitask-train: interrupted; run the same command again to resume") == 1
+    assert checkpoint_sweeps(out) == [2] and not (out / "finished.json").exists()
+    monkeypatch.setattr(Trainer, "after_sweep", after_sweep)
+    assert multitask_main(command) == 0 and (out / "finished.json").is_file()
+
+
 # -- 3. values validated before any work -----------------------------------------------------------
 EPOCHS = ["--epochs", "2"]
 
@@ -764,7 +790,7 @@ def _nan_accuracy(run: Path) -> None:
 
 
 def _tables(root: Path, capsys, *flags: str) -> tuple[int, str]:
-    code, _, err = _cli(tables_main, [str(root), "--no-figures", *flags], capsys)
+    code, _, err = _cli(tables_main, ["paper", str(root), "--no-figures", *flags], capsys)
     return code, err
 
 
@@ -804,7 +830,7 @@ def test_a_malformed_grid_record_is_one_line_naming_it(tmp_path, capsys):
 
 
 def test_collecting_results_imports_no_tensorflow():
-    script = "import sys, multitask.evidence.collect\nprint('tensorflow' in sys.modules)"
+    script = "import sys, multitask.evidence.runs.collect\nprint('tensorflow' in sys.modules)"
     result = subprocess.run([sys.executable, "-c", script], env=ENV, capture_output=True,
                             text=True, check=True)
     assert result.stdout.strip() == "False"
@@ -850,8 +876,8 @@ def test_seeds_restrict_the_evidence_to_those_seeds_runs(tmp_path, capsys):
 
 def test_compare_reports_what_finished_only_left_out(tmp_path, capsys):
     _running_grid(tmp_path)
-    code, out, err = _cli(tables_main, [str(tmp_path), "--finished-only", "--compare",
-                                        "forward/A-fixed", "A-fixed", "--metric", "gesture_edit"],
+    code, out, err = _cli(tables_main, ["pair", str(tmp_path), "forward/A-fixed",
+                                        "A-fixed", "--finished-only", "--metric", "gesture_edit"],
                           capsys)
     assert code != 0 and "left out: revised/forward/A-fixed" in err, err
     assert "Traceback" not in err

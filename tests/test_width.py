@@ -1,4 +1,4 @@
-"""The width study (``multitask-tables GRID --widths GRID ...``) on fake grids of several widths."""
+"""The width study (``multitask-tables width GRID GRID ...``) on fake grids of several widths."""
 from __future__ import annotations
 
 import json
@@ -7,11 +7,11 @@ import shutil
 import pandas as pd
 import pytest
 
-from tests.fake_grid import FOLDS, write_fake_grid
 from multitask.evidence.cli import main as tables_main
-from multitask.evidence.collect import run_rows
-from multitask.evidence.paper_results import TABLE_1
+from multitask.evidence.render.paper_results import TABLE_1
+from multitask.evidence.runs.collect import run_rows
 from multitask.grid.spec import Experiment
+from tests.fake_grid import FOLDS, write_fake_grid
 
 MODELS = (Experiment(variants=("A",)), Experiment(variants=("APoc",), weightings=("gradnorm",)))
 
@@ -28,7 +28,7 @@ def _fold_means(grid, variant, metric):
 
 def test_one_row_per_width_and_metric_from_each_grids_runs(tmp_path, capsys):
     small, paper = _grid(tmp_path, 32), _grid(tmp_path, 1024, seeds=(0, 1))
-    assert tables_main([str(paper), "--widths", str(small), "--out", str(tmp_path / "w")]) == 0
+    assert tables_main(["width", str(paper), str(small), "--out", str(tmp_path / "w")]) == 0
     table = pd.read_csv(tmp_path / "w" / "width.csv")
     assert list(table.hidden) == [32] * 3 + [1024] * 3
     assert (tmp_path / "w" / "width.png").is_file() and (tmp_path / "w" / "width.pdf").is_file()
@@ -49,7 +49,7 @@ def test_one_row_per_width_and_metric_from_each_grids_runs(tmp_path, capsys):
 
 def test_holm_corrects_each_metric_over_the_widths(tmp_path):
     grids = [_grid(tmp_path, hidden) for hidden in (32, 64, 128)]
-    assert tables_main([str(grids[0]), "--widths", *map(str, grids[1:]),
+    assert tables_main(["width", str(grids[0]), *map(str, grids[1:]),
                         "--out", str(tmp_path / "w")]) == 0
     table = pd.read_csv(tmp_path / "w" / "width.csv")
     for _, family in table.groupby("metric"):
@@ -63,7 +63,7 @@ def test_holm_corrects_each_metric_over_the_widths(tmp_path):
 def test_a_seed_still_training_is_left_out(tmp_path):
     grid = _grid(tmp_path, 64, seeds=(0, 1))
     (grid / "runs/revised/bidirectional/APoc-gradnorm/seed1/C/finished.json").unlink()
-    assert tables_main([str(grid), "--widths", str(_grid(tmp_path, 16)),
+    assert tables_main(["width", str(grid), str(_grid(tmp_path, 16)),
                         "--out", str(tmp_path / "w")]) == 0
     table = pd.read_csv(tmp_path / "w" / "width.csv", dtype={"seeds": str})
     assert set(table[table.hidden == 64].seeds) == {"0"}
@@ -71,7 +71,7 @@ def test_a_seed_still_training_is_left_out(tmp_path):
 
 def test_two_grids_of_one_width_are_a_one_line_error(tmp_path, capsys):
     grid = _grid(tmp_path, 32)
-    assert tables_main([str(grid), "--widths", str(grid), "--out", str(tmp_path / "w")]) == 2
+    assert tables_main(["width", str(grid), str(grid), "--out", str(tmp_path / "w")]) == 2
     err = capsys.readouterr().err
     assert "one entry per width, got widths [32, 32]" in err and "Traceback" not in err
     assert not (tmp_path / "w").exists()
@@ -79,7 +79,7 @@ def test_two_grids_of_one_width_are_a_one_line_error(tmp_path, capsys):
 
 def test_seeds_restrict_every_grid(tmp_path):
     small, paper = _grid(tmp_path, 32, seeds=(0, 1)), _grid(tmp_path, 1024, seeds=(0, 1))
-    assert tables_main([str(small), "--widths", str(paper), "--seeds", "1",
+    assert tables_main(["width", str(small), str(paper), "--seeds", "1",
                         "--out", str(tmp_path / "w")]) == 0
     table = pd.read_csv(tmp_path / "w" / "width.csv", dtype={"seeds": str})
     assert set(table.seeds) == {"1"} and set(table.A_runs) == {len(FOLDS)}
@@ -89,7 +89,7 @@ def test_a_grid_without_a_finished_seed_names_what_it_lacks(tmp_path, capsys):
     grid = _grid(tmp_path, 64)
     for fold in FOLDS[3:]:
         (grid / f"runs/revised/bidirectional/APoc-gradnorm/seed0/{fold}/finished.json").unlink()
-    assert tables_main([str(_grid(tmp_path, 16)), "--widths", str(grid),
+    assert tables_main(["width", str(_grid(tmp_path, 16)), str(grid),
                         "--out", str(tmp_path / "w")]) == 2
     err = capsys.readouterr().err
     assert "seed 0: APoc-gradnorm 3 of 8 runs finished" in err
@@ -100,7 +100,7 @@ def test_a_run_without_usable_metrics_is_one_line_naming_it(tmp_path, capsys):
     grid = _grid(tmp_path, 64)
     metrics = grid / "runs/revised/bidirectional/A-fixed/seed0/D/metrics.json"
     metrics.write_text("{")
-    assert tables_main([str(_grid(tmp_path, 16)), "--widths", str(grid),
+    assert tables_main(["width", str(_grid(tmp_path, 16)), str(grid),
                         "--out", str(tmp_path / "w")]) == 2
     err = capsys.readouterr().err
     assert str(metrics) in err and len(err.strip().splitlines()) == 1
@@ -113,7 +113,7 @@ def test_grids_on_other_folds_are_refused(tmp_path, capsys):
     record.write_text(json.dumps({"runs": [run for run in runs if not run.endswith("/I")]}))
     for config in ("A-fixed", "APoc-gradnorm"):
         (grid / f"runs/revised/bidirectional/{config}/seed0/I").rename(tmp_path / config)
-    assert tables_main([str(_grid(tmp_path, 16)), "--widths", str(grid),
+    assert tables_main(["width", str(_grid(tmp_path, 16)), str(grid),
                         "--out", str(tmp_path / "w")]) == 2
     assert "the grids differ in their folds" in capsys.readouterr().err
 
@@ -124,7 +124,7 @@ def test_grids_on_other_data_settings_are_refused(tmp_path, capsys):
         config = json.loads(path.read_text())
         config["run"]["data"]["preprocessing"]["cutoff_hz"] = 2.0
         path.write_text(json.dumps(config))
-    assert tables_main([str(_grid(tmp_path, 16)), "--widths", str(grid),
+    assert tables_main(["width", str(_grid(tmp_path, 16)), str(grid),
                         "--out", str(tmp_path / "w")]) == 2
     err = capsys.readouterr().err
     assert "the grids differ in their data settings (preprocessing)" in err
@@ -132,13 +132,25 @@ def test_grids_on_other_data_settings_are_refused(tmp_path, capsys):
 
 def test_seeds_no_grid_has_are_named(tmp_path, capsys):
     grid = _grid(tmp_path, 64)
-    assert tables_main([str(_grid(tmp_path, 16)), "--widths", str(grid), "--seeds", "5",
+    assert tables_main(["width", str(_grid(tmp_path, 16)), str(grid), "--seeds", "5",
                         "--out", str(tmp_path / "w")]) == 2
     assert "no run of A-fixed or APoc-gradnorm of seed(s) 5" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("options,message", [
+    ([], "the following arguments are required: --out"),
+    (["--out", "W", "--allow-incomplete"], "width takes no --allow-incomplete option"),
+    (["--out", "W", "--no-figures"], "width takes no --no-figures option")])
+def test_width_takes_out_seeds_and_overwrite_alone(tmp_path, capsys, options, message):
+    grid = _grid(tmp_path, 32)
+    options = [str(tmp_path / "w") if word == "W" else word for word in options]
+    with pytest.raises(SystemExit) as exit_:
+        tables_main(["width", str(grid), str(grid), *options])
+    assert exit_.value.code == 2 and message in capsys.readouterr().err
+
+
 @pytest.mark.parametrize("options", [[], ["--allow-incomplete"], ["--no-figures"]])
-def test_widths_takes_out_alone(tmp_path, capsys, options):
+def test_the_flag_form_still_takes_out_alone(tmp_path, capsys, options):
     grid = _grid(tmp_path, 32)
     out = ["--out", str(tmp_path / "w")] if options else []
     with pytest.raises(SystemExit) as exit_:
@@ -155,7 +167,7 @@ def _pooled(tmp_path, *options, first=(0,), second=(1, 2), **second_grid):
     settings = {"hidden": 64, "epochs": 12, "experiments": MODELS,
                 "schedule_factors": {"APoc": 1.5}, "scores_seed": 1} | second_grid
     two = write_fake_grid(tmp_path / "h64-b", seeds=second, **settings)
-    return tables_main([str(_grid(tmp_path, 16)), "--widths", f"{one}+{two}", *options,
+    return tables_main(["width", str(_grid(tmp_path, 16)), f"{one}+{two}", *options,
                         "--out", str(tmp_path / "w")]), one, two
 
 
@@ -187,7 +199,7 @@ def test_a_pooled_width_is_the_table_of_one_grid_holding_its_runs(tmp_path):
     shutil.copytree(two / "runs", merged / "runs", dirs_exist_ok=True)
     recorded = [json.loads((grid / "grid.json").read_text())["runs"] for grid in (one, two)]
     (merged / "grid.json").write_text(json.dumps({"runs": recorded[0] + recorded[1]}))
-    assert tables_main([str(tmp_path / "h16"), "--widths", str(merged),
+    assert tables_main(["width", str(tmp_path / "h16"), str(merged),
                         "--out", str(tmp_path / "m")]) == 0
     alone = pd.read_csv(tmp_path / "m" / "width.csv")
     assert "grids" not in alone.columns and code == 0
@@ -196,7 +208,7 @@ def test_a_pooled_width_is_the_table_of_one_grid_holding_its_runs(tmp_path):
 
 def test_one_grid_per_width_writes_no_grids_column(tmp_path):
     small, wide = _grid(tmp_path, 32), _grid(tmp_path, 64, seeds=(0, 1))
-    assert tables_main([str(small), "--widths", str(wide), "--out", str(tmp_path / "w")]) == 0
+    assert tables_main(["width", str(small), str(wide), "--out", str(tmp_path / "w")]) == 0
     columns = pd.read_csv(tmp_path / "w" / "width.csv").columns
     assert "grids" not in columns and columns[-2:].tolist() == ["paper_A", "paper_APoc"]
 
@@ -234,7 +246,7 @@ def test_pooled_grids_on_other_data_are_refused(tmp_path, capsys):
         config = json.loads(path.read_text())
         config["run"]["data"]["preprocessing"]["cutoff_hz"] = 2.0
         path.write_text(json.dumps(config))
-    assert tables_main([str(_grid(tmp_path, 16)), "--widths", f"{one}+{two}",
+    assert tables_main(["width", str(_grid(tmp_path, 16)), f"{one}+{two}",
                         "--out", str(tmp_path / "w")]) == 2
     err = capsys.readouterr().err
     assert f"the grids differ in their data settings (preprocessing): {one} and {two}" in err
@@ -259,7 +271,7 @@ def test_a_grid_of_the_entry_still_training_refuses_the_entry(tmp_path, capsys):
     two = write_fake_grid(tmp_path / "h64-b", seeds=(1,), hidden=64, epochs=12,
                           experiments=MODELS, schedule_factors={"APoc": 1.5})
     (two / "runs/revised/bidirectional/A-fixed/seed1/B/finished.json").unlink()
-    assert tables_main([str(_grid(tmp_path, 16)), "--widths", f"{one}+{two}",
+    assert tables_main(["width", str(_grid(tmp_path, 16)), f"{one}+{two}",
                         "--out", str(tmp_path / "w")]) == 2
     err = capsys.readouterr().err
     assert f"{two}: no seed with every run" in err and "A-fixed 7 of 8 runs finished" in err
@@ -268,7 +280,7 @@ def test_a_grid_of_the_entry_still_training_refuses_the_entry(tmp_path, capsys):
 @pytest.mark.parametrize("entry", ["{g}+", "+{g}", "{g}++{g}", "{g}+{g}"])
 def test_malformed_entries_are_one_line_errors(tmp_path, capsys, entry):
     grid = _grid(tmp_path, 64)
-    assert tables_main([str(_grid(tmp_path, 16)), "--widths", entry.format(g=grid),
+    assert tables_main(["width", str(_grid(tmp_path, 16)), entry.format(g=grid),
                         "--out", str(tmp_path / "w")]) == 2
     err = capsys.readouterr().err
     assert len(err.strip().splitlines()) == 1 and "Traceback" not in err
@@ -279,14 +291,14 @@ def test_malformed_entries_are_one_line_errors(tmp_path, capsys, entry):
 def test_a_folder_whose_name_holds_the_join_is_refused_not_split(tmp_path, capsys):
     _grid(tmp_path, 64), _grid(tmp_path, 32)
     joined = _grid(tmp_path / "x", 128).rename(tmp_path / "h64+h32")
-    assert tables_main([str(_grid(tmp_path, 16)), "--widths", str(joined),
+    assert tables_main(["width", str(_grid(tmp_path, 16)), str(joined),
                         "--out", str(tmp_path / "w")]) == 2
     assert "a folder whose name holds '+'" in capsys.readouterr().err
 
 
 def test_a_missing_grid_of_an_entry_is_named(tmp_path, capsys):
     grid = _grid(tmp_path, 64)
-    assert tables_main([str(_grid(tmp_path, 16)), "--widths", f"{grid}+{tmp_path / 'nope'}",
+    assert tables_main(["width", str(_grid(tmp_path, 16)), f"{grid}+{tmp_path / 'nope'}",
                         "--out", str(tmp_path / "w")]) == 2
     assert f"{tmp_path / 'nope'}: no such folder" in capsys.readouterr().err
 
@@ -294,6 +306,6 @@ def test_a_missing_grid_of_an_entry_is_named(tmp_path, capsys):
 def test_grid_dir_may_be_a_joined_entry_too(tmp_path):
     code, one, two = _pooled(tmp_path)
     pooled = pd.read_csv(tmp_path / "w" / "width.csv")
-    assert tables_main([f"{one}+{two}", "--widths", str(tmp_path / "h16"),
+    assert tables_main(["width", f"{one}+{two}", str(tmp_path / "h16"),
                         "--out", str(tmp_path / "first")]) == 0
     pd.testing.assert_frame_equal(pd.read_csv(tmp_path / "first" / "width.csv"), pooled)

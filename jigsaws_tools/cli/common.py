@@ -67,6 +67,8 @@ TF_LOG_LEVEL_ENV = "TF_CPP_MIN_LOG_LEVEL"
 QUIET_TF_LOG_LEVEL = "3"        # hide INFO, WARNING and ERROR lines of TensorFlow's C++ runtime
 #: Errors a user can act on: printed as one line, exit 2.
 USER_ERRORS = (JigsawsError, ValueError, OSError)
+#: The exit status of a command stopped by Ctrl-C (128 + SIGINT), as a shell reports it.
+EXIT_INTERRUPTED = 130
 
 #: TensorFlow's start-up lines on standard error: absl's banner, glog-style lines
 #: (``I0000 00:00:1795... 8348 port.cc:153] ...``) and cpu_feature_guard's continuation line.
@@ -351,8 +353,13 @@ def _replay(captured, keep: Callable[[str], bool]) -> None:
     sys.stderr.flush()
 
 
+class Interrupted(KeyboardInterrupt):
+    """Ctrl-C, caught where the work stopped resumably and worded there (``str``: the line to
+    print, e.g. how to resume); ``run_command`` prints it in place of its own line."""
+
+
 def run_command(prog: str, verbose: bool, body: Callable[[], int | None],
-                layout_advice: str | None = None) -> int:
+                layout_advice: str | None = None, *, argv: list[str] | None = None) -> int:
     """Run a command's work with the shared output setup (``configure_output``).
 
     Args:
@@ -364,11 +371,19 @@ def run_command(prog: str, verbose: bool, body: Callable[[], int | None],
             error's advice for recordings of another layout
             (``recording_format.another_layout_hint``) suggests it. A command that does not
             gives the advice that replaces it (e.g. ``recording_format.RELEASE_LAYOUT_ONLY``).
+        argv: the arguments the command's ``main`` was given. None when it reads the process's
+            command line (a console script, ``python -m``): Ctrl-C then exits with 130. A list
+            when Python code calls it (a test, a notebook, a script): Ctrl-C is then re-raised
+            after its line, so that it stops the caller too (one Ctrl-C ends a test run).
 
     Returns:
         The exit code: ``body``'s, 0 if it returns None, 1 after a write the disk refused
         (``WriteFailed``, or an ``OSError`` of ``NO_SPACE``: one line ``<prog>: failed: ...``),
-        2 after a user error (``USER_ERRORS``: one line ``<prog>: error: ...``), 130 after Ctrl-C.
+        2 after a user error (``USER_ERRORS``: one line ``<prog>: error: ...``), 130 after Ctrl-C
+        (one line: ``<prog>: interrupted``, or the ``Interrupted``'s own).
+
+    Raises:
+        KeyboardInterrupt: Ctrl-C, when ``argv`` is a list.
     """
     configure_output(verbose)
     try:
@@ -382,9 +397,12 @@ def run_command(prog: str, verbose: bool, body: Callable[[], int | None],
         print(f"{prog}: {'failed' if failed else 'error'}: {_worded(error, layout_advice)}",
               file=sys.stderr)
         return 1 if failed else 2
-    except KeyboardInterrupt:
-        print(f"{prog}: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as interrupt:
+        print(interrupt if isinstance(interrupt, Interrupted) else f"{prog}: interrupted",
+              file=sys.stderr)
+        if argv is not None:
+            raise
+        return EXIT_INTERRUPTED
     return 0 if code is None else code
 
 

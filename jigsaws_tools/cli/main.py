@@ -175,7 +175,7 @@ def _release_arguments(parser: argparse.ArgumentParser, recording_format: bool
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     return run_command(PROG, args.verbose, lambda: args.run(args),
-                       layout_advice=None if "format" in args else RELEASE_LAYOUT_ONLY)
+                       layout_advice=None if "format" in args else RELEASE_LAYOUT_ONLY, argv=argv)
 
 
 if __name__ == "__main__":

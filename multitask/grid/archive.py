@@ -8,7 +8,7 @@ checkpoints (the weights), ``eval/`` (per-trial predictions, which carry the rel
 any other file of a run folder, ``train.log`` and lock files. ``archive.json`` says where and when
 it was archived, and each fold's test trials (their names only, for the tables' captions). So
 
-- ``multitask-tables ARCHIVE`` tabulates it like the grid (the example-trial figures need
+- ``multitask-tables paper ARCHIVE`` tabulates it like the grid (the example-trial figures need
   predictions and are left out, saying so);
 - a grid continues from it on another machine: ``cp -r ARCHIVE NEW_FOLDER``, then the grid's
   command with ``--out NEW_FOLDER``; its finished runs count as finished, and every launch still

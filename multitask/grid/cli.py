@@ -5,9 +5,9 @@
     multitask-grid --spec S.toml --out /shared/grid --scheduler tcp://head:8786
 
 Re-running the same command skips finished runs and resumes interrupted ones; tables come from
-``multitask-tables DIR``. The grid folder records its spec (grid.json); another spec over it stops
-with the differences unless ``--restart``. One grid process per folder (a lock); Ctrl-C stops
-every run at once, resumably.
+``multitask-tables paper DIR``. The grid folder records its spec (grid.json); another spec over
+it stops with the differences unless ``--restart``. One grid process per folder (a lock);
+Ctrl-C stops every run at once, resumably.
 
 While it trains, the grid shows runs done / running / queued, each running run's epoch and ETA
 and the grid's ETA: a live panel on a terminal, else (a file, a pipe, ``TERM=dumb``) a status
@@ -17,7 +17,7 @@ line a minute when it changed
 (``rnn_seg.runs.tracking``).
 
 ``--archive DIR`` keeps the grid's scores archive (``multitask.grid.archive``; what
-``multitask-tables GRID --archive DIR`` writes) up to date: written once before training, which
+``multitask-tables archive GRID DIR`` writes) up to date: written once before training, which
 checks that DIR may hold it, and again after every job whose runs finished. A grid on scratch
 space that may not outlive the job thus loses no finished run's scores; an archive that cannot be
 written later is a warning, and training goes on.
@@ -35,8 +35,8 @@ from typing import Callable
 
 from baseline.options import add_threads_argument
 from jigsaws_tools.cli.arg_types import positive_int, thread_count
-from jigsaws_tools.cli.common import (command_parser, deprecated_alias, import_tensorflow,
-                                      run_command)
+from jigsaws_tools.cli.common import (Interrupted, command_parser, deprecated_alias,
+                                      import_tensorflow, run_command)
 from jigsaws_tools.cli.options import DEFAULT_DATA_DIR_TEXT
 from jigsaws_tools.errors import WriteFailed
 from jigsaws_tools.recording_format import RELEASE_LAYOUT_ONLY
@@ -87,7 +87,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--archive", type=Path, metavar="DIR",
                         help="keep the grid's scores archive in DIR up to date: before training "
                              "and after every finished job (default: none; multitask-tables "
-                             "GRID --archive DIR writes it once)")
+                             "archive GRID DIR writes it once)")
     parser.add_argument("--mlflow", metavar="URI",
                         help="also log the grid to MLflow: a parent run (the spec) and each run "
                              "as it finishes, nested under it (settings, per-epoch metrics, "
@@ -108,7 +108,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--scheduler needs Dask: pip install 'mtrnn-jigsaws[dask]'")
     set_command([PROG, *(sys.argv[1:] if argv is None else argv)])
     return run_command(PROG, args.verbose, lambda: _run(args),
-                       layout_advice=RELEASE_LAYOUT_ONLY)
+                       layout_advice=RELEASE_LAYOUT_ONLY, argv=argv)
 
 
 def _check_grid_folder(out: Path) -> None:
@@ -130,7 +130,7 @@ def _on_recorded_loops(spec: GridSpec, out: Path) -> GridSpec:
     """``spec``, or, where it asks for ``auto`` loops and ``out``'s grid.json records the runnable
     loops the grid was launched with (say ``graph``, the default before ``auto``), ``spec`` on
     those after a line saying so: a resumed grid keeps one path (``multitask-tables
-    --reference`` refuses two), and its runs already started keep theirs too
+    execution`` refuses two), and its runs already started keep theirs too
     (``RecurrentEncoder.resume_on``). ``--loops`` other than ``auto`` switches."""
     if spec.encoder != "lstm" or spec.loops != "auto":
         return spec
@@ -207,9 +207,8 @@ def _run(args: argparse.Namespace) -> int:
             status = "FAILED" if failed else "FINISHED"
     except KeyboardInterrupt:
         status = "KILLED"
-        print(f"{PROG}: interrupted: queued runs cancelled, running ones stopped; run the same "
-              "command again to resume", file=sys.stderr)
-        return 130
+        raise Interrupted(f"{PROG}: interrupted: queued runs cancelled, running ones stopped; "
+                          "run the same command again to resume") from None
     finally:
         if tracker is not None:
             tracker.end_grid(status)
@@ -218,7 +217,8 @@ def _run(args: argparse.Namespace) -> int:
         for key, message in failed:
             print(f"  {key.path()}: {message}", file=sys.stderr)
         return 1
-    print(f"grid complete: {len(keys)} runs in {args.out}; tables: multitask-tables {args.out}")
+    print(f"grid complete: {len(keys)} runs in {args.out}; tables: multitask-tables paper "
+          f"{args.out}")
     return 0
 
 

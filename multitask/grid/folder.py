@@ -1,7 +1,7 @@
 """A grid folder's record, ``grid.json``: its file name and its reader, without TensorFlow.
 
 ``record.prepare_grid`` writes the record when a grid is launched (the spec, the path of
-every run under ``runs/``, provenance); ``multitask-tables`` (``multitask.evidence.collect``)
+every run under ``runs/``, provenance); ``multitask-tables`` (``multitask.evidence.runs.collect``)
 reads its run list to tell missing runs and stray folders apart. Both go through this module.
 """
 from __future__ import annotations

@@ -11,7 +11,7 @@ settings (``rnn_seg.runs.settings``): a spec with another width or length never 
 finished".
 
 ``multitask-tables`` reads the record's run list to tell missing runs and stray folders, and
-checks each run folder as the grid does (``multitask.evidence.checks``, without the data or
+checks each run folder as the grid does (``multitask.evidence.runs.checks``, without the data or
 TensorFlow); the record's file name and reader are ``folder``'s, which imports no TensorFlow.
 """
 from __future__ import annotations

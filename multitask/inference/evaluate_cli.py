@@ -78,7 +78,7 @@ def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     advice = stream_layout_advice("the layout the run trained on", "evaluate")
     return run_command(PROG, args.verbose, lambda: _evaluate(args),
-                       layout_advice=advice if args.stream else None)
+                       layout_advice=advice if args.stream else None, argv=argv)
 
 
 if __name__ == "__main__":

@@ -20,9 +20,11 @@
 A non-finite input value (NaN, inf) is an error (``InvalidArgumentError``), as in
 ``multitask-predict``, rather than scores of NaN for every frame.
 
-``assets.extra/model.json`` documents the signatures, the class names of every task, the
-recording format the run trained on (columns, rate; ``recording``), the preprocessing parameters
-(filter sections, columns, step) and the run's configuration.
+``assets.extra/model.json`` documents the signatures, every task's class names, score columns
+and whether its classes are ordered (``tasks``, keyed by the task's name as the outputs are:
+``tasks.gesture.classes``), the recording format the run trained on (columns, rate;
+``recording``), the preprocessing parameters (filter sections, columns, step) and the run's
+configuration.
 """
 from __future__ import annotations
 
@@ -40,9 +42,12 @@ from rnn_seg.runs.publish import staged_folder
 from .output_folders import check_export_folder
 from .trained_run import CONFIG_FILE, TrainedRun, load_run
 
-#: 2: the input columns and rate of the run's recording format (1: the release's only).
-EXPORT_FORMAT = 2
+#: 3: ``tasks`` keyed by task name, as the signatures' outputs are (2: a list); 2: the input
+#: columns and rate of the run's recording format (1: the release's only).
+EXPORT_FORMAT = 3
 DESCRIPTION_FILE = Path("assets.extra") / "model.json"
+#: The attribute by which an op names its custom gradient (``tf.custom_gradient``).
+GRADIENT_TYPE = "_gradient_op_type"
 
 
 def _sosfilt(sos: np.ndarray, x: tf.Tensor, state: tf.Tensor) -> tf.Tensor:
@@ -151,8 +156,8 @@ def describe(run: TrainedRun) -> dict:
                 "inputs": {"features": f"[T, {len(run.config.data.features)}] float32, "
                                        "preprocessed samples"},
                 "outputs": _task_outputs(run, "T")}},
-        "tasks": [{"name": t.name, "classes": list(t.class_names),
-                   "score_columns": t.score_columns(), "ordered": t.ordered} for t in run.tasks],
+        "tasks": {t.name: {"classes": list(t.class_names), "score_columns": t.score_columns(),
+                           "ordered": t.ordered} for t in run.tasks},
         "preprocessing": {
             "feature_columns_1based": [c + 1 for c in run.feature_indices()],
             "lowpass": prep.lowpass,
@@ -170,7 +175,7 @@ def describe(run: TrainedRun) -> dict:
 def _task_outputs(run: TrainedRun, length: str) -> dict[str, str]:
     out = {}
     for t in run.tasks:
-        out[t.name] = f"[{length}] int64 class index into tasks[{t.name!r}].classes"
+        out[t.name] = f"[{length}] int64 class index into tasks.{t.name}.classes"
         out[f"{t.name}_scores"] = (f"[{length}, {len(t.score_columns())}] float32, columns "
                                    f"{', '.join(t.score_columns())}")
     return out
@@ -182,6 +187,26 @@ def _on_graph_loops(run: TrainedRun) -> TrainedRun:
     if run.model.encoder.config.loops == "graph":
         return run
     return load_run(run.run_dir, run.checkpoint, loops="graph")
+
+
+def _without_gradient_types(folder: Path) -> None:
+    """Drop the custom-gradient type of the SavedModel's ops in ``folder``: the LSTM's
+    hand-written backward pass is not saved (``experimental_custom_gradients=False``), so the ops
+    that would call it (``tf.custom_gradient``'s ``IdentityN``) keep none, and loading the model
+    prints no "unsaved custom gradients" warning. The model is for inference: no gradient flows
+    through the LSTM. ``fingerprint.pb`` is written again for the changed ``saved_model.pb``."""
+    from tensorflow.core.protobuf import saved_model_pb2
+    from tensorflow.python.saved_model import fingerprinting_utils
+
+    path = folder / "saved_model.pb"
+    saved = saved_model_pb2.SavedModel.FromString(path.read_bytes())
+    for graph in saved.meta_graphs:
+        library = graph.graph_def.library.function
+        for node in [*graph.graph_def.node, *(node for f in library for node in f.node_def)]:
+            if GRADIENT_TYPE in node.attr:
+                del node.attr[GRADIENT_TYPE]
+    path.write_bytes(saved.SerializeToString(deterministic=True))
+    fingerprinting_utils.write_fingerprint(str(folder))
 
 
 def export_run(run: TrainedRun, out: Path, overwrite: bool = False) -> Path:
@@ -208,6 +233,7 @@ def export_run(run: TrainedRun, out: Path, overwrite: bool = False) -> Path:
                                     experimental_custom_gradients=False))
         except tf.errors.OpError as error:      # TensorFlow's own error, not an OSError
             raise WriteFailed.from_message(out, str(error), "SavedModel") or error from None
+        _without_gradient_types(Path(folder))
         write_json(folder / DESCRIPTION_FILE, describe(run))
         (folder / DESCRIPTION_FILE).with_name(CONFIG_FILE).write_text(
             (run.run_dir / CONFIG_FILE).read_text())

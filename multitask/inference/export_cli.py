@@ -6,8 +6,8 @@ trained on ([n_frames, 76] float64, JIGSAWS columns at 30 Hz, for a run trained 
 [n_frames, C] at the format's rate, in the columns model.json lists, for one trained on your own
 recordings), preprocesses them as the run did and returns per-frame predictions equal to
 multitask-predict's; ``features`` takes preprocessed 5 Hz samples. DIR/assets.extra/model.json
-documents both, the recording format, the class names and the preprocessing (README, "Using a
-trained model").
+documents both, the recording format, the class names and the preprocessing (docs/COMMANDS.md,
+"Using a trained model").
 """
 from __future__ import annotations
 
@@ -45,7 +45,7 @@ def _export(args: argparse.Namespace) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    return run_command(PROG, args.verbose, lambda: _export(args))
+    return run_command(PROG, args.verbose, lambda: _export(args), argv=argv)
 
 
 if __name__ == "__main__":

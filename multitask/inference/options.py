@@ -36,7 +36,7 @@ def stream_layout_advice(layout: str, command: str) -> str:
     in place of ``--format``'s advice (``run_command``'s ``layout_advice``): to run ``command``
     offline with ``--format``."""
     return (f"--stream reads {layout} only (recordings of another layout: {command} offline, "
-            "without --stream, with --format FILE.toml; README, 'Your own recordings')")
+            "without --stream, with --format FILE.toml; docs/DATA.md, 'Your own recordings')")
 
 
 def load_for_command(args: argparse.Namespace, loops: str | None = None) -> TrainedRun:

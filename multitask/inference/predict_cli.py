@@ -165,7 +165,7 @@ def _predict_all(run: TrainedRun, files: list[Path], recording_format: Recording
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    return run_command(PROG, args.verbose, lambda: _predict(args))
+    return run_command(PROG, args.verbose, lambda: _predict(args), argv=argv)
 
 
 if __name__ == "__main__":

@@ -77,8 +77,14 @@ class RecordingPrediction:
         return self.task(name).decode(self.outputs[name])
 
     def labels(self, name: str) -> np.ndarray:
-        """``[n_frames]`` decoded class indices of task ``name`` per frame."""
+        """``[n_frames]`` decoded class indices of task ``name`` per frame (into the task's
+        ``class_names``; ``label_names`` gives the names)."""
         return self.sample_labels(name)[self.frame_samples]
+
+    def label_names(self, name: str) -> np.ndarray:
+        """``[n_frames]`` the class name of each frame's decoded class (``labels``): a gesture
+        such as ``G3``, a progress stage such as ``reach``, as the predictions CSV writes them."""
+        return np.asarray(self.task(name).class_names)[self.labels(name)]
 
     def scores(self, name: str) -> np.ndarray:
         """``[n_frames, K]`` scores of task ``name`` per frame (``Task.scores``: class

@@ -29,14 +29,17 @@ class SamplePrediction:
     """What a streaming model outputs at one kept frame (one 5 Hz sample).
 
     ``frame``: the 1-based frame (row of the recording) just pushed; per task, ``outputs`` the
-    raw head outputs ``[K]``, ``scores`` ``[K]`` (``Task.scores``) and ``labels`` the predicted
-    class name.
+    raw head outputs ``[K]``, ``scores`` ``[K]`` (``Task.scores``), ``labels`` the predicted
+    class index (into ``Task.class_names``, as ``RecordingPrediction.labels`` and the exported
+    SavedModel give it) and ``label_names`` its name (a gesture such as ``G3``, a stage such as
+    ``reach``, as ``RecordingPrediction.label_names`` and the predictions CSV give it).
     """
 
     frame: int
     outputs: dict[str, np.ndarray]
     scores: dict[str, np.ndarray]
-    labels: dict[str, str]
+    labels: dict[str, int]
+    label_names: dict[str, str]
 
 
 class StreamingPredictor:
@@ -89,9 +92,9 @@ class StreamingPredictor:
         outputs, self._state = _step(self.run.model, tf.constant(sample[None]), self._state)
         outputs = {name: value.numpy()[0] for name, value in outputs.items()}
         scores = {t.name: t.scores(outputs[t.name][None])[0] for t in self.run.tasks}
-        labels = {t.name: t.class_names[int(t.decode(outputs[t.name][None])[0])]
-                  for t in self.run.tasks}
-        return SamplePrediction(self.frames, outputs, scores, labels)
+        labels = {t.name: int(t.decode(outputs[t.name][None])[0]) for t in self.run.tasks}
+        names = {t.name: t.class_names[labels[t.name]] for t in self.run.tasks}
+        return SamplePrediction(self.frames, outputs, scores, labels, names)
 
 
 @tf.function(reduce_retracing=True)

@@ -15,8 +15,10 @@ from pathlib import Path
 from typing import Any
 
 from baseline.config import RunConfig
-from rnn_seg.runs.folder import CONFIG, ConfigError, RunFolderError, from_jsonable, read_json
+from rnn_seg.runs.folder import (CONFIG, FINISHED, ConfigError, RunFolderError, from_jsonable,
+                                 read_json)
 from rnn_seg.runs.provenance import started_loops
+from rnn_seg.runs.segments import SEGMENTS, ran_loops
 
 from .config import WEIGHTINGS, GradNormConfig, HeadConfig, Weighting
 from .variants import VARIANTS, Variant
@@ -91,10 +93,22 @@ class RunRecord:
                               self.gradnorm, self.heads, self.fingerprint)
 
     def loops(self) -> str:
-        """The LSTM loops the run started on: its provenance's (``auto`` resolved, a fused run
-        that fell back read as ``graph``), else, in a record older than that entry, the
+        """The LSTM loops that trained the run: its finished.json's segments' (one name, or
+        ``mixed (fused, graph)`` when its sessions ran on different loops); for a run without
+        them (unfinished, or finished before segments were recorded) the loops it started on, as
+        its provenance says (``auto`` resolved), else, in a record older than that entry, the
         configured ones."""
-        return started_loops(self.saved) or self.config.encoder.loops
+        return ran_loops(self.segments()) or started_loops(self.saved) or self.config.encoder.loops
+
+    def segments(self) -> list[dict]:
+        """The training segments its finished.json records (``rnn_seg.runs.segments``; none for
+        an unfinished run or one finished before they were recorded)."""
+        path = self.path.parent / FINISHED
+        try:
+            segments = read_json(path).get(SEGMENTS) if path.is_file() else None
+        except (RunFolderError, AttributeError):
+            return []
+        return [s for s in segments if isinstance(s, dict)] if isinstance(segments, list) else []
 
     def classes(self, task: str) -> tuple[str, ...]:
         """The class names of ``task`` (``"gesture"``: the task definition's gestures;

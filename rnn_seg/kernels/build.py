@@ -1,22 +1,39 @@
-"""Compile ``lstm_loops.cc`` once per TensorFlow version and CPU, cache it, load it.
+"""Compile ``lstm_loops.cc`` once per TensorFlow version and CPU, cache it, verify it, load it.
 
-The library is built for this CPU (``-march=native``: AVX-512 and, where the CPU has it,
-AVX512_BF16 for ``bf16`` precision), so its cache key holds TensorFlow's version, the source, the
-compiler command and the CPU's instruction-set flags. A build writes a temporary file and renames
-it into place, so an interrupted or concurrent build never leaves a library a later run would load
-half-written.
+The library is built for this CPU (``-march=native``, or the target ``$RNN_SEG_MARCH`` names,
+e.g. ``haswell`` to build the AVX2 loops on an AVX-512 machine): the AVX-512 product where the
+target has AVX-512 (and, where it has AVX512_BF16, bfloat16 for ``bf16`` precision), the AVX2
+product elsewhere. Its cache key holds TensorFlow's version, the source, the compiler command and
+the CPU's instruction-set flags.
+
+A cached library is never loaded unchecked: a build records the library's size, SHA-256 and
+instruction set beside it (``lstm_loops-<key>.json``), and a library whose bytes do not match its
+record (truncated, replaced, or without one) is removed and rebuilt, with one line; a library that
+loads but holds no op is refused in the same way. So a damaged cache costs one rebuild, never a
+crash. A build runs under a lock (one build at a time per library), writes into a temporary
+folder (marked with its process id) renamed into place, record first; a compiler that runs over
+``BUILD_SECONDS`` is stopped with everything it started; a build folder left by a killed process
+is removed by the next build. ``$CXX`` may carry flags (``CXX="g++ -std=c++17"``).
 """
 from __future__ import annotations
 
+import fcntl
 import hashlib
+import json
 import os
+import re
+import shlex
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
+import time
+from contextlib import contextmanager
 from functools import lru_cache
 from pathlib import Path
 from types import ModuleType
+from typing import Iterator
 
 import tensorflow as tf
 from tensorflow.python.framework import op_def_registry
@@ -26,13 +43,20 @@ from jigsaws_tools.dataset import default_cache_dir
 from ..config import Precision, cpu_flags
 
 SOURCE = Path(__file__).with_name("lstm_loops.cc")
-FORWARD_OP = "MtrnnLstmForward"
-BUILD_SECONDS = 600
-#: Instruction sets ``-march=native`` may switch on that the loops never use and that TensorFlow's
+OPS = ("MtrnnLstmForward", "MtrnnLstmBackward")
+FORWARD_OP = OPS[0]
+#: The longest a build may take before it is stopped (a first build takes 25-60 s).
+BUILD_SECONDS = 240
+#: Seconds between the lines a build prints while the compiler works.
+PROGRESS_SECONDS = 15
+MARCH_ENV = "RNN_SEG_MARCH"
+#: Instruction sets ``-march`` may switch on that the loops never use and that TensorFlow's
 #: bundled Eigen headers do not compile under with every compiler (AVX512-FP16, on Sapphire Rapids
 #: and later Xeons: TensorFlow 2.21's Eigen with g++ 12), by the macro that shows one is on -> the
 #: flag that switches it off again.
 UNUSED_ISAS = {"__AVX512FP16__": "-mno-avx512fp16"}
+BUILD_PREFIX = ".build-"
+OWNER_FILE = "builder.pid"
 
 
 class KernelUnavailable(RuntimeError):
@@ -44,26 +68,73 @@ def library_dir() -> Path:
     return default_cache_dir() / "kernels" / f"tf-{tf.__version__}"
 
 
-@lru_cache(maxsize=None)
-def native_macros(compiler: str) -> frozenset[str]:
-    """The macros ``compiler -march=native`` predefines (empty when it cannot say)."""
+def compiler() -> list[str]:
+    """The C++ compiler's command and its own flags: ``$CXX`` split as a shell would (``g++``
+    when unset).
+
+    Raises:
+        KernelUnavailable: ``$CXX`` is empty or unbalanced in its quotes.
+    """
+    given = os.environ.get("CXX")
     try:
-        done = subprocess.run([compiler, "-march=native", "-dM", "-E", "-x", "c++", os.devnull],
-                              capture_output=True, text=True, timeout=60)
+        words = shlex.split(given) if given is not None else ["g++"]
+    except ValueError as error:
+        raise KernelUnavailable(f"CXX={given!r}: {error}") from None
+    if not words:
+        raise KernelUnavailable(f"CXX={given!r} names no compiler (unset it, or name one)")
+    return words
+
+
+def march() -> str:
+    """The target the library is built for: ``$RNN_SEG_MARCH`` (a GCC ``-march`` value such as
+    ``haswell``), else ``native``.
+
+    Raises:
+        KernelUnavailable: the value is not a plausible ``-march`` name.
+    """
+    value = os.environ.get(MARCH_ENV, "").strip() or "native"
+    if not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_.+-]*", value):
+        raise KernelUnavailable(f"{MARCH_ENV}={value!r} is no -march target (e.g. native, "
+                                "haswell, skylake-avx512)")
+    return value
+
+
+@lru_cache(maxsize=None)
+def target_macros(command: tuple[str, ...], target: str = "native") -> frozenset[str]:
+    """The macros ``command -march=target`` predefines (empty when it cannot say)."""
+    try:
+        done = subprocess.run([*command, f"-march={target}", "-dM", "-E", "-x", "c++",
+                               os.devnull], capture_output=True, text=True, timeout=60)
     except (OSError, subprocess.TimeoutExpired):
         return frozenset()
     return frozenset(line.split()[1] for line in done.stdout.splitlines()
                      if line.startswith("#define "))
 
 
+def native_macros(command: str) -> frozenset[str]:
+    """The macros ``command -march=native`` predefines (``command`` one word or with flags)."""
+    return target_macros(tuple(shlex.split(command)))
+
+
 def compile_command(source: Path, target: Path) -> list[str]:
-    """The compiler's command line for ``source`` -> shared library ``target``: this CPU's
-    instruction sets (``-march=native``) but those in ``UNUSED_ISAS``."""
-    compiler = os.environ.get("CXX") or "g++"
-    unused = [flag for macro, flag in UNUSED_ISAS.items() if macro in native_macros(compiler)]
-    return [compiler, "-shared", "-fPIC", "-O3", "-march=native", *unused, "-w",
+    """The compiler's command line for ``source`` -> shared library ``target``: the target's
+    instruction sets (``march``) but those in ``UNUSED_ISAS``."""
+    words, arch = compiler(), march()
+    macros = target_macros(tuple(words), arch)
+    unused = [flag for macro, flag in UNUSED_ISAS.items() if macro in macros]
+    return [*words, "-shared", "-fPIC", "-O3", f"-march={arch}", *unused, "-w",
             *tf.sysconfig.get_compile_flags(), str(source), "-o", str(target),
             *tf.sysconfig.get_link_flags()]
+
+
+def product_path(macros: frozenset[str]) -> dict:
+    """Which float32 product the source compiles to for a target predefining ``macros``: its
+    vector width in bits and a name (``lstm_loops.cc``'s header)."""
+    if "__AVX512F__" in macros:
+        return {"vector_bits": 512, "product": "AVX-512", "bf16": "__AVX512BF16__" in macros}
+    if "__AVX2__" in macros and "__FMA__" in macros:
+        return {"vector_bits": 256, "product": "AVX2", "bf16": False}
+    return {"vector_bits": 256, "product": "generic (compiler vectors, no AVX2)", "bf16": False}
 
 
 def library_path() -> Path:
@@ -75,45 +146,218 @@ def library_path() -> Path:
     return library_dir() / f"lstm_loops-{key.hexdigest()[:16]}.so"
 
 
+def record_path(library: Path) -> Path:
+    """The build record beside ``library``."""
+    return library.with_suffix(".json")
+
+
+def digest(path: Path) -> str:
+    """SHA-256 of a file's bytes, in hex."""
+    sha = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            sha.update(block)
+    return sha.hexdigest()
+
+
+def damage(library: Path) -> str | None:
+    """Why the cached ``library`` may not be loaded (its bytes differ from its build record, or
+    it has none), or None when it matches."""
+    try:
+        record = json.loads(record_path(library).read_text())
+        size, sha = int(record["size"]), str(record["sha256"])
+    except FileNotFoundError:
+        return "no build record beside it"
+    except (OSError, ValueError, TypeError, KeyError):
+        return "its build record is unreadable"
+    try:
+        found = library.stat().st_size
+    except OSError as error:
+        return f"unreadable ({error.strerror})"
+    if found != size:
+        return f"{found} bytes where its build recorded {size}"
+    if digest(library) != sha:
+        return "its bytes differ from those its build recorded"
+    return None
+
+
 def build(path: Path) -> None:
-    """Compile the library into ``path`` (through a temporary file renamed into place)."""
+    """Compile the library into ``path`` and its record beside it (through a temporary folder
+    renamed into place, the record first), saying so on standard error.
+
+    Raises:
+        KernelUnavailable: no compiler, the compiler failed or ran over ``BUILD_SECONDS``, or
+            the folder cannot be written; the message says which.
+    """
     command = compile_command(SOURCE, path)
     if shutil.which(command[0]) is None:
         raise KernelUnavailable(f"no C++ compiler: {command[0]!r} not found (install g++, or "
                                 "set $CXX)")
-    print(f"building the fused LSTM loops into {path} (once per TensorFlow version)",
-          file=sys.stderr)
     path.parent.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryDirectory(dir=path.parent, prefix=".build-") as work:
+    remove_abandoned_builds(path.parent)
+    print(f"building the fused LSTM loops into {path} (once per TensorFlow version and "
+          "processor; about a minute)", file=sys.stderr, flush=True)
+    started = time.monotonic()
+    with tempfile.TemporaryDirectory(dir=path.parent, prefix=BUILD_PREFIX) as work:
+        (Path(work) / OWNER_FILE).write_text(str(os.getpid()))
         target = Path(work) / path.name
-        try:
-            done = subprocess.run(compile_command(SOURCE, target), capture_output=True, text=True,
-                                  timeout=BUILD_SECONDS)
-        except subprocess.TimeoutExpired:
-            raise KernelUnavailable(f"compiling {SOURCE.name} took over {BUILD_SECONDS} s") from None
-        if done.returncode != 0:
-            errors = [line for line in done.stderr.splitlines() if "error" in line]
-            said = errors or done.stderr.splitlines() or [
-                f"{command[0]} exited with status {done.returncode} and no message"]
-            raise KernelUnavailable(f"compiling {SOURCE.name} failed: {said[0].strip()}")
+        _compile(compile_command(SOURCE, target), command[0])
+        macros = target_macros(tuple(compiler()), march())
+        record = Path(work) / record_path(path).name
+        record.write_text(json.dumps({
+            "library": path.name, "size": target.stat().st_size, "sha256": digest(target),
+            "source_sha256": hashlib.sha256(SOURCE.read_bytes()).hexdigest(),
+            "march": march(), **product_path(macros), "tensorflow": tf.__version__,
+            "compile_command": compile_command(SOURCE, path),
+            "built_seconds": round(time.monotonic() - started, 1)}, indent=1) + "\n")
+        os.replace(record, record_path(path))
         os.replace(target, path)
+    print(f"  built in {time.monotonic() - started:.0f} s", file=sys.stderr, flush=True)
+
+
+def _compile(command: list[str], name: str) -> None:
+    """Run the compiler, a line every ``PROGRESS_SECONDS``; stop it and every process it started
+    after ``BUILD_SECONDS``."""
+    try:
+        process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                   text=True, start_new_session=True)
+    except OSError as error:
+        raise KernelUnavailable(f"{name}: {error.strerror}") from None
+    started = time.monotonic()
+    try:
+        while True:
+            try:
+                _, stderr = process.communicate(timeout=PROGRESS_SECONDS)
+                break
+            except subprocess.TimeoutExpired:
+                elapsed = time.monotonic() - started
+                if elapsed > BUILD_SECONDS:
+                    raise KernelUnavailable(f"compiling {SOURCE.name} took over {BUILD_SECONDS} s; "
+                                            "stopped") from None
+                print(f"  still compiling ({elapsed:.0f} s)", file=sys.stderr, flush=True)
+    finally:
+        if process.poll() is None:
+            _stop(process)
+    if process.returncode != 0:
+        errors = [line for line in stderr.splitlines() if "error" in line]
+        said = errors or stderr.splitlines() or [
+            f"{name} exited with status {process.returncode} and no message"]
+        raise KernelUnavailable(f"compiling {SOURCE.name} failed: {said[0].strip()}")
+
+
+def _stop(process: subprocess.Popen) -> None:
+    """End ``process`` and everything in its session (the compiler's own subprocesses)."""
+    try:
+        os.killpg(process.pid, signal.SIGKILL)
+    except OSError:
+        process.kill()
+    process.wait()
+
+
+def remove_abandoned_builds(folder: Path) -> list[Path]:
+    """Remove the build folders in ``folder`` that a build of this module made (its
+    ``OWNER_FILE`` inside) and whose process is gone; returns them. Anything else is left."""
+    removed = []
+    for work in folder.glob(BUILD_PREFIX + "*"):
+        try:
+            owner = int((work / OWNER_FILE).read_text())
+        except (OSError, ValueError):
+            continue                         # not a build's folder (or not yet marked)
+        if _alive(owner):
+            continue
+        shutil.rmtree(work, ignore_errors=True)
+        removed.append(work)
+    return removed
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:
+        return True
+    return True
+
+
+@contextmanager
+def build_lock(path: Path) -> Iterator[None]:
+    """Hold ``path``'s build lock (a lock file beside it); where the folder cannot be written,
+    no lock (and no build either)."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        handle = open(path.with_suffix(".lock"), "a")
+    except OSError:
+        yield
+        return
+    with handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        yield
+
+
+def ensure_built(path: Path) -> None:
+    """Build the library into ``path`` where it is missing or damaged (``damage``: removed first,
+    saying so in one line), under its build lock.
+
+    Raises:
+        KernelUnavailable: the build failed (see ``build``).
+        OSError: the cache cannot be written.
+    """
+    if path.is_file() and not damage(path):
+        return
+    with build_lock(path):
+        problem = damage(path) if path.is_file() else None
+        if problem:
+            print(f"{path}: {problem}; removed, building it again", file=sys.stderr)
+            path.unlink()
+        if not path.is_file():
+            build(path)
+
+
+def library() -> ModuleType:
+    """The loaded ops, verified (built first where missing or damaged); raises
+    ``KernelUnavailable`` saying why."""
+    return loaded()[0]
 
 
 @lru_cache(maxsize=1)
-def library() -> ModuleType:
-    """The loaded ops (built first if not cached); raises ``KernelUnavailable`` saying why."""
+def loaded() -> tuple[ModuleType, Path]:
+    """``library``'s ops and the path they were loaded from (once per process)."""
     if not SOURCE.is_file():
         raise KernelUnavailable(f"{SOURCE} is missing from the installation")
     path = library_path()
     try:
-        if not path.is_file():
-            build(path)
-        return tf.load_op_library(str(path))
+        ensure_built(path)
+        ops = tf.load_op_library(str(path))
     except OSError as error:
         raise KernelUnavailable(f"{path}: {error}") from None
     except tf.errors.NotFoundError as error:
+        _discard(path)
         raise KernelUnavailable(f"loading {path} failed: {error.message.splitlines()[0]} "
-                                "(delete it to rebuild)") from None
+                                "(removed: the next process builds it again)") from None
+    missing = [op for op in OPS if op_def_registry.get(op) is None]
+    if missing:
+        _discard(path)
+        raise KernelUnavailable(f"{path} holds no {missing[0]} op (removed: the next process "
+                                "builds it again)")
+    return ops, path
+
+
+def _discard(path: Path) -> None:
+    """Remove a cached library (and its record) that failed to load."""
+    for stale in (path, record_path(path)):
+        try:
+            stale.unlink()
+        except OSError:
+            pass
+
+
+def built_record() -> dict:
+    """The loaded library's build record (``{}`` when it cannot be read)."""
+    try:
+        return json.loads(record_path(loaded()[1]).read_text())
+    except (OSError, ValueError, KernelUnavailable):
+        return {}
 
 
 def weight_dtypes() -> set[tf.DType]:
@@ -134,12 +378,10 @@ def unavailable(precision: Precision) -> str | None:
     return None
 
 
-def main() -> int:
-    """``python -m rnn_seg.kernels``: build now, print the library's path or why not."""
-    reason = unavailable("fp32")
-    if reason:
-        print(f"fused LSTM loops unavailable: {reason}", file=sys.stderr)
-        return 1
-    kinds = sorted(t.name for t in weight_dtypes())
-    print(f"{library_path()} (weights: {', '.join(kinds)})")
-    return 0
+def describe() -> str:
+    """One line on the loaded library: its product and weight types, e.g. ``AVX2 product
+    (256-bit vectors), weights float32``."""
+    record = built_record()
+    kinds = ", ".join(sorted(t.name for t in weight_dtypes()))
+    return (f"{record.get('product', '?')} product ({record.get('vector_bits', '?')}-bit "
+            f"vectors, -march={record.get('march', '?')}), weights {kinds}")

@@ -8,16 +8,25 @@
 // TensorFlow's own tanh and sigmoid use). Shapes: time-major, T steps, B rows, H units; gate
 // order (g, i, f, o) as in rnn_seg.lstm.
 //
-// Panels cover 16 units each. Forward, panel p holds, for every k < H, the 64 weights
-// W[k, q H + 16 p + l] (q the gate, l < 16): one step of the product for 16 units is H
-// broadcast-multiply-adds of 4 vectors. Backward, the product dz W^T (K = 4H) streams
-// W[16 p + l, 4 k + q] for q < 4 as four vectors, summed at the end. With bfloat16 weights a
-// panel holds pairs of consecutive k for the AVX512_BF16 dot product (vdpbf16ps), the row
-// operand is rounded to bfloat16 (nearest even) and the float32 sum is rounded to bfloat16 and
-// widened, as TensorFlow's bfloat16 matmul and cast do in rnn_seg.lstm.product.
+// Panels cover one vector of units each: 16 where the library is built for AVX-512 (32 registers
+// of 16 floats), 8 elsewhere (AVX2: 16 registers of 8 floats). Forward, panel p holds, for every
+// k < H, the 4 gates' weights W[k, q H + L p + l] (q the gate, l < L lanes): one step of the
+// product for L units is H broadcast-multiply-adds of 4 vectors. With AVX-512 one pass over the
+// panel sums all 4 gates of up to 6 rows (24 accumulators); with AVX2 two passes sum 2 gates
+// each (12 accumulators, 2 weight vectors and a broadcast fill 15 of the 16 registers), the
+// panel stored pass by pass so that each pass streams its own weights once; every lane sums over
+// k in the same order on both, so the two builds' forward products agree bit for bit. Backward,
+// the product dz W^T (K = 4H): with AVX-512 the panel streams W[L p + l, 4 k + q] for q < 4 as
+// four vectors, summed into four partial sums per row and added at the end; with AVX2 each unit's
+// row of W is dotted with the rows of dz, two units at a time, a vector of k at a time (their
+// lanes added at the end), which needs no broadcasts: in float32 the two builds' backward
+// products agree to rounding (a relative 2e-7 on the tests' inputs). With bfloat16 weights (AVX512_BF16 only) a panel holds
+// pairs of consecutive k for the dot product vdpbf16ps, the row operand is rounded to bfloat16
+// (nearest even) and the float32 sum is rounded to bfloat16 and widened, as TensorFlow's
+// bfloat16 matmul and cast do in rnn_seg.lstm.product.
 //
-// Threads: up to the op's intra-op thread count (at least 4 panels a thread) share each step's
-// panels, claiming a few at a time (SharedSteps); a step starts once every panel of the one
+// Threads: up to the op's intra-op thread count (at least 64 units a thread) share each step's
+// panels, claiming 32 units at a time (SharedSteps); a step starts once every panel of the one
 // before is done (every unit's h_t, or every gate's dz_t, is read by the next step's product).
 #include <algorithm>
 #include <atomic>
@@ -27,6 +36,7 @@
 #include <cstring>
 #include <memory>
 #include <mutex>
+#include <thread>
 #include <vector>
 
 #if defined(__AVX512BF16__)
@@ -48,10 +58,18 @@ using tensorflow::Tensor;
 using tensorflow::TensorShape;
 using tensorflow::errors::InvalidArgument;
 
-constexpr int kLanes = 16;      // floats in a vector, units in a panel
-constexpr int kMaxRows = 6;     // batch rows per pass over a panel (4 accumulators a row)
+#if defined(__AVX512F__)
+constexpr int kLanes = 16;          // floats in a vector, units in a panel
+constexpr int kForwardGates = 4;    // gates a forward pass over a panel sums
+#else
+constexpr int kLanes = 8;           // AVX2 (and any other target): 256-bit vectors
+constexpr int kForwardGates = 2;
+#endif
+constexpr int kMaxRows = 6;         // batch rows a call of a product sums
+constexpr int kChunkUnits = 32;     // units a thread claims at a time
+constexpr int kUnitsPerThread = 64; // at least, for one more thread to share a step
 
-typedef float v16 __attribute__((vector_size(64)));
+typedef float vec __attribute__((vector_size(kLanes * sizeof(float))));
 typedef Eigen::Array<float, kLanes, 1> Lanes;
 
 struct AlignedFree {
@@ -97,8 +115,16 @@ class SharedSteps {
         start(static_cast<int>(step));
         started = step;
       }
-      work(static_cast<int>(step), static_cast<int>(first - step * panels_),
-           static_cast<int>(last - step * panels_));
+      // Odd steps visit the panels last to first: the panels a step streamed last are still in
+      // the cache when the next starts, where weights larger than the cache would otherwise
+      // be evicted before their reuse on every step.
+      int64_t lo = first - step * panels_, hi = last - step * panels_;
+      if (step % 2) {
+        const int64_t mirrored = panels_ - hi;
+        hi = panels_ - lo;
+        lo = mirrored;
+      }
+      work(static_cast<int>(step), static_cast<int>(lo), static_cast<int>(hi));
       const int64_t done = done_.fetch_add(last - first) + (last - first);
       if (done % panels_ == 0 && sleepers_.load() > 0) {
         { std::lock_guard<std::mutex> lock(mutex_); }
@@ -129,6 +155,9 @@ class SharedSteps {
   }
 
  private:
+  // Spins briefly (a step's panels usually complete within microseconds), then yields the
+  // core while it waits, so that on a busy machine the thread it waits for runs instead of
+  // a spin (sched_yield returns at once where nothing else wants the core), then sleeps.
   void wait_done(int64_t target) {
     for (int spins = 0; spins < kSpins; ++spins) {
       if (done_.load(std::memory_order_acquire) >= target) return;
@@ -136,13 +165,17 @@ class SharedSteps {
       __builtin_ia32_pause();
 #endif
     }
+    for (int yields = 0; yields < kYields; ++yields) {
+      if (done_.load(std::memory_order_acquire) >= target) return;
+      std::this_thread::yield();
+    }
     std::unique_lock<std::mutex> lock(mutex_);
     sleepers_.fetch_add(1);
     wake_.wait(lock, [&] { return done_.load() >= target; });
     sleepers_.fetch_sub(1);
   }
 
-  static constexpr int kSpins = 20000;
+  static constexpr int kSpins = 2000, kYields = 20000;
   const int64_t panels_, chunk_, total_;
   std::atomic<int64_t> claimed_{0}, done_{0};
   std::atomic<int> sleepers_{0};
@@ -159,8 +192,7 @@ class SharedSteps {
 template <typename Participant>
 void run_shared(OpKernelContext* ctx, int threads, int steps, int panels,
                 Participant participant) {
-  constexpr int kChunk = 2;                              // panels claimed at a time
-  auto shared = std::make_shared<SharedSteps>(steps, panels, kChunk);
+  auto shared = std::make_shared<SharedSteps>(steps, panels, std::max(1, kChunkUnits / kLanes));
   for (int t = 1; t < threads; ++t)
     ctx->device()->tensorflow_cpu_worker_threads()->workers->Schedule([shared, &participant] {
       if (!shared->enter()) return;
@@ -174,7 +206,7 @@ void run_shared(OpKernelContext* ctx, int threads, int steps, int panels,
 
 int thread_count(OpKernelContext* ctx, int panels) {
   int pool = ctx->device()->tensorflow_cpu_worker_threads()->num_threads;
-  return std::max(1, std::min(pool, panels / 4));
+  return std::max(1, std::min(pool, panels * kLanes / kUnitsPerThread));
 }
 
 // ---- the products, float32 -------------------------------------------------------------------
@@ -182,40 +214,59 @@ int thread_count(OpKernelContext* ctx, int panels) {
 // W_h laid out in panels for one of the two products (forward h W, backward dz W^T).
 struct Fp32Panels {
   using Weight = float;
-  int panels, depth;                       // depth: vectors of 4 x 16 floats per panel
+  int panels, depth;            // depth: steps of 4 vectors of kLanes floats per panel
+  int group;                    // vectors a pass sums: kForwardGates forward, 4 backward
   std::unique_ptr<float[], AlignedFree> data;
 
-  // forward: h W, W [H, 4H] row-major
+  // forward: h W, W [H, 4H] row-major; the panel pass by pass (kForwardGates gates each)
   static Fp32Panels forward(const float* w, int hidden) {
-    return packed(hidden, [&](int k, int q, int unit) {
+    return packed(hidden, kForwardGates, [&](int k, int q, int unit) {
       return w[size_t(k) * 4 * hidden + q * hidden + unit];
     });
   }
 
-  // backward: dz W^T, four consecutive k per step of the panel
+#if defined(__AVX512F__)
+  // backward: dz W^T, four consecutive k per step of the panel, in one pass
   static Fp32Panels backward(const float* w, int hidden) {
-    return packed(hidden, [&](int k, int q, int unit) {
+    return packed(hidden, 4, [&](int k, int q, int unit) {
       return w[size_t(unit) * 4 * hidden + 4 * k + q];
     });
   }
+#else
+  // backward: dz W^T as each unit's row of W (its 4H weights, zero-padded to whole vectors),
+  // dotted with the rows of dz; zero rows past the units
+  static Fp32Panels backward(const float* w, int hidden) {
+    Fp32Panels p{(hidden + kLanes - 1) / kLanes, hidden, 4, nullptr};
+    const size_t n = 4 * size_t(hidden);
+    p.data = aligned_zeros<float>(size_t(p.panels) * kLanes * p.row_stride());
+    for (int unit = 0; unit < hidden; ++unit)
+      std::memcpy(p.unit_row(unit), w + unit * n, n * sizeof(float));
+    return p;
+  }
 
-  // panel p, depth k, gate q, lane l <- weight(k, q, unit p * kLanes + l); zero past the units
+  size_t row_stride() const { return (4 * size_t(depth) + kLanes - 1) / kLanes * kLanes; }
+  float* unit_row(int unit) const { return data.get() + unit * row_stride(); }
+#endif
+
+  // panel p, pass q / group, depth k, vector q % group, lane l <- weight(k, q, p L + l); zero
+  // past the units
   template <class Weight>
-  static Fp32Panels packed(int hidden, Weight weight) {
-    Fp32Panels p{(hidden + kLanes - 1) / kLanes, hidden, nullptr};
+  static Fp32Panels packed(int hidden, int group, Weight weight) {
+    Fp32Panels p{(hidden + kLanes - 1) / kLanes, hidden, group, nullptr};
     p.data = aligned_zeros<float>(size_t(p.panels) * p.depth * 4 * kLanes);
     for (int panel = 0; panel < p.panels; ++panel)
       for (int k = 0; k < hidden; ++k)
         for (int q = 0; q < 4; ++q)
           for (int l = 0; l < kLanes; ++l) {
             int unit = panel * kLanes + l;
-            if (unit < hidden) p.at(panel, k)[q * kLanes + l] = weight(k, q, unit);
+            if (unit < hidden)
+              p.at(panel, q / group, k)[(q % group) * kLanes + l] = weight(k, q, unit);
           }
     return p;
   }
 
-  float* at(int panel, int k) const {
-    return data.get() + (size_t(panel) * depth + k) * 4 * kLanes;
+  float* at(int panel, int pass, int k) const {
+    return data.get() + ((size_t(panel) * (4 / group) + pass) * depth + k) * group * kLanes;
   }
 
   // Row operand as this product reads it (float32: the rows themselves).
@@ -228,42 +279,103 @@ struct Fp32Panels {
     }
   };
 
-  // out[r][0..63]: forward, the 4 gates' sums for the panel's 16 units; backward, the sum over
-  // the panel's 4 vectors in out[r][0..15].
+  // out[r][0..3]: forward, the 4 gates' sums for the panel's units; backward, the sum over the
+  // panel's 4 vectors in out[r][0].
+  template <int R, bool kBackward>
+  void product(const Rows& rows, int row0, int panel, vec (*acc_out)[4]) const {
+    if constexpr (kBackward) {
+      backward_sums<R>(rows, row0, panel, acc_out);
+    } else {
+      for (int pass = 0; pass < 4 / kForwardGates; ++pass)
+        forward_pass<R>(rows, row0, panel, pass, acc_out);
+    }
+  }
+
   // The sums stay in registers: written through acc_out every step, they would be stored after
   // each multiply-add (acc_out may alias the rows, so the compiler keeps memory up to date),
   // which halved the product's rate.
-  template <int R, bool kBackward>
-  void product(const Rows& rows, int row0, int panel, v16 (*acc_out)[4]) const {
-    v16 acc[R][4];
+  template <int R>
+  void forward_pass(const Rows& rows, int row0, int panel, int pass, vec (*acc_out)[4]) const {
+    vec acc[R][kForwardGates];
     for (int r = 0; r < R; ++r)
-      for (int q = 0; q < 4; ++q) acc[r][q] = v16{};
+      for (int q = 0; q < kForwardGates; ++q) acc[r][q] = vec{};
     const float* a[R];
     for (int r = 0; r < R; ++r) a[r] = rows.base + (row0 + r) * rows.stride;
-    const v16* w = reinterpret_cast<const v16*>(at(panel, 0));
-    for (int k = 0; k < depth; ++k, w += 4) {
-      const v16 w0 = w[0], w1 = w[1], w2 = w[2], w3 = w[3];
+    const vec* w = reinterpret_cast<const vec*>(at(panel, pass, 0));
+    for (int k = 0; k < depth; ++k, w += kForwardGates) {
+      vec wq[kForwardGates];
+      for (int q = 0; q < kForwardGates; ++q) wq[q] = w[q];
       for (int r = 0; r < R; ++r) {
-        if (kBackward) {
-          const float* s = a[r] + 4 * k;
-          acc[r][0] += s[0] * w0;
-          acc[r][1] += s[1] * w1;
-          acc[r][2] += s[2] * w2;
-          acc[r][3] += s[3] * w3;
-        } else {
-          const float s = a[r][k];
-          acc[r][0] += s * w0;
-          acc[r][1] += s * w1;
-          acc[r][2] += s * w2;
-          acc[r][3] += s * w3;
-        }
+        const float s = a[r][k];
+        for (int q = 0; q < kForwardGates; ++q) acc[r][q] += s * wq[q];
       }
     }
-    for (int r = 0; r < R; ++r) {
-      if (kBackward) acc[r][0] = (acc[r][0] + acc[r][1]) + (acc[r][2] + acc[r][3]);
-      for (int q = 0; q < (kBackward ? 1 : 4); ++q) acc_out[r][q] = acc[r][q];
+    for (int r = 0; r < R; ++r)
+      for (int q = 0; q < kForwardGates; ++q) acc_out[r][pass * kForwardGates + q] = acc[r][q];
+  }
+
+#if defined(__AVX512F__)
+  // The rows' four partial sums each, added at the end.
+  template <int R>
+  void backward_sums(const Rows& rows, int row0, int panel, vec (*acc_out)[4]) const {
+    vec acc[R][4];
+    for (int r = 0; r < R; ++r)
+      for (int q = 0; q < 4; ++q) acc[r][q] = vec{};
+    const float* a[R];
+    for (int r = 0; r < R; ++r) a[r] = rows.base + (row0 + r) * rows.stride;
+    const vec* w = reinterpret_cast<const vec*>(at(panel, 0, 0));
+    for (int k = 0; k < depth; ++k, w += 4) {
+      for (int r = 0; r < R; ++r) {
+        const float* s = a[r] + 4 * k;
+        for (int q = 0; q < 4; ++q) acc[r][q] += s[q] * w[q];
+      }
+    }
+    for (int r = 0; r < R; ++r) acc_out[r][0] = (acc[r][0] + acc[r][1]) + (acc[r][2] + acc[r][3]);
+  }
+#else
+  // Two units at a time, each unit's row of W against every row of dz, a vector of k at a time:
+  // 2 R lane-wise sums (12 registers at most), added across their lanes at the end. No
+  // broadcasts, which the partial sums above need four of per step of k and row, and which share
+  // a port with the multiply-adds on AVX2 cores.
+  typedef float unaligned_vec __attribute__((vector_size(kLanes * sizeof(float)), aligned(4)));
+
+  template <int R>
+  void backward_sums(const Rows& rows, int row0, int panel, vec (*acc_out)[4]) const {
+    const int n = 4 * depth, whole = n / kLanes;
+    const float* a[R];
+    for (int r = 0; r < R; ++r) a[r] = rows.base + (row0 + r) * rows.stride;
+    for (int l = 0; l < kLanes; l += 2) {
+      const float* w0 = unit_row(panel * kLanes + l);
+      const float* w1 = w0 + row_stride();
+      vec acc[R][2];
+      for (int r = 0; r < R; ++r) acc[r][0] = acc[r][1] = vec{};
+      for (int k = 0; k < whole; ++k) {
+        const vec x0 = reinterpret_cast<const vec*>(w0)[k], x1 = reinterpret_cast<const vec*>(w1)[k];
+        for (int r = 0; r < R; ++r) {
+          const vec d = reinterpret_cast<const unaligned_vec*>(a[r])[k];
+          acc[r][0] += d * x0;
+          acc[r][1] += d * x1;
+        }
+      }
+      for (int r = 0; r < R; ++r) {
+        float s0 = across(acc[r][0]), s1 = across(acc[r][1]);
+        for (int k = whole * kLanes; k < n; ++k) {        // 4H not a whole number of vectors
+          s0 += a[r][k] * w0[k];
+          s1 += a[r][k] * w1[k];
+        }
+        acc_out[r][0][l] = s0;
+        acc_out[r][0][l + 1] = s1;
+      }
     }
   }
+
+  // The sum of a vector's lanes, pairwise.
+  static float across(vec v) {
+    for (int width = kLanes / 2; width > 0; width /= 2)
+      for (int l = 0; l < width; ++l) v[l] += v[l + width];
+    return v[0];
+  }
+#endif
 };
 
 // ---- the products, bfloat16 (AVX512_BF16) ----------------------------------------------------
@@ -336,7 +448,7 @@ struct Bf16Panels {
   };
 
   template <int R, bool kBackward>
-  void product(const Rows& rows, int row0, int panel, v16 (*acc_out)[4]) const {
+  void product(const Rows& rows, int row0, int panel, vec (*acc_out)[4]) const {
     __m512 acc[R][4];
     for (int r = 0; r < R; ++r)
       for (int q = 0; q < 4; ++q) acc[r][q] = _mm512_setzero_ps();
@@ -360,7 +472,7 @@ struct Bf16Panels {
       for (int q = 0; q < (kBackward ? 1 : 4); ++q) {   // the product's bfloat16 result
         __m256bh rounded = _mm512_cvtneps_pbh(acc[r][q]);
         __m512i widened = _mm512_slli_epi32(_mm512_cvtepu16_epi32((__m256i)rounded), 16);
-        acc_out[r][q] = (v16)_mm512_castsi512_ps(widened);
+        acc_out[r][q] = (vec)_mm512_castsi512_ps(widened);
       }
     }
   }
@@ -369,7 +481,7 @@ struct Bf16Panels {
 
 template <typename Panels, bool kBackward>
 void product_rows(const Panels& w, const typename Panels::Rows& rows, int row0, int count,
-                  int panel, v16 (*acc)[4]) {
+                  int panel, vec (*acc)[4]) {
   switch (count) {
     case 1: w.template product<1, kBackward>(rows, row0, panel, acc); break;
     case 2: w.template product<2, kBackward>(rows, row0, panel, acc); break;
@@ -400,7 +512,7 @@ void store(const Lanes& v, float* row, int unit, int hidden) {
   for (int l = 0; l < kLanes && unit + l < hidden; ++l) row[unit + l] = v[l];
 }
 
-Lanes lanes(const v16& v) {
+Lanes lanes(const vec& v) {
   Lanes out;
   std::memcpy(out.data(), &v, sizeof(v));
   return out;
@@ -421,7 +533,7 @@ void forward(OpKernelContext* ctx, const Dims& d, const float* x_proj, const flo
   float *h = out[0], *c = out[1], *g = out[2], *i = out[3], *f = out[4], *o = out[5];
   run_shared(ctx, thread_count(ctx, w.panels), d.steps, w.panels, [&](SharedSteps& steps) {
     typename Panels::Rows rows;
-    v16 acc[kMaxRows][4];
+    vec acc[kMaxRows][4];
     auto start = [&](int t) {                            // every unit's h_{t-1} is written
       if (t > 0) rows.prepare(h + (t - 1) * step, B, H, H);
     };
@@ -478,7 +590,7 @@ void backward(OpKernelContext* ctx, const Dims& d, const float* dh_out, const fl
   // (every unit's dz_{t+1} is written) gives their dh reaching t, then their dz_t.
   run_shared(ctx, thread_count(ctx, w.panels), d.steps, w.panels, [&](SharedSteps& steps) {
     typename Panels::Rows rows;
-    v16 acc[kMaxRows][4];
+    vec acc[kMaxRows][4];
     auto start = [&](int s) {
       const int t = d.steps - 1 - s;
       if (s > 0) rows.prepare(dz + size_t(t + 1) * B * 4 * H, B, 4 * H, 4 * H);

@@ -26,9 +26,9 @@ import pandas as pd
 
 from rnn_seg.runs.folder import write_atomic
 
+from ..render.markdown import markdown_table
 from .confirm import Family, Part, Plan, analyse, read_plan, tables
 from .exploratory import EXPLORATORY_FILE, analyse_exploratory, read_exploratory
-from .markdown import markdown_table
 
 
 def write_confirmatory(plan_path: Path, out: Path) -> tuple[list[Path], list[str]]:

@@ -21,7 +21,7 @@ from itertools import groupby
 
 import pandas as pd
 
-from .collect import CONVERGENCE_COUNTS, LOWER_IS_BETTER, METRICS, finite, lookup
+from ..runs.collect import CONVERGENCE_COUNTS, LOWER_IS_BETTER, METRICS, finite, lookup
 from .latex import bold, escape, mean_std, number, requires
 from .paper_results import TABLE_1, TABLE_2, TABLE_2_RELATED, TABLE_3, Number
 
@@ -182,7 +182,7 @@ def _row(label: str, config: str, metric: str, left: Number, right: Number, fold
 
 def _marked(label: str, *summary_rows: pd.Series) -> str:
     """``label``, followed by what its summary rows say against the evidence: "(incomplete: n/m
-    runs)" when a configuration lacks runs (``multitask-tables --allow-incomplete``), "(still
+    runs)" when a configuration lacks runs (``multitask-tables paper --allow-incomplete``), "(still
     falling: n runs)" and "(undecided: n runs)" for its runs of those three-way convergence
     verdicts (``rnn_seg.convergence``), in one parenthesis separated by "; "."""
     notes = []

@@ -53,7 +53,7 @@ def standalone_rows(folder: Path, allow_incomplete: bool = False,
     folder = Path(folder)
     found = ([(folder, "run folder")] if folder_kind(folder) == "run folder"
              else list(folders_below(folder)))
-    problems = [f"{path} is a grid folder: tabulate it on its own (multitask-tables {path})"
+    problems = [f"{path} is a grid folder: tabulate it on its own (multitask-tables paper {path})"
                 for path, kind in found if kind == "grid folder"]
     rows, records = [], {}
     for run_dir, _ in (item for item in found if item[1] == "run folder"):

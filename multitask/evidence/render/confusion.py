@@ -29,10 +29,10 @@ import pandas as pd  # noqa: E402
 from jigsaws_tools.plots import PAGE_INCHES, figure_style  # noqa: E402
 from rnn_seg.runs.folder import read_json, write_atomic  # noqa: E402
 
-from ..grid.spec import RunKey  # noqa: E402
-from .collect import KEY_COLUMNS  # noqa: E402
+from ...grid.spec import RunKey  # noqa: E402
+from ..runs.collect import KEY_COLUMNS  # noqa: E402
+from ..statistics.paired import ConfigId  # noqa: E402
 from .figures import COMPARED, label, save  # noqa: E402
-from .paired import ConfigId  # noqa: E402
 
 TASK = "gesture"
 SCORES = ("precision", "recall", "f1")

@@ -13,7 +13,7 @@ the grid records for them. A seed still training is left out and named in the ta
 metric, a run of other settings or another place, a stray folder) is an error, as for its own
 tables (``collect``).
 
-    multitask-tables --architectures results/grid results/paper/grid results/tcn/ed-tcn \\
+    multitask-tables architectures results/grid results/paper/grid results/tcn/ed-tcn \\
         results/tcn/ms-tcn --out results/tcn
 
 writes into ``--out``:
@@ -44,15 +44,15 @@ import pandas as pd
 
 from rnn_seg.runs.folder import RunFolderError, is_finished, read_json
 
-from ..grid.folder import GRID_RECORD
-from ..grid.spec import RunKey
-from ..models.run_record import RunRecord, read_run_record
-from .captions import describe_runs
-from .collect import finite, key_from_path, per_fold, recorded_runs, run_rows
-from .latex import escape, mean_std, requires
-from .markdown import markdown_table
-from .paired import ConfigId
-from .pooling import apart, architecture_name
+from ...grid.folder import GRID_RECORD
+from ...grid.spec import RunKey
+from ...models.run_record import RunRecord, read_run_record
+from ..render.captions import describe_runs
+from ..render.latex import escape, mean_std, requires
+from ..render.markdown import markdown_table
+from ..runs.collect import finite, key_from_path, per_fold, recorded_runs, run_rows
+from ..runs.pooling import apart, architecture_name
+from ..statistics.paired import ConfigId
 
 #: The models compared on every architecture (revised labels, offline).
 MODELS = {"A": ConfigId("A"), "APc (w1=w2=1)": ConfigId("APc"),
@@ -99,7 +99,7 @@ def architecture_evidence(grid: Path) -> ArchitectureEvidence:
                                 "results/tcn/ed-tcn)")
     if not (grid / GRID_RECORD).is_file():
         raise ValueError(f"{grid}: not a grid or scores archive (no {GRID_RECORD}); "
-                         "--architectures takes one grid per architecture")
+                         "multitask-tables architectures takes one grid per architecture")
     recorded, _ = recorded_runs(grid)
     complete, left_out, counts = _finished_seeds(grid, recorded)
     if not complete:
@@ -322,8 +322,9 @@ def measured_table2(evidence: list[ArchitectureEvidence]) -> tuple[pd.DataFrame,
     the original labels, ours alone; then the quoted related-work rows. Returns the frame
     (``tables.paper_comparison``'s columns) and the caption's LaTeX (empty frame: no grid ran
     the original labels)."""
-    from .collect import summary
-    from .tables import CONFIG_LABELS, PAPER_TABLES, paper_caption, paper_comparison, related_rows
+    from ..render.tables import (CONFIG_LABELS, PAPER_TABLES, paper_caption, paper_comparison,
+                                 related_rows)
+    from ..runs.collect import summary
 
     table = next(t for t in PAPER_TABLES if t.name == "table2")
     parts, measured, budgets = [], [], []
@@ -374,10 +375,10 @@ def write_architectures(grids: list[Path], out: Path) -> list[Path]:
     the paths written (no claims without a TCN grid, no Table II without original labels)."""
     from rnn_seg.runs.folder import write_atomic
 
+    from ..render.tables import PAPER_TABLES, paper_best, to_latex
+    from ..statistics.time_baseline import grid_fold_scores
     from .claims import TCN_BACKBONES, TCN_CLAIMS
     from .claims_table import write_claims
-    from .tables import PAPER_TABLES, paper_best, to_latex
-    from .time_baseline import grid_fold_scores
 
     evidence = read_architectures(grids)
     time_only = grid_fold_scores(evidence[0].grid, "revised", "architectures")

@@ -151,7 +151,7 @@ def _grid_data(grid_dir: Path, annotations: str):
     from jigsaws_tools.dataset import DataConfig, load_dataset
     from jigsaws_tools.task_definition import load_task
 
-    from ..grid.folder import read_record
+    from ...grid.folder import read_record
 
     record = read_record(grid_dir) or {}
     spec = record.get("spec", {})

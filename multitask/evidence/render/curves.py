@@ -23,10 +23,10 @@ from jigsaws_tools.plots import PAGE_INCHES, figure_style  # noqa: E402
 from rnn_seg.config import unit_name  # noqa: E402
 from rnn_seg.runs.logs import read_log  # noqa: E402
 
+from ...grid.spec import RunKey  # noqa: E402
+from ..runs.collect import key_from_path  # noqa: E402
 from . import drawing  # noqa: E402
-from .collect import key_from_path  # noqa: E402
 from .figures import save  # noqa: E402
-from ..grid.spec import RunKey  # noqa: E402
 
 #: Test accuracy columns of history.csv, with the task as group 1.
 TEST_ACCURACY = re.compile(r"test_(\w+?)_acc(?:uracy)?")

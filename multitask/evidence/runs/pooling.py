@@ -7,8 +7,8 @@ points, the batch size, and the data: task definition, annotations, features, pr
 recording format and the fingerprint of the release's files) except the seed and the held-out
 user, which tables pool over (``POOLED``), and what only says what a run writes or where its data
 lay (the output fields). Every table reads its runs through ``pool``: a grid's tables, claims
-and figures, ``--compare``, the width study and the tables of runs trained one by one, whether
-or not a grid's spec vouches for the runs.
+and figures, ``multitask-tables pair``, the width study and the tables of runs trained one by
+one, whether or not a grid's spec vouches for the runs.
 
 * A run is placed by what its config.json records (``record_key``): in a grid, a folder whose
   config.json records another configuration, seed or fold than its place is named
@@ -35,8 +35,8 @@ from jigsaws_tools.dataset import DataConfig
 from rnn_seg.encoders.config import ENCODERS
 from rnn_seg.runs.settings import settings_of
 
-from ..grid.spec import RunKey
-from ..models.run_record import RunRecord
+from ...grid.spec import RunKey
+from ...models.run_record import RunRecord
 
 #: The settings the runs of one configuration differ in: a table pools over them.
 POOLED = ("run.train.seed", "run.test_user")
@@ -181,7 +181,7 @@ def pool(records: dict[Path, RunRecord], where: Path | str, varying: tuple[str, 
             f"{where}: runs of several encoders ("
             + " / ".join(f"{kind} ({_runs(runs)})" for kind, runs in sorted(encoders.items()))
             + "), so no table pools or pairs them. Tabulate each encoder's runs from a folder "
-            "of their own; multitask-tables --architectures puts grids of several side by side.")
+            "of their own; multitask-tables architectures puts grids of several side by side.")
     rows: dict[tuple, dict[Path, dict]] = {}
     for run, record in records.items():
         key = record_key(record)

@@ -59,14 +59,14 @@ import pandas as pd
 
 from rnn_seg.runs.folder import is_finished
 
-from ..grid.folder import GRID_RECORD
-from ..grid.spec import RunKey
-from ..models.run_record import RunRecord
-from ..models.variants import get_variant
-from .collect import recorded_runs, run_records
-from .paired import (ConfigId, Contrast, PairedResult, StatsConfig, config_labels, paired,
-                     paired_sides, seed_values)
-from .pooling import pool, record_key
+from ...grid.folder import GRID_RECORD
+from ...grid.spec import RunKey
+from ...models.run_record import RunRecord
+from ...models.variants import get_variant
+from ..runs.collect import recorded_runs, run_records
+from ..runs.pooling import pool, record_key
+from ..statistics.paired import (ConfigId, Contrast, PairedResult, StatsConfig, config_labels,
+                                 paired, paired_sides, seed_values)
 
 #: The settings an execution path may change among those that change results (``pooling``).
 EXECUTION = ("run.encoder.precision",)
@@ -165,10 +165,15 @@ def _row_key(row) -> RunKey:
 
 
 def _path(grid: Path, records: dict[Path, RunRecord]) -> str:
-    """``"<loops> loops, <precision>"`` of every run of ``grid`` (``ValueError`` if they differ:
-    e.g. a fused run that fell back to the graph loops)."""
+    """``"<loops> loops, <precision>"`` of every run of ``grid`` (``ValueError`` if they differ,
+    or a run's sessions ran on different loops: e.g. a fused run resumed on the graph loops)."""
     paths = {f"{r.loops()} loops, {r.config.encoder.precision}"
              for r in records.values()}
+    mixed = sorted(str(run) for run, r in records.items() if r.loops().startswith("mixed"))
+    if mixed:
+        raise ValueError(f"{grid}: {len(mixed)} run(s) ran on more than one execution path, its "
+                         f"sessions on different loops (first: {mixed[0]}, "
+                         f"{records[Path(mixed[0])].loops()}): one path per grid")
     if len(paths) != 1:
         raise ValueError(f"{grid}: its runs ran on more than one execution path "
                          f"({', '.join(sorted(paths))}): one path per grid")

@@ -28,12 +28,12 @@ from pathlib import Path
 
 import pandas as pd
 
-from .collect import LEFT_OUT, IncompleteEvidence, run_records
+from ..runs.collect import LEFT_OUT, IncompleteEvidence, run_records
+from ..runs.pooling import MixedSettings, pool, record_key
+from ..statistics.paired import ConfigId, StatsConfig
 from .confirm import (Plan, PlanError, as_named, check_keys, complete_runs, endpoint_rows,
                       fold_seed_gaps, locate_grid, plan_config, plan_list, plan_seeds,
                       plan_value, read_plan_file, run_commit, tables)
-from .paired import ConfigId, StatsConfig
-from .pooling import MixedSettings, pool, record_key
 
 #: The exploratory analyses' file, beside the plan's.
 EXPLORATORY_FILE = "exploratory.toml"

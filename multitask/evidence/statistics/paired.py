@@ -50,9 +50,9 @@ import pandas as pd
 
 from jigsaws_tools.annotations import ANNOTATION_VERSIONS
 
-from .collect import CONVERGENCE_COLUMNS, KEY_COLUMNS, per_class
-from .pooling import is_architecture
-from ..grid.spec import DIRECTIONS
+from ...grid.spec import DIRECTIONS
+from ..runs.collect import CONVERGENCE_COLUMNS, KEY_COLUMNS, per_class
+from ..runs.pooling import is_architecture
 
 UNIT_OF_PAIRING = "LOUO fold (test user); each side averaged over its seeds within the fold"
 #: The most folds the exact test enumerates (2^n sign vectors).

@@ -59,12 +59,13 @@ from jigsaws_tools.errors import DefinitionError
 from jigsaws_tools.toml_files import read_toml
 from rnn_seg.runs.folder import FINISHED, RunFolderError, read_json
 
-from ..models.run_record import RunRecord
-from ..models.variants import check_weighting, get_variant
-from .collect import (LEFT_OUT, METRICS, IncompleteEvidence, key_from_path, per_class,
-                      recorded_runs, run_records)
-from .paired import TIES, ConfigId, Contrast, StatsConfig, config_labels, holm, paired
-from .pooling import MixedSettings, architecture
+from ...models.run_record import RunRecord
+from ...models.variants import check_weighting, get_variant
+from ..runs.collect import (LEFT_OUT, METRICS, IncompleteEvidence, key_from_path, per_class,
+                            recorded_runs, run_records)
+from ..runs.pooling import MixedSettings, architecture
+from ..statistics.paired import (TIES, ConfigId, Contrast, StatsConfig, config_labels, holm,
+                                 paired)
 
 ROLES = ("primary", "secondary")
 COLUMNS = ["part", "family", "role", "analysis", "seeds", "comparison", "metric", "folds",

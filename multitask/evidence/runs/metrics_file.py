@@ -19,7 +19,7 @@ import numpy as np
 
 from rnn_seg.runs.folder import RunFolderError, read_json
 
-from ..models.run_record import RunRecord
+from ...models.run_record import RunRecord
 
 METRICS_FILE = "metrics.json"
 #: How far a mean may lie from the mean of its points (percent points, or normalised MAE).

@@ -42,9 +42,9 @@ from rnn_seg.convergence import ConvergenceCriterion, history_convergence, verdi
 from rnn_seg.runs.folder import HISTORY, RunFolderError, is_finished, read_json
 from rnn_seg.runs.logs import read_log
 
-from ..grid.folder import GRID_RECORD, record_runs, run_key
-from ..grid.spec import RunKey
-from ..models.run_record import RunRecord, read_run_record
+from ...grid.folder import GRID_RECORD, record_runs, run_key
+from ...grid.spec import RunKey
+from ...models.run_record import RunRecord, read_run_record
 from .checks import OTHER_SETTINGS, other_settings
 from .metrics_file import METRICS_FILE, read_metrics
 from .pooling import misplaced, pool, record_key

@@ -66,15 +66,15 @@ from jigsaws_tools.plots import PAGE_INCHES, figure_style  # noqa: E402
 from jigsaws_tools.task_definition import PAPER_TASK  # noqa: E402
 from rnn_seg.runs.folder import CONFIG, is_finished, read_json  # noqa: E402
 
-from ..models.run_record import RunRecord  # noqa: E402
+from ...models.run_record import RunRecord  # noqa: E402
 
-from .captions import describe_runs, is_synthetic, task_name  # noqa: E402
-from .checks import OTHER_SETTINGS, other_settings  # noqa: E402
-from .collect import key_from_path, recorded_runs, run_row  # noqa: E402
-from .figures import save  # noqa: E402
-from .paired import ConfigId, Contrast, holm, paired  # noqa: E402
-from .paper_results import TABLE_1  # noqa: E402
-from .pooling import pool  # noqa: E402
+from ..render.captions import describe_runs, is_synthetic, task_name  # noqa: E402
+from ..render.figures import save  # noqa: E402
+from ..render.paper_results import TABLE_1  # noqa: E402
+from ..runs.checks import OTHER_SETTINGS, other_settings  # noqa: E402
+from ..runs.collect import key_from_path, recorded_runs, run_row  # noqa: E402
+from ..runs.pooling import pool  # noqa: E402
+from ..statistics.paired import ConfigId, Contrast, holm, paired  # noqa: E402
 
 MODELS = {"A": ConfigId("A", "fixed"), "APoc": ConfigId("APoc", "gradnorm")}
 #: The figure's name of each model.

@@ -43,10 +43,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pandas as pd
 
-from .collect import LOWER_IS_BETTER
-from .paired import (UNIT_OF_PAIRING, ConfigId, Contrast, PairedResult, StatsConfig,
-                     equivalence_power, holm, paired)
-from .tables import PAPER_TABLES
+from ..render.tables import PAPER_TABLES
+from ..runs.collect import LOWER_IS_BETTER
+from ..statistics.paired import (UNIT_OF_PAIRING, ConfigId, Contrast, PairedResult, StatsConfig,
+                                 equivalence_power, holm, paired)
 
 VERDICTS = ("reproduced", "supported", "contradicted", "inconclusive")
 #: The fewest paired folds at which the two-sided exact sign-flip test can reach p < 0.05

@@ -13,14 +13,14 @@ import pandas as pd
 
 from rnn_seg.runs.folder import write_atomic, write_json
 
-from . import drawing
+from ...models.variants import get_variant
+from ..render import drawing
+from ..render.latex import escape, number, requires
+from ..render.tables import METRIC_LABELS
+from ..runs.pooling import architecture_name
+from ..statistics.paired import MAX_EXACT_FOLDS, UNIT_OF_PAIRING, ConfigId, StatsConfig
 from .claims import (FRAME_ACCURACY_MARGIN, MIN_PAIRS, POWER_DECIMALS, Claim, evaluate,
                      smallest_adjusted_p)
-from .latex import escape, number, requires
-from .paired import MAX_EXACT_FOLDS, UNIT_OF_PAIRING, ConfigId, StatsConfig
-from .pooling import architecture_name
-from .tables import METRIC_LABELS
-from ..models.variants import get_variant
 
 _WEIGHTING_MARKS = {"fixed": "1", "gradnorm": r"\alpha"}
 _PREFIXES = {"original": r"orig.\ ", "forward": r"fwd.\ "}

@@ -14,9 +14,9 @@ import pandas as pd
 from jigsaws_tools.task_definition import PAPER_TASK
 from rnn_seg.runs.folder import read_json
 
-from ..grid.archive import archived_test_trials, kept_predictions
-from ..grid.spec import RunKey
-from ..models.variants import VARIANTS
+from ...grid.archive import archived_test_trials, kept_predictions
+from ...grid.spec import RunKey
+from ...models.variants import VARIANTS
 
 #: Folder name prefix of the synthetic releases ``jigsaws_tools.synth.ensure_release`` writes.
 _SYNTHETIC_PREFIX = "synthetic-"

@@ -40,11 +40,11 @@ from jigsaws_tools.task_definition import load_task  # noqa: E402
 from rnn_seg.runs.folder import read_json  # noqa: E402
 from rnn_seg.runs.logs import read_log  # noqa: E402
 
-from ..grid.archive import kept_predictions  # noqa: E402
+from ...grid.archive import kept_predictions  # noqa: E402
+from ...grid.spec import RunKey  # noqa: E402
+from ..runs.collect import grid_task_name  # noqa: E402
+from ..statistics.paired import ConfigId  # noqa: E402
 from . import drawing  # noqa: E402
-from ..grid.spec import RunKey  # noqa: E402
-from .collect import grid_task_name  # noqa: E402
-from .paired import ConfigId  # noqa: E402
 from .tables import CONFIG_LABELS  # noqa: E402
 
 OFFLINE = {"annotations": "revised", "direction": "bidirectional"}

@@ -1,0 +1,91 @@
+"""What the studies' commands share: the ``--out`` and ``--overwrite`` options, the options that
+choose a grid's runs (``--allow-incomplete``, ``--finished-only``, ``--seeds``), and
+``publish``, which writes a study's files into ``--out`` all together.
+
+``publish`` checks ``--out`` (beside grids, never in a run or a grid's runs:
+``rnn_seg.runs.outputs``), gives the study a hidden staging folder inside it, and moves the files
+into place once all are made (``rnn_seg.runs.manifest``): a call that fails leaves ``--out`` as it
+was. The study's manifest (``tables.json``, ``width.json``, ...) lists them; the next call
+replaces the files it lists and never writes over a file of an output's name that it does not
+list, unless ``--overwrite``. While it works, each figure drawn and each slow step is named on
+standard output (``render.drawing``); at the end, every file written is printed.
+"""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+from jigsaws_tools.cli.arg_types import non_negative_int
+
+#: The command's name in its messages and in every manifest's ``written_by``.
+PROG = "multitask-tables"
+
+
+def add_out_options(parser: argparse.ArgumentParser, manifest: str,
+                    default: str | None = None) -> None:
+    """``--out DIR`` (required unless ``default`` says where it goes) and ``--overwrite``."""
+    parser.add_argument("--out", type=Path, metavar="DIR", required=default is None,
+                        help=f"where to write (default: {default})" if default else
+                        "where to write (required); it may hold other files")
+    parser.add_argument("--overwrite", action="store_true",
+                        help=f"replace files of the output's names in --out that its {manifest} "
+                             "does not list (default: refuse; files it lists, an earlier "
+                             "output's, are always replaced)")
+
+
+def add_run_options(parser: argparse.ArgumentParser) -> None:
+    """``--allow-incomplete``, ``--finished-only`` and ``--seeds``: which of a grid's runs enter."""
+    parser.add_argument("--allow-incomplete", action="store_true",
+                        help="go on although runs are missing, unfinished or unreadable, marking "
+                             "the configurations concerned incomplete (default: refuse)")
+    parser.add_argument("--finished-only", action="store_true",
+                        help="for a grid still running: leave out every configuration with a run "
+                             "not finished yet, and list them (default: refuse)")
+    add_seeds_option(parser)
+
+
+def add_seeds_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--seeds", type=non_negative_int, nargs="+", metavar="K",
+                        help="only the runs of these seeds, e.g. --seeds 0 (default: every "
+                             "recorded run)")
+
+
+def seeds_of(args: argparse.Namespace) -> tuple[int, ...] | None:
+    """``--seeds`` as a tuple, None when not given (every seed)."""
+    return tuple(args.seeds) if args.seeds else None
+
+
+def check_folders(folders: Sequence[Path], what: str) -> None:
+    """A ``FileNotFoundError`` naming the first of ``folders`` that is no folder, and ``what``
+    it should be (e.g. ``a grid folder, a scores archive or a folder of runs``)."""
+    for folder in folders:
+        if not folder.is_dir():
+            raise FileNotFoundError(f"{folder}: no such folder ({what})")
+
+
+def publish(out: Path, manifest: str, overwrite: bool, write: Callable[[Path], list[Path]],
+            record: dict[str, Any] | None = None, kept: tuple[str, ...] = ()) -> None:
+    """``write(staging)`` (the study: returns the paths it wrote under ``staging``), published
+    into ``out`` and listed in ``manifest`` (module docstring); then every path printed.
+
+    Args:
+        out: the output folder (``--out``).
+        manifest: the study's list of its files in ``out`` (e.g. ``width.json``).
+        overwrite: ``--overwrite``.
+        write: the study's work.
+        record: more entries of the manifest (e.g. the grids compared).
+        kept: folders of ``out`` whose listed files stay although this call did not write them
+            (e.g. ``figures/`` after ``--no-figures``).
+    """
+    from rnn_seg.runs.manifest import staged_outputs
+    from rnn_seg.runs.outputs import check_output_folder
+
+    from ..render import drawing
+
+    check_output_folder(out, PROG, may_hold=True)   # beside grids, never in a run or grid's runs
+    with staged_outputs(out, manifest, PROG, overwrite, record=record, kept=kept) as staging, \
+            drawing.shown(PROG):
+        written = write(staging)
+    for path in written:
+        print(out / path.relative_to(staging))

@@ -1,0 +1,209 @@
+"""The compiled kernel's cache can never take a run down: a damaged library is found before it is
+loaded and rebuilt (or, where that fails, the graph loops run), a library that loads but holds no
+op is refused, a hanging compiler is stopped with its children, a killed build leaves nothing a
+later build keeps, and ``$CXX`` may carry flags. Builds here go through a stand-in compiler that
+copies the suite's own library, so no test compiles for a minute."""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from rnn_seg.kernels import build
+from tests.fused_loops import needs_fused
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _stand_in_compiler(folder: Path, library: Path, name: str = "cxx") -> Path:
+    """A "compiler" that answers ``-E`` (the target's macros) as g++ does and otherwise writes a
+    copy of ``library`` wherever ``-o`` points."""
+    script = folder / name
+    script.write_text(f"""#!/bin/sh
+case " $* " in *" -E "*) exec g++ "$@";; esac
+while [ $# -gt 0 ]; do
+  if [ "$1" = -o ]; then cp "{library}" "$2"; exit 0; fi
+  shift
+done
+exit 1
+""")
+    script.chmod(0o755)
+    return script
+
+
+@pytest.fixture
+def cache(tmp_path, monkeypatch) -> Path:
+    """An empty cache folder and a stand-in compiler copying the suite's built library."""
+    if build.unavailable("fp32") is not None or shutil.which("g++") is None:
+        pytest.skip("no built library to copy")
+    good = build.loaded()[1]
+    folder = tmp_path / "cache"
+    monkeypatch.setenv("JIGSAWS_CACHE_DIR", str(folder))
+    monkeypatch.setenv("CXX", str(_stand_in_compiler(tmp_path, good)))
+    return folder
+
+
+def _damaged(kind: str, path: Path) -> None:
+    """Damage the library at ``path`` in one of several ways."""
+    data = path.read_bytes()
+    if kind == "truncated":
+        path.write_bytes(data[: len(data) // 3])
+    elif kind == "empty":
+        path.write_bytes(b"")
+    elif kind == "same size, other bytes":
+        path.write_bytes(data[:4096] + bytes(len(data) - 4096))
+    elif kind == "no record":
+        build.record_path(path).unlink()
+    elif kind == "unreadable record":
+        build.record_path(path).write_text("{not json")
+
+
+@needs_fused
+@pytest.mark.parametrize("kind", ["truncated", "empty", "same size, other bytes", "no record",
+                                  "unreadable record"])
+def test_a_damaged_library_is_found_and_rebuilt_before_it_is_loaded(cache, capsys, kind):
+    path = build.library_path()
+    build.ensure_built(path)
+    good = path.read_bytes()
+    capsys.readouterr()
+    _damaged(kind, path)
+    assert build.damage(path) is not None
+    build.ensure_built(path)
+    said = capsys.readouterr().err.splitlines()
+    assert said[0].startswith(f"{path}: ") and said[0].endswith("removed, building it again")
+    assert path.read_bytes() == good and build.damage(path) is None
+
+
+@needs_fused
+def test_a_truncated_library_costs_a_training_one_line_and_a_rebuild(cache, tmp_path, synth_dir):
+    """Today's crash (SIGBUS on loading a truncated library, in every later run too) cannot
+    happen: the run rebuilds it and trains on the fused loops."""
+    path = build.library_path()
+    build.ensure_built(path)
+    _damaged("truncated", path)
+    done = _train(tmp_path / "run", synth_dir)
+    assert done.returncode == 0, done.stderr
+    assert f"{path}: " in done.stderr and "removed, building it again" in done.stderr
+    assert "Traceback" not in done.stderr
+    assert json.loads((tmp_path / "run" / "config.json").read_text())["provenance"]["loops"] \
+        == "fused"
+
+
+@needs_fused
+def test_a_library_that_holds_no_op_falls_back_to_the_graph_loops(cache, tmp_path, synth_dir):
+    """A library whose bytes match its record but that registers no op (another program's, or a
+    build gone wrong): one line, the graph loops, and the library removed for the next process."""
+    path = build.library_path()
+    build.ensure_built(path)
+    empty = tmp_path / "empty.cc"
+    empty.write_text("int nothing_here() { return 0; }\n")
+    subprocess.run(["g++", "-shared", "-fPIC", str(empty), "-o", str(path)], check=True)
+    record = json.loads(build.record_path(path).read_text())
+    record.update(size=path.stat().st_size, sha256=build.digest(path))
+    build.record_path(path).write_text(json.dumps(record))
+    done = _train(tmp_path / "run", synth_dir)
+    assert done.returncode == 0, done.stderr
+    lines = [line for line in done.stderr.splitlines() if "fused LSTM loops unavailable" in line]
+    assert len(lines) == 1 and "holds no MtrnnLstmForward op" in lines[0]
+    assert "Traceback" not in done.stderr
+    assert json.loads((tmp_path / "run" / "config.json").read_text())["provenance"]["loops"] \
+        == "graph"
+    assert not path.exists()
+
+
+def _train(out: Path, data: Path) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    return subprocess.run(
+        [sys.executable, "-m", "multitask.train_cli", "--data-dir", str(data), "--variant", "A",
+         "--hidden", "8", "--epochs", "1", "--test-user", "C", "--no-plots", "--out", str(out)],
+        capture_output=True, text=True, env=env, timeout=600)
+
+
+def test_a_hanging_compiler_is_stopped_with_every_process_it_started(tmp_path, monkeypatch):
+    pids = tmp_path / "pids"
+    hang = tmp_path / "hang"
+    hang.write_text(f"""#!/bin/sh
+case " $* " in *" -E "*) exit 1;; esac
+sleep 600 &
+echo $! >> {pids}
+echo $$ >> {pids}
+wait
+""")
+    hang.chmod(0o755)
+    monkeypatch.setenv("CXX", str(hang))
+    monkeypatch.setattr(build, "BUILD_SECONDS", 2)
+    monkeypatch.setattr(build, "PROGRESS_SECONDS", 1)
+    started = time.monotonic()
+    with pytest.raises(build.KernelUnavailable, match="took over 2 s; stopped"):
+        build.build(tmp_path / "kernels" / "lstm_loops-x.so")
+    assert time.monotonic() - started < 60
+    for pid in map(int, pids.read_text().split()):
+        assert not _running(pid), f"process {pid} of the compiler still runs"
+    assert list((tmp_path / "kernels").iterdir()) == []
+
+
+def _running(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().split(")")[-1].split()[0]
+    except OSError:
+        return False
+    return state != "Z"
+
+
+def test_a_killed_build_leaves_nothing_the_next_build_keeps(tmp_path):
+    """A build folder whose builder is gone is removed; a folder the builder did not mark (a
+    user's, or one being made) and a live builder's are left."""
+    folder = tmp_path / "kernels"
+    dead = subprocess.Popen(["true"])
+    dead.wait()
+    abandoned, live, unmarked = (folder / f"{build.BUILD_PREFIX}{n}" for n in ("a", "b", "c"))
+    for work in (abandoned, live, unmarked):
+        work.mkdir(parents=True)
+        (work / "lstm_loops-x.so").write_bytes(b"half")
+    (abandoned / build.OWNER_FILE).write_text(str(dead.pid))
+    (live / build.OWNER_FILE).write_text(str(os.getpid()))
+    assert build.remove_abandoned_builds(folder) == [abandoned]
+    assert not abandoned.exists() and live.is_dir() and unmarked.is_dir()
+
+
+@needs_fused
+def test_a_compiler_given_with_flags_builds(cache, monkeypatch):
+    """``CXX="g++ -std=c++17"``: the first word is the compiler, the rest its flags (not
+    "compiler not found")."""
+    stand_in = Path(os.environ["CXX"])
+    monkeypatch.setenv("CXX", f"{stand_in} -std=c++17 -DFLAG='two words'")
+    command = build.compile_command(Path("x.cc"), Path("x.so"))
+    assert command[:3] == [str(stand_in), "-std=c++17", "-DFLAG=two words"]
+    path = build.library_path()
+    build.ensure_built(path)
+    assert build.damage(path) is None
+
+
+@pytest.mark.parametrize("value, message", [("", "names no compiler"),
+                                            ("'g++", "No closing quotation")])
+def test_a_compiler_variable_that_names_no_compiler_is_refused_for_what_it_is(
+        monkeypatch, value, message):
+    monkeypatch.setenv("CXX", value)
+    with pytest.raises(build.KernelUnavailable, match=message):
+        build.compiler()
+
+
+def test_a_target_is_chosen_by_name_and_refused_when_it_is_no_name(monkeypatch):
+    monkeypatch.setenv(build.MARCH_ENV, "haswell")
+    assert "-march=haswell" in build.compile_command(Path("x.cc"), Path("x.so"))
+    monkeypatch.setenv(build.MARCH_ENV, "haswell; rm -rf ~")
+    with pytest.raises(build.KernelUnavailable, match="no -march target"):
+        build.march()
+
+
+def test_the_product_path_follows_the_targets_instruction_sets():
+    assert build.product_path(frozenset({"__AVX512F__", "__AVX2__", "__FMA__"}))["vector_bits"] \
+        == 512
+    assert build.product_path(frozenset({"__AVX2__", "__FMA__"}))["product"] == "AVX2"
+    assert "generic" in build.product_path(frozenset())["product"]
