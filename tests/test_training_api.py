@@ -108,13 +108,18 @@ def test_a_finished_run_is_logged_to_mlflow_once(synth_dir, tmp_path, monkeypatc
     assert run.data.metrics["final.gesture.f1_10"] == pytest.approx(metrics["gesture"]["f1@10"])
 
 
-@pytest.mark.parametrize("uri", ["bogus://nowhere", "http://127.0.0.1:{port}"])
+@pytest.mark.parametrize("uri", ["bogus://nowhere", "http://127.0.0.1:{port}",
+                                 "sqlite:///{tmp}/a-folder", "sqlite:///{tmp}/notes.txt",
+                                 "sqlite:///{tmp}/notes.txt/mlflow.db"])
 def test_an_unusable_tracking_uri_stops_before_any_work(tmp_path, capsys, uri):
-    """An unknown scheme, or a server that does not answer (issue 66: about 4 minutes of
-    retries), is one line before any work; the server's, within seconds."""
+    """An unknown scheme, a server that does not answer (issue 66: about 4 minutes of retries)
+    or a database path that is none (MLflow retries it for minutes) is one line before any
+    work, within seconds."""
+    (tmp_path / "a-folder").mkdir()
+    (tmp_path / "notes.txt").write_text("mine")
     with socket.socket() as closed:                         # a port nothing listens on
         closed.bind(("127.0.0.1", 0))
-        uri = uri.format(port=closed.getsockname()[1])
+        uri = uri.format(port=closed.getsockname()[1], tmp=tmp_path)
     with at_most(120):
         code = train_main(["--synthetic", "--out", str(tmp_path / "run"), "--mlflow", uri])
     err = capsys.readouterr().err.strip()
@@ -122,7 +127,7 @@ def test_an_unusable_tracking_uri_stops_before_any_work(tmp_path, capsys, uri):
     assert ("--mlflow" in err or "MLflow is not installed" in err)
     if "http" in uri and importlib.util.find_spec("mlflow") is not None:
         assert "no MLflow tracking server answers there" in err
-    assert not (tmp_path / "run").exists()
+    assert not (tmp_path / "run").exists() and (tmp_path / "notes.txt").read_text() == "mine"
 
 
 def _finished_run(folder: Path) -> Path:

@@ -72,6 +72,8 @@ CHECK_TIMEOUT, LOG_RETRIES, LOG_TIMEOUT = 10, 2, 30
 #: figures (``eval/<point>/...``).
 ARTIFACTS = (CONFIG, "metrics.json", FINISHED, "timing.json", HISTORY, GRADNORM_LOG)
 POINT_ARTIFACTS = ("metrics.json", "plots")
+#: The first bytes of every SQLite database file.
+SQLITE_HEADER = b"SQLite format 3\x00"
 #: Characters of a tag value a search filter cannot hold as they are (``_find``).
 _UNQUOTABLE = re.compile(r"['\\%_]")
 
@@ -93,6 +95,9 @@ class Tracker:
             raise TrackingError(INSTALL) from None
         self.uri = uri
         name = os.environ.get("MLFLOW_EXPERIMENT_NAME") or DEFAULT_EXPERIMENT
+        problem = _database_problem(uri)
+        if problem:
+            raise TrackingError(f"--mlflow {uri}: {problem}")
         try:
             with self._limits(0, CHECK_TIMEOUT):
                 self.client = MlflowClient(tracking_uri=uri)
@@ -225,6 +230,29 @@ def _artifacts(run_dir: Path) -> list[tuple[Path, str | None]]:
             found += [(file, file.parent.relative_to(run_dir).as_posix())
                       for file in files if file.is_file() and not file.is_symlink()]
     return found
+
+
+def _database_problem(uri: str) -> str | None:
+    """What keeps the SQLite database file of a ``sqlite:///`` URI from being opened or
+    created, or None: MLflow would retry it for about two minutes, warning at each try."""
+    if not uri.startswith("sqlite:///"):
+        return None
+    path = Path(uri[len("sqlite:///"):].split("?")[0])
+    if path.is_dir() or (path.exists() and not path.is_file()):
+        return f"{path} is not a database file (a folder, or not a regular file)"
+    if path.is_file() and path.stat().st_size and _read_head(path) != SQLITE_HEADER:
+        return f"{path} is not an SQLite database"
+    blocked = next((parent for parent in path.parents if parent.exists()
+                    and not parent.is_dir()), None)
+    if blocked is not None:
+        return f"cannot create {path}: {blocked} is a file, not a folder"
+    return None
+
+
+def _read_head(path: Path) -> bytes:
+    """The first bytes of the file ``path``, as many as an SQLite header has."""
+    with open(path, "rb") as file:
+        return file.read(len(SQLITE_HEADER))
 
 
 def _reason(error: BaseException) -> str:
