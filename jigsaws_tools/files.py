@@ -43,7 +43,7 @@ def read_regular(path: Path | str, limit: int | None = None) -> bytes:
         if stat.S_ISDIR(status.st_mode):
             raise IsADirectoryError(21, "Is a directory", str(path))
         if not stat.S_ISREG(status.st_mode):
-            raise NotRegularFileError(path, _kind(status.st_mode))
+            raise NotRegularFileError(path, file_kind(status.st_mode))
         if limit is not None and status.st_size > limit:
             raise FileTooLargeError(path, limit)
         os.set_blocking(fd, True)
@@ -53,7 +53,10 @@ def read_regular(path: Path | str, limit: int | None = None) -> bytes:
         return data
 
 
-def _kind(mode: int) -> str:
+def file_kind(mode: int) -> str:
+    """What a file of ``st_mode`` ``mode`` that is no regular file is, in words."""
+    if stat.S_ISDIR(mode):
+        return "a folder"
     if stat.S_ISFIFO(mode):
         return "a FIFO (named pipe)"
     if stat.S_ISSOCK(mode):

@@ -17,6 +17,7 @@ import pytest
 
 from rnn_seg.kernels import build
 from tests.fused_loops import needs_fused
+from tests.test_archive_and_inputs import at_most
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -62,11 +63,18 @@ def _damaged(kind: str, path: Path) -> None:
         build.record_path(path).unlink()
     elif kind == "unreadable record":
         build.record_path(path).write_text("{not json")
+    elif kind == "record nested too deeply":
+        build.record_path(path).write_text("[" * 100_000 + "]" * 100_000)
+    elif kind in ("another TensorFlow's", "another source's"):       # a cache copied across
+        record = json.loads(build.record_path(path).read_text())
+        key = "tensorflow" if kind == "another TensorFlow's" else "source_sha256"
+        build.record_path(path).write_text(json.dumps({**record, key: "2.0.0"}))
 
 
 @needs_fused
 @pytest.mark.parametrize("kind", ["truncated", "empty", "same size, other bytes", "no record",
-                                  "unreadable record"])
+                                  "unreadable record", "record nested too deeply",
+                                  "another TensorFlow's", "another source's"])
 def test_a_damaged_library_is_found_and_rebuilt_before_it_is_loaded(cache, capsys, kind):
     path = build.library_path()
     build.ensure_built(path)
@@ -78,6 +86,41 @@ def test_a_damaged_library_is_found_and_rebuilt_before_it_is_loaded(cache, capsy
     said = capsys.readouterr().err.splitlines()
     assert said[0].startswith(f"{path}: ") and said[0].endswith("removed, building it again")
     assert path.read_bytes() == good and build.damage(path) is None
+
+
+@needs_fused
+@pytest.mark.parametrize("which", ["library", "record"])
+@pytest.mark.parametrize("kind", ["folder", "FIFO"])
+def test_a_folder_or_fifo_in_the_caches_place_is_refused_and_left(cache, which, kind):
+    """Neither waits for a writer (a FIFO record hung every process) nor costs the library (a
+    folder as the record had it removed, then every build failed after compiling)."""
+    path = build.library_path()
+    build.ensure_built(path)
+    taken = path if which == "library" else build.record_path(path)
+    taken.unlink()
+    taken.mkdir() if kind == "folder" else os.mkfifo(taken)
+    with at_most(60), pytest.raises(build.KernelUnavailable,
+                                    match=f"{taken} is a {kind}.*move it away"):
+        build.ensure_built(path)
+    assert taken.exists() and not taken.is_file()
+    assert which == "library" or path.is_file()            # the library was not removed
+
+
+@needs_fused
+def test_a_fifo_as_the_build_lock_is_no_lock_and_no_hang(cache):
+    path = build.library_path()
+    path.parent.mkdir(parents=True)
+    os.mkfifo(path.with_suffix(".lock"))
+    with at_most(60):
+        build.ensure_built(path)
+    assert build.damage(path) is None
+
+
+def test_a_compiler_that_writes_no_library_is_refused_for_it(tmp_path, monkeypatch):
+    monkeypatch.setenv("CXX", "true")
+    with pytest.raises(build.KernelUnavailable, match="exited without error but wrote no library"):
+        build.build(tmp_path / "kernels" / "lstm_loops-x.so")
+    assert list((tmp_path / "kernels").iterdir()) == []
 
 
 @needs_fused
