@@ -5,11 +5,13 @@ later build keeps, and ``$CXX`` may carry flags. Builds here go through a stand-
 copies the suite's own library, so no test compiles for a minute."""
 from __future__ import annotations
 
+import fcntl
 import json
 import os
 import shutil
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -113,6 +115,21 @@ def test_a_fifo_as_the_build_lock_is_no_lock_and_no_hang(cache):
     os.mkfifo(path.with_suffix(".lock"))
     with at_most(60):
         build.ensure_built(path)
+    assert build.damage(path) is None
+
+
+@needs_fused
+def test_a_build_waiting_for_another_says_so_then_uses_its_library(cache, capsys):
+    """A second process's first use during a build waited a minute without a word."""
+    path = build.library_path()
+    path.parent.mkdir(parents=True)
+    with open(path.with_suffix(".lock"), "w") as held:
+        fcntl.flock(held, fcntl.LOCK_EX)
+        threading.Timer(2, lambda: fcntl.flock(held, fcntl.LOCK_UN)).start()
+        with at_most(120):
+            build.ensure_built(path)
+    said = capsys.readouterr().err.splitlines()
+    assert said[0] == f"waiting for another process's build of {path.name} (about a minute)"
     assert build.damage(path) is None
 
 
@@ -243,6 +260,25 @@ def test_a_target_is_chosen_by_name_and_refused_when_it_is_no_name(monkeypatch):
     monkeypatch.setenv(build.MARCH_ENV, "haswell; rm -rf ~")
     with pytest.raises(build.KernelUnavailable, match="no -march target"):
         build.march()
+
+
+def test_a_target_this_processor_cannot_run_is_refused_before_it_is_built(monkeypatch):
+    """``RNN_SEG_MARCH=sapphirerapids`` on a processor without AMX built a library that killed
+    the first step with SIGILL, no message; a subset of this processor's sets is allowed."""
+    if shutil.which("g++") is None or not build.target_macros(("g++",), "native"):
+        pytest.skip("no g++ to ask for a target's instruction sets")
+    monkeypatch.setenv("CXX", "g++")
+    native = build.target_macros(("g++",), "native")
+    beyond = next((t for t, isa in (("sapphirerapids", "__AMXTILE__"),
+                                    ("skylake-avx512", "__AVX512F__"), ("haswell", "__AVX2__"))
+                   if isa not in native), None)
+    if beyond is None:
+        pytest.skip("this processor runs every target tried")
+    monkeypatch.setenv(build.MARCH_ENV, beyond)
+    with pytest.raises(build.KernelUnavailable, match=f"{beyond}: this processor lacks"):
+        build.check_target()
+    monkeypatch.setenv(build.MARCH_ENV, "x86-64")
+    build.check_target()
 
 
 def test_the_product_path_follows_the_targets_instruction_sets():

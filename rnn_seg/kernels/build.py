@@ -58,6 +58,9 @@ MARCH_ENV = "RNN_SEG_MARCH"
 #: and later Xeons: TensorFlow 2.21's Eigen with g++ 12), by the macro that shows one is on -> the
 #: flag that switches it off again.
 UNUSED_ISAS = {"__AVX512FP16__": "-mno-avx512fp16"}
+#: The predefined macros of the instruction sets a target's code may execute: one this processor
+#: lacks stops the process at its first use (SIGILL), with no message.
+VECTOR_ISA = re.compile(r"__(SSE|AVX|FMA|F16C|BMI|AMX|AES|VAES|GFNI|VPCLMULQDQ|SHA)\w*__")
 BUILD_PREFIX = ".build-"
 #: The most bytes a build record may hold (one is under a kilobyte).
 RECORD_BYTES = 1 << 16
@@ -114,6 +117,26 @@ def target_macros(command: tuple[str, ...], target: str = "native") -> frozenset
         return frozenset()
     return frozenset(line.split()[1] for line in done.stdout.splitlines()
                      if line.startswith("#define "))
+
+
+def check_target() -> None:
+    """Refuse a ``$RNN_SEG_MARCH`` target whose instruction sets this processor lacks (its
+    library would be killed by an illegal instruction at the first step); nothing to check for
+    ``native``, or where the compiler cannot say.
+
+    Raises:
+        KernelUnavailable: naming the instruction sets missing.
+    """
+    target = march()
+    if target == "native":
+        return
+    words = tuple(compiler())
+    here, there = target_macros(words, "native"), target_macros(words, target)
+    missing = sorted(m.strip("_") for m in there - here if VECTOR_ISA.fullmatch(m))
+    if here and missing:
+        raise KernelUnavailable(f"{MARCH_ENV}={target}: this processor lacks "
+                                f"{', '.join(missing)}, which that target's code runs (the "
+                                "process would die of an illegal instruction)")
 
 
 def native_macros(command: str) -> frozenset[str]:
@@ -296,8 +319,8 @@ def _alive(pid: int) -> bool:
 
 @contextmanager
 def build_lock(path: Path) -> Iterator[None]:
-    """Hold ``path``'s build lock (a lock file beside it); where the folder cannot be written,
-    no lock (and no build either)."""
+    """Hold ``path``'s build lock (a lock file beside it), saying so in one line when another
+    process holds it; where the folder cannot be written, no lock (and no build either)."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd = os.open(path.with_suffix(".lock"), os.O_WRONLY | os.O_CREAT | os.O_NONBLOCK)
@@ -305,7 +328,12 @@ def build_lock(path: Path) -> Iterator[None]:
         yield
         return
     with os.fdopen(fd, "w") as handle:
-        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            print(f"waiting for another process's build of {path.name} (about a minute)",
+                  file=sys.stderr, flush=True)
+            fcntl.flock(handle, fcntl.LOCK_EX)
         yield
 
 
@@ -356,6 +384,7 @@ def loaded() -> tuple[ModuleType, Path]:
     """``library``'s ops and the path they were loaded from (once per process)."""
     if not SOURCE.is_file():
         raise KernelUnavailable(f"{SOURCE} is missing from the installation")
+    check_target()
     path = library_path()
     try:
         ensure_built(path)
