@@ -50,6 +50,8 @@ OPS = ("MtrnnLstmForward", "MtrnnLstmBackward")
 FORWARD_OP = OPS[0]
 #: The longest a build may take before it is stopped (a first build takes 25-60 s).
 BUILD_SECONDS = 240
+#: The longest the compiler may take to list a target's macros (it takes well under a second).
+MACROS_SECONDS = 20
 #: Seconds between the lines a build prints while the compiler works.
 PROGRESS_SECONDS = 15
 MARCH_ENV = "RNN_SEG_MARCH"
@@ -109,14 +111,22 @@ def march() -> str:
 
 @lru_cache(maxsize=None)
 def target_macros(command: tuple[str, ...], target: str = "native") -> frozenset[str]:
-    """The macros ``command -march=target`` predefines (empty when it cannot say)."""
+    """The macros ``command -march=target`` predefines (empty when it cannot say, or takes
+    over ``MACROS_SECONDS``: then stopped with every process it started)."""
     try:
-        done = subprocess.run([*command, f"-march={target}", "-dM", "-E", "-x", "c++",
-                               os.devnull], capture_output=True, text=True, timeout=60)
-    except (OSError, subprocess.TimeoutExpired):
+        process = subprocess.Popen([*command, f"-march={target}", "-dM", "-E", "-x", "c++",
+                                    os.devnull], stdout=subprocess.PIPE,
+                                   stderr=subprocess.DEVNULL, text=True, start_new_session=True)
+    except OSError:
         return frozenset()
-    return frozenset(line.split()[1] for line in done.stdout.splitlines()
-                     if line.startswith("#define "))
+    try:
+        said, _ = process.communicate(timeout=MACROS_SECONDS)
+    except subprocess.TimeoutExpired:
+        _stop(process)
+        process.stdout.close()
+        return frozenset()
+    return frozenset(line.split()[1] for line in said.splitlines()
+                     if line.startswith("#define ") and len(line.split()) > 1)
 
 
 def check_target() -> None:
