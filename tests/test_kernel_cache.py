@@ -109,6 +109,23 @@ def test_a_folder_or_fifo_in_the_caches_place_is_refused_and_left(cache, which, 
 
 
 @needs_fused
+def test_a_damaged_library_in_a_read_only_cache_is_named_not_said_removed(cache, capsys,
+                                                                          monkeypatch):
+    path = build.library_path()
+    build.ensure_built(path)
+    capsys.readouterr()
+    _damaged("truncated", path)
+
+    def refuse(self, *args, **kwargs):
+        raise PermissionError(1, "Operation not permitted", str(self))
+
+    monkeypatch.setattr(Path, "unlink", refuse)
+    with pytest.raises(build.KernelUnavailable, match="cannot be removed .*read-only"):
+        build.ensure_built(path)
+    assert "removed" not in capsys.readouterr().err
+
+
+@needs_fused
 def test_a_fifo_as_the_build_lock_is_no_lock_and_no_hang(cache):
     path = build.library_path()
     path.parent.mkdir(parents=True)

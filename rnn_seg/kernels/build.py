@@ -365,8 +365,12 @@ def ensure_built(path: Path) -> None:
     with build_lock(path):
         problem = damage(path) if path.is_file() else None
         if problem:
+            try:
+                path.unlink()
+            except OSError as error:
+                raise KernelUnavailable(f"{path}: {problem}, and it cannot be removed "
+                                        f"({error.strerror}): the cache is read-only") from None
             print(f"{path}: {problem}; removed, building it again", file=sys.stderr)
-            path.unlink()
         if not path.is_file():
             build(path)
 
