@@ -17,8 +17,6 @@ import argparse
 import sys
 from pathlib import Path
 
-from jigsaws_tools.cli.arg_types import positive_float
-
 from .common import add_out_options, check_folders, publish
 
 SUMMARY = "an execution path (fused loops, bf16) against its reference"
@@ -32,7 +30,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="the grid (or scores archive) run on the path compared")
     parser.add_argument("--reference", type=Path, metavar="REF", required=True,
                         help="the grid it repeats, on the reference path (required)")
-    parser.add_argument("--margin", type=positive_float, metavar="POINTS", required=True,
+    parser.add_argument("--margin", type=float, metavar="POINTS", required=True,
                         help="the equivalence margin in percentage points, e.g. 2.0 (required)")
     add_out_options(parser, MANIFEST)
 
