@@ -61,9 +61,10 @@ setup(
         "dask": ["dask[distributed]>=2026.8"],
         # pytest-xdist: the suite on every core (tests/conftest.py)
         "test": ["pytest>=9,<10", "pytest-xdist>=3.8,<4", "dask[distributed]>=2026.8",
-                 "mlflow-skinny>=3.17,<4"],
-        # MLflow's tracking client: multitask-train / multitask-grid --mlflow URI
-        "mlflow": ["mlflow-skinny>=3.17,<4"],
+                 "mlflow-skinny>=3.17,<4", "sqlalchemy>=2.1,<3", "alembic>=1.20,<2"],
+        # MLflow's tracking client: multitask-train / multitask-grid --mlflow URI; SQLAlchemy and
+        # alembic for its database stores (sqlite:///mlflow.db), which mlflow-skinny leaves out
+        "mlflow": ["mlflow-skinny>=3.17,<4", "sqlalchemy>=2.1,<3", "alembic>=1.20,<2"],
         # TensorBoard, to view what --tensorboard writes (training writes it without)
         "tensorboard": ["tensorboard>=2.21,<3"],
         # PyTorch, a peer bench/lstm_sweep.py times beside rnn_seg (pinned: numbers name one version)

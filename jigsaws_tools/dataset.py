@@ -24,7 +24,7 @@ import numpy as np
 from .annotations import amendment_table_text, apply_amendments, check_version
 from .errors import DefinitionError, JigsawsError
 from .features import DEFAULT_FEATURE_SET, feature_names
-from .messages import data_logger
+from .messages import cache_unwritable, data_logger
 from .preprocessing import PreprocessConfig, decimation, preprocess
 from .progress import progress_labels
 from .recording_format import (JIGSAWS_FORMAT, RecordingFormat, check_feature_columns,
@@ -297,8 +297,7 @@ def _write_cache(cache_dir: Path, key: str, dataset: Dataset) -> None:
         _atomic_write(cache_dir / f"{key}.json",
                       lambda f: f.write(json.dumps(meta, indent=1).encode()))
     except OSError as error:
-        log.warning("cannot write the dataset cache in %s (%s); continuing without it",
-                    cache_dir, error.strerror or error)
+        cache_unwritable(cache_dir, error, "continuing without it")
 
 
 def _atomic_write(path: Path, write) -> None:

@@ -24,22 +24,39 @@ class NotRegularFileError(JigsawsError, ValueError):
         self.path, self.kind = Path(path), kind
 
 
-def read_regular(path: Path | str) -> bytes:
+class FileTooLargeError(JigsawsError, ValueError):
+    """A file to read holds more than the ``limit`` bytes its kind of file may."""
+
+    def __init__(self, path: Path | str, limit: int):
+        super().__init__(f"{path}: larger than {limit} bytes")
+        self.path, self.limit = Path(path), limit
+
+
+def read_regular(path: Path | str, limit: int | None = None) -> bytes:
     """The bytes of the regular file ``path``; ``NotRegularFileError`` naming it for a FIFO, a
     socket or a device (at once, without waiting for a writer), ``IsADirectoryError`` for a
-    folder, the usual ``OSError`` for a missing or unreadable one."""
+    folder, the usual ``OSError`` for a missing or unreadable one, and ``FileTooLargeError``
+    for one of more than ``limit`` bytes (None: any size), read no further."""
     fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
     with os.fdopen(fd, "rb") as f:
-        mode = os.fstat(fd).st_mode
-        if stat.S_ISDIR(mode):
+        status = os.fstat(fd)
+        if stat.S_ISDIR(status.st_mode):
             raise IsADirectoryError(21, "Is a directory", str(path))
-        if not stat.S_ISREG(mode):
-            raise NotRegularFileError(path, _kind(mode))
+        if not stat.S_ISREG(status.st_mode):
+            raise NotRegularFileError(path, file_kind(status.st_mode))
+        if limit is not None and status.st_size > limit:
+            raise FileTooLargeError(path, limit)
         os.set_blocking(fd, True)
-        return f.read()
+        data = f.read() if limit is None else f.read(limit + 1)
+        if limit is not None and len(data) > limit:         # it grew while read
+            raise FileTooLargeError(path, limit)
+        return data
 
 
-def _kind(mode: int) -> str:
+def file_kind(mode: int) -> str:
+    """What a file of ``st_mode`` ``mode`` that is no regular file is, in words."""
+    if stat.S_ISDIR(mode):
+        return "a folder"
     if stat.S_ISFIFO(mode):
         return "a FIFO (named pipe)"
     if stat.S_ISSOCK(mode):

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import logging
 import sys
+from pathlib import Path
 
 PACKAGE_LOGGER = "jigsaws_tools"
 FORMAT = "%(levelname)s: %(message)s"
@@ -44,6 +45,8 @@ class OnceFilter(logging.Filter):
 
 #: The filter of every data logger.
 ONCE = OnceFilter()
+#: The cache folders found unwritable in this command (``cache_unwritable``).
+_UNWRITABLE: set[str] = set()
 
 
 def data_logger(name: str) -> logging.Logger:
@@ -57,6 +60,18 @@ def data_logger(name: str) -> logging.Logger:
 def new_command() -> None:
     """Start a new command: every data warning may be said once more."""
     ONCE.clear()
+    _UNWRITABLE.clear()
+
+
+def cache_unwritable(cache_dir: Path | str, error: OSError, instead: str) -> None:
+    """The one warning of a command that its cache folder ``cache_dir`` cannot be written
+    (``error``), saying what is done ``instead``; later failures to write there (the synthetic
+    release, then the preprocessed data) say nothing more."""
+    if str(cache_dir) in _UNWRITABLE:
+        return
+    _UNWRITABLE.add(str(cache_dir))
+    data_logger(f"{PACKAGE_LOGGER}.cache").warning(
+        "cannot write the cache folder %s (%s); %s", cache_dir, error.strerror or error, instead)
 
 
 class _UnconfiguredHandler(logging.Handler):

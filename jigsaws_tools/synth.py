@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import JigsawsError
-from .messages import data_logger
+from .messages import cache_unwritable, data_logger
 from .release import KINEMATICS_HZ, kinematics_dir, meta_path, trial_name, transcriptions_dir
 from .task_definition import SUTURING, SynthGrammar, SynthStep, TaskDefinition
 
@@ -251,6 +251,9 @@ def ensure_release(cache_dir: Path | str, config: SynthConfig = SynthConfig(),
         config: the generator's seed, users, trials per user and noise.
         task: the task written; its definition must have a synthetic grammar.
 
+    A ``cache_dir`` that cannot be written is one warning (``messages.cache_unwritable``), and
+    the release is written under ``fallback_cache_dir()`` instead.
+
     Returns:
         The release folder, ``<cache_dir>/synthetic-seed<seed>-<hash>/<task name>``.
     """
@@ -262,8 +265,16 @@ def ensure_release(cache_dir: Path | str, config: SynthConfig = SynthConfig(),
         if problem is None:
             return target
         log.warning("%s: %s; writing the synthetic release again", target, problem)
-    target.parent.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(dir=target.parent.parent, prefix=".synthetic-"))
+    try:
+        target.parent.parent.mkdir(parents=True, exist_ok=True)
+        staging = Path(tempfile.mkdtemp(dir=target.parent.parent, prefix=".synthetic-"))
+    except OSError as error:
+        fallback = fallback_cache_dir()
+        if Path(cache_dir) == fallback:
+            raise
+        cache_unwritable(cache_dir, error, f"the synthetic release is written to {fallback} "
+                                           "instead, and preprocessed data are not cached")
+        return ensure_release(fallback, config, task)
     aside = staging.with_name(staging.name + "-old")      # an edited copy, removed at the end
     try:
         write_release(staging / task.name, config, task)
@@ -278,6 +289,14 @@ def ensure_release(cache_dir: Path | str, config: SynthConfig = SynthConfig(),
         shutil.rmtree(staging, ignore_errors=True)
         shutil.rmtree(aside, ignore_errors=True)
     return target
+
+
+def fallback_cache_dir() -> Path:
+    """Where a synthetic release is written when the cache folder cannot be: this user's
+    folder in the system's temporary folder (the same for every command, so that a grid's
+    record names one release)."""
+    user = os.getuid() if hasattr(os, "getuid") else os.getlogin()
+    return Path(tempfile.gettempdir()) / f"mtrnn-jigsaws-{user}"
 
 
 def _digests(release: Path) -> dict[str, str]:

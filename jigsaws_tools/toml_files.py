@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any, Callable, TypeVar
 
 from .errors import DefinitionError, JigsawsError
-from .files import NotRegularFileError, read_regular
+from .files import FileTooLargeError, NotRegularFileError, read_regular
 
 T = TypeVar("T")
 
@@ -49,13 +49,22 @@ def find_definition(value: str | Path, kind: str, what: str, read: Callable[[Pat
                        f"or pass a {what} file (*.toml)")
 
 
-def read_toml(path: Path | str, what: str) -> dict:
-    """The tables of the TOML file ``path`` (UTF-8, a byte-order mark allowed).
+#: The largest TOML file read, in bytes: every definition, spec or plan is a few kilobytes; a
+#: larger file is refused before it is read (a mistaken path, or a parse that would not end).
+MAX_TOML_BYTES = 1 << 20
 
-    A missing file, a folder, a FIFO or other non-regular file (refused at once, ``files``), an
-    unreadable or non-UTF-8 file, or invalid TOML is a one-line ``DefinitionError`` naming the
-    file and what it should be (``x.toml: no such spec file``), not the operating system's
-    ``[Errno 2] ...``.
+
+def read_toml(path: Path | str, what: str) -> dict:
+    """The tables of the TOML file ``path`` (UTF-8, a byte-order mark allowed): the one reader of
+    every TOML file the project reads (task definitions, recording formats, grid specs,
+    confirmatory plans and their exploratory analyses).
+
+    A missing file, a folder, a FIFO or other non-regular file (refused at once, ``files``), a
+    file of more than ``MAX_TOML_BYTES``, an unreadable or non-UTF-8 file, invalid TOML, arrays
+    or tables nested deeper than Python's parser reaches, or an integer longer than Python
+    converts (4300 digits) is a one-line ``DefinitionError`` naming the file and what it should
+    be (``x.toml: no such spec file``), not the operating system's ``[Errno 2] ...`` or a
+    traceback. Values are TOML's: a float may be ``inf`` or ``nan``, for the caller to refuse.
 
     Args:
         path: the file.
@@ -63,7 +72,7 @@ def read_toml(path: Path | str, what: str) -> dict:
     """
     path = Path(path)
     try:
-        return tomllib.loads(read_regular(path).decode("utf-8-sig"))
+        return tomllib.loads(read_regular(path, MAX_TOML_BYTES).decode("utf-8-sig"))
     except FileNotFoundError:
         problem = f"no such {what} file"
     except IsADirectoryError:
@@ -74,10 +83,16 @@ def read_toml(path: Path | str, what: str) -> dict:
         problem = f"cannot read this {what} file ({error.strerror or error})"
     except NotRegularFileError as error:
         problem = f"{error.kind}, not a {what} file"
+    except FileTooLargeError as error:
+        problem = f"not a {what} file: larger than {error.limit} bytes"
     except UnicodeDecodeError as error:
         problem = f"not a {what} file: not UTF-8 text (byte {error.start})"
     except tomllib.TOMLDecodeError as error:
         problem = f"not valid TOML: {error}"
+    except RecursionError:
+        problem = f"not a {what} file: arrays or tables nested too deeply to read"
+    except ValueError as error:         # int() of more digits than Python converts; a NUL byte
+        problem = f"not a {what} file: {str(error).split(':')[0].lower()}"
     raise DefinitionError(path, None, None, problem)
 
 

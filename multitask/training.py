@@ -53,11 +53,22 @@ def train(variant: str = DEFAULT_VARIANT, weighting: str = WEIGHTINGS[0], *,
         The ``TrainedRun`` of ``out``.
 
     Raises:
-        ValueError: a setting the command has not, or a value it refuses (the message is the
-            command's); also bad data, a folder in use or of other settings, as the command.
+        ValueError: before anything is read or written: a setting the command has not, a value
+            it refuses, an empty path (the message is the command's), an ``out`` that may not
+            hold a run (a file, a grid's folder), an unusable ``mlflow`` URI
+            (``rnn_seg.runs.tracking.TrackingError``); then, as the command: a task definition,
+            recording format or release file that is none (``jigsaws_tools.errors``), a run
+            folder in use or of other settings (``rnn_seg.runs.folder.RunFolderError``).
+        FileNotFoundError: the release folder, or a file it must hold, is missing
+            (``jigsaws_tools.errors.ReleaseNotFoundError``, which says how to obtain JIGSAWS or
+            write a synthetic release); ``OSError`` for another file that cannot be read.
+        jigsaws_tools.errors.WriteFailed: the disk refused a write (full, or a quota), naming
+            the file; the run resumes from its last checkpoint once there is room.
         rnn_seg.trainer.TrainingDiverged: the loss became NaN or infinite.
+        KeyboardInterrupt: passed on; the run resumes from its last checkpoint.
     """
     from jigsaws_tools.cli.common import import_tensorflow
+    from jigsaws_tools.errors import WriteFailed
     from rnn_seg.runs.outputs import check_output_folder
     from rnn_seg.runs.tracking import Tracker
 
@@ -76,7 +87,13 @@ def train(variant: str = DEFAULT_VARIANT, weighting: str = WEIGHTINGS[0], *,
     import_tensorflow()
     from .inference.trained_run import load_run
 
-    train_configured(args, chosen, configs, say)
+    try:
+        train_configured(args, chosen, configs, say)
+    except OSError as error:                 # a full disk, named as the command names it
+        failed = WriteFailed.from_os_error(error)
+        if failed is None:
+            raise
+        raise failed from None
     if tracker is not None:
         log_to_mlflow(tracker, args.out, say)
     return load_run(args.out)

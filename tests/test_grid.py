@@ -636,3 +636,99 @@ def test_archive_leaves_out_unfinished_runs_and_replaces_only_an_archive(tmp_pat
     with pytest.raises(SystemExit):
         tables_main(["archive", str(grid), str(archive), "--out", str(notes)])
     assert "leave out --out" in capsys.readouterr().err
+
+
+def _snapshot(folder: Path) -> dict[str, tuple[int, int]]:
+    """Every entry of ``folder`` with its size and modification time: what a dry run leaves."""
+    return {str(p.relative_to(folder)): (p.lstat().st_size, p.lstat().st_mtime_ns)
+            for p in sorted(folder.rglob("*"))}
+
+
+def _other_settings(grid: Path) -> None:
+    """One run folder holding a run of another width than the spec's."""
+    config = grid / RunKey("revised", "bidirectional", "A", "fixed", 0, "C").path() / "config.json"
+    data = json.loads(config.read_text())
+    data["run"]["encoder"]["hidden"] = 8
+    config.write_text(json.dumps(data))
+
+
+#: Folder states of a grid, and the words of the launch's refusal (None: it goes ahead).
+FOLDER_STATES = {
+    "finished": (lambda grid, spec: None, None),
+    "another spec": (lambda grid, spec: spec.write_text(spec.read_text().replace(
+        "hidden = 16", "hidden = 8")), "records another grid"),
+    "a run of other settings": (lambda grid, spec: _other_settings(grid),
+                                "1 run folder(s) hold runs with other settings"),
+    "a stale lock": (lambda grid, spec: (grid / ".lock").write_text(
+        f"{_dead_pid()} {os.uname().nodename} 2026-12-01T10:00\n"), None),
+}
+
+
+def _dead_pid() -> int:
+    child = subprocess.Popen([sys.executable, "-c", "pass"])
+    child.wait()
+    return child.pid
+
+
+@pytest.mark.parametrize("state", FOLDER_STATES)
+def test_a_dry_run_refuses_what_the_launch_refuses_and_writes_nothing(
+        tmp_path, tiny_spec, tiny_grid, capsys, state):
+    """Issue 66: the dry run listed runs over a folder whose record is another spec's, or whose
+    run folders hold other settings, which the launch refuses. Both now refuse in the same
+    words, or both go ahead (a stale lock is taken); the dry run writes nothing."""
+    grid, spec = tmp_path / "grid", tmp_path / "spec.toml"
+    shutil.copytree(tiny_grid, grid)
+    shutil.copy(tiny_spec, spec)
+    change, refusal = FOLDER_STATES[state]
+    change(grid, spec)
+    before = _snapshot(grid)
+    command = ["--spec", str(spec), "--out", str(grid)]
+    dry = grid_main([*command, "--dry-run"])
+    said = capsys.readouterr()
+    assert _snapshot(grid) == before
+    if refusal is None:
+        assert dry == 0 and "4 runs, 4 already finished, 0 to run" in said.out
+        assert grid_main(command) == 0
+        assert "grid complete" in capsys.readouterr().out
+        return
+    assert dry == 2 and refusal in said.err
+    assert grid_main(command) == 2
+    assert capsys.readouterr().err == said.err
+
+
+def test_a_dry_run_says_which_runs_resume_and_which_are_trained_afresh(
+        tmp_path, tiny_spec, tiny_grid, capsys):
+    """Per run still to run: resumed from its checkpoint (its epochs done), trained afresh
+    (with --restart, a folder of other settings), or trained; a live holder of the grid's lock
+    stops it as it stops the launch; an archive's copy counts its finished runs."""
+    grid = tmp_path / "grid"
+    shutil.copytree(tiny_grid, grid)
+    partial = grid / RunKey("revised", "bidirectional", "APc", "fixed", 0, "B").path()
+    (partial / "finished.json").unlink()
+    _other_settings(grid)
+    command = ["--spec", str(tiny_spec), "--out", str(grid), "--dry-run", "--restart"]
+    before = _snapshot(grid)
+    assert grid_main(command) == 0
+    out = capsys.readouterr().out
+    assert f"{partial.relative_to(grid)} (resumes after 3 of its epochs)" in out
+    assert "A-fixed/seed0/C (other settings: cleared, trained afresh)" in out
+    assert "4 runs, 2 already finished, 2 to run (1 resumed, 1 trained afresh)" in out
+    assert _snapshot(grid) == before
+    holder = subprocess.Popen([sys.executable, "-c", (
+        "import sys, time; from rnn_seg.runs.lock import hold_folder\n"
+        f"with hold_folder({str(grid)!r}, 'grid folder'):\n"
+        "    print('held', flush=True); time.sleep(120)")],
+        stdout=subprocess.PIPE, text=True, cwd=Path(__file__).resolve().parents[1])
+    try:
+        assert holder.stdout.readline() == "held\n"
+        assert grid_main(command) == 2
+        assert f"grid folder {grid} is in use by pid {holder.pid}" in capsys.readouterr().err
+    finally:
+        holder.kill()
+        holder.wait()
+    archive, copy = tmp_path / "archive", tmp_path / "copy"
+    assert tables_main(["archive", str(tiny_grid), str(archive)]) == 0
+    shutil.copytree(archive, copy)
+    capsys.readouterr()
+    assert grid_main(["--spec", str(tiny_spec), "--out", str(copy), "--dry-run"]) == 0
+    assert "4 runs, 4 already finished, 0 to run" in capsys.readouterr().out

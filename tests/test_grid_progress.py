@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import io
 import os
+import re
 import signal
 import socket
 import subprocess
@@ -14,7 +15,7 @@ from pathlib import Path
 import pytest
 
 from multitask.grid import executors
-from multitask.grid.progress import Progress, last_epoch
+from multitask.grid.progress import Progress, last_epoch, live_console, run_label
 from multitask.grid.spec import RunKey
 
 KEYS = [RunKey("revised", "bidirectional", "A", "fixed", 0, fold) for fold in "BCDE"]
@@ -79,19 +80,43 @@ def test_a_history_row_cut_short_is_not_read(tmp_path):
     assert last_epoch(tmp_path / "nothing") == (0.0, None)
 
 
-def test_the_live_panel_shows_each_running_run_on_a_terminal(tmp_path):
+@pytest.mark.parametrize("width", [150, 80])
+def test_the_live_panel_shows_each_running_run_on_a_terminal(tmp_path, width):
+    """Each running run by a name that tells it from the others, whole, at 80 columns too
+    (issue 66: every name was cut to ``runs/revised/bidirectional/AP…``)."""
     from rich.console import Console
 
     screen = io.StringIO()
-    console = Console(file=screen, force_terminal=True, width=150)
-    _training(tmp_path, KEYS[0], epochs=3)
-    progress = Progress(2, 0, print, {k: 10.0 for k in KEYS[:2]}, out=tmp_path, live=console)
+    console = Console(file=screen, force_terminal=True, width=width)
+    keys = [RunKey("revised", "bidirectional", "APoc", "gradnorm", seed, fold)
+            for seed in (0, 1) for fold in "BC"] + [
+        RunKey("original", "forward", "APoc", "gradnorm", 0, "B")]
+    for key in keys:
+        _training(tmp_path, key, epochs=3)
+    queued = RunKey("revised", "bidirectional", "APoc", "gradnorm", 2, "B")
+    progress = Progress(6, 0, print, {k: 10.0 for k in [*keys, queued]}, out=tmp_path,
+                        live=console)
     with progress.watching(every=0.05):
         progress.poll()
         console.print("a log line")
-    shown = screen.getvalue()
-    assert "a log line" in shown and "0/2 done, 1 running, 1 queued" in shown
-    assert "epoch 3/10" in shown and str(KEYS[0].path()) in shown
+    shown = re.sub(r"\x1b\[[0-9;?]*[A-Za-z]", "", screen.getvalue())
+    assert "a log line" in shown and "0/6 done, 5 running, 1 queued" in shown
+    rows = {re.split(r"\s*[━╺]", line.strip())[0] for line in shown.splitlines()
+            if "epoch 3/10" in line}
+    assert rows == {run_label(key) for key in keys} and len(rows) == len(keys)
+    assert max(map(len, shown.splitlines())) <= width
+    assert run_label(keys[-1]) == "original/forward/APoc-gradnorm seed0 B"
+
+
+@pytest.mark.parametrize("term, panel", [("xterm-256color", True), ("dumb", False)])
+def test_a_dumb_terminal_gets_plain_lines_not_a_panel_it_cannot_draw(monkeypatch, term, panel):
+    """``TERM=dumb`` cannot redraw lines: the live panel would show nothing there (issue 66), so
+    the grid prints its plain status lines instead (``live_console`` is None)."""
+    from rich.console import Console
+
+    monkeypatch.setenv("TERM", term)
+    console = Console(file=io.StringIO(), force_terminal=True)
+    assert (live_console(console) is console) == panel
 
 
 def _dies_once(payload, keys, out, cores, command):

@@ -5,11 +5,13 @@ later build keeps, and ``$CXX`` may carry flags. Builds here go through a stand-
 copies the suite's own library, so no test compiles for a minute."""
 from __future__ import annotations
 
+import fcntl
 import json
 import os
 import shutil
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -17,6 +19,7 @@ import pytest
 
 from rnn_seg.kernels import build
 from tests.fused_loops import needs_fused
+from tests.test_archive_and_inputs import at_most
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -62,11 +65,18 @@ def _damaged(kind: str, path: Path) -> None:
         build.record_path(path).unlink()
     elif kind == "unreadable record":
         build.record_path(path).write_text("{not json")
+    elif kind == "record nested too deeply":
+        build.record_path(path).write_text("[" * 100_000 + "]" * 100_000)
+    elif kind in ("another TensorFlow's", "another source's"):       # a cache copied across
+        record = json.loads(build.record_path(path).read_text())
+        key = "tensorflow" if kind == "another TensorFlow's" else "source_sha256"
+        build.record_path(path).write_text(json.dumps({**record, key: "2.0.0"}))
 
 
 @needs_fused
 @pytest.mark.parametrize("kind", ["truncated", "empty", "same size, other bytes", "no record",
-                                  "unreadable record"])
+                                  "unreadable record", "record nested too deeply",
+                                  "another TensorFlow's", "another source's"])
 def test_a_damaged_library_is_found_and_rebuilt_before_it_is_loaded(cache, capsys, kind):
     path = build.library_path()
     build.ensure_built(path)
@@ -78,6 +88,73 @@ def test_a_damaged_library_is_found_and_rebuilt_before_it_is_loaded(cache, capsy
     said = capsys.readouterr().err.splitlines()
     assert said[0].startswith(f"{path}: ") and said[0].endswith("removed, building it again")
     assert path.read_bytes() == good and build.damage(path) is None
+
+
+@needs_fused
+@pytest.mark.parametrize("which", ["library", "record"])
+@pytest.mark.parametrize("kind", ["folder", "FIFO"])
+def test_a_folder_or_fifo_in_the_caches_place_is_refused_and_left(cache, which, kind):
+    """Neither waits for a writer (a FIFO record hung every process) nor costs the library (a
+    folder as the record had it removed, then every build failed after compiling)."""
+    path = build.library_path()
+    build.ensure_built(path)
+    taken = path if which == "library" else build.record_path(path)
+    taken.unlink()
+    taken.mkdir() if kind == "folder" else os.mkfifo(taken)
+    with at_most(60), pytest.raises(build.KernelUnavailable,
+                                    match=f"{taken} is a {kind}.*move it away"):
+        build.ensure_built(path)
+    assert taken.exists() and not taken.is_file()
+    assert which == "library" or path.is_file()            # the library was not removed
+
+
+@needs_fused
+def test_a_damaged_library_in_a_read_only_cache_is_named_not_said_removed(cache, capsys,
+                                                                          monkeypatch):
+    path = build.library_path()
+    build.ensure_built(path)
+    capsys.readouterr()
+    _damaged("truncated", path)
+
+    def refuse(self, *args, **kwargs):
+        raise PermissionError(1, "Operation not permitted", str(self))
+
+    monkeypatch.setattr(Path, "unlink", refuse)
+    with pytest.raises(build.KernelUnavailable, match="cannot be removed .*read-only"):
+        build.ensure_built(path)
+    assert "removed" not in capsys.readouterr().err
+
+
+@needs_fused
+def test_a_fifo_as_the_build_lock_is_no_lock_and_no_hang(cache):
+    path = build.library_path()
+    path.parent.mkdir(parents=True)
+    os.mkfifo(path.with_suffix(".lock"))
+    with at_most(60):
+        build.ensure_built(path)
+    assert build.damage(path) is None
+
+
+@needs_fused
+def test_a_build_waiting_for_another_says_so_then_uses_its_library(cache, capsys):
+    """A second process's first use during a build waited a minute without a word."""
+    path = build.library_path()
+    path.parent.mkdir(parents=True)
+    with open(path.with_suffix(".lock"), "w") as held:
+        fcntl.flock(held, fcntl.LOCK_EX)
+        threading.Timer(2, lambda: fcntl.flock(held, fcntl.LOCK_UN)).start()
+        with at_most(120):
+            build.ensure_built(path)
+    said = capsys.readouterr().err.splitlines()
+    assert said[0] == f"waiting for another process's build of {path.name} (about a minute)"
+    assert build.damage(path) is None
+
+
+def test_a_compiler_that_writes_no_library_is_refused_for_it(tmp_path, monkeypatch):
+    monkeypatch.setenv("CXX", "true")
+    with pytest.raises(build.KernelUnavailable, match="exited without error but wrote no library"):
+        build.build(tmp_path / "kernels" / "lstm_loops-x.so")
+    assert list((tmp_path / "kernels").iterdir()) == []
 
 
 @needs_fused
@@ -129,7 +206,6 @@ def test_a_hanging_compiler_is_stopped_with_every_process_it_started(tmp_path, m
     pids = tmp_path / "pids"
     hang = tmp_path / "hang"
     hang.write_text(f"""#!/bin/sh
-case " $* " in *" -E "*) exit 1;; esac
 sleep 600 &
 echo $! >> {pids}
 echo $$ >> {pids}
@@ -139,9 +215,11 @@ wait
     monkeypatch.setenv("CXX", str(hang))
     monkeypatch.setattr(build, "BUILD_SECONDS", 2)
     monkeypatch.setattr(build, "PROGRESS_SECONDS", 1)
+    monkeypatch.setattr(build, "MACROS_SECONDS", 2)
     started = time.monotonic()
+    build.target_macros.cache_clear()
     with pytest.raises(build.KernelUnavailable, match="took over 2 s; stopped"):
-        build.build(tmp_path / "kernels" / "lstm_loops-x.so")
+        build.build(tmp_path / "kernels" / "lstm_loops-x.so")    # -E hangs too: stopped
     assert time.monotonic() - started < 60
     for pid in map(int, pids.read_text().split()):
         assert not _running(pid), f"process {pid} of the compiler still runs"
@@ -200,6 +278,25 @@ def test_a_target_is_chosen_by_name_and_refused_when_it_is_no_name(monkeypatch):
     monkeypatch.setenv(build.MARCH_ENV, "haswell; rm -rf ~")
     with pytest.raises(build.KernelUnavailable, match="no -march target"):
         build.march()
+
+
+def test_a_target_this_processor_cannot_run_is_refused_before_it_is_built(monkeypatch):
+    """``RNN_SEG_MARCH=sapphirerapids`` on a processor without AMX built a library that killed
+    the first step with SIGILL, no message; a subset of this processor's sets is allowed."""
+    if shutil.which("g++") is None or not build.target_macros(("g++",), "native"):
+        pytest.skip("no g++ to ask for a target's instruction sets")
+    monkeypatch.setenv("CXX", "g++")
+    native = build.target_macros(("g++",), "native")
+    beyond = next((t for t, isa in (("sapphirerapids", "__AMXTILE__"),
+                                    ("skylake-avx512", "__AVX512F__"), ("haswell", "__AVX2__"))
+                   if isa not in native), None)
+    if beyond is None:
+        pytest.skip("this processor runs every target tried")
+    monkeypatch.setenv(build.MARCH_ENV, beyond)
+    with pytest.raises(build.KernelUnavailable, match=f"{beyond}: this processor lacks"):
+        build.check_target()
+    monkeypatch.setenv(build.MARCH_ENV, "x86-64")
+    build.check_target()
 
 
 def test_the_product_path_follows_the_targets_instruction_sets():

@@ -118,8 +118,10 @@ def _publish_files(out: Path) -> None:
 
 def test_files_killed_at_any_step_of_their_publish_are_finished_by_the_next_call(tmp_path):
     """Among a user's files, the moves of a publish killed midway are finished by the next
-    call, before anything else: the old output or the new one, never a mix; the journal
-    (``pending``) says so meanwhile."""
+    call, before anything else: the old output or the new one, never a mix. A reader who never
+    calls again sees the old output with its manifest, the new one with its own, or files of
+    one of them without a manifest: never a manifest describing files of another output, nor
+    old files beside new ones."""
     def earlier(out: Path) -> None:
         (out / "README.md").parent.mkdir(parents=True)
         (out / "README.md").write_text("mine")
@@ -131,15 +133,20 @@ def test_files_killed_at_any_step_of_their_publish_are_finished_by_the_next_call
     old = visible(scratch)
     steps = steps_of(lambda: _publish_files(scratch))
     new = visible(scratch)
-    assert steps[0] == "journal" and steps[-2:] == ["list", "clear"]
-    assert {"move a.csv", "move added.csv", "remove gone.csv"} <= set(steps)
+    assert steps[:2] == ["journal", "unlist"] and steps[-2:] == ["list", "clear"]
+    assert {"move a.csv", "move added.csv", "remove gone.csv", "remove a.csv"} <= set(steps)
+    assert max(i for i, s in enumerate(steps) if s.startswith("remove")) < min(
+        i for i, s in enumerate(steps) if s.startswith("move"))
     assert json.loads(new["t.json"])["files"] == sorted(NEW)
     for k in range(len(steps)):
         out = tmp_path / f"killed-{k}"
         earlier(out)
         assert killed_at(k, lambda: _publish_files(out)) == KILLED
-        if steps[k] not in ("journal", "clear"):
-            assert "pending" in json.loads((out / "t.json").read_text())
+        seen = visible(out)
+        if "t.json" in seen:                            # what a reader who never calls sees
+            assert seen in (old, new), steps[k]
+        else:
+            assert seen.items() <= old.items() or seen.items() <= new.items(), steps[k]
         with hold_folder(out, "output folder"):         # what the next call does first
             finish_pending(out, "t.json")
         assert visible(out) in (old, new), steps[k]
@@ -215,22 +222,90 @@ def test_an_archive_killed_at_any_step_over_an_earlier_one_is_the_old_or_the_new
         assert _unlocked(copy) == ["archive"], step
 
 
-@pytest.mark.parametrize("pending, refusal", [
-    ({"staging": ".partial-t-x", "remove": ["grid/grid.json"], "files": []}, "grid folder"),
-    ({"staging": "../elsewhere", "remove": [], "files": []}, "not the record of an interrupted"),
-    ({"staging": ".partial-t-x", "remove": ["../outside.csv"], "files": []},
-     "not the record of an interrupted")])
+@pytest.mark.parametrize("journal, refusal", [
+    ({"manifest": {"files": []}, "remove": ["grid/grid.json"]}, "grid folder"),
+    ({"manifest": {"files": []}, "remove": ["../outside.csv"]},
+     "not the journal of an interrupted publish"),
+    ({"manifest": {"files": ["/etc/passwd"]}, "remove": []},
+     "not the journal of an interrupted publish"),
+    ({"remove": []}, "not the journal of an interrupted publish")])
 def test_a_forged_journal_moves_and_removes_nothing_outside_the_outputs_places(
-        tmp_path, pending, refusal):
-    """The journal is read as any input: a removal in a grid held in the folder, a staging
-    folder or a file outside it is refused, naming the manifest, and nothing is touched."""
+        tmp_path, journal, refusal):
+    """The journal is read as any input: a removal in a grid held in the folder, a file
+    outside it or a manifest of another shape is refused, naming the journal, and nothing is
+    touched."""
     out = tmp_path / "out"
     (out / "grid").mkdir(parents=True)
     (out / "grid" / "grid.json").write_text('{"runs": []}')
+    (out / "t.json").write_text('{"written_by": "cmd", "files": []}')
     (tmp_path / "outside.csv").write_text("mine")
-    (out / "t.json").write_text(json.dumps({"written_by": "cmd", "files": [],
-                                            "pending": pending}))
+    work = publish.own_folder(out, ".partial-t-", "", "t.json")
+    (work / "journal.json").write_text(json.dumps(journal))
     with pytest.raises(ValueError, match=refusal):
         _publish_files(out)
     assert (out / "grid" / "grid.json").exists() and (tmp_path / "outside.csv").exists()
-    assert "pending" in json.loads((out / "t.json").read_text())
+    assert (out / "t.json").exists() and work.is_dir()
+
+
+def _users_lookalikes(parent: Path, name: str) -> dict[str, bytes]:
+    """Beside the output ``name`` in ``parent``: the user's own entries whose names a publish's
+    hidden folders could have (``.A.mynotes1.tmp/``, ``.A.backup_1.old.tmp/``,
+    ``.partial-t-notes/``), a file of such a name, a link to a folder of the user's, and a
+    folder whose marker names another output or is a link; returns what they hold."""
+    parent.mkdir(parents=True, exist_ok=True)
+    elsewhere = parent.parent / "elsewhere"
+    _files(elsewhere, {"kept.txt": "mine"})
+    for folder in (f".{name}.mynotes1.tmp", f".{name}.backup_1.old.tmp", ".partial-t-notes",
+                   f".{name}.old_copy.tmp"):
+        _files(parent / folder, {"notes.txt": "mine", "new/a.csv": "mine",
+                                 "journal.json": '{"remove": []}'})
+    (parent / f".{name}.abcdefgh.tmp").write_text("a file of mine")
+    (parent / f".{name}.linked00.tmp").symlink_to(elsewhere)
+    other = publish.own_folder(parent, f".{name}.", ".tmp", "another-output")
+    (other / "notes.txt").write_text("mine")
+    linked = parent / f".{name}.markedln.tmp"
+    _files(linked, {"notes.txt": "mine"})
+    (linked / publish.MARKER).symlink_to(other / publish.MARKER)
+    return _hidden(parent, elsewhere)
+
+
+def _hidden(parent: Path, elsewhere: Path) -> dict[str, bytes]:
+    return {p.relative_to(parent.parent).as_posix(): p.read_bytes()
+            for folder in (parent, elsewhere) for p in sorted(folder.rglob("*"))
+            if p.is_file() and (p.relative_to(folder).parts[0].startswith(".")
+                                or folder == elsewhere) and not p.name.endswith(".lock")}
+
+
+@pytest.mark.parametrize("can_exchange", [True, False], ids=["exchange", "set-aside"])
+def test_a_publish_never_removes_a_users_folder_that_looks_like_its_own(tmp_path, monkeypatch,
+                                                                       can_exchange):
+    """Recovery removes only the hidden folders a publish made (its marker inside): the user's
+    folders, files and links of like names beside the output stay as they were, through
+    publishes, interrupted ones and their recovery."""
+    if not can_exchange:
+        monkeypatch.setattr(publish, "exchange", lambda a, b: False)
+    folder = tmp_path / "place" / "out"
+    users = _users_lookalikes(folder.parent, "out")
+    for k in range(3):
+        assert killed_at(k, lambda: _replace_folder(folder)) in (KILLED, 0)
+        _replace_folder(folder)
+    assert visible(folder) == _as_bytes(NEW)
+    shared = tmp_path / "shared"
+    users_shared = _users_lookalikes(shared, "t")
+    for k in range(6):
+        assert killed_at(k, lambda: _publish_files(shared)) in (KILLED, 0)
+        _publish_files(shared)
+    assert _hidden(folder.parent, tmp_path / "elsewhere") == users
+    assert _hidden(shared, tmp_path / "elsewhere") == users_shared
+    assert not [p for p in [*folder.parent.iterdir(), *shared.iterdir()]
+                if publish.is_own(p, "out") or publish.is_own(p, "t.json")]
+
+
+def test_an_archive_leaves_the_users_folders_of_its_hidden_names(fake_grid, tmp_path):
+    """Issue 66: ``.A.mynotes1.tmp/`` and ``.A.backup_1.old.tmp/`` beside an archive ``A`` are
+    the user's: the next archive into ``A`` leaves them (and the other look-alikes) whole."""
+    dest = tmp_path / "place" / "A"
+    assert tables_main(["archive", str(fake_grid), str(dest)]) == 0
+    users = _users_lookalikes(dest.parent, "A")
+    assert tables_main(["archive", str(fake_grid), str(dest)]) == 0
+    assert _hidden(dest.parent, tmp_path / "elsewhere") == users

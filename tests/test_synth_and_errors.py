@@ -159,3 +159,33 @@ def test_ensure_release_writes_once_and_keys_by_config(tmp_path):
                                                  noise=0.5))
     assert other != first and len(discover(other).trials) == 2
     assert not list(tmp_path.glob(".synthetic-*"))
+
+
+def test_a_cache_that_cannot_be_written_is_one_warning_with_synthetic_data(
+        tmp_path, monkeypatch, caplog):
+    """README: "a cache folder that cannot be written costs one warning and no cache". With
+    ``--synthetic`` the release itself is written to the cache (issue 66: it stopped the command
+    instead): one warning in all, saying where the release goes, for the release and the
+    preprocessed data alike; a second command warns again."""
+    import logging
+    import tempfile
+
+    from jigsaws_tools.dataset import default_cache_dir
+    from jigsaws_tools.messages import new_command
+    from jigsaws_tools.synth import ensure_release, fallback_cache_dir
+
+    (tmp_path / "a-file").write_text("not a folder")
+    monkeypatch.setenv("JIGSAWS_CACHE_DIR", str(tmp_path / "a-file" / "cache"))
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path / "tmp"))
+    (tmp_path / "tmp").mkdir()
+    for _ in range(2):
+        new_command()
+        caplog.clear()
+        with caplog.at_level(logging.WARNING):
+            release = ensure_release(default_cache_dir())
+            load_dataset(DataConfig(str(release)))
+        warnings = [r.getMessage() for r in caplog.records if r.levelno >= logging.WARNING]
+        assert len(warnings) == 1, warnings
+        assert warnings[0].startswith(f"cannot write the cache folder {tmp_path / 'a-file'}")
+        assert f"written to {fallback_cache_dir()} instead" in warnings[0]
+        assert release.is_relative_to(tmp_path / "tmp") and discover(release).users

@@ -43,7 +43,9 @@ Conventions:
   positional argument that became an option) stays usable through ``deprecated_alias``
   (``deprecated_positional``), which prints one deprecation line.
 * **Unknown options** are refused in one line naming the option and the (sub)command
-  (``CommandParser``), before an old positional argument can take the value that followed them.
+  (``CommandParser``), before an old positional argument can take the value that followed them;
+  so is an **empty or blank value** of any option or argument (``--out ""``, ``--mlflow " "``),
+  which would otherwise name the current folder or nothing at all.
 """
 from __future__ import annotations
 
@@ -162,6 +164,14 @@ class CommandParser(argparse.ArgumentParser):
         if message.startswith("the following arguments are required"):
             self._refuse_unknown(getattr(self, "_given", ()))
         super().error(message)
+
+    def _get_value(self, action: argparse.Action, arg_string: str) -> Any:
+        """argparse's conversion of one value, after refusing an empty or blank one for every
+        option and argument: ``--out ""`` would name the current folder, ``--mlflow ""`` no
+        tracking server, ``--data-dir ""`` the default release (``Path("")`` is ``.``)."""
+        if not arg_string.strip() and action.nargs not in (argparse.PARSER, argparse.REMAINDER):
+            raise argparse.ArgumentError(action, f"expected a value, got {arg_string!r}")
+        return super()._get_value(action, arg_string)
 
     def _check_value(self, action: argparse.Action, value: Any) -> None:
         """argparse's check of a value against ``action.choices`` (a subcommand's name too),

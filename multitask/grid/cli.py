@@ -10,7 +10,8 @@ it stops with the differences unless ``--restart``. One grid process per folder 
 Ctrl-C stops every run at once, resumably.
 
 While it trains, the grid shows runs done / running / queued, each running run's epoch and ETA
-and the grid's ETA: a live panel on a terminal, else a status line a minute when it changed
+and the grid's ETA: a live panel on a terminal, else (a file, a pipe, ``TERM=dumb``) a status
+line a minute when it changed
 (``multitask.grid.progress``); a worker that dies is named, and its runs re-queued.
 ``--mlflow URI`` logs the grid to MLflow as a parent run and each run as it finishes
 (``rnn_seg.runs.tracking``).
@@ -172,32 +173,20 @@ def _run(args: argparse.Namespace) -> int:
           f"schedule {budget.describe_schedule()}, seeds {sorted({k.seed for k in keys})}, "
           f"data {spec.data_dir}", flush=True)
     if args.dry_run:
-        if args.archive:                                  # refused now, as it would be then
-            from .archive import check_destination
-            check_destination(args.out, args.archive)
-            print(f"archive: {args.archive} would be kept up to date (not written in a dry run)")
-        pending = [key for key in keys if not is_finished(args.out / key.path())]
-        for group in job_groups(pending, args.stack):           # in the order they run
-            for key in group:
-                print(key.path())
-        print(f"{len(keys)} runs, {len(keys) - len(pending)} already finished, "
-              f"{len(pending)} to run")
-        return 0
+        return _dry_run(args, spec, keys)
     tracker = None
     if args.mlflow:
         from rnn_seg.runs.tracking import Tracker
         tracker = Tracker(args.mlflow)                       # checked before any work
     import_tensorflow()          # quietly: checking run folders builds the runs' tasks
-    from rich.console import Console
-
     from .executors import run_grid
+    from .progress import live_console
     from .record import prepare_grid
     from .spec import spec_payload
 
     def log(message: str) -> None:
         print(message, flush=True)
 
-    console = Console()
     status = "FAILED"
     try:
         with hold_folder(args.out, "grid folder"):
@@ -214,7 +203,7 @@ def _run(args: argparse.Namespace) -> int:
                         after_run(args.out / key.path())
             failed = run_grid(spec, keys, args.out, args.workers, args.scheduler, args.threads,
                               args.stack, log=log, after_job=after_job, after_run=after_run,
-                              live=console if console.is_terminal else None)
+                              live=live_console())
             status = "FAILED" if failed else "FINISHED"
     except KeyboardInterrupt:
         status = "KILLED"
@@ -230,6 +219,40 @@ def _run(args: argparse.Namespace) -> int:
         return 1
     print(f"grid complete: {len(keys)} runs in {args.out}; tables: multitask-tables paper "
           f"{args.out}")
+    return 0
+
+
+def _dry_run(args: argparse.Namespace, spec: GridSpec, keys: list) -> int:
+    """What the launch would do over ``--out``, decided by its own checks, writing nothing: its
+    lock, its record and run folders (``record.plan_launch``: another spec or runs of other
+    settings refused as the launch refuses them), the archive folder as it would be checked after
+    them; then each run it would train, resume or train afresh, in the order they run."""
+    from rnn_seg.runs.folder import trained_units
+    from rnn_seg.runs.lock import check_free
+
+    import_tensorflow()          # quietly: checking run folders builds the runs' tasks
+    from .record import plan_launch
+
+    check_free(args.out, "grid folder")
+    cleared, record = plan_launch(args.out, spec, keys, args.restart)
+    afresh = {str(key.path()) for key in cleared}
+    if args.archive:                                  # refused now, as it would be then
+        from .archive import check_destination
+        check_destination(args.out, args.archive,
+                          {**record, "runs": [r for r in record["runs"] if r not in afresh]})
+        print(f"archive: {args.archive} would be kept up to date (not written in a dry run)")
+    pending = [key for key in keys
+               if str(key.path()) in afresh or not is_finished(args.out / key.path())]
+    resumed = 0
+    for group in job_groups(pending, args.stack, grid=keys):    # in the order they run
+        for key in group:
+            done = 0.0 if str(key.path()) in afresh else trained_units(args.out / key.path())
+            resumed += done > 0
+            note = (" (other settings: cleared, trained afresh)" if str(key.path()) in afresh
+                    else f" (resumes after {done:g} of its epochs)" if done else "")
+            print(f"{key.path()}{note}")
+    print(f"{len(keys)} runs, {len(keys) - len(pending)} already finished, "
+          f"{len(pending)} to run ({resumed} resumed, {len(afresh)} trained afresh)")
     return 0
 
 

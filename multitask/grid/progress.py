@@ -10,8 +10,10 @@ last time per epoch; the grid's is the wall time per epoch of the work done in t
 a run's work is its schedule's epochs (``weights``; runs differ: Pr 80 epochs, APoc 180 at the
 converged preset; a resumed run counts only the epochs after its checkpoint).
 
-On a terminal the state is a live panel (``rich``) under the log lines; elsewhere (a file, a
-pipe, a batch job's log) it is a plain line every ``STATUS_EVERY`` seconds when it changed::
+On a terminal that can redraw lines the state is a live panel (``rich``) under the log lines,
+each running run named by its configuration, seed and fold (``run_label``: ``APoc-gradnorm
+seed0 B``, short enough for 80 columns); elsewhere (a file, a pipe, a batch job's log, a dumb
+terminal: ``TERM=dumb``) it is a plain line every ``STATUS_EVERY`` seconds when it changed::
 
     [grid] 3/10 done, 2 running, 5 queued, ETA 0:12:00 | revised/bidirectional/A-fixed/seed0/B epoch 12/30 ETA 0:01:10; ...
 """
@@ -56,6 +58,16 @@ class RunningRun:
     def describe(self) -> str:
         eta = "" if self.eta is None else f" ETA {self.eta}"
         return f"{self.key.path()} epoch {self.epoch:g}/{self.epochs:g}{eta}"
+
+
+def run_label(key: RunKey) -> str:
+    """A run's name in the live panel: its configuration (prefixed by its labels and direction
+    where they are not the paper's, revised and bidirectional), seed and fold, e.g.
+    ``APoc-gradnorm seed0 B``, ``original/forward/A-fixed seed1 C``."""
+    prefix = "".join(f"{part}/" for part, default in ((key.annotations, "revised"),
+                                                      (key.direction, "bidirectional"))
+                     if part != default)
+    return f"{prefix}{key.config_name} seed{key.seed} {key.fold}"
 
 
 def last_epoch(run_dir: Path) -> tuple[float, float | None]:
@@ -223,6 +235,16 @@ class Progress:
                 self._live.stop()
 
 
+def live_console(console=None):
+    """``console`` (default: ``rich``'s on standard output) where the live panel can be drawn:
+    an interactive terminal, not a dumb one (``TERM=dumb`` cannot redraw lines, and the panel
+    would never show); None elsewhere, for plain status lines."""
+    from rich.console import Console
+
+    console = console if console is not None else Console()
+    return console if console.is_interactive else None
+
+
 class _LivePanel:
     """The grid's state as a ``rich`` live panel: a status line and a bar per running run, kept
     under the log lines (which ``rich`` prints above it)."""
@@ -241,14 +263,19 @@ class _LivePanel:
         self._live.stop()
 
     def update(self, status: str, running: list[RunningRun]) -> None:
+        """The status line, then a row per running run: its name (never cut), a bar as wide as
+        the terminal leaves room for, its epoch and ETA."""
+        from rich.console import Group
         from rich.progress_bar import ProgressBar
         from rich.table import Table
 
+        labels = [f"  {run_label(run.key)}" for run in running]
+        bar = max(4, min(24, self.console.width - max(map(len, labels), default=0) - 30))
         table = Table.grid(padding=(0, 1))
-        table.add_row(f"[bold]grid[/bold] {status}", "", "", "")
-        for run in running:
-            table.add_row(f"  {run.key.path()}",
-                          ProgressBar(total=max(run.epochs, 1), completed=run.epoch, width=24),
+        table.add_column(no_wrap=True)
+        for label, run in zip(labels, running):
+            table.add_row(label,
+                          ProgressBar(total=max(run.epochs, 1), completed=run.epoch, width=bar),
                           f"epoch {run.epoch:g}/{run.epochs:g}",
                           "" if run.eta is None else f"ETA {run.eta}")
-        self._live.update(table)
+        self._live.update(Group(f"[bold]grid[/bold] {status}", table))

@@ -31,10 +31,37 @@ from .spec import GridSpec, RunKey, run_arguments, spec_payload
 SHOWN = 5           # mismatching runs named in full in an error
 
 
+def plan_launch(out: Path, spec: GridSpec, keys: list[RunKey], restart: bool = False
+                ) -> tuple[list[RunKey], dict]:
+    """What launching ``spec`` over ``out`` does to its record and run folders, decided without
+    writing anything (``prepare_grid`` then does it; ``multitask-grid --dry-run`` says it):
+    the runs whose folders hold other settings, cleared and trained afresh (with ``restart``),
+    and the grid record the folder then holds (``spec``, ``runs``).
+
+    Raises:
+        SettingsMismatchError: without ``restart``, ``out``'s record is of another spec, or run
+            folders hold runs of other settings; naming every difference.
+    """
+    out = Path(out)
+    runs = [str(key.path()) for key in keys]
+    kept = (out / GRID_RECORD).is_file() and not restart
+    if kept:
+        _check_record(out, spec, runs)
+    mismatched = _mismatched_runs(out, spec, keys)
+    if mismatched and not restart:
+        shown = "\n".join(details for _, details in mismatched[:SHOWN])
+        more = f"\n... and {len(mismatched) - SHOWN} more" if len(mismatched) > SHOWN else ""
+        raise SettingsMismatchError(
+            f"{out}: {len(mismatched)} run folder(s) hold runs with other settings:\n{shown}{more}",
+            "Use another --out, or --restart to train those runs afresh.")
+    record = read_record(out) if kept else {"spec": spec_payload(spec), "runs": runs}
+    return [key for key, _ in mismatched], record
+
+
 def prepare_grid(out: Path, spec: GridSpec, keys: list[RunKey], restart: bool = False,
                  log: Callable[[str], None] = print) -> None:
     """Check (or with ``restart``, replace) ``out``'s record and run folders for ``spec``'s runs,
-    before any work; raise ``SettingsMismatchError`` naming every difference.
+    before any work (``plan_launch``); raise ``SettingsMismatchError`` naming every difference.
 
     Args:
         out: the grid's folder.
@@ -44,27 +71,16 @@ def prepare_grid(out: Path, spec: GridSpec, keys: list[RunKey], restart: bool = 
         log: where the notes of a restart go.
     """
     out = Path(out)
-    runs = [str(key.path()) for key in keys]
-    path = out / GRID_RECORD
-    if path.is_file() and not restart:
-        _check_record(out, spec, runs)
-    mismatched = _mismatched_runs(out, spec, keys)
-    if mismatched and not restart:
-        shown = "\n".join(details for _, details in mismatched[:SHOWN])
-        more = f"\n... and {len(mismatched) - SHOWN} more" if len(mismatched) > SHOWN else ""
-        raise SettingsMismatchError(
-            f"{out}: {len(mismatched)} run folder(s) hold runs with other settings:\n{shown}{more}",
-            "Use another --out, or --restart to train those runs afresh.")
-    for key, _ in mismatched:
+    cleared, record = plan_launch(out, spec, keys, restart)
+    for key in cleared:
         with hold_folder(out / key.path()):
             clear_run_dir(out / key.path())
-    if mismatched:
-        log(f"[grid] restart: cleared {len(mismatched)} run folder(s) of other settings")
-    if restart or not path.is_file():
+    if cleared:
+        log(f"[grid] restart: cleared {len(cleared)} run folder(s) of other settings")
+    if restart or not (out / GRID_RECORD).is_file():
         old = set(record_runs(out) or ())
-        write_json(path, {"spec": spec_payload(spec), "runs": runs,
-                          "provenance": {**provenance(), "started": now()}})
-        dropped = old - set(runs)
+        write_json(out / GRID_RECORD, {**record, "provenance": {**provenance(), "started": now()}})
+        dropped = old - set(record["runs"])
         if dropped:
             log(f"[grid] {len(dropped)} run folder(s) of the previous record are not runs of this "
                 "spec; multitask-tables reports them until they are removed")

@@ -7,7 +7,8 @@ transcription needed) or a folder of them; with --format, a recording in that fo
 gets NAME.csv (one row per frame of the recording: the predicted gesture name, its class
 probabilities, the progress stage and scores when the model has a progress head) and NAME.png
 (ribbons at 5 Hz); prediction.json records the run, the checkpoint, the inputs and the files
-written. They are written together once every recording is predicted (``rnn_seg.runs.manifest``):
+written. They are written together once every recording is predicted (``rnn_seg.runs.manifest``;
+prediction.json is written last, so that it never describes the CSVs of another prediction):
 ``--overwrite`` replaces an earlier prediction in the folder whole, removing the files its record
 lists that this one does not write, and any other file of an output's name; other files stay, and
 an input recording is never written over. See docs/REPRODUCTION.md for how prediction treats every

@@ -8,9 +8,10 @@ the CPU's instruction-set flags.
 
 A cached library is never loaded unchecked: a build records the library's size, SHA-256 and
 instruction set beside it (``lstm_loops-<key>.json``), and a library whose bytes do not match its
-record (truncated, replaced, or without one) is removed and rebuilt, with one line; a library that
-loads but holds no op is refused in the same way. So a damaged cache costs one rebuild, never a
-crash. A build runs under a lock (one build at a time per library), writes into a temporary
+record (truncated, replaced, or without one) or whose record names another TensorFlow version or
+source is removed and rebuilt, with one line; a library that loads but holds no op is refused in
+the same way. A folder, a FIFO or a device at the library's or the record's name is refused, left
+as it is. So a damaged cache costs one rebuild, never a crash or a hang. A build runs under a lock (one build at a time per library), writes into a temporary
 folder (marked with its process id) renamed into place, record first; a compiler that runs over
 ``BUILD_SECONDS`` is stopped with everything it started; a build folder left by a killed process
 is removed by the next build. ``$CXX`` may carry flags (``CXX="g++ -std=c++17"``).
@@ -25,6 +26,7 @@ import re
 import shlex
 import shutil
 import signal
+import stat
 import subprocess
 import sys
 import tempfile
@@ -39,6 +41,7 @@ import tensorflow as tf
 from tensorflow.python.framework import op_def_registry
 
 from jigsaws_tools.dataset import default_cache_dir
+from jigsaws_tools.files import file_kind, read_regular
 
 from ..config import Precision, cpu_flags
 
@@ -47,6 +50,8 @@ OPS = ("MtrnnLstmForward", "MtrnnLstmBackward")
 FORWARD_OP = OPS[0]
 #: The longest a build may take before it is stopped (a first build takes 25-60 s).
 BUILD_SECONDS = 240
+#: The longest the compiler may take to list a target's macros (it takes well under a second).
+MACROS_SECONDS = 20
 #: Seconds between the lines a build prints while the compiler works.
 PROGRESS_SECONDS = 15
 MARCH_ENV = "RNN_SEG_MARCH"
@@ -55,7 +60,12 @@ MARCH_ENV = "RNN_SEG_MARCH"
 #: and later Xeons: TensorFlow 2.21's Eigen with g++ 12), by the macro that shows one is on -> the
 #: flag that switches it off again.
 UNUSED_ISAS = {"__AVX512FP16__": "-mno-avx512fp16"}
+#: The predefined macros of the instruction sets a target's code may execute: one this processor
+#: lacks stops the process at its first use (SIGILL), with no message.
+VECTOR_ISA = re.compile(r"__(SSE|AVX|FMA|F16C|BMI|AMX|AES|VAES|GFNI|VPCLMULQDQ|SHA)\w*__")
 BUILD_PREFIX = ".build-"
+#: The most bytes a build record may hold (one is under a kilobyte).
+RECORD_BYTES = 1 << 16
 OWNER_FILE = "builder.pid"
 
 
@@ -101,14 +111,42 @@ def march() -> str:
 
 @lru_cache(maxsize=None)
 def target_macros(command: tuple[str, ...], target: str = "native") -> frozenset[str]:
-    """The macros ``command -march=target`` predefines (empty when it cannot say)."""
+    """The macros ``command -march=target`` predefines (empty when it cannot say, or takes
+    over ``MACROS_SECONDS``: then stopped with every process it started)."""
     try:
-        done = subprocess.run([*command, f"-march={target}", "-dM", "-E", "-x", "c++",
-                               os.devnull], capture_output=True, text=True, timeout=60)
-    except (OSError, subprocess.TimeoutExpired):
+        process = subprocess.Popen([*command, f"-march={target}", "-dM", "-E", "-x", "c++",
+                                    os.devnull], stdout=subprocess.PIPE,
+                                   stderr=subprocess.DEVNULL, text=True, start_new_session=True)
+    except OSError:
         return frozenset()
-    return frozenset(line.split()[1] for line in done.stdout.splitlines()
-                     if line.startswith("#define "))
+    try:
+        said, _ = process.communicate(timeout=MACROS_SECONDS)
+    except subprocess.TimeoutExpired:
+        _stop(process)
+        process.stdout.close()
+        return frozenset()
+    return frozenset(line.split()[1] for line in said.splitlines()
+                     if line.startswith("#define ") and len(line.split()) > 1)
+
+
+def check_target() -> None:
+    """Refuse a ``$RNN_SEG_MARCH`` target whose instruction sets this processor lacks (its
+    library would be killed by an illegal instruction at the first step); nothing to check for
+    ``native``, or where the compiler cannot say.
+
+    Raises:
+        KernelUnavailable: naming the instruction sets missing.
+    """
+    target = march()
+    if target == "native":
+        return
+    words = tuple(compiler())
+    here, there = target_macros(words, "native"), target_macros(words, target)
+    missing = sorted(m.strip("_") for m in there - here if VECTOR_ISA.fullmatch(m))
+    if here and missing:
+        raise KernelUnavailable(f"{MARCH_ENV}={target}: this processor lacks "
+                                f"{', '.join(missing)}, which that target's code runs (the "
+                                "process would die of an illegal instruction)")
 
 
 def native_macros(command: str) -> frozenset[str]:
@@ -161,15 +199,21 @@ def digest(path: Path) -> str:
 
 
 def damage(library: Path) -> str | None:
-    """Why the cached ``library`` may not be loaded (its bytes differ from its build record, or
-    it has none), or None when it matches."""
+    """Why the cached ``library`` may not be loaded (its bytes differ from its build record, the
+    record names another TensorFlow version or source, or it has none), or None when it
+    matches."""
     try:
-        record = json.loads(record_path(library).read_text())
+        record = json.loads(read_regular(record_path(library), RECORD_BYTES).decode())
         size, sha = int(record["size"]), str(record["sha256"])
+        built_for = (str(record["tensorflow"]), str(record["source_sha256"]))
     except FileNotFoundError:
         return "no build record beside it"
-    except (OSError, ValueError, TypeError, KeyError):
+    except (OSError, ValueError, TypeError, KeyError, RecursionError):
         return "its build record is unreadable"
+    if built_for[0] != tf.__version__:
+        return f"built for TensorFlow {built_for[0]}, not {tf.__version__}"
+    if built_for[1] != hashlib.sha256(SOURCE.read_bytes()).hexdigest():
+        return f"built from another {SOURCE.name}"
     try:
         found = library.stat().st_size
     except OSError as error:
@@ -202,6 +246,9 @@ def build(path: Path) -> None:
         (Path(work) / OWNER_FILE).write_text(str(os.getpid()))
         target = Path(work) / path.name
         _compile(compile_command(SOURCE, target), command[0])
+        if not target.is_file() or not target.stat().st_size:
+            raise KernelUnavailable(f"{command[0]} exited without error but wrote no library "
+                                    f"(CXX={os.environ.get('CXX', 'g++')!r})")
         macros = target_macros(tuple(compiler()), march())
         record = Path(work) / record_path(path).name
         record.write_text(json.dumps({
@@ -282,16 +329,21 @@ def _alive(pid: int) -> bool:
 
 @contextmanager
 def build_lock(path: Path) -> Iterator[None]:
-    """Hold ``path``'s build lock (a lock file beside it); where the folder cannot be written,
-    no lock (and no build either)."""
+    """Hold ``path``'s build lock (a lock file beside it), saying so in one line when another
+    process holds it; where the folder cannot be written, no lock (and no build either)."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        handle = open(path.with_suffix(".lock"), "a")
-    except OSError:
+        fd = os.open(path.with_suffix(".lock"), os.O_WRONLY | os.O_CREAT | os.O_NONBLOCK)
+    except OSError:                        # also a FIFO of its name without a reader
         yield
         return
-    with handle:
-        fcntl.flock(handle, fcntl.LOCK_EX)
+    with os.fdopen(fd, "w") as handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            print(f"waiting for another process's build of {path.name} (about a minute)",
+                  file=sys.stderr, flush=True)
+            fcntl.flock(handle, fcntl.LOCK_EX)
         yield
 
 
@@ -303,15 +355,36 @@ def ensure_built(path: Path) -> None:
         KernelUnavailable: the build failed (see ``build``).
         OSError: the cache cannot be written.
     """
+    for part in (path, record_path(path)):
+        kind = _not_a_file(part)
+        if kind:
+            raise KernelUnavailable(f"{part} is {kind}, not the cache's file: move it away and "
+                                    "the library is built there")
     if path.is_file() and not damage(path):
         return
     with build_lock(path):
         problem = damage(path) if path.is_file() else None
         if problem:
+            try:
+                path.unlink()
+            except OSError as error:
+                raise KernelUnavailable(f"{path}: {problem}, and it cannot be removed "
+                                        f"({error.strerror}): the cache is read-only") from None
             print(f"{path}: {problem}; removed, building it again", file=sys.stderr)
-            path.unlink()
         if not path.is_file():
             build(path)
+
+
+def _not_a_file(path: Path) -> str | None:
+    """What ``path`` is when it exists and is no regular file (``a folder``, ``a FIFO (named
+    pipe)``, ...), else None."""
+    try:
+        mode = path.stat().st_mode
+    except FileNotFoundError:
+        return None
+    except OSError as error:
+        return f"unreadable ({error.strerror})"
+    return None if stat.S_ISREG(mode) else file_kind(mode)
 
 
 def library() -> ModuleType:
@@ -325,6 +398,7 @@ def loaded() -> tuple[ModuleType, Path]:
     """``library``'s ops and the path they were loaded from (once per process)."""
     if not SOURCE.is_file():
         raise KernelUnavailable(f"{SOURCE} is missing from the installation")
+    check_target()
     path = library_path()
     try:
         ensure_built(path)

@@ -227,8 +227,9 @@ def write_json(path: Path, obj: Any) -> None:
 
 
 def read_json(path: Path) -> Any:
-    """Parse a strict JSON file; an unreadable or invalid one, or one that is no regular file (a
-    FIFO: refused at once), is a ``RunFolderError`` naming it."""
+    """Parse a strict JSON file; an unreadable or invalid one, one nested too deeply for Python's
+    parser, or one that is no regular file (a FIFO: refused at once), is a ``RunFolderError``
+    naming it."""
     def reject(constant: str):
         raise ValueError(f"{constant} is not strict JSON")
 
@@ -236,6 +237,9 @@ def read_json(path: Path) -> Any:
         return json.loads(read_regular(path).decode("utf-8"), parse_constant=reject)
     except NotRegularFileError as error:
         raise RunFolderError(f"{path}: {error.kind}, not a regular file") from None
+    except RecursionError:
+        raise RunFolderError(f"{path}: not a record: arrays or objects nested too deeply to "
+                             "read") from None
     except (OSError, UnicodeDecodeError, ValueError) as error:
         raise RunFolderError(f"{path}: unreadable or not valid JSON ({error})") from None
 

@@ -145,13 +145,9 @@ def _acquire(folder: Path, what: str, lock_file: str) -> tuple[int, bool] | None
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
-        fields = os.read(fd, 200).decode(errors="replace").split()     # pid host time
+        error = _in_use(folder, what, fd)
         os.close(fd)
-        holder = "another process"
-        if len(fields) == 3:
-            holder = f"pid {fields[0]} on {fields[1]} since {fields[2]}"
-        raise FolderLockedError(f"{what} {folder} is in use by {holder}; wait for it to finish "
-                                "or stop it first") from None
+        raise error from None
     except OSError as error:              # e.g. ENOLCK: a file system without flock
         log.warning("cannot lock %s (%s); continuing without a lock", folder, error)
         return fd, created
@@ -161,6 +157,39 @@ def _acquire(folder: Path, what: str, lock_file: str) -> tuple[int, bool] | None
     os.ftruncate(fd, 0)
     os.write(fd, f"{os.getpid()} {socket.gethostname()} {now()}\n".encode())
     return fd, created
+
+
+def _in_use(folder: Path, what: str, fd: int) -> FolderLockedError:
+    """The error of a second writer of ``folder``, naming the holder its lock file ``fd``
+    records."""
+    fields = os.read(fd, 200).decode(errors="replace").split()     # pid host time
+    holder = "another process"
+    if len(fields) == 3:
+        holder = f"pid {fields[0]} on {fields[1]} since {fields[2]}"
+    return FolderLockedError(f"{what} {folder} is in use by {holder}; wait for it to finish or "
+                             "stop it first")
+
+
+def check_free(folder: Path | str, what: str = "run folder", lock_file: str = LOCK_FILE
+               ) -> None:
+    """Raise the ``FolderLockedError`` that ``hold_folder`` would raise now, without writing
+    anything (for a dry run): the lock file, if there is one, is locked and unlocked at once
+    (a stale one, of a process gone, is free)."""
+    if fcntl is None or not (Path(folder) / lock_file).is_file():
+        return
+    try:
+        fd = os.open(Path(folder) / lock_file, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0))
+    except OSError:
+        return                                  # gone meanwhile, or unusable: hold_folder says
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        fcntl.flock(fd, fcntl.LOCK_UN)
+    except BlockingIOError:
+        raise _in_use(Path(folder), what, fd) from None
+    except OSError:
+        pass                                    # a file system without flock: used unlocked
+    finally:
+        os.close(fd)
 
 
 def _open_lock_file(path: Path, what: str) -> tuple[int | None, bool]:

@@ -15,17 +15,19 @@ place together, and the folder's *manifest* (a JSON file named by the command, e
 - every file written or removed lies in the folder itself, never behind a symbolic link, in a
   run or grid folder it holds, or at a path that is a folder (refused before anything moves);
 - a command that fails or is interrupted leaves the folder as it was, and a folder it created
-  for the output is removed again; the publish itself is journalled (``publish``): the
-  manifest, marked ``pending``, names the complete staging folder and the files to remove
-  before the first file moves, and a call killed among the moves is finished by the next call
-  writing that output (``finish_pending``), before it looks at the folder. Meanwhile the
-  manifest lists the old and the new files together, and says ``pending``.
+  for the output is removed again; the publish itself is journalled (``publish``): a journal in
+  the hidden staging folder names the new output's files and the files to remove before
+  anything visible changes; then the manifest is removed, then the old files, then the new ones
+  are moved in and the manifest is written again. So a reader who never calls the command again
+  sees the old output with its manifest, or the new one with its own, or, after a call killed
+  midway, files of the new output and no manifest: never a manifest describing files of another
+  output, nor old and new files mixed. The next call writing that output finishes the publish
+  (``finish_pending``) before it looks at the folder.
 """
 from __future__ import annotations
 
 import os
 import shutil
-import tempfile
 from contextlib import contextmanager
 from pathlib import Path, PurePosixPath
 from typing import Any, Iterator
@@ -33,10 +35,12 @@ from typing import Any, Iterator
 from .folder import RunFolderError, read_json, write_json
 from .lock import hold_folder
 from .outputs import OutputFolderError, folder_kind
-from .publish import naming_full_disk, step
+from .publish import is_own, naming_full_disk, own_folder, step
 
 #: In the names of the hidden staging folders (a killed process may leave one; git ignores it).
 PARTIAL = ".partial-"
+#: In a staging folder: the output's files, and the journal of their publish.
+FILES, JOURNAL = "files", "journal.json"
 
 
 @contextmanager
@@ -63,45 +67,58 @@ def staged_outputs(out: Path, manifest: str, command: str, overwrite: bool = Fal
     out = Path(out)
     with hold_folder(out, "output folder"):
         finish_pending(out, manifest)
-        staging = Path(tempfile.mkdtemp(prefix=_staging_prefix(manifest), dir=out))
+        work = own_folder(out, _staging_prefix(manifest), "", manifest)
+        staging = work / FILES
         try:
+            staging.mkdir()
             with naming_full_disk(staging, out):
                 yield staging
             plan = _plan(staging, out, manifest, command, overwrite, kept)
         except BaseException:
-            shutil.rmtree(staging, ignore_errors=True)
+            shutil.rmtree(work, ignore_errors=True)
             raise
-        _journal(out, manifest, command, record or {}, staging, plan)
+        _journal(work, command, record or {}, plan)
         finish_pending(out, manifest)
 
 
 def finish_pending(out: Path, manifest: str) -> None:
-    """Finish the publish that the manifest in ``out`` records as ``pending`` (a call killed
-    among its moves): move the files still in its staging folder into place, remove the files
-    it names, and list the new output alone; then remove the staging folders of calls killed
-    before they published. Call it holding ``out``'s lock."""
+    """Finish the publish of the output ``manifest`` lists in ``out`` that a call killed midway
+    left (the journal in its staging folder): remove the manifest, the files to remove and the
+    old files of the names still to move, move those in, write the manifest; then remove the
+    staging folders of calls killed before they published. Only the staging folders the
+    publish made (``publish.is_own``) are read or removed: a folder of the user's of a like name
+    stays. Call it holding ``out``'s lock."""
     out = Path(out)
-    path = out / manifest
-    record = read_json(path) if path.is_file() else None
-    pending = record.get("pending") if isinstance(record, dict) else None
-    if pending is not None:
-        staging, remove, files = _pending(path, pending)
-        for file in sorted(p for p in staging.rglob("*") if p.is_file()):
-            name = file.relative_to(staging).as_posix()
-            _check_place(out, name, manifest, record.get("written_by", "a command"))
-            step(f"move {name}")
-            (out / name).parent.mkdir(parents=True, exist_ok=True)
-            os.replace(file, out / name)
-        for name in remove:
-            _check_place(out, name, manifest, record.get("written_by", "a command"))
-            step(f"remove {name}")
-            _remove(out, name)
-        step("list")
-        write_json(path, {**{k: v for k, v in record.items() if k != "pending"}, "files": files})
-    for leftover in sorted(out.glob(f"{_staging_prefix(manifest)}*")):
-        if leftover.is_dir() and not leftover.is_symlink():
-            step("clear")
-            shutil.rmtree(leftover)
+    for work in sorted(out.glob(f"{_staging_prefix(manifest)}*")):
+        if not is_own(work, manifest):
+            continue
+        if (work / JOURNAL).exists():
+            _roll_forward(out, manifest, work)
+        step("clear")
+        shutil.rmtree(work)
+
+
+def _roll_forward(out: Path, manifest: str, work: Path) -> None:
+    """The publish the journal in ``work`` records, from wherever it stopped (each step may be
+    done again): the manifest unlisted, the old files removed, the new moved in, listed."""
+    record, remove = _journal_of(work / JOURNAL)
+    staging, writer = work / FILES, record.get("written_by", "a command")
+    moving = sorted(p.relative_to(staging).as_posix() for p in staging.rglob("*")
+                    if p.is_file())
+    for name in [*remove, *moving]:
+        _check_place(out, name, manifest, writer)
+    step("unlist")
+    (out / manifest).unlink(missing_ok=True)
+    for name in [*remove, *(name for name in moving if (out / name).is_symlink()
+                            or (out / name).exists())]:
+        step(f"remove {name}")
+        _remove(out, name)
+    for name in moving:
+        step(f"move {name}")
+        (out / name).parent.mkdir(parents=True, exist_ok=True)
+        os.replace(staging / name, out / name)
+    step("list")
+    write_json(out / manifest, record)
 
 
 def listed(out: Path, manifest: str) -> list[str]:
@@ -138,33 +155,32 @@ def _plan(staging: Path, out: Path, manifest: str, command: str, overwrite: bool
     return old, new, stale
 
 
-def _journal(out: Path, manifest: str, command: str, record: dict[str, Any], staging: Path,
+def _journal(work: Path, command: str, record: dict[str, Any],
              plan: tuple[list[str], list[str], list[str]]) -> None:
-    """Write the manifest of a publish about to start: the old and new files together, and
-    ``pending``: the staging folder, the files to remove and the files of the new output (the
-    new ones and the listed ones under ``kept``)."""
+    """Write the journal of a publish about to start into its staging folder ``work``: the
+    manifest to write (``files``: the new files and the listed ones under ``kept``) and the
+    listed files to remove."""
     old, new, stale = plan
     files = sorted({*new, *(name for name in old if name not in stale)})
     step("journal")
-    write_json(out / manifest, {"written_by": command, **record, "files": sorted({*old, *new}),
-                                "pending": {"staging": staging.name, "remove": stale,
-                                            "files": files}})
+    write_json(work / JOURNAL, {"manifest": {"written_by": command, **record, "files": files},
+                                "remove": stale})
 
 
-def _pending(path: Path, pending: Any) -> tuple[Path, list[str], list[str]]:
-    """The staging folder, the files to remove and the new files of a manifest's ``pending``
-    record; a record of another shape is a ``RunFolderError`` naming the manifest."""
-    ok = (isinstance(pending, dict) and isinstance(pending.get("staging"), str)
-          and pending["staging"].startswith(_staging_prefix(path.name))
-          and "/" not in pending["staging"]
-          and all(isinstance(pending.get(key), list)
-                  and all(isinstance(f, str) and _relative(f) for f in pending[key])
-                  for key in ("remove", "files")))
+def _journal_of(path: Path) -> tuple[dict[str, Any], list[str]]:
+    """The manifest to write and the files to remove of a publish's journal; a journal of
+    another shape is a ``RunFolderError`` naming it (nothing is moved or removed then)."""
+    journal = read_json(path)
+    record = journal.get("manifest") if isinstance(journal, dict) else None
+    remove = journal.get("remove") if isinstance(journal, dict) else None
+    ok = (isinstance(record, dict) and isinstance(remove, list)
+          and isinstance(record.get("files"), list)
+          and all(isinstance(f, str) and _relative(f) for f in [*remove, *record["files"]]))
     if not ok:
-        raise RunFolderError(f"{path}: pending: not the record of an interrupted publish "
-                             f"(value: {str(pending)[:80]!r}); remove the manifest's 'pending' "
-                             "entry and run the command again")
-    return path.parent / pending["staging"], pending["remove"], pending["files"]
+        raise RunFolderError(f"{path}: not the journal of an interrupted publish (value: "
+                             f"{str(journal)[:80]!r}); remove its folder and run the command "
+                             "again")
+    return record, remove
 
 
 def _staging_prefix(manifest: str) -> str:

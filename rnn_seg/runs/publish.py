@@ -5,20 +5,27 @@ archives, ``multitask-predict``, ``multitask-evaluate``, ``multitask-export``) w
 output into a hidden staging place first and publishes it only once it is complete, here. A
 publish holds the lock of its place throughout and starts by recovering whatever a publish
 killed there (SIGKILL, a power cut) left, so an interrupted publish is finished or undone by the
-next one, before it looks at the place. Two forms:
+next one, before it looks at the place.
+
+Each hidden folder a publish makes beside its output (``own_folder``:
+``.<name>.<random>.tmp``, ``.partial-<manifest>-<random>``) holds first of all a marker file it
+wrote, ``publish.json``, naming the output it serves: recovery removes a folder only when it
+holds that marker (``is_own``), so a folder of the user's that happens to match the pattern
+(``.A.mynotes1.tmp/``, ``.A.backup_1.old.tmp/``) is never touched. Two forms:
 
 - a folder written whole (``staged_folder``: an evaluation, a SavedModel, a scores archive) is
-  exchanged with its complete staging folder ``.<name>.<random>.tmp`` in one system call (Linux
-  ``renameat2(RENAME_EXCHANGE)``; a folder that is not there yet by one ``rename``): at every
-  instant the visible folder is the old one or the new one, whole. The old one, now under the
-  staging name, is removed afterwards (a leftover the next publish removes). Where the system
-  or file system cannot exchange, the old folder is renamed aside (``.<name>.<random>.old.tmp``)
-  before the new one is renamed in, and the next publish puts it back if the process died in
-  between;
+  written into ``new/`` of such a folder and exchanged with the visible folder in one system
+  call (Linux ``renameat2(RENAME_EXCHANGE)``; a folder that is not there yet by one
+  ``rename``): at every instant the visible folder is the old one or the new one, whole. The old
+  one, now in the hidden folder, is removed with it (a leftover the next publish removes).
+  Where the system or file system cannot exchange, the old folder is moved into the hidden
+  folder (``old/``) before the new one is renamed in, and the next publish puts it back if the
+  process died in between;
 - files among others in a shared folder (``manifest.staged_outputs``: tables beside a README,
-  predictions) are moved in one by one after a *journal*, the manifest marked ``pending``, names
-  the complete staging folder and the files to remove; a publish killed among the moves is
-  finished (rolled forward) by the next call writing that output (``finish_pending``).
+  predictions) are published after a *journal* in the hidden folder; their manifest is removed
+  first, then the old files, and written again once the new ones are in place, so that a
+  manifest never describes files of another output; a publish killed midway is finished (rolled
+  forward) by the next call writing that output (``manifest.finish_pending``).
 
 ``step_hook`` is called with the name of every step that changes what is visible, just before
 it: tests set it to kill the process there (``tests/test_publish.py``).
@@ -30,7 +37,6 @@ import errno
 import functools
 import os
 import re
-import secrets
 import shutil
 import tempfile
 from contextlib import contextmanager
@@ -39,13 +45,17 @@ from typing import Callable, Iterator
 
 from jigsaws_tools.errors import NO_SPACE, WriteFailed
 
-from .folder import require_empty
+from .folder import RunFolderError, read_json, require_empty, write_json
 from .lock import hold_folder
 
 #: Fault injection for tests: called with each step's name just before the step.
 step_hook: Callable[[str], None] = lambda step: None
 _AT_FDCWD = -100
 _RENAME_EXCHANGE = 2
+#: The marker file in each hidden folder a publish makes (module docstring).
+MARKER = "publish.json"
+#: In a staging folder of ``staged_folder``: the new output, and the old one set aside.
+NEW, OLD = "new", "old"
 
 
 def step(name: str) -> None:
@@ -65,9 +75,9 @@ def claimed(target: Path | str) -> Iterator[None]:
 
 @contextmanager
 def staged_folder(target: Path | str, overwrite: bool = False) -> Iterator[Path]:
-    """A fresh hidden sibling folder to write into; it replaces ``target`` when the block ends
-    normally (module docstring) and is removed when it fails, so ``target`` is never seen
-    half-written, nor missing once it existed.
+    """A fresh folder in a hidden sibling of ``target`` (``own_folder``) to write into; it
+    replaces ``target`` when the block ends normally (module docstring) and is removed when it
+    fails, so ``target`` is never seen half-written, nor missing once it existed.
 
     An existing non-empty ``target`` is an error (``FileExistsError``) unless ``overwrite``; it is
     then replaced only once the new folder is complete. A full disk while the block writes is a
@@ -77,14 +87,38 @@ def staged_folder(target: Path | str, overwrite: bool = False) -> Iterator[Path]
     with claimed(target):
         if not overwrite:
             require_empty(target)
-        staging = Path(tempfile.mkdtemp(dir=target.parent, prefix=f".{target.name}.",
-                                        suffix=".tmp"))
+        work = own_folder(target.parent, f".{target.name}.", ".tmp", target.name)
+        staging = work / NEW
         try:
+            staging.mkdir()
             with naming_full_disk(staging, target):
                 yield staging
             _swap_in(staging, target)
         finally:
-            shutil.rmtree(staging, ignore_errors=True)
+            shutil.rmtree(work, ignore_errors=True)
+
+
+def own_folder(parent: Path, prefix: str, suffix: str, serves: str) -> Path:
+    """A new hidden folder ``<prefix><random><suffix>`` in ``parent`` holding the marker file
+    that proves it a publish's (``is_own``), for the output named ``serves``."""
+    folder = Path(tempfile.mkdtemp(dir=parent, prefix=prefix, suffix=suffix))
+    write_json(folder / MARKER, _marker(serves))
+    return folder
+
+
+def is_own(folder: Path, serves: str) -> bool:
+    """Whether ``folder`` (a real folder, not a link) holds the marker ``own_folder`` writes for
+    the output ``serves``: only then may a recovery remove it."""
+    if folder.is_symlink() or not folder.is_dir() or (folder / MARKER).is_symlink():
+        return False
+    try:
+        return read_json(folder / MARKER) == _marker(serves)
+    except RunFolderError:
+        return False
+
+
+def _marker(serves: str) -> dict[str, str]:
+    return {"written_by": __name__, "serves": serves}
 
 
 @contextmanager
@@ -106,8 +140,8 @@ def naming_full_disk(staging: Path, visible: Path) -> Iterator[None]:
 
 def _swap_in(staging: Path, target: Path) -> None:
     """Put the complete folder ``staging`` at ``target``; an old ``target`` ends up at
-    ``staging`` (exchanged) or is removed (renamed aside first where exchange is not
-    available)."""
+    ``staging`` (exchanged) or beside it (``OLD``, moved aside first where exchange is not
+    available), to be removed with their hidden folder."""
     step("swap")
     try:
         os.rename(staging, target)          # no folder there, or an empty one: in one step
@@ -118,7 +152,7 @@ def _swap_in(staging: Path, target: Path) -> None:
     if exchange(staging, target):
         step("remove old")
         return
-    aside = target.with_name(f".{target.name}.{secrets.token_hex(4)}.old.tmp")
+    aside = staging.parent / OLD
     os.rename(target, aside)
     step("swap aside")
     try:
@@ -127,7 +161,6 @@ def _swap_in(staging: Path, target: Path) -> None:
         os.rename(aside, target)            # the old one back at once
         raise
     step("remove old")
-    shutil.rmtree(aside)
 
 
 def exchange(a: Path, b: Path) -> bool:
@@ -159,18 +192,18 @@ def _renameat2() -> Callable | None:
 
 def recover_folder(target: Path) -> None:
     """Clear what publishes of ``target`` killed before left beside it (call under the lock of
-    ``claimed``): a staging folder (the new output never shown, or the old one after the
-    exchange) is removed; an old folder renamed aside is put back if ``target`` is missing (the
-    process died before the new one took its place), else removed."""
+    ``claimed``): each hidden folder of theirs (``is_own``; a folder of the user's of a like
+    name stays) is removed, after putting the old folder it holds back at ``target`` if
+    ``target`` is missing (the process died before the new one took its place)."""
     target = Path(target)
-    leftover = re.compile(rf"^\.{re.escape(target.name)}\.[0-9a-z_]{{8}}(?P<old>\.old)?\.tmp$")
+    leftover = re.compile(rf"^\.{re.escape(target.name)}\.[0-9a-z_]{{8}}\.tmp$")
     if not target.parent.is_dir():
         return
     for path in sorted(target.parent.iterdir()):
-        found = leftover.match(path.name)
-        if not found or path.is_symlink() or not path.is_dir():
+        if not leftover.match(path.name) or not is_own(path, target.name):
             continue
-        if found["old"] and not (target.exists() or target.is_symlink()):
-            os.rename(path, target)
-        else:
-            shutil.rmtree(path)
+        aside = path / OLD
+        if aside.is_dir() and not aside.is_symlink() and not (target.exists()
+                                                              or target.is_symlink()):
+            os.rename(aside, target)
+        shutil.rmtree(path)

@@ -16,6 +16,8 @@ import argparse
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
+from jigsaws_tools.cli.arg_types import non_negative_int
+
 #: The command's name in its messages and in every manifest's ``written_by``.
 PROG = "multitask-tables"
 
@@ -44,7 +46,7 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
 
 
 def add_seeds_option(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--seeds", type=int, nargs="+", metavar="K",
+    parser.add_argument("--seeds", type=non_negative_int, nargs="+", metavar="K",
                         help="only the runs of these seeds, e.g. --seeds 0 (default: every "
                              "recorded run)")
 

@@ -31,7 +31,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> None:
+    """The plan's analysis into ``--out``, all files or none; the plan and its exploratory file
+    are checked before ``--out``'s lock is taken."""
+    from ..studies.confirm import read_plan
     from ..studies.confirm_report import write_confirmatory
+    from ..studies.exploratory import EXPLORATORY_FILE, read_exploratory
+
+    read_exploratory(args.plan.parent / EXPLORATORY_FILE, read_plan(args.plan))
 
     def write(staging: Path) -> list[Path]:
         written, skipped = write_confirmatory(args.plan, staging)

@@ -30,7 +30,16 @@ the part's seeds on every fold; otherwise the part is reported as not analysed, 
 runs are done and what is wrong, and gets no rows (the other parts are still analysed). Seeds
 the grid holds beyond the part's are left out.
 
-The plan's keys are checked: a missing, mistyped or unknown key is a ``PlanError``.
+The plan is checked as strictly as a grid spec, each problem a one-line ``PlanError`` naming the
+file and the key: a missing, mistyped or unknown key; a number that is not finite (``inf``,
+``nan``: a gain or threshold no interval can be compared with) or out of range (``confidence``
+in (0, 1), ``hidden`` >= 1, seeds >= 0); a name, title, outcome or configuration that is empty
+or not one line of text; ``outcomes`` not three distinct words; a configuration that is none
+(``APoc-gradnrom``: an unknown variant or weighting) or a metric the runs have not; an endpoint
+comparing a configuration with itself, or tested twice in a family (``x - y`` and ``y - x``
+alike: it would enter Holm's correction twice). The file is read by the project's one TOML
+reader (``jigsaws_tools.toml_files.read_toml``), which refuses a folder, a FIFO, a file too large
+or nested too deeply at once.
 
 Output, in ``--out``: ``confirm.csv`` (one row per part, family, endpoint and analysis, with
 ``commits``: the commits whose code trained the runs behind it, for the reader to hold against
@@ -39,19 +48,24 @@ written with the report ``confirm.md`` by ``confirm_report``.
 """
 from __future__ import annotations
 
-import tomllib
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+from jigsaws_tools.errors import DefinitionError
+from jigsaws_tools.toml_files import read_toml
 from rnn_seg.runs.folder import FINISHED, RunFolderError, read_json
 
 from ...models.run_record import RunRecord
-from ..runs.collect import LEFT_OUT, IncompleteEvidence, key_from_path, recorded_runs, run_records
+from ...models.variants import check_weighting, get_variant
+from ..runs.collect import (LEFT_OUT, METRICS, IncompleteEvidence, key_from_path, per_class,
+                            recorded_runs, run_records)
 from ..runs.pooling import MixedSettings, architecture
-from ..statistics.paired import TIES, ConfigId, Contrast, StatsConfig, holm, paired
+from ..statistics.paired import (TIES, ConfigId, Contrast, StatsConfig, config_labels, holm,
+                                 paired)
 
 ROLES = ("primary", "secondary")
 COLUMNS = ["part", "family", "role", "analysis", "seeds", "comparison", "metric", "folds",
@@ -62,6 +76,8 @@ PER_FOLD_COLUMNS = ["part", "analysis", "comparison", "metric", "fold", "differe
 SHOWN_PROBLEMS = 3
 #: Decimals of an interval end when it is compared with a paper's gain (PLAN.md, ``shown``).
 DECIMALS = 2
+#: The tasks whose per-class scores a metric may name (``gesture_f1_G2``).
+TASKS = ("gesture", "progress")
 
 
 #: The keys a plan's tables may hold; any other is refused (a misspelt key is not ignored).
@@ -70,6 +86,10 @@ KEYS = {"plan": {"confidence", "parts"},
                  "rule_out_below", "families"},
         "family": {"name", "role", "endpoints"},
         "endpoint": {"x", "y", "metric", "paper_gain"}}
+
+
+#: What a plan's value of each type is called in a message.
+TYPE_NAMES = {float: "a float", int: "an integer", str: "a string", list: "a list"}
 
 
 class PlanError(ValueError):
@@ -125,15 +145,16 @@ def read_plan(path: Path) -> Plan:
     nearest folder above it that holds it (a repository's root).
 
     Raises:
-        PlanError: a missing, mistyped or unknown key, an unknown role.
+        PlanError: a file that is no plan, a missing, mistyped, unknown or out-of-range key
+            (module docstring).
     """
     path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as error:
-        raise PlanError(f"{path}: cannot read the plan: {error}") from None
+    data = read_plan_file(path, "plan")
     check_keys(data, "plan", path, "")
     confidence = plan_value(data, "confidence", float, path, "")
+    if not 0 < confidence < 1:
+        raise PlanError(f"{path}: confidence must be in (0, 1), e.g. 0.95 "
+                        f"(value: {confidence!r})")
     parts = tuple(_part(entry, path, f"parts[{i}]")
                   for i, entry in enumerate(plan_list(data, "parts", path, "")))
     names = [part.name for part in parts]
@@ -142,14 +163,37 @@ def read_plan(path: Path) -> Plan:
     return Plan(path, confidence, parts)
 
 
+def read_plan_file(path: Path, what: str) -> dict:
+    """The tables of the TOML file ``path`` (``toml_files.read_toml``: a folder, a FIFO, a file
+    too large, not UTF-8, not TOML or nested too deeply is refused at once); a ``PlanError``
+    naming it otherwise."""
+    try:
+        return read_toml(path, what)
+    except DefinitionError as error:
+        raise PlanError(str(error)) from None
+
+
 def plan_value(table: dict, key: str, kind: type, path: Path, where: str):
-    """``table[key]``, of ``kind`` (an int where a float is asked is read as one)."""
+    """``table[key]``, of ``kind`` (an int where a float is asked is read as one): a float
+    finite, a str one non-empty line of printable text."""
     value = table.get(key)
     ok = isinstance(value, kind) or (kind is float and isinstance(value, int))
+    name = f"{where}.{key}" if where else key
     if value is None or not ok or isinstance(value, bool):
-        name = f"{where}.{key}" if where else key
-        raise PlanError(f"{path}: {name} must be a {kind.__name__} (value: {value!r})")
+        raise PlanError(f"{path}: {name} must be {TYPE_NAMES[kind]} (value: {value!r})")
+    if kind is float and not math.isfinite(value):
+        raise PlanError(f"{path}: {name} must be a finite number (value: {value!r})")
+    if kind is str:
+        plan_text(value, path, name)
     return float(value) if kind is float else value
+
+
+def plan_text(value: str, path: Path, name: str) -> str:
+    """``value`` when it is one non-empty line of printable text (a name, a title, an outcome:
+    words the report and the CSVs print on one line)."""
+    if not value.strip() or not value.isprintable():
+        raise PlanError(f"{path}: {name} must be one non-empty line of text (value: {value!r})")
+    return value
 
 
 def plan_list(table: dict, key: str, path: Path, where: str) -> list:
@@ -179,20 +223,45 @@ def plan_seeds(entry: dict, key: str, path: Path, where: str, required: bool = T
     if key not in entry and not required:
         return ()
     seeds = plan_value(entry, key, list, path, where)
-    if not seeds or len(set(seeds)) != len(seeds) or not all(
-            isinstance(s, int) and not isinstance(s, bool) for s in seeds):
-        raise PlanError(f"{path}: {where}.{key} must be a list of distinct integer seeds "
+    if not seeds or not all(isinstance(s, int) and not isinstance(s, bool) and s >= 0
+                            for s in seeds) or len(set(seeds)) != len(seeds):
+        raise PlanError(f"{path}: {where}.{key} must be a list of distinct integer seeds >= 0 "
                         f"(value: {seeds!r})")
     return tuple(seeds)
+
+
+def plan_config(entry: dict, key: str, path: Path, where: str) -> ConfigId:
+    """``entry[key]``, a configuration of a grid (``paired.ConfigId``) whose variant and
+    weighting exist: a misspelt one is named here, not reported later as runs missing."""
+    text = plan_value(entry, key, str, path, where)
+    try:
+        config = ConfigId.parse(text)
+        check_weighting(get_variant(config.variant), config.weighting)
+    except ValueError as error:
+        raise PlanError(f"{path}: {where}.{key}: {text!r} is not a configuration: {error}"
+                        ) from None
+    return config
 
 
 def _part(entry: dict, path: Path, where: str) -> Part:
     check_keys(entry, "part", path, where)
     families = tuple(_family(f, path, f"{where}.families[{i}]")
                      for i, f in enumerate(plan_list(entry, "families", path, where)))
+    names = [family.name for family in families]
+    if len(set(names)) != len(names):
+        raise PlanError(f"{path}: {where}.families: two families of one name (names: "
+                        f"{', '.join(names)})")
     outcomes = tuple(plan_value(entry, "outcomes", list, path, where))
-    if len(outcomes) != 3:
+    if len(outcomes) != 3 or not all(isinstance(o, str) for o in outcomes):
         raise PlanError(f"{path}: {where}.outcomes must name 3 outcomes (value: {outcomes})")
+    for i, word in enumerate(outcomes):
+        plan_text(word, path, f"{where}.outcomes[{i}]")
+    if len(set(outcomes)) != 3:
+        raise PlanError(f"{path}: {where}.outcomes must be 3 distinct outcomes (value: "
+                        f"{list(outcomes)})")
+    hidden = None if "hidden" not in entry else plan_value(entry, "hidden", int, path, where)
+    if hidden is not None and hidden < 1:
+        raise PlanError(f"{path}: {where}.hidden must be an integer >= 1 (value: {hidden})")
     rule_out = entry.get("rule_out_below")
     seeds = plan_seeds(entry, "seeds", path, where)
     sensitivity = plan_seeds(entry, "sensitivity_seeds", path, where, False)
@@ -206,8 +275,7 @@ def _part(entry: dict, path: Path, where: str) -> Part:
                 seeds=seeds, families=families, outcomes=outcomes, sensitivity_seeds=sensitivity,
                 rule_out_below=None if rule_out is None
                 else plan_value(entry, "rule_out_below", float, path, where),
-                hidden=(None if "hidden" not in entry
-                        else plan_value(entry, "hidden", int, path, where)))
+                hidden=hidden)
 
 
 def _family(entry: dict, path: Path, where: str) -> Family:
@@ -216,15 +284,36 @@ def _family(entry: dict, path: Path, where: str) -> Family:
     if role not in ROLES:
         raise PlanError(f"{path}: {where}.role must be one of {', '.join(ROLES)} "
                         f"(value: {role!r})")
-    entries = plan_list(entry, "endpoints", path, where)
-    for i, e in enumerate(entries):
-        check_keys(e, "endpoint", path, f"{where}.endpoints[{i}]")
-    endpoints = tuple(
-        Endpoint(*(plan_value(e, key, str, path, f"{where}.endpoints[{i}]")
-                   for key in ("x", "y", "metric")),
-                 plan_value(e, "paper_gain", float, path, f"{where}.endpoints[{i}]"))
-        for i, e in enumerate(entries))
-    return Family(plan_value(entry, "name", str, path, where), role, endpoints)
+    endpoints, tested = [], {}
+    for i, e in enumerate(plan_list(entry, "endpoints", path, where)):
+        endpoint = _endpoint(e, path, f"{where}.endpoints[{i}]")
+        sides = frozenset(endpoint.contrast.configs)
+        if len(sides) == 1:
+            raise PlanError(f"{path}: {where}.endpoints[{i}]: x and y are one configuration, "
+                            f"{endpoint.x!r}")
+        same = tested.setdefault((sides, endpoint.metric), i)
+        if same != i:
+            raise PlanError(f"{path}: {where}.endpoints[{i}]: {endpoint.x} - {endpoint.y} on "
+                            f"{endpoint.metric} is tested already (endpoints[{same}]); an "
+                            "endpoint tested twice would enter Holm's correction twice")
+        endpoints.append(endpoint)
+    return Family(plan_value(entry, "name", str, path, where), role, tuple(endpoints))
+
+
+def _endpoint(entry: dict, path: Path, where: str) -> Endpoint:
+    """One endpoint of a family: two configurations (``plan_config``), a metric the runs have,
+    the paper's gain, finite."""
+    check_keys(entry, "endpoint", path, where)
+    for side in ("x", "y"):
+        plan_config(entry, side, path, where)
+    metric = plan_value(entry, "metric", str, path, where)
+    task, _, score = metric.partition("_")
+    if metric not in METRICS and not (task in TASKS and per_class(score)):
+        raise PlanError(f"{path}: {where}.metric: {metric!r} is not a score of the runs "
+                        f"({', '.join(METRICS)}, or a per-class score such as "
+                        "gesture_f1_G2)")
+    return Endpoint(entry["x"], entry["y"], metric,
+                    plan_value(entry, "paper_gain", float, path, where))
 
 
 def locate_grid(plan: Path, grid: str) -> Path:
@@ -253,6 +342,7 @@ def analyse(plan: Plan) -> tuple[pd.DataFrame, pd.DataFrame, list[str]]:
         if found is None:
             continue
         runs, _ = found
+        _check_metrics(plan, part, runs)
         analyses = {"planned": part.seeds}
         if part.sensitivity_seeds:
             analyses["sensitivity"] = part.sensitivity_seeds
@@ -261,6 +351,18 @@ def analyse(plan: Plan) -> tuple[pd.DataFrame, pd.DataFrame, list[str]]:
             endpoint_rows(part, analysis, seeds, runs[runs.seed.isin(seeds)], config, rows,
                           per_fold)
     return tables(rows, per_fold) + (skipped,)
+
+
+def _check_metrics(plan: Plan, part: Part, runs: pd.DataFrame) -> None:
+    """Raise ``PlanError`` for an endpoint of ``part`` on a metric its grid's runs have not (a
+    per-class score of a class the task has not, ``gesture_f1_G99``): the plan is wrong, not
+    the grid incomplete."""
+    for family in part.families:
+        for endpoint in family.endpoints:
+            if endpoint.metric not in runs.columns:
+                raise PlanError(f"{plan.path}: part {part.name}, family {family.name}: metric "
+                                f"{endpoint.metric!r} is not a score of the runs of "
+                                f"{as_named(str(part.grid), part.grid, part.grid_name)}")
 
 
 def tables(rows: list[dict], per_fold: list[dict]) -> tuple[pd.DataFrame, pd.DataFrame]:
@@ -308,16 +410,18 @@ def complete_runs(part: Part, skipped: list[str]) -> tuple[pd.DataFrame, dict] |
     except (IncompleteEvidence, MixedSettings) as error:
         problems, runs, records = [str(error)], None, {}
     problems = [line for line in problems if not line.startswith(LEFT_OUT)]
-    if runs is not None and not problems:
+    incomplete = runs is None or bool(problems)
+    if not incomplete:
         problems = _plan_problems(part, runs, records)
     if problems:
         shown = "; ".join(" ".join(line.split()) for line in problems[:SHOWN_PROBLEMS])
         more = (f" (and {len(problems) - SHOWN_PROBLEMS} more)"
                 if len(problems) > SHOWN_PROBLEMS else "")
-        skipped.append(as_named(f"{part.name}: not analysed, {done} of {len(wanted)} runs of "
-                                f"seeds {' '.join(map(str, part.seeds))} in {part.grid} "
-                                f"finished (the plan analyses complete grids only): "
-                                f"{shown}{more}", part.grid, part.grid_name))
+        state = (f"{done} of {len(wanted)} runs of seeds {' '.join(map(str, part.seeds))} in "
+                 f"{part.grid} finished (the plan analyses complete grids only)" if incomplete
+                 else f"its grid {part.grid} does not hold what the plan tests")
+        skipped.append(as_named(f"{part.name}: not analysed, {state}: {shown}{more}",
+                                part.grid, part.grid_name))
         return None
     return runs.assign(commit=[run_commit(record) for record in records.values()]), records
 
@@ -376,6 +480,10 @@ def _plan_problems(part: Part, runs: pd.DataFrame, records: dict) -> list[str]:
     sides = {side for family in part.families for e in family.endpoints
              for side in e.contrast.configs}
     for side in sorted(sides, key=lambda s: s.label):
+        if side.select(runs).empty:
+            problems.append(f"{side.label}: no run of this configuration (the grid holds "
+                            f"{', '.join(config_labels(runs))})")
+            continue
         wrong = fold_seed_gaps(runs, side, folds, part.seeds)
         if wrong:
             problems.append(f"{side.label} does not have seeds "

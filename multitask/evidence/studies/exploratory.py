@@ -23,7 +23,6 @@ line says why it was not.
 """
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -33,8 +32,8 @@ from ..runs.collect import LEFT_OUT, IncompleteEvidence, run_records
 from ..runs.pooling import MixedSettings, pool, record_key
 from ..statistics.paired import ConfigId, StatsConfig
 from .confirm import (Plan, PlanError, as_named, check_keys, complete_runs, endpoint_rows,
-                      fold_seed_gaps, locate_grid, plan_list, plan_seeds, plan_value, run_commit,
-                      tables)
+                      fold_seed_gaps, locate_grid, plan_config, plan_list, plan_seeds,
+                      plan_value, read_plan_file, run_commit, tables)
 
 #: The exploratory analyses' file, beside the plan's.
 EXPLORATORY_FILE = "exploratory.toml"
@@ -63,16 +62,17 @@ class Exploratory:
 
 def read_exploratory(path: Path, plan: Plan) -> tuple[Exploratory, ...]:
     """The analyses in ``path`` (none when there is no such file); grids are found as the plan's.
+    The file is checked as the plan is (``confirm``): a folder, a FIFO or a dangling link of its
+    name is refused, not taken for no file.
 
     Raises:
-        PlanError: a missing, mistyped or unknown key, a part the plan does not have.
+        PlanError: a file that is no exploratory file; a missing, mistyped or unknown key, a
+            part the plan does not have, two analyses of one name in a part, a run borrowed
+            twice.
     """
-    if not path.is_file():
+    if not (path.exists() or path.is_symlink()):
         return ()
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as error:
-        raise PlanError(f"{path}: cannot read the exploratory analyses: {error}") from None
+    data = read_plan_file(path, "plan's exploratory")
     check_keys(data, "exploratory", path, "", KINDS)
     parts = {part.name for part in plan.parts}
     found = []
@@ -83,19 +83,24 @@ def read_exploratory(path: Path, plan: Plan) -> tuple[Exploratory, ...]:
         if part not in parts:
             raise PlanError(f"{path}: {where}.part: {part!r} is not a part of {plan.path} "
                             f"({', '.join(sorted(parts))})")
+        name = plan_value(entry, "name", str, path, where)
+        if any((a.part, a.name) == (part, name) for a in found):
+            raise PlanError(f"{path}: {where}.name: part {part} has an analysis {name!r} "
+                            "already")
         borrowed = []
         for j, side in enumerate(plan_list(entry, "borrowed", path, where)):
             at = f"{where}.borrowed[{j}]"
             check_keys(side, "borrowed", path, at, KINDS)
-            try:
-                config = ConfigId.parse(plan_value(side, "config", str, path, at))
-            except ValueError as error:
-                raise PlanError(f"{path}: {at}.config: {error}") from None
+            config = plan_config(side, "config", path, at)
             named = plan_value(side, "grid", str, path, at)
-            borrowed.append(Borrowed(config, locate_grid(path, named),
-                                     plan_seeds(side, "seeds", path, at), named))
-        found.append(Exploratory(part, plan_value(entry, "name", str, path, where),
-                                 tuple(borrowed)))
+            seeds = plan_seeds(side, "seeds", path, at)
+            twice = [b for b in borrowed if b.config == config and set(b.seeds) & set(seeds)]
+            if twice:
+                raise PlanError(f"{path}: {at}: {config.label}'s seeds "
+                                f"{' '.join(map(str, sorted(set(twice[0].seeds) & set(seeds))))}"
+                                " are borrowed already")
+            borrowed.append(Borrowed(config, locate_grid(path, named), seeds, named))
+        found.append(Exploratory(part, name, tuple(borrowed)))
     return tuple(found)
 
 
