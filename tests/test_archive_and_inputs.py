@@ -157,7 +157,7 @@ def test_a_full_disk_while_writing_tables_leaves_the_earlier_tables(fake_grid, t
     capsys.readouterr()
     assert tables_main(["runs", str(fake_grid / "runs"), "--out", str(out)]) == 1
     err = _one_line(capsys.readouterr().err)
-    assert re.search(rf"cannot write {re.escape(str(out))}/\w+\.csv \(No space left on device\); "
+    assert re.search(rf"cannot write {re.escape(str(out))}/\S+ \(No space left on device\); "
                      r"\d+ MB free", err), err
     assert visible(out) == before
     assert not [p for p in out.iterdir() if p.name.startswith(".")]

@@ -635,7 +635,7 @@ def test_archive_leaves_out_unfinished_runs_and_replaces_only_an_archive(tmp_pat
     assert sorted(p.name for p in tmp_path.iterdir()) == ["archive", "grid", "link", "notes"]
     with pytest.raises(SystemExit):
         tables_main(["archive", str(grid), str(archive), "--out", str(notes)])
-    assert "leave out --out" in capsys.readouterr().err
+    assert "takes no --out" in capsys.readouterr().err
 
 
 def _snapshot(folder: Path) -> dict[str, tuple[int, int]]:
