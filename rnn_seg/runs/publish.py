@@ -102,7 +102,11 @@ def own_folder(parent: Path, prefix: str, suffix: str, serves: str) -> Path:
     """A new hidden folder ``<prefix><random><suffix>`` in ``parent`` holding the marker file
     that proves it a publish's (``is_own``), for the output named ``serves``."""
     folder = Path(tempfile.mkdtemp(dir=parent, prefix=prefix, suffix=suffix))
-    write_json(folder / MARKER, _marker(serves))
+    try:
+        write_json(folder / MARKER, _marker(serves))
+    except BaseException:
+        shutil.rmtree(folder, ignore_errors=True)   # no marker: no later recovery could remove it
+        raise
     return folder
 
 
