@@ -113,3 +113,22 @@ def comparable_spec(spec: dict) -> dict:
         kept["experiments"] = sorted(kept["experiments"],
                                      key=lambda experiment: json.dumps(experiment, sort_keys=True))
     return kept
+
+
+def grid_release(record: dict, data_dir: Path | str | None = None
+                 ) -> tuple[Path, str, list[str], list[str]]:
+    """``(release folder, task, folds, annotations)`` of the grid whose record is ``record``:
+    ``data_dir`` when given, else the folder its spec records; its spec's task (Suturing when it
+    records none); the test users and the annotation versions of its runs, sorted.
+
+    Raises:
+        OSError: no folder is given and the spec records none, or names the synthetic release
+            (which nothing reading a grid writes in its place).
+    """
+    spec = record.get("spec") or {}
+    recorded = spec.get("data_dir")
+    if data_dir is None and (not recorded or recorded == "synthetic"):
+        raise OSError(f"the grid records no release folder ({recorded or 'none'})")
+    keys = [run_key(run) for run in record.get("runs", [])]
+    return (Path(data_dir if data_dir is not None else recorded), spec.get("task") or "Suturing",
+            sorted({key.fold for key in keys}), sorted({key.annotations for key in keys}))
