@@ -179,10 +179,11 @@ def _trial_record(path: Path, classes: dict[str, tuple[str, ...]]) -> dict:
     entry: dict = {"samples": len(table)}
     for task, names in classes.items():
         if task in table:
-            index = pd.Categorical(table[task], categories=list(names)).codes
-            if (index < 0).any():
-                bad = table[task][index < 0].iloc[0]
-                raise RunFolderError(f"{path}: {task}: {bad!r} is none of the run's classes")
+            known = table[task].isin(names)
+            if not known.all():
+                raise RunFolderError(f"{path}: {task}: {table[task][~known].iloc[0]!r} is none "
+                                     "of the run's classes")
+            index = table[task].map({name: k for k, name in enumerate(names)}).to_numpy()
         else:
             index = table[f"{task}_pred"].to_numpy()
         entry[task] = _pack(np.asarray(index, dtype="<u1"))
