@@ -12,9 +12,9 @@ and per-trial analyses need of its last evaluation point, and nothing of the dat
   (the first from 0), zlib-compressed, base64.
 
 Never the true labels (``<task>_true``), the frames or times (which say where a trial's labels
-begin), nor the heads' class scores: on the real release these would take about 25 kB a run,
-more than the rest of its archive, and no table or figure reads them. The file's layout
-(``FORMAT``)::
+begin), nor the heads' class scores: quantised to ``uint8`` and compressed, these would take
+15 to 25 kB a run, as much as the rest of its archive, and no table or figure reads them. The
+file's layout (``FORMAT``)::
 
     {"format": "kept-predictions 1", "evaluation": "epoch0120", "value_scale": 1000,
      "classes": {"gesture": ["G1", ...], "progress": ["reach", ...]},
@@ -27,9 +27,12 @@ arrays, rounded alike, so that what is drawn from a run and from its archive is 
 (``jigsaws_tools.dataset.Trial``: for JIGSAWS, every 6th 30 Hz frame of its labelled span);
 ``read_truth`` re-reads from the data its 1-based frame ``frames[k]`` and its true labels. A
 prediction at 30 Hz holds at every frame from ``frames[k]`` to ``frames[k + 1] - 1`` (the rule of
-``multitask-predict``). Size on the real Suturing release (about 2 500 samples a fold): under
-1 kB a run for the labels, about 5 kB more for APr's regression output: at most 0.5 MB per 100
-runs.
+``multitask-predict``).
+
+Size (measured on the synthetic release, about 2 000 samples a fold; the real Suturing release
+has about 2 500): 1 kB a run of A, 1.5 kB of APc or APoc, 6.5 kB of APr (its regression output):
+for the mix of the paper's grid about 2.5 kB a run, 0.25 MB per 100 runs (at most 0.7 MB when
+every run is APr), beside about 26 kB a run for the rest of its archive.
 """
 from __future__ import annotations
 
