@@ -85,8 +85,13 @@ def read_baselines(against: Sequence[tuple[Path, list[ConfigId]]], annotations: 
         _check_trials(grid, records, trials)
         kinds = sorted({architecture(record) for record in records.values()})
         kind = architecture_name(kinds[0]) if len(kinds) == 1 else grid.name
-        configs = configs or [ConfigId.parse(label) for label in config_labels(runs)
-                              if ConfigId.parse(label).variant in DEFAULT_VARIANTS]
+        configs = configs or [c for c in map(ConfigId.parse, config_labels(runs))
+                              if c.variant in DEFAULT_VARIANTS and c.annotations == annotations
+                              and c.direction == "bidirectional"]
+        if not configs:
+            raise ValueError(f"{grid}: none of {', '.join(DEFAULT_VARIANTS)} on {annotations} "
+                             f"labels; it holds {', '.join(config_labels(runs))} (name them: "
+                             f"{grid}:CONFIG,...)")
         for config in configs:
             config = ConfigId(config.variant, config.weighting, annotations, config.direction)
             if config.select(runs).empty:
