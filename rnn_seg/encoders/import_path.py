@@ -53,9 +53,12 @@ def module_source(path: str) -> Path:
     if spec is None:
         raise EncoderImportError(f"encoder {path}: no module {module} (is it installed, or its "
                                  "folder on PYTHONPATH?)")
-    if not spec.has_location or spec.origin is None or not Path(spec.origin).is_file():
+    if not spec.has_location or spec.origin is None:
         raise EncoderImportError(f"encoder {path}: module {module} has no source file to record "
                                  f"(origin: {spec.origin})")
+    if not Path(spec.origin).is_file():             # imported earlier, its file since removed
+        raise EncoderImportError(f"encoder {path}: no module {module}: its source "
+                                 f"{spec.origin} is not there")
     return Path(spec.origin)
 
 
