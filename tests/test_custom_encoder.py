@@ -27,6 +27,7 @@ from multitask.inference.export_cli import main as export_main
 from multitask.inference.predict_cli import main as predict_main
 from multitask.models.run_record import read_run_record
 from multitask.train_cli import main as train_main
+from tests.robot_recordings import RATE, write_robot_folder
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 GRU = "gru_encoder:build"
@@ -215,3 +216,49 @@ def test_a_spec_refuses_the_lstm_s_settings_with_a_user_s_encoder():
         spec_from_dict({"encoder": GRU, "hidden": 8})
     with pytest.raises(ValueError, match="import path"):
         spec_from_dict({"encoder": "gru encoder:build"})
+
+
+# --- a grid on a user's recordings: another rate and column layout ---------------------------
+
+FORMAT_SPEC = """
+preset = "quick"
+data_dir = "{data}"
+format = "{format}"
+test_users = ["B", "C"]
+seeds = [0]
+hidden = 16
+epochs = 3
+
+[[experiments]]
+variants = ["A", "APc"]
+"""
+
+
+def test_a_grid_runs_tabulates_and_pairs_on_recordings_of_another_format(synth_dir, tmp_path,
+                                                                       capsys):
+    robot = write_robot_folder(synth_dir, tmp_path / "robot")
+    spec = tmp_path / "robot.toml"
+    spec.write_text(FORMAT_SPEC.format(data=robot / "data", format=robot / "my_robot.toml"))
+    grid = tmp_path / "grid"
+    assert grid_main(["--spec", str(spec), "--out", str(grid), "--workers", "1",
+                      "--threads", "1"]) == 0
+    configs = [json.loads(p.read_text()) for p in grid.glob("runs/*/*/*/*/*/config.json")]
+    assert len(configs) == 4
+    assert {c["run"]["data"]["recording_format"]["rate_hz"] for c in configs} == {float(RATE)}
+    assert json.loads((grid / "grid.json").read_text())["spec"]["format"] == str(
+        (robot / "my_robot.toml").resolve())
+    assert tables_main(["paper", str(grid), "--out", str(tmp_path / "tables")]) == 0
+    assert (tmp_path / "tables" / "table1.csv").is_file()
+    capsys.readouterr()
+    assert tables_main(["pair", str(grid), "APc-fixed", "A-fixed", "--metric",
+                        "gesture_edit"]) == 0
+    assert "APc-fixed" in capsys.readouterr().out
+
+
+def test_an_older_grid_record_without_format_reads_as_the_release_s():
+    from multitask.grid.folder import comparable_spec
+    from multitask.grid.spec import GridSpec, spec_payload
+
+    older = {k: v for k, v in spec_payload(GridSpec()).items() if k != "format"}
+    assert comparable_spec(older) == comparable_spec(spec_payload(GridSpec()))
+    assert spec_from_dict(older).recording_format().is_default
