@@ -28,6 +28,7 @@ from multitask.inference.predict_cli import main as predict_main
 from multitask.models.run_record import read_run_record
 from multitask.train_cli import main as train_main
 from tests.robot_recordings import RATE, write_robot_folder
+from tests.test_grid import TINY
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 GRU = "gru_encoder:build"
@@ -220,25 +221,11 @@ def test_a_spec_refuses_the_lstm_s_settings_with_a_user_s_encoder():
 
 # --- a grid on a user's recordings: another rate and column layout ---------------------------
 
-FORMAT_SPEC = """
-preset = "quick"
-data_dir = "{data}"
-format = "{format}"
-test_users = ["B", "C"]
-seeds = [0]
-hidden = 16
-epochs = 3
-
-[[experiments]]
-variants = ["A", "APc"]
-"""
-
-
 def test_a_grid_runs_tabulates_and_pairs_on_recordings_of_another_format(synth_dir, tmp_path,
                                                                        capsys):
     robot = write_robot_folder(synth_dir, tmp_path / "robot")
     spec = tmp_path / "robot.toml"
-    spec.write_text(FORMAT_SPEC.format(data=robot / "data", format=robot / "my_robot.toml"))
+    spec.write_text(f'format = "{robot / "my_robot.toml"}"\n' + TINY.format(data=robot / "data"))
     grid = tmp_path / "grid"
     assert grid_main(["--spec", str(spec), "--out", str(grid), "--workers", "1",
                       "--threads", "1"]) == 0
