@@ -8,7 +8,7 @@ import tensorflow as tf
 from .config import EncoderConfig
 from .dense import Dense, DenseParams
 from .encoders.registry import PADDED, build_encoder, layout, shared_variables
-from .encoders.config import EDTCNConfig, MSTCNConfig
+from .encoders.config import AnyEncoderConfig, CustomEncoderConfig, MSTCNConfig
 from .tasks import Task
 
 
@@ -33,13 +33,15 @@ class SegmentationModel(tf.Module):
     (``rnn_seg.encoders``).
     """
 
-    def __init__(self, input_size: int, encoder: EncoderConfig | EDTCNConfig | MSTCNConfig,
-                 tasks: Sequence[Task], seed: int):
+    def __init__(self, input_size: int, encoder: AnyEncoderConfig, tasks: Sequence[Task],
+                 seed: int):
         super().__init__(name="segmentation_model")
         rng = tf.random.Generator.from_seed(seed)
         self.encoder = build_encoder(input_size, encoder, rng)
         self.padded = layout(self.encoder) == PADDED
-        self.heads = {t.name: Dense(encoder.output_size, t.num_outputs, _head_scale(encoder), rng,
+        width = (self.encoder.output_size if isinstance(encoder, CustomEncoderConfig)
+                 else encoder.output_size)          # a user's: its layer's, once built
+        self.heads = {t.name: Dense(width, t.num_outputs, _head_scale(encoder, width), rng,
                                     name=f"head_{t.name}") for t in tasks}
         self._multistage = isinstance(encoder, MSTCNConfig)
         if self._multistage and encoder.stages > 1:
@@ -151,9 +153,10 @@ class SegmentationModel(tf.Module):
                                    for t, y in zip(tasks, targets)]) for outputs in stages])
 
 
-def _head_scale(encoder: EncoderConfig | EDTCNConfig | MSTCNConfig) -> float:
-    """The heads' initial weights' bound: the LSTM's ``init_scale`` (DiPietro's uniform), or a
-    TCN's ``1 / sqrt(features)`` (PyTorch's default for a 1x1 convolution, MS-TCN's heads)."""
+def _head_scale(encoder: AnyEncoderConfig, width: int) -> float:
+    """The heads' initial weights' bound: the LSTM's ``init_scale`` (DiPietro's uniform), or
+    another encoder's ``1 / sqrt(width)`` for ``width`` features (PyTorch's default for a 1x1
+    convolution, MS-TCN's heads)."""
     if isinstance(encoder, EncoderConfig):
         return encoder.init_scale
-    return 1.0 / encoder.output_size ** 0.5
+    return 1.0 / width ** 0.5

@@ -127,9 +127,9 @@ def _time_only(source: Path, record: dict, data_dir: Path | str | None, notes: b
     from ..models.time_baseline import release_fold_scores
 
     try:
-        folder, task, folds, versions = grid_release(record, data_dir)
-        return {version: release_fold_scores(folder, task, version, folds).to_dict("records")
-                for version in versions}
+        release = grid_release(record, data_dir)
+        return {version: release_fold_scores(release, version).to_dict("records")
+                for version in release.annotations}
     except (OSError, ValueError) as error:
         kept = {version: frame.to_dict("records") for version in
                 sorted({Path(run).parts[1] for run in record["runs"]})

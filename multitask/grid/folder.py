@@ -7,6 +7,7 @@ reads its run list to tell missing runs and stray folders apart. Both go through
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
 from baseline.config import DIRECTIONS
@@ -24,7 +25,7 @@ LOCATION_KEYS = ("data_dir",)
 EXECUTION_KEYS = ("loops",)
 #: Spec keys added after grid.json was first written -> the value their absence meant.
 IMPLIED_BY_OLDER_RECORDS = {"schedule_factors": {}, "encoder": "lstm", "resample_factor": None,
-                            "kernel": None}
+                            "kernel": None, "format": "jigsaws"}
 
 
 def read_record(grid_dir: Path | str) -> dict | None:
@@ -115,11 +116,24 @@ def comparable_spec(spec: dict) -> dict:
     return kept
 
 
-def grid_release(record: dict, data_dir: Path | str | None = None
-                 ) -> tuple[Path, str, list[str], list[str]]:
-    """``(release folder, task, folds, annotations)`` of the grid whose record is ``record``:
-    ``data_dir`` when given, else the folder its spec records; its spec's task (Suturing when it
-    records none); the test users and the annotation versions of its runs, sorted.
+
+@dataclass(frozen=True)
+class GridRelease:
+    """Where a grid's data lies and what it holds: the release ``folder``, its ``task`` and
+    recording ``format`` (names or definition files, as the spec records them), the test users
+    (``folds``) and ``annotations`` versions of the grid's runs, sorted."""
+
+    folder: Path
+    task: str
+    format: str | None
+    folds: list[str]
+    annotations: list[str]
+
+
+def grid_release(record: dict, data_dir: Path | str | None = None) -> GridRelease:
+    """The release of the grid whose record is ``record``: ``data_dir`` when given, else the
+    folder its spec records; its spec's task (Suturing when it records none) and recording
+    format (None when it records none: the release's).
 
     Raises:
         OSError: no folder is given and the spec records none, or names the synthetic release
@@ -130,5 +144,7 @@ def grid_release(record: dict, data_dir: Path | str | None = None
     if data_dir is None and (not recorded or recorded == "synthetic"):
         raise OSError(f"the grid records no release folder ({recorded or 'none'})")
     keys = [run_key(run) for run in record.get("runs", [])]
-    return (Path(data_dir if data_dir is not None else recorded), spec.get("task") or "Suturing",
-            sorted({key.fold for key in keys}), sorted({key.annotations for key in keys}))
+    return GridRelease(Path(data_dir if data_dir is not None else recorded),
+                       spec.get("task") or "Suturing", spec.get("format"),
+                       sorted({key.fold for key in keys}),
+                       sorted({key.annotations for key in keys}))

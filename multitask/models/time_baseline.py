@@ -98,16 +98,19 @@ def fold_scores(dataset, users: Sequence[str], mode: Mode) -> pd.DataFrame:
     return pd.DataFrame(rows)
 
 
-def release_fold_scores(data_dir: Path, task: str, annotations: str, users: Sequence[str]
-                        ) -> pd.DataFrame:
-    """The offline ``fold_scores`` on ``users``' folds (all the release's users when empty) of
-    the release of ``task`` in ``data_dir`` with ``annotations``; ``OSError`` when that folder
-    holds no release (a synthetic one is never written in its place)."""
+def release_fold_scores(release, annotations: str) -> pd.DataFrame:
+    """The offline ``fold_scores`` on the folds of ``release`` (``multitask.grid.folder.
+    GridRelease``: its folder, task, recording format and folds; all the release's users when it
+    names none) with ``annotations``; ``OSError`` when its folder holds no such release (a
+    synthetic one is never written in its place)."""
     from jigsaws_tools.dataset import DataConfig, load_dataset
+    from jigsaws_tools.recording_format import load_format
     from jigsaws_tools.task_definition import load_task
 
-    if not (Path(data_dir) / "transcriptions").is_dir():
-        raise OSError(f"the release {data_dir} is not here")
-    dataset = load_dataset(DataConfig(str(data_dir), annotations=annotations,
-                                      task=load_task(task)))
-    return fold_scores(dataset, list(users) or list(dataset.users), "offline")
+    recording_format = load_format(release.format)       # the release's in older records
+    if not (Path(release.folder) / recording_format.transcriptions).is_dir():
+        raise OSError(f"the release {release.folder} is not here")
+    dataset = load_dataset(DataConfig(str(release.folder), annotations=annotations,
+                                      task=load_task(release.task),
+                                      recording_format=recording_format))
+    return fold_scores(dataset, release.folds or list(dataset.users), "offline")

@@ -62,8 +62,8 @@ def grid_fold_scores(grid_dir: Path, annotations: str, table: str,
     if kept is not None:
         return kept
     try:
-        folder, task, folds, _ = grid_release(read_record(grid_dir) or {}, data_dir)
-        return release_fold_scores(folder, task, annotations, folds)
+        return release_fold_scores(grid_release(read_record(grid_dir) or {}, data_dir),
+                                   annotations)
     except (OSError, ValueError) as error:
         print(f"note: no time-only progress row in {table}: the grid's data cannot be "
               f"read ({error}) and its archive keeps no time-only scores", file=sys.stderr)
