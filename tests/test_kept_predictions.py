@@ -159,6 +159,7 @@ def test_an_archive_of_an_archive_keeps_its_predictions_and_scores_without_the_d
         assert (tmp_path / "again" / relative / FILE).read_bytes() == (run / FILE).read_bytes()
     again = json.loads((tmp_path / "again" / ARCHIVE_RECORD).read_text())
     assert again["time_only"] == json.loads((archive / ARCHIVE_RECORD).read_text())["time_only"]
+    assert again["source"] == str(grid.resolve())           # the grid it was trained in, kept
     rewritten = archive_grid(grid, archive)                 # its own archive again: unchanged
     assert rewritten == (4, 4) and all(
         (run / FILE).read_bytes() == (tmp_path / "again" / run.relative_to(archive) / FILE)

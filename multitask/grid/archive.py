@@ -97,11 +97,20 @@ def archive_grid(grid_dir: Path | str, dest: Path | str, data_dir: Path | str | 
                 _copy_run(source, run, staging / run, resolved / run)
             time_only = _time_only(source, record, data_dir, notes)
             write_json(staging / ARCHIVE_RECORD, {
-                "source": str(source), "archived": now(), "runs_finished": len(finished),
+                "source": _origin(source), "archived": now(), "runs_finished": len(finished),
                 "runs_recorded": len(record["runs"]), "run_files": list(RUN_FILES),
                 "test_trials": _test_trials(source, record["runs"]),
                 **({TIME_ONLY: time_only} if time_only else {})})
     return len(finished), len(record["runs"])
+
+
+def _origin(source: Path) -> str:
+    """The grid folder an archive's runs were trained in: ``source`` itself, or, when
+    ``source`` is an archive (an archive of an archive), the folder that archive records."""
+    path = source / ARCHIVE_RECORD
+    earlier = read_json(path) if path.is_file() else {}
+    origin = earlier.get("source") if isinstance(earlier, dict) else None
+    return origin if isinstance(origin, str) and origin else str(source)
 
 
 #: archive.json's entry of the time-only progress model's per-fold scores.
