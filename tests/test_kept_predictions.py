@@ -193,3 +193,48 @@ def test_predictions_of_earlier_versions_and_damaged_records_are_read_or_named(t
                  ).to_csv(predictions / "Suturing_B001.csv", index=False)
     with pytest.raises(RunFolderError, match=r"Suturing_B001\.csv: gesture: 'G99'"):
         read_kept_predictions(run)
+
+
+def test_a_release_writes_each_configuration_and_seed_per_frame_as_score_reads_it(
+        trained, tmp_path, capsys):
+    from dataclasses import replace
+
+    from multitask.evidence.runs.method import Layout, read_folder, truth
+    from multitask.models.run_record import read_run_record
+
+    grid, archive, data = trained
+    out = tmp_path / "release"
+    assert tables_main(["release", str(archive), "--out", str(out)]) == 0
+    runs = _runs(archive)
+    for run in runs:
+        kept = read_kept_predictions(run)
+        record = read_run_record(run)
+        folder = out / run.relative_to(archive / "runs").parent
+        trials = [t for t in truth(replace(record.config.data, data_dir=str(data)))
+                  if t.name in kept.trials]
+        read = read_folder(folder, trials, record.config.data.task, Layout(30, 30))
+        for trial in trials:
+            assert np.array_equal(read[trial.name].gestures, kept.trials[trial.name]
+                                  .labels["gesture"])
+            text = (folder / f"{trial.name}.csv").read_text()
+            assert "true" not in text and len(text.splitlines()) == trial.n_frames + 1
+    assert "README.md" in {p.name for p in out.iterdir()}
+    assert tables_main(["release", str(archive), "--out", str(tmp_path / "A"),
+                        "--configs", "A-fixed"]) == 0
+    assert [p.name for p in (tmp_path / "A" / "revised" / "bidirectional").iterdir()] == [
+        "A-fixed"]
+
+
+def test_a_release_refuses_a_configuration_the_grid_lacks_and_an_archive_without_predictions(
+        trained, tmp_path, capsys):
+    grid, archive, data = trained
+    assert tables_main(["release", str(archive), "--out", str(tmp_path / "x"),
+                        "--configs", "APoc-gradnorm"]) == 2
+    error = capsys.readouterr().err.strip()
+    assert len(error.splitlines()) == 1 and "APoc-gradnorm" in error
+    old = shutil.copytree(archive, tmp_path / "old")
+    for path in old.rglob(FILE):
+        path.unlink()
+    assert tables_main(["release", str(old), "--out", str(tmp_path / "y")]) == 2
+    assert "kept its predictions" in capsys.readouterr().err
+    assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()

@@ -1,0 +1,125 @@
+"""A grid's kept test predictions written out per configuration and seed, one file per trial at
+the recording's rate: a release others pair their methods against (``multitask-tables
+release``).
+
+For each configuration (``<annotations>/<direction>/<variant>-<weighting>``) and seed of the grid,
+a folder ``<annotations>/<direction>/<variant>-<weighting>/seed<k>/`` holds one
+``<trial>.csv`` per test trial of its folds (every trial of the release once), in the CSV format
+``multitask-tables score`` reads (``runs.method``): a header, then one row per 30 Hz frame of
+the recording, columns ``frame`` (1-based), ``gesture`` (a gesture name) and, for a model with a
+progress head, ``progress`` (a stage name). A run predicts at its 5 Hz samples (the labelled
+frames, every 6th from the first); frame ``f`` takes the prediction of the last sample at or
+before it (``multitask-predict``'s rule), and the frames before the first sample take the first
+sample's. Scoring such a folder at ``--rate 30`` reproduces, at every sample, the run's own
+predictions of its last evaluation point (``grid.kept_predictions``).
+
+The frames come from the data (the kept predictions hold none): the grid's release, or
+``data_dir``. ``README.md`` in the output says all this for readers without this project.
+"""
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+from rnn_seg.runs.folder import write_atomic
+
+from ...grid.kept_predictions import read_kept_predictions
+from ...models.run_record import read_run_record
+from ..runs.collect import run_records
+from ..runs.method import TrialTruth, truth
+
+#: The text of the release's ``README.md``; ``{grid}`` and ``{folders}`` filled in.
+README = """# Per-split test predictions of {grid}
+
+Written by `multitask-tables release` (https://github.com/ - this project's repository) from the
+grid's scores archive. One folder per configuration and seed:
+
+{folders}
+
+Each holds one `<trial>.csv` per trial of the release: the predictions of the leave-one-user-out
+run whose test user made the trial. Columns: `frame` (1-based frame of the 30 Hz recording, every
+frame of it), `gesture` (the predicted gesture name) and, for models with a progress head,
+`progress` (the predicted stage name). The models predict every 6th frame of a trial's labelled
+span (5 Hz); a frame holds the prediction of the last such sample at or before it (the first
+sample's before it). Scored with `multitask-tables score FOLDER --rate 30`, a folder gives the
+runs' scores at their last evaluation point.
+"""
+
+
+def write_release(grid: Path, out: Path, configs: Sequence[str] = (),
+                  data_dir: Path | None = None) -> list[Path]:
+    """Write the release of ``grid``'s finished runs with kept predictions into ``out``: the
+    folders and files of the module docstring, and ``README.md``; returns their paths.
+
+    Args:
+        grid: a grid folder or scores archive.
+        out: the folder to write into (the publish's staging folder).
+        configs: only these configurations (``A-fixed`` or ``original/A-fixed``; empty: all).
+        data_dir: the release the runs read (None: the folder each run records).
+
+    Raises:
+        ValueError: a named configuration the grid lacks, or no run that kept predictions.
+    """
+    _, _, records = run_records(grid, allow_incomplete=True, finished_only=True)
+    chosen = {grid / run: record for run, record in records.items()
+              if _wanted(grid / run, grid, configs)}
+    missing = [c for c in configs if not any(_wanted(r, grid, [c]) for r in chosen)]
+    if missing:
+        raise ValueError(f"{grid}: no finished run of configuration {missing[0]}")
+    written, folders, releases = [], set(), {}
+    for run_dir, record in sorted(chosen.items()):
+        kept = read_kept_predictions(run_dir)
+        if kept is None:
+            continue
+        data = record.config.data if data_dir is None else replace(
+            record.config.data, data_dir=str(data_dir))
+        key = repr(data)
+        if key not in releases:
+            releases[key] = {t.name: t for t in truth(data)}
+        folder = _folder(run_dir, grid)
+        folders.add(folder)
+        for trial, predicted in kept.trials.items():
+            if trial not in releases[key]:
+                raise ValueError(f"{run_dir}: its test trial {trial} is not in {data.data_dir}")
+            path = out / folder / f"{trial}.csv"
+            path.parent.mkdir(parents=True, exist_ok=True)
+            write_atomic(path, trial_csv(releases[key][trial], predicted.labels, kept.classes))
+            written.append(path)
+    if not written:
+        raise ValueError(f"{grid}: no finished run kept its predictions (archives written "
+                         "before 2026-12-02 keep none); retrain, then archive")
+    readme = out / "README.md"
+    write_atomic(readme, README.format(grid=grid.name or grid, folders="\n".join(
+        f"- `{folder.as_posix()}/`" for folder in sorted(folders))))
+    return [readme, *written]
+
+
+def trial_csv(trial: TrialTruth, labels: dict[str, np.ndarray],
+              classes: dict[str, tuple[str, ...]]) -> str:
+    """One trial's predictions per frame (module docstring): ``labels`` per task ``[T]`` class
+    indices at ``trial.frames`` ``[T]`` (5 Hz samples), written for frames 1..``n_frames``."""
+    if len(trial.frames) != len(labels["gesture"]):
+        raise ValueError(f"{trial.name}: {len(labels['gesture'])} kept predictions, "
+                         f"{len(trial.frames)} samples in the data")
+    frames = np.arange(1, trial.n_frames + 1)
+    sample = np.maximum(np.searchsorted(trial.frames, frames, side="right") - 1, 0)
+    tasks = [task for task in ("gesture", "progress") if task in labels]
+    names = {task: np.asarray(classes[task])[labels[task][sample]] for task in tasks}
+    lines = [",".join(["frame", *tasks])]
+    lines += [",".join([str(f), *(names[task][i] for task in tasks)])
+              for i, f in enumerate(frames)]
+    return "\n".join(lines) + "\n"
+
+
+def _folder(run_dir: Path, grid: Path) -> Path:
+    """``<annotations>/<direction>/<config>/seed<k>`` of a run folder ``.../runs/.../<fold>``."""
+    return run_dir.relative_to(grid).parent.relative_to("runs")
+
+
+def _wanted(run_dir: Path, grid: Path, configs: Sequence[str]) -> bool:
+    """Whether the run belongs to one of ``configs`` (all when empty)."""
+    annotations, _, config = _folder(run_dir, grid).parts[:3]
+    return not configs or any(c in (config, f"{annotations}/{config}") for c in configs)
