@@ -39,8 +39,10 @@ class SegmentationModel(tf.Module):
         rng = tf.random.Generator.from_seed(seed)
         self.encoder = build_encoder(input_size, encoder, rng)
         self.padded = layout(self.encoder) == PADDED
-        self.heads = {t.name: Dense(encoder.output_size, t.num_outputs, _head_scale(encoder), rng,
-                                    name=f"head_{t.name}") for t in tasks}
+        glorot = getattr(encoder, "head_init", None) == "glorot"
+        self.heads = {t.name: Dense(encoder.output_size, t.num_outputs,
+                                    _head_scale(encoder, t.num_outputs), rng,
+                                    name=f"head_{t.name}", zero_bias=glorot) for t in tasks}
         self._multistage = isinstance(encoder, MSTCNConfig)
         if self._multistage and encoder.stages > 1:
             from .encoders.ms_tcn import Refinement
@@ -151,9 +153,13 @@ class SegmentationModel(tf.Module):
                                    for t, y in zip(tasks, targets)]) for outputs in stages])
 
 
-def _head_scale(encoder: EncoderConfig | EDTCNConfig | MSTCNConfig) -> float:
-    """The heads' initial weights' bound: the LSTM's ``init_scale`` (DiPietro's uniform), or a
-    TCN's ``1 / sqrt(features)`` (PyTorch's default for a 1x1 convolution, MS-TCN's heads)."""
+def _head_scale(encoder: EncoderConfig | EDTCNConfig | MSTCNConfig, outputs: int) -> float:
+    """The initial weights' bound of a head of ``outputs`` outputs: the LSTM's ``init_scale``
+    (DiPietro's uniform), a TCN's ``1 / sqrt(features)`` (PyTorch's default for a 1x1
+    convolution, MS-TCN's heads), or Glorot's ``sqrt(6 / (features + outputs))`` for an ED-TCN
+    with ``head_init = "glorot"`` (Keras's ``Dense``, Lea et al.'s)."""
     if isinstance(encoder, EncoderConfig):
         return encoder.init_scale
+    if getattr(encoder, "head_init", None) == "glorot":
+        return (6.0 / (encoder.output_size + outputs)) ** 0.5
     return 1.0 / encoder.output_size ** 0.5

@@ -21,7 +21,8 @@ from pathlib import Path
 
 from jigsaws_tools.errors import JigsawsError
 from multitask.grid.folder import GRID_RECORD, read_record
-from multitask.grid.spec import GridSpec, RunKey, expand, run_arguments, spec_from_dict
+from multitask.grid.spec import (GridSpec, RunKey, expand, fold_users, run_arguments,
+                                 spec_from_dict)
 from multitask.models.run_record import variant_record
 from rnn_seg.runs.folder import CONFIG, RunFolderError, read_json
 from rnn_seg.runs.settings import SettingsMismatchError, check_run_dir
@@ -59,7 +60,7 @@ def other_settings(root: Path, keys: dict[Path, RunKey]) -> dict[Path, str]:
         return {}
     spec = spec_from_dict(record["spec"], source=f"{Path(root) / GRID_RECORD}: spec")
     spec = replace(spec, data_dir=".")              # where the data is: not a setting
-    planned = set(expand(spec, spec.test_users or tuple(sorted({k.fold for k in keys.values()}))))
+    planned = set(expand(spec, _users(spec, keys)))
     mismatched = {}
     for run, key in keys.items():
         details = (_mismatch(Path(root) / run, spec, key) if key in planned
@@ -68,6 +69,15 @@ def other_settings(root: Path, keys: dict[Path, RunKey]) -> dict[Path, str]:
         if details:
             mismatched[run] = details
     return mismatched
+
+
+def _users(spec: GridSpec, keys: dict[Path, RunKey]) -> tuple[str, ...]:
+    """The release's users as far as the runs tell them without the data: the spec's folds, and
+    each run's test and held-out users (an inner grid's cyclic order of validation users is
+    this order, every user being some run's outer or validation user)."""
+    seen = {user for key in keys.values()
+            for test_user, held_out in [fold_users(key.fold)] for user in (test_user, *held_out)}
+    return tuple(sorted(seen | set(spec.test_users)))
 
 
 def _mismatch(run_dir: Path, spec: GridSpec, key: RunKey) -> str | None:
