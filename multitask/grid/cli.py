@@ -221,7 +221,9 @@ def _run(args: argparse.Namespace) -> int:
         for key, message in failed:
             print(f"  {key.path()}: {message}", file=sys.stderr)
         return 1
-    print(f"grid complete: {len(keys)} runs in {args.out}; tables: multitask-tables paper "
+    study = ("paper" if spec.inner_validation is None
+             else "factors BASELINE")              # inner runs: against a baseline's grid
+    print(f"grid complete: {len(keys)} runs in {args.out}; tables: multitask-tables {study} "
           f"{args.out}")
     return 0
 
