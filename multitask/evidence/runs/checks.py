@@ -60,7 +60,7 @@ def other_settings(root: Path, keys: dict[Path, RunKey]) -> dict[Path, str]:
         return {}
     spec = spec_from_dict(record["spec"], source=f"{Path(root) / GRID_RECORD}: spec")
     spec = replace(spec, data_dir=".")              # where the data is: not a setting
-    planned = set(expand(spec, _users(spec, keys)))
+    planned = _planned(spec, keys)
     mismatched = {}
     for run, key in keys.items():
         details = (_mismatch(Path(root) / run, spec, key) if key in planned
@@ -71,13 +71,17 @@ def other_settings(root: Path, keys: dict[Path, RunKey]) -> dict[Path, str]:
     return mismatched
 
 
-def _users(spec: GridSpec, keys: dict[Path, RunKey]) -> tuple[str, ...]:
-    """The release's users as far as the runs tell them without the data: the spec's folds, and
-    each run's test and held-out users (an inner grid's cyclic order of validation users is
-    this order, every user being some run's outer or validation user)."""
-    seen = {user for key in keys.values()
-            for test_user, held_out in [fold_users(key.fold)] for user in (test_user, *held_out)}
-    return tuple(sorted(seen | set(spec.test_users)))
+def _planned(spec: GridSpec, keys: dict[Path, RunKey]) -> set[RunKey]:
+    """The runs of ``spec`` among the folds of ``keys`` (the data, and so the release's users,
+    unknown here): its LOUO folds; for inner runs (``inner_validation``), every inner fold of
+    ``keys`` whose outer fold is the spec's (which users follow it in the release is not
+    checked)."""
+    folds = tuple(sorted({key.fold for key in keys.values()}))
+    if spec.inner_validation is None:
+        return set(expand(spec, spec.test_users or folds))
+    inner = tuple(fold for fold in folds if fold_users(fold)[1] and (
+        not spec.test_users or fold_users(fold)[1][0] in spec.test_users))
+    return set(expand(replace(spec, inner_validation=None, test_users=()), inner))
 
 
 def _mismatch(run_dir: Path, spec: GridSpec, key: RunKey) -> str | None:
