@@ -10,7 +10,7 @@ from jigsaws_tools.release import KINEMATICS_HZ
 from jigsaws_tools.recording_format import RecordingFormat
 from jigsaws_tools.task_definition import TaskDefinition
 from rnn_seg.config import EncoderConfig, OptimConfig, TrainConfig, check_eval_points
-from rnn_seg.encoders.config import EDTCNConfig, MSTCNConfig
+from rnn_seg.encoders.config import CustomEncoderConfig, EDTCNConfig, MSTCNConfig
 
 #: Encoder directions by name (``EncoderConfig.bidirectional``): offline or online recognition.
 DIRECTIONS = ("bidirectional", "forward")
@@ -27,7 +27,8 @@ class RunConfig:
 
     data: DataConfig
     test_user: str = "B"
-    encoder: EncoderConfig | EDTCNConfig | MSTCNConfig = field(default_factory=EncoderConfig)
+    encoder: EncoderConfig | EDTCNConfig | MSTCNConfig | CustomEncoderConfig = field(
+        default_factory=EncoderConfig)
     optim: OptimConfig = field(default_factory=OptimConfig)
     train: TrainConfig = field(default_factory=TrainConfig)
     #: Users whose trials the run neither trains on nor is scored on, dropped before the split:

@@ -1,7 +1,8 @@
 """``multitask-train``: train one of A, APr, APc, APoc, Pr, Pc, Poc on one LOUO fold.
 
 ``--help`` shows the defaults of the chosen ``--variant`` (each has the paper's optimiser) and
-``--encoder`` (a temporal-convolution encoder has its reference's, for every variant).
+``--encoder`` (a temporal-convolution encoder has its reference's, for every variant; a user's
+encoder, ``--encoder package.module:name``, the LSTM's: docs/YOUR_METHOD.md).
 """
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ from jigsaws_tools.cli.arg_types import non_negative_float, positive_float
 from jigsaws_tools.cli.common import command_parser, run_command
 from rnn_seg.config import EncoderConfig
 from rnn_seg.encoders.config import ENCODERS, encoder_config
+from rnn_seg.encoders.import_path import is_import_path, split_path
 from rnn_seg.runs.provenance import set_command
 
 from .models.config import ORDINAL_LOSSES, RELATIVE_RATES, WEIGHTINGS, GradNormConfig, HeadConfig
@@ -33,18 +35,35 @@ def add_variant_argument(parser: argparse.ArgumentParser) -> None:
                              "Poc = progress only")
 
 
-#: The LSTM's options (``EncoderConfig``): refused with a temporal-convolution encoder.
+#: The LSTM's options (``EncoderConfig``): refused with another encoder.
 LSTM_OPTIONS = {"hidden": "--hidden", "layers": "--layers", "keep_prob": "--keep-prob",
                 "init_scale": "--init-scale", "reset_mode": "--reset-mode",
                 "precision": "--precision", "loops": "--loops"}
 
 
+def encoder_name(text: str) -> str:
+    """``--encoder``'s value: a built-in encoder's name or a user's encoder's import path."""
+    if text in ENCODERS:
+        return text
+    if not is_import_path(text):
+        raise argparse.ArgumentTypeError(f"invalid choice: {text!r} (choose from "
+                                         f"{', '.join(ENCODERS)}, or package.module:name)")
+    try:
+        split_path(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+    return text
+
+
 def add_encoder_argument(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("--encoder", choices=ENCODERS, default=ENCODERS[0],
+    parser.add_argument("--encoder", type=encoder_name, default=ENCODERS[0],
+                        metavar="{" + ",".join(ENCODERS) + "} or package.module:name",
                         help="the shared encoder: DiPietro's peephole BiLSTM (the paper's), Lea "
                              "et al.'s ED-TCN or Farha & Gall's MS-TCN, each with its "
                              "reference's settings and optimiser (docs/REPRODUCTION.md); "
-                             "--direction forward makes a TCN's convolutions causal")
+                             "--direction forward makes a TCN's convolutions causal; or your "
+                             "own, a function or class building a Keras layer, by its import "
+                             "path, trained on the LSTM's schedule (docs/YOUR_METHOD.md)")
 
 
 def build_parser(variant_name: str = DEFAULT_VARIANT, encoder: str = ENCODERS[0]
@@ -88,7 +107,8 @@ def main(argv: list[str] | None = None) -> int:
     pre.add_argument("--encoder", default=ENCODERS[0])
     known, _ = pre.parse_known_args(argv)
     parser = build_parser(known.variant if known.variant in VARIANTS else DEFAULT_VARIANT,
-                          known.encoder if known.encoder in ENCODERS else ENCODERS[0])
+                          known.encoder if is_import_path(known.encoder)
+                          or known.encoder in ENCODERS else ENCODERS[0])
     args = parser.parse_args(argv)                     # refuses an unknown variant
     variant = get_variant(args.variant)
     unused = unused_options(args, variant)
@@ -111,8 +131,10 @@ def unused_options(args: argparse.Namespace, variant: Variant) -> str | None:
     if args.encoder != "lstm":
         given = [option for name, option in LSTM_OPTIONS.items() if getattr(args, name) is not None]
         if given:
-            return (f"{given[0]} is an LSTM setting; the {args.encoder} encoder has its "
-                    "reference's (docs/REPRODUCTION.md): leave it out, or use --encoder lstm")
+            own = ("its own" if is_import_path(args.encoder)
+                   else "its reference's (docs/REPRODUCTION.md)")
+            return (f"{given[0]} is an LSTM setting; the {args.encoder} encoder has {own}: "
+                    "leave it out, or use --encoder lstm")
     return None
 
 
@@ -142,8 +164,9 @@ def configure_run(args: argparse.Namespace, variant: Variant, log: Callable[[str
 
 
 def _with_encoder(args: argparse.Namespace, config: RunConfig) -> RunConfig:
-    """``config`` with ``--encoder``'s configuration: a TCN's (causal for ``--direction
-    forward``) in place of the LSTM options' defaults."""
+    """``config`` with ``--encoder``'s configuration: a TCN's, or a user's encoder's with its
+    source's hash (causal for ``--direction forward``), in place of the LSTM options'
+    defaults."""
     if args.encoder == "lstm":
         return config
     return replace(config, encoder=encoder_config(args.encoder,

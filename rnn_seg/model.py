@@ -8,7 +8,7 @@ import tensorflow as tf
 from .config import EncoderConfig
 from .dense import Dense, DenseParams
 from .encoders.registry import PADDED, build_encoder, layout, shared_variables
-from .encoders.config import EDTCNConfig, MSTCNConfig
+from .encoders.config import AnyEncoderConfig, CustomEncoderConfig, MSTCNConfig
 from .tasks import Task
 
 
@@ -33,15 +33,17 @@ class SegmentationModel(tf.Module):
     (``rnn_seg.encoders``).
     """
 
-    def __init__(self, input_size: int, encoder: EncoderConfig | EDTCNConfig | MSTCNConfig,
-                 tasks: Sequence[Task], seed: int):
+    def __init__(self, input_size: int, encoder: AnyEncoderConfig, tasks: Sequence[Task],
+                 seed: int):
         super().__init__(name="segmentation_model")
         rng = tf.random.Generator.from_seed(seed)
         self.encoder = build_encoder(input_size, encoder, rng)
         self.padded = layout(self.encoder) == PADDED
+        width = (self.encoder.output_size if isinstance(encoder, CustomEncoderConfig)
+                 else encoder.output_size)          # a user's: its layer's, once built
         glorot = getattr(encoder, "head_init", None) == "glorot"
-        self.heads = {t.name: Dense(encoder.output_size, t.num_outputs,
-                                    _head_scale(encoder, t.num_outputs), rng,
+        self.heads = {t.name: Dense(width, t.num_outputs, _head_scale(encoder, width,
+                                                                      t.num_outputs), rng,
                                     name=f"head_{t.name}", zero_bias=glorot) for t in tasks}
         self._multistage = isinstance(encoder, MSTCNConfig)
         if self._multistage and encoder.stages > 1:
@@ -153,13 +155,13 @@ class SegmentationModel(tf.Module):
                                    for t, y in zip(tasks, targets)]) for outputs in stages])
 
 
-def _head_scale(encoder: EncoderConfig | EDTCNConfig | MSTCNConfig, outputs: int) -> float:
-    """The initial weights' bound of a head of ``outputs`` outputs: the LSTM's ``init_scale``
-    (DiPietro's uniform), a TCN's ``1 / sqrt(features)`` (PyTorch's default for a 1x1
-    convolution, MS-TCN's heads), or Glorot's ``sqrt(6 / (features + outputs))`` for an ED-TCN
-    with ``head_init = "glorot"`` (Keras's ``Dense``, Lea et al.'s)."""
+def _head_scale(encoder: AnyEncoderConfig, width: int, outputs: int) -> float:
+    """The initial weights' bound of a head of ``outputs`` outputs on ``width`` features: the
+    LSTM's ``init_scale`` (DiPietro's uniform), another encoder's ``1 / sqrt(width)`` (PyTorch's
+    default for a 1x1 convolution, MS-TCN's heads), or Glorot's ``sqrt(6 / (width + outputs))``
+    for an ED-TCN with ``head_init = "glorot"`` (Keras's ``Dense``, Lea et al.'s)."""
     if isinstance(encoder, EncoderConfig):
         return encoder.init_scale
     if getattr(encoder, "head_init", None) == "glorot":
-        return (6.0 / (encoder.output_size + outputs)) ** 0.5
-    return 1.0 / encoder.output_size ** 0.5
+        return (6.0 / (width + outputs)) ** 0.5
+    return 1.0 / width ** 0.5

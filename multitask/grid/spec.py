@@ -38,8 +38,11 @@ Example spec (every key optional)::
     loops = "auto"                # or "graph", "xla", "fused": how the LSTM's loops run (not a setting)
     ordinal_loss = "sum"          # the ordered progress head's loss: "sum" (paper) or "mean"
     relative_rate = "chen"        # GradNorm's r_i: "chen" (ratio mean) or "paper" (loss mean)
-    encoder = "lstm"              # or "ed-tcn", "ms-tcn": their reference settings and schedule
+    encoder = "lstm"              # or "ed-tcn", "ms-tcn": their reference settings and schedule;
+                                  # or your own, "package.module:name" (docs/YOUR_METHOD.md)
     resample_factor = 6           # one labelled 30 Hz frame in 6: the model's 5 Hz (10: 3 Hz)
+    format = "jigsaws"            # the recordings' format: a built-in's name or a format file
+                                  # (*.toml), as --format (docs/DATA.md, "Your own recordings")
 
     [[experiments]]
     variants = ["A", "APc"]
@@ -57,6 +60,13 @@ the LSTM's, are refused with it. ``directions = ["forward"]`` makes its convolut
 sample rate and ED-TCN's kernel, e.g. Lea et al.'s released JIGSAWS model: 3 Hz, 15 samples
 (``resample_factor = 10``, ``kernel = 15``; docs/REPRODUCTION.md, "ED-TCN at its reference's
 rate"); without them a run keeps the paper's 5 Hz and ED-TCN's 2 s kernel.
+
+A user's ``encoder``, given by its import path ``package.module:name`` (importable by every
+worker: installed, or on ``PYTHONPATH``), trains every variant on the LSTM's schedules and
+budget (``epochs``, ``schedule_factors``); ``hidden``, ``precision`` and ``loops``, the LSTM's
+own, are refused with it. Each run records its import path and its module source's sha256
+(``rnn_seg.encoders.config.CustomEncoderConfig``): a grid resumed after that source changed
+finds its runs of other settings.
 
 The factor study's keys (``results/tcn/PLAN_factors.md``; each None = the default, so a spec
 without them trains what it always did): ``lowpass = false`` and ``normalise = false`` switch
@@ -88,7 +98,9 @@ from jigsaws_tools.synth import SynthConfig, ensure_release
 from jigsaws_tools.task_definition import PAPER_TASK, TaskDefinition, load_task
 from jigsaws_tools.toml_files import read_toml
 from rnn_seg.config import LOOPS, PRECISIONS, EncoderConfig, TrainConfig
-from rnn_seg.encoders.config import ENCODERS, HEAD_INITS, PADDINGS, encoder_config
+from jigsaws_tools.recording_format import DEFAULT_FORMAT, RecordingFormat, load_format
+from rnn_seg.encoders.config import ENCODERS, HEAD_INITS, PADDINGS, SCHEDULES, encoder_config
+from rnn_seg.encoders.import_path import is_import_path, split_path
 from rnn_seg.validation import require_bool, require_choice, require_number
 
 from ..models.config import ORDINAL_LOSSES, RELATIVE_RATES, WEIGHTINGS, GradNormConfig, HeadConfig
@@ -193,7 +205,7 @@ def validation_users(users: tuple[str, ...], outer: str, count: int) -> tuple[st
 def release_users(spec: GridSpec) -> tuple[str, ...]:
     """The LOUO folds of the spec's release: every user with at least one complete trial of the
     spec's task (at least two, or there is no fold to train)."""
-    index = discover(spec.release_dir(), spec.task_definition())
+    index = discover(spec.release_dir(), spec.task_definition(), spec.recording_format())
     if len(index.users) < 2:
         raise ValueError(f"{index.root}: only user {index.users[0]} has complete "
                          f"{index.task.name} trials; leave-one-user-out needs at least two users")
@@ -214,6 +226,7 @@ def run_config(spec: GridSpec, key: RunKey) -> RunConfig:
     return RunConfig(
         data=DataConfig(str(spec.release_dir()), annotations=key.annotations,
                         preprocessing=preprocessing, task=spec.task_definition(),
+                        recording_format=spec.recording_format(),
                         **_given(spec, "feature_set")),
         test_user=test_user,
         encoder=encoder,
@@ -235,9 +248,9 @@ def schedule_epochs(spec: GridSpec, key: RunKey) -> int:
 
 def _schedule(spec: GridSpec, key: RunKey):
     """The run's optimiser schedule and evaluation points: its variant's paper schedule scaled by
-    the budget (``Variant.schedule``); a TCN's reference schedule scaled by the preset's
-    ``schedule_scale`` only (module docstring)."""
-    if spec.encoder != "lstm":
+    the budget (``Variant.schedule``, a user's encoder's too); a TCN's reference schedule scaled
+    by the preset's ``schedule_scale`` only (module docstring)."""
+    if spec.encoder in SCHEDULES:
         return get_variant(key.variant).schedule(PRESETS[spec.preset].schedule_scale,
                                                  spec.encoder)
     return get_variant(key.variant).schedule(spec.budget.scale_of(key.variant))
@@ -296,11 +309,13 @@ def spec_payload(spec: GridSpec) -> dict:
 def with_budget(spec: GridSpec) -> GridSpec:
     """``spec`` with its preset's budget written out (``hidden``, ``epochs``, ``seeds``,
     ``schedule_factors``), as grid.json records it: two specs of the same runs then read the
-    same. A TCN grid's budget is its seeds (its schedule is its encoder's)."""
+    same. A TCN grid's budget is its seeds (its schedule is its encoder's); a user's encoder's,
+    its seeds and schedule (its width is its own)."""
     budget = spec.budget
-    if spec.encoder != "lstm":
+    if spec.encoder in SCHEDULES:
         return replace(spec, seeds=budget.seeds)
-    return replace(spec, hidden=budget.hidden, seeds=budget.seeds,
+    return replace(spec, hidden=budget.hidden if spec.encoder == "lstm" else None,
+                   seeds=budget.seeds,
                    epochs=round(budget.schedule_scale * PAPER_EPOCHS),
                    schedule_factors=dict(budget.schedule_factors))
 
@@ -403,6 +418,7 @@ class GridSpec:
     encoder: str = ENCODERS[0]
     resample_factor: int | None = None     # None = PreprocessConfig's (5 Hz)
     kernel: int | None = None              # ED-TCN's, in samples; None = its reference's
+    format: str = DEFAULT_FORMAT           # the recordings': a built-in's name or a file's path
     lowpass: bool | None = None            # None = PreprocessConfig's (on)
     normalise: bool | None = None          # None = PreprocessConfig's (per trial)
     feature_set: str | None = None         # None = DataConfig's (14 features)
@@ -413,16 +429,23 @@ class GridSpec:
 
     def __post_init__(self):
         require_choice("preset", self.preset, PRESETS)
-        require_choice("encoder", self.encoder, ENCODERS)
+        if is_import_path(self.encoder):
+            split_path(self.encoder)
+        else:
+            require_choice("encoder", self.encoder, ENCODERS)
         if self.encoder != "lstm":
+            schedule = self.encoder in SCHEDULES          # a TCN's own; a user's: the LSTM's
             lstm_only = [name for name, given in (
-                ("hidden", self.hidden is not None), ("epochs", self.epochs is not None),
-                ("schedule_factors", self.schedule_factors is not None),
+                ("hidden", self.hidden is not None),
+                ("epochs", schedule and self.epochs is not None),
+                ("schedule_factors", schedule and self.schedule_factors is not None),
                 ("precision", self.precision != EncoderConfig.precision),
                 ("loops", self.loops not in UNCOMPILED_LOOPS)) if given]
             if lstm_only:
+                own = ("with its reference's (docs/REPRODUCTION.md)" if schedule
+                       else "as its code says (docs/YOUR_METHOD.md)")
                 raise ValueError(f"{lstm_only[0]} is an LSTM setting; encoder {self.encoder!r} "
-                                 "trains with its reference's (docs/REPRODUCTION.md)")
+                                 f"trains {own}")
         require_choice("precision", self.precision, PRECISIONS)
         require_choice("loops", self.loops, LOOPS)
         require_choice("ordinal_loss", self.ordinal_loss, ORDINAL_LOSSES)
@@ -430,6 +453,10 @@ class GridSpec:
         if not isinstance(self.task, str):
             raise ValueError(f"task must be a task's name or a definition file (got {self.task!r})")
         self.task_definition()          # a bad task fails here, not in every worker
+        if not isinstance(self.format, str) or not self.format:
+            raise ValueError(f"format must be a recording format's name or file (got "
+                             f"{self.format!r})")
+        self.recording_format()         # and so does a bad format
         if not isinstance(self.data_dir, str):
             raise ValueError(f"data_dir must be a folder or \"synthetic\" (got {self.data_dir!r})")
         if self.test_users:
@@ -497,6 +524,10 @@ class GridSpec:
     def task_definition(self) -> TaskDefinition:
         return load_task(self.task)
 
+    def recording_format(self) -> RecordingFormat:
+        """The format of the recordings ``data_dir`` holds (``format``)."""
+        return load_format(self.format)
+
     def release_dir(self) -> Path:
         """The release folder ``data_dir`` names (the synthetic one written on first use)."""
         if self.data_dir == "synthetic":
@@ -505,10 +536,11 @@ class GridSpec:
                 else default_data_dir(self.task_definition().name))
 
     def with_absolute_paths(self) -> GridSpec:
-        """This spec with its data folder and task file as absolute paths, so that every worker
-        (and grid.json) sees the same ones."""
-        task = str(Path(self.task).resolve()) if self.task.endswith(".toml") else self.task
-        return replace(self, data_dir=str(self.release_dir().resolve()), task=task)
+        """This spec with its data folder, task and format files as absolute paths, so that every
+        worker (and grid.json) sees the same ones."""
+        task, fmt = (str(Path(name).resolve()) if name.endswith(".toml") else name
+                     for name in (self.task, self.format))
+        return replace(self, data_dir=str(self.release_dir().resolve()), task=task, format=fmt)
 
 
 def load_spec(path: Path | str) -> GridSpec:

@@ -67,7 +67,8 @@ def variant_record(variant: Variant, weighting: Weighting, config: RunConfig,
 IDENTITY = ("test_user", "train.seed", "data.annotations", "optim.total")
 #: What a run of each encoder kind records of its encoder besides (a record without a kind is
 #: the LSTM's, written before other encoders existed).
-ENCODER_IDENTITY = {"lstm": ("encoder.bidirectional", "encoder.hidden")}
+ENCODER_IDENTITY = {"lstm": ("encoder.bidirectional", "encoder.hidden"),
+                    "custom": ("encoder.kind", "encoder.path", "encoder.source_sha256")}
 
 
 @dataclass(frozen=True)

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 
 from jigsaws_tools.task_definition import SUTURING, TaskDefinition
 from rnn_seg.config import OptimConfig, TrainConfig
-from rnn_seg.encoders.config import SCHEDULES, EncoderKind
+from rnn_seg.encoders.config import SCHEDULES
 
 from .config import WEIGHTINGS, GradNormConfig, HeadConfig
 
@@ -82,11 +82,12 @@ class Variant:
         return fixed if weighting_given else (f"{fixed} (the default; --weighting gradnorm for "
                                               "the paper's GradNorm)")
 
-    def optim(self, encoder: EncoderKind = "lstm") -> OptimConfig:
-        """The paper's optimiser and schedule for this variant on the LSTM; on a temporal
-        convolutional ``encoder``, that encoder's reference one, the same for every variant
+    def optim(self, encoder: str = "lstm") -> OptimConfig:
+        """The paper's optimiser and schedule for this variant on the LSTM (and on a user's
+        encoder, named by its import path); on a temporal convolutional ``encoder``, that
+        encoder's reference one, the same for every variant
         (``rnn_seg.encoders.config.SCHEDULES``, docs/REPRODUCTION.md)."""
-        if encoder != "lstm":
+        if encoder in SCHEDULES:
             return SCHEDULES[encoder].optim
         base = _MULTITASK[self.progress] if self.progress else OptimConfig()
         if self.gestures:
@@ -94,14 +95,14 @@ class Variant:
         return replace(base, total=base.total - SINGLE_TASK_SHIFT,
                        decay_start=base.decay_start - SINGLE_TASK_SHIFT)
 
-    def eval_points(self, encoder: EncoderKind = "lstm") -> tuple[int, ...]:
+    def eval_points(self, encoder: str = "lstm") -> tuple[int, ...]:
         """The evaluation epochs of ``optim(encoder)``."""
-        if encoder != "lstm":
+        if encoder in SCHEDULES:
             return SCHEDULES[encoder].eval_points
         shift = 0 if self.gestures else SINGLE_TASK_SHIFT
         return tuple(p - shift for p in MULTITASK_EVAL)
 
-    def schedule(self, scale: float = 1.0, encoder: EncoderKind = "lstm"
+    def schedule(self, scale: float = 1.0, encoder: str = "lstm"
                  ) -> tuple[OptimConfig, tuple[int, ...]]:
         """The optimiser and evaluation epochs (``optim``, ``eval_points``) with every epoch
         count (length, decay start and interval, evaluation points) multiplied by ``scale`` and
@@ -139,6 +140,7 @@ def get_variant(name: str) -> Variant:
         raise ValueError(f"unknown variant {name!r}; choose one of {', '.join(VARIANTS)}") from None
 
 
-def batch_size(encoder: EncoderKind = "lstm") -> int:
-    """Sequences per sweep: DiPietro's 5 for the LSTM, the reference's for a TCN."""
-    return TrainConfig.batch_size if encoder == "lstm" else SCHEDULES[encoder].batch_size
+def batch_size(encoder: str = "lstm") -> int:
+    """Sequences per sweep: DiPietro's 5 for the LSTM (and a user's encoder), the reference's
+    for a TCN."""
+    return SCHEDULES[encoder].batch_size if encoder in SCHEDULES else TrainConfig.batch_size

@@ -12,14 +12,18 @@ many stateless seeds a training call takes. A run's configuration chooses one by
 * ``ed-tcn``: Lea et al.'s encoder-decoder TCN (``ed_tcn``);
 * ``ms-tcn``: Farha & Gall's multi-stage TCN (``ms_tcn``), whose later stages refine every
   head's predictions (``ms_tcn.Refinement``, built by ``rnn_seg.model``).
+* ``custom``: a user's own Keras layer, named by its import path ``package.module:name``
+  (``import_path``: found, hashed and imported; ``keras_layer``: run as the engine's encoder;
+  docs/YOUR_METHOD.md).
 
-The convolutional encoders take *padded* sweeps (``layout = "padded"``): one sequence per row,
+The convolutional encoders and a user's take *padded* sweeps (``layout = "padded"``): one sequence per row,
 zeros after its end, ``valid`` marking its steps (``convolution``). Online (``bidirectional``
 False) means a forward LSTM or causal convolutions: the features at step t read steps <= t.
 
 Modules: ``config`` (the TCNs' configurations and reference schedules; no TensorFlow),
 ``registry`` (``build_encoder``: a configuration's encoder), ``convolution`` (temporal
-convolutions and their helpers), ``ed_tcn``, ``ms_tcn``. Importing the package loads no
+convolutions and their helpers), ``ed_tcn``, ``ms_tcn``, ``import_path`` (no TensorFlow),
+``keras_layer``. Importing the package loads no
 TensorFlow (``jigsaws_tools.lazy``).
 """
 from jigsaws_tools.lazy import lazy_exports

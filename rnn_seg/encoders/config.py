@@ -7,13 +7,17 @@ key choose. The settings follow each architecture's paper and code, adapted to t
 5 Hz samples by one rule: a kernel keeps its length in seconds, a receptive field its span in
 seconds (docs/REPRODUCTION.md, "Temporal-convolution encoders", gives every value's source).
 
+A user's own encoder (``CustomEncoderConfig``, kind ``"custom"``) is named by its import path
+``package.module:name`` instead (``rnn_seg.encoders.import_path``, docs/YOUR_METHOD.md).
+
 Every configuration offers what the engine reads of any encoder: ``output_size`` (features per
-time step), ``bidirectional`` (False = online: a forward LSTM, or causal convolutions),
+time step; a user's encoder's is its output's width, known once built), ``bidirectional`` (False = online: a forward LSTM, or causal convolutions),
 ``hidden`` (the widest layer, for the thread plan), ``precision`` and ``loops`` (the LSTM's
 options; a TCN always runs float32 TensorFlow ops).
 """
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from typing import ClassVar, Literal
 
@@ -21,8 +25,12 @@ from ..config import EncoderConfig, OptimConfig
 from ..validation import require_bool, require_choice, require_number
 
 EncoderKind = Literal["lstm", "ed-tcn", "ms-tcn"]
+#: The built-in encoders; ``--encoder`` and a grid spec's ``encoder`` also take a user's encoder
+#: by its import path (``CustomEncoderConfig``).
 ENCODERS = ("lstm", "ed-tcn", "ms-tcn")
 
+#: A SHA-256 digest in hexadecimal (a user's encoder's source, ``CustomEncoderConfig``).
+SHA256 = re.compile(r"[0-9a-f]{64}")
 #: ED-TCN's padding: the engine's (zeros, every layer's output masked) or Lea et al.'s (-1, the
 #: layers unmasked, the loss masked; ``rnn_seg.encoders.ed_tcn``).
 PADDINGS = ("masked", "reference")
@@ -40,7 +48,8 @@ def samples(seconds: float, hz: float = MODEL_HZ) -> int:
 
 
 class _Convolutional:
-    """What the engine reads of any encoder, for the temporal-convolution ones."""
+    """What the engine reads of any encoder, for those without the LSTM's loops (the
+    temporal-convolution ones and a user's own)."""
 
     precision: ClassVar[str] = "fp32"
     loops: ClassVar[str] = "graph"
@@ -139,7 +148,39 @@ class MSTCNConfig(_Convolutional):
         return 1 + (self.kernel - 1) * (2 ** self.layers - 1)
 
 
-AnyEncoderConfig = EncoderConfig | EDTCNConfig | MSTCNConfig
+@dataclass(frozen=True)
+class CustomEncoderConfig(_Convolutional):
+    """A user's own encoder: the Keras layer that the function or class ``path`` names builds
+    (``package.module:name``, called as ``build(input_size, config)``; docs/YOUR_METHOD.md and
+    ``rnn_seg.encoders.keras_layer``). ``source_sha256`` is the hash of that module's source file
+    when the run was configured: a trained run's encoder is rebuilt only from the same source.
+    ``causal``: an online encoder is asked for (``directions = ["forward"]``, ``--direction
+    forward``); the builder reads it and must honour it (the engine cannot check it).
+    ``[B, T, F]`` -> ``[B, T, D]``, ``D`` the width of the layer's output."""
+
+    #: The thread plan's LSTM width (``rnn_seg.threads``): none, as for a TCN's small layers.
+    hidden: ClassVar[int] = 0
+
+    kind: Literal["custom"] = "custom"
+    path: str = ""
+    source_sha256: str = ""
+    causal: bool = False
+
+    def __post_init__(self):
+        from .import_path import split_path
+
+        split_path(self.path)
+        if not isinstance(self.source_sha256, str) or not SHA256.fullmatch(self.source_sha256):
+            raise ValueError(f"CustomEncoderConfig.source_sha256 must be 64 hexadecimal digits "
+                             f"(got {self.source_sha256!r})")
+        require_bool("CustomEncoderConfig.causal", self.causal)
+
+    def describe(self) -> str:
+        """``package.module:name (sha256 0123456789ab)``: how tables and errors name it."""
+        return f"{self.path} (sha256 {self.source_sha256[:12]})"
+
+
+AnyEncoderConfig = EncoderConfig | EDTCNConfig | MSTCNConfig | CustomEncoderConfig
 
 
 @dataclass(frozen=True)
@@ -171,10 +212,18 @@ SCHEDULES = {
 }
 
 
-def encoder_config(kind: EncoderKind, causal: bool = False) -> EDTCNConfig | MSTCNConfig:
-    """The reference configuration of a temporal-convolution encoder, causal (online) or not."""
+def encoder_config(kind: str, causal: bool = False
+                   ) -> EDTCNConfig | MSTCNConfig | CustomEncoderConfig:
+    """The reference configuration of a temporal-convolution encoder, causal (online) or not;
+    for an import path ``package.module:name``, that user's encoder with its source's hash now
+    (``import_path.custom_encoder``)."""
+    from .import_path import custom_encoder, is_import_path
+
+    if is_import_path(kind):
+        return custom_encoder(kind, causal)
     if kind == "ed-tcn":
         return EDTCNConfig(causal=causal)
     if kind == "ms-tcn":
         return MSTCNConfig(causal=causal)
-    raise ValueError(f"encoder must be one of {', '.join(ENCODERS[1:])} here (got {kind!r})")
+    raise ValueError(f"encoder must be one of {', '.join(ENCODERS[1:])} or an import path "
+                     f"package.module:name here (got {kind!r})")

@@ -3,16 +3,19 @@ from __future__ import annotations
 
 import tensorflow as tf
 
-from ..config import EncoderConfig
-from .config import EDTCNConfig, MSTCNConfig
+from .config import AnyEncoderConfig, CustomEncoderConfig, EDTCNConfig, MSTCNConfig
 
 #: How an encoder's sweeps are laid out (``rnn_seg.trainer.Trainer.batch``).
 WRAPPED, PADDED = "wrapped", "padded"
 
 
-def build_encoder(input_size: int, config: EncoderConfig | EDTCNConfig | MSTCNConfig,
-                  rng: tf.random.Generator) -> tf.Module:
-    """The encoder ``config`` describes, its weights drawn from ``rng``."""
+def build_encoder(input_size: int, config: AnyEncoderConfig, rng: tf.random.Generator
+                  ) -> tf.Module:
+    """The encoder ``config`` describes, its weights drawn from ``rng`` (a user's encoder: its
+    module imported and its layer built, ``keras_layer``)."""
+    if isinstance(config, CustomEncoderConfig):
+        from .keras_layer import KerasEncoder
+        return KerasEncoder(input_size, config, rng)
     if isinstance(config, EDTCNConfig):
         from .ed_tcn import EDTCNEncoder
         return EDTCNEncoder(input_size, config, rng)
@@ -24,7 +27,7 @@ def build_encoder(input_size: int, config: EncoderConfig | EDTCNConfig | MSTCNCo
 
 
 def layout(encoder: tf.Module) -> str:
-    """``WRAPPED`` (the LSTM) or ``PADDED`` (the convolutional encoders)."""
+    """``WRAPPED`` (the LSTM) or ``PADDED`` (the convolutional encoders, a user's own)."""
     return getattr(encoder, "layout", WRAPPED)
 
 

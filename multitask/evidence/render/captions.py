@@ -31,7 +31,7 @@ class RunsDescription:
     folds: tuple[str, ...]                   # the test users
     seeds: tuple[int, ...]
     hidden: tuple[int, ...] = ()             # LSTM widths
-    encoders: tuple[str, ...] = ()           # temporal-convolution encoders (rnn_seg.encoders)
+    encoders: tuple[str, ...] = ()           # TCNs, users' encoders by path (rnn_seg.encoders)
     lengths: dict[int, tuple[str, ...]] = field(default_factory=dict)  # length -> its variants
     unit: str = "epochs"                     # of the lengths: "epochs" or "sweeps"
 
@@ -78,7 +78,8 @@ def describe_runs(grid_dir: Path | str, runs: pd.DataFrame) -> RunsDescription:
         seeds=tuple(sorted({key.seed for key in keys})),
         hidden=tuple(sorted({c["encoder"]["hidden"] for c in configs.values()
                              if c["encoder"].get("kind", "lstm") == "lstm"})),
-        encoders=tuple(sorted({c["encoder"]["kind"].upper() for c in configs.values()
+        encoders=tuple(sorted({c["encoder"].get("path") or c["encoder"]["kind"].upper()
+                               for c in configs.values()
                                if c["encoder"].get("kind", "lstm") != "lstm"})),
         lengths={n: tuple(sorted(v, key=list(VARIANTS).index)) for n, v in lengths.items()},
         unit=first["optim"]["unit"] if first else "epochs")

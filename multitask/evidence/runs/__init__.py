@@ -10,6 +10,8 @@
 * ``pooling``: the one rule for which runs a table may pool (every setting that changes a result
   but the seed and the held-out user), and which architecture a run is;
 * ``standalone``: runs trained one by one (no grid), read from their own config.json.
+* ``method``: another method's prediction folders, checked and scored as a grid's runs are
+  scored (``multitask-tables score``).
 
 May import ``multitask.grid`` and ``multitask.models`` (and ``jigsaws_tools``, ``rnn_seg``); no
 other wing of ``multitask.evidence`` (``tests/test_packaging.py`` checks it).

@@ -38,9 +38,9 @@ def other_settings(root: Path, keys: dict[Path, RunKey]) -> dict[Path, str]:
     its key) that are no run of grid.json's spec, or whose ``config.json`` does not record the
     run the spec puts there, or cannot be read; a folder without config.json is not checked (it holds no finished run). Empty when
     grid.json records no spec (an older grid: a warning says the runs are unchecked against one)
-    or when its spec's task definition file is not on this machine (a grid of the user's own
-    task tabulated elsewhere: a warning says the check was skipped; each run's config.json still
-    records the definition it trained with).
+    or when its spec's task definition or recording format file is not on this machine (a grid
+    of the user's own task or recordings tabulated elsewhere: a warning says the check was
+    skipped; each run's config.json still records the definition and format it trained with).
 
     Raises:
         ValueError: naming grid.json, when its spec cannot be read back.
@@ -53,11 +53,12 @@ def other_settings(root: Path, keys: dict[Path, RunKey]) -> dict[Path, str]:
                     "their own config.json and each other, unchecked against a spec",
                     Path(root) / GRID_RECORD)
         return {}
-    task = record["spec"].get("task")
-    if isinstance(task, str) and task.endswith(".toml") and not Path(task).is_file():
-        log.warning("%s: the spec's task file %s is not here: the runs' settings are not checked "
-                    "against the spec", Path(root) / GRID_RECORD, task)
-        return {}
+    for key in ("task", "format"):
+        name = record["spec"].get(key)
+        if isinstance(name, str) and name.endswith(".toml") and not Path(name).is_file():
+            log.warning("%s: the spec's %s file %s is not here: the runs' settings are not "
+                        "checked against the spec", Path(root) / GRID_RECORD, key, name)
+            return {}
     spec = spec_from_dict(record["spec"], source=f"{Path(root) / GRID_RECORD}: spec")
     spec = replace(spec, data_dir=".")              # where the data is: not a setting
     planned = _planned(spec, keys)

@@ -17,10 +17,12 @@ one, whether or not a grid's spec vouches for the runs.
   must agree on every other setting, or the table is refused with the list of the settings
   that differ and the runs of each value (``MixedSettings``), with or without
   ``--allow-incomplete``: there is no row to put them in. Runs that differ so are never taken for
-  two runs of one fold (duplicates). Runs of several encoders (the LSTM, ED-TCN, MS-TCN) are
-  refused in one table even in different rows: its rows would compare them as one model's
+  two runs of one fold (duplicates). Runs of several encoders (the LSTM, ED-TCN, MS-TCN, a
+  user's own: each import path and source hash one encoder, ``encoder_identity``) are refused
+  in one table even in different rows: its rows would compare them as one model's
   configurations;
-* runs of different architectures (``architecture``: the LSTM at each width, ED-TCN, MS-TCN)
+* runs of different architectures (``architecture``: the LSTM at each width, ED-TCN, MS-TCN, a
+  user's encoder by its import path)
   are kept apart: a table of several architectures reads one grid per architecture, each
   pooled by the rule above, tags each run with its grid's architecture and pairs nothing across
   them (``apart``); two grids of one architecture, a grid of several, or grids on other data are
@@ -37,6 +39,7 @@ from typing import Any
 
 from jigsaws_tools.dataset import DataConfig
 from rnn_seg.encoders.config import ENCODERS
+from rnn_seg.encoders.import_path import is_import_path
 from rnn_seg.runs.settings import settings_of
 
 from ...grid.spec import RunKey, inner_fold
@@ -60,19 +63,33 @@ class MixedArchitectures(ValueError):
 
 
 def architecture(record: RunRecord) -> str:
-    """The run's architecture: ``lstm-<units per direction>`` (e.g. ``lstm-128``), ``ed-tcn`` or
-    ``ms-tcn`` (``rnn_seg.encoders``)."""
+    """The run's architecture: ``lstm-<units per direction>`` (e.g. ``lstm-128``), ``ed-tcn``,
+    ``ms-tcn`` (``rnn_seg.encoders``), or a user's encoder's import path
+    (``package.module:name``)."""
     encoder = record.config.encoder
+    if encoder.kind == "custom":
+        return encoder.path
     return f"lstm-{encoder.hidden}" if encoder.kind == "lstm" else encoder.kind
 
 
+def encoder_identity(record: RunRecord) -> str:
+    """What one encoder is: its kind, or for a user's encoder its import path and source hash
+    (``package.module:name (sha256 0123456789ab)``)."""
+    encoder = record.config.encoder
+    return encoder.describe() if encoder.kind == "custom" else encoder.kind
+
+
 def architecture_name(key: str) -> str:
-    """How tables name an architecture: ``LSTM-128``, ``ED-TCN``, ``MS-TCN``."""
-    return key.upper()
+    """How tables name an architecture: ``LSTM-128``, ``ED-TCN``, ``MS-TCN``, a user's encoder
+    by its import path as given."""
+    return key if is_import_path(key) else key.upper()
 
 
 def is_architecture(text: str) -> bool:
-    """Whether ``text`` is what ``architecture`` returns for some run (``lstm-1024``)."""
+    """Whether ``text`` is what ``architecture`` returns for some run (``lstm-1024``,
+    ``package.module:name``)."""
+    if is_import_path(text):
+        return True
     kind, _, width = text.partition("-") if text.startswith("lstm-") else (text, "", "")
     return kind in ENCODERS and (kind != "lstm" or width.isdigit()) and text != "lstm"
 
@@ -178,15 +195,16 @@ def pool(records: dict[Path, RunRecord], where: Path | str, varying: tuple[str, 
             width and schedule (none for a table whose rows are configurations).
 
     Raises:
-        MixedSettings: runs of several encoders (an LSTM, ED-TCN, MS-TCN: a table of one grid
-            would pair them as one model's configurations); inner runs in a table not made for
-            them (``INNER_SETTING`` not in ``varying``), or with outer runs; or, naming, per row
+        MixedSettings: runs of several encoders (an LSTM, ED-TCN, MS-TCN, a user's encoder of
+            another import path or source: a table of one grid would pair them as one model's
+            configurations), naming each; inner runs in a table not made for them
+            (``INNER_SETTING`` not in ``varying``), or with outer runs; or, naming, per row
             whose runs differ, each setting that differs and the runs of each of its values.
     """
     _check_inner(records, where, INNER_SETTING in varying)
     encoders: dict[str, list[str]] = {}
     for run, record in records.items():
-        encoders.setdefault(record.config.encoder.kind, []).append(str(run))
+        encoders.setdefault(encoder_identity(record), []).append(str(run))
     if len(encoders) > 1:
         raise MixedSettings(
             f"{where}: runs of several encoders ("

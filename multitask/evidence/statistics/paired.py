@@ -415,9 +415,15 @@ def seed_values(runs: pd.DataFrame, side: ConfigId, metric: str) -> dict[str, np
     rows = side.select(runs)
     if rows.empty:
         raise NotPaired(f"no finished runs of {side.label}")
-    values = rows[["fold", metric]].dropna()
+    return fold_values(rows, metric, side.label)
+
+
+def fold_values(rows: pd.DataFrame, metric: str, label: str) -> dict[str, np.ndarray]:
+    """Fold -> the values of ``metric`` over the seeds of ``rows``, one side's (columns ``fold``
+    and ``metric``; NaNs left out); ``NotPaired`` naming ``label`` when there are none."""
+    values = rows[["fold", metric]].dropna() if metric in rows.columns else rows.iloc[:0]
     if values.empty:
-        raise NotPaired(f"{side.label} has no values of {metric}")
+        raise NotPaired(f"{label} has no values of {metric}")
     return {str(fold): group[metric].to_numpy(float) for fold, group in values.groupby("fold")}
 
 

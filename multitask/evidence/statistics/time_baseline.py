@@ -149,6 +149,7 @@ def _grid_data(grid_dir: Path, annotations: str):
     hold; ``OSError`` when that folder is not here (or names the synthetic release, which a table
     does not write)."""
     from jigsaws_tools.dataset import DataConfig, load_dataset
+    from jigsaws_tools.recording_format import load_format
     from jigsaws_tools.task_definition import load_task
 
     from ...grid.folder import read_record
@@ -156,13 +157,15 @@ def _grid_data(grid_dir: Path, annotations: str):
     record = read_record(grid_dir) or {}
     spec = record.get("spec", {})
     task = load_task(spec.get("task") or "Suturing")
+    recording_format = load_format(spec.get("format"))       # the release's in older records
     recorded = spec.get("data_dir")
     data_dir = Path(recorded) if recorded and recorded != "synthetic" else None
-    if data_dir is None or not (data_dir / "transcriptions").is_dir():
+    if data_dir is None or not (data_dir / recording_format.transcriptions).is_dir():
         # never another release in its place, and no synthetic one written by a table
         raise OSError(f"the release the grid records ({recorded or 'none'}) is not here")
     users = sorted({Path(run).name for run in record.get("runs", [])})
-    dataset = load_dataset(DataConfig(str(data_dir), annotations=annotations, task=task))
+    dataset = load_dataset(DataConfig(str(data_dir), annotations=annotations, task=task,
+                                      recording_format=recording_format))
     return dataset, users or list(dataset.users)
 
 

@@ -17,6 +17,7 @@ of ``multitask.evidence``).
   ``confirm_report``: both written out, with ``confirm.md``, the outcome in the plan's words;
   ``design``: what the plan's folds x seeds could detect (variance shares, power);
 * ``tasks``: the JIGSAWS tasks side by side, from each task's tables.
+* ``method``: another method's scores beside archived baselines, paired by fold.
 
 A new study is a module here and its subcommand in ``..commands`` (how: ``..commands``).
 

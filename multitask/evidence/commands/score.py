@@ -1,0 +1,85 @@
+"""``multitask-tables score PREDICTIONS ... --rate HZ --out DIR``: another method's predictions
+scored as our runs are, and paired with archived baselines.
+
+PREDICTIONS: one folder per seed of the method, each holding one file per trial of the release,
+``<trial>.csv`` (columns ``frame,gesture[,progress]``) or ``<trial>.txt`` (one gesture name per
+line): docs/YOUR_METHOD.md. Rows come at ``--rate`` Hz, a divisor of the recordings' 30 Hz: row i
+is the prediction at frame ``i * 30 / rate + 1`` and holds until the next (30: one row per frame;
+5: one per 6 frames from the first). Our runs are scored at their 5 Hz samples (the labelled
+frames, every 6th from the first): each sample takes the row holding its frame. Every file is
+checked first (a missing, extra or other task's trial, a wrong length, an unknown label: one
+line naming it, exit 2, nothing written). Scores per LOUO fold as ``rnn_seg.metrics`` gives a
+run's (accuracy, edit, F1@{10,25,50}; progress with a ``progress`` column).
+
+``--against GRID[:CONFIG,...]``: compare with configurations of grids or scores archives (default
+configurations: their A, APc and APoc); per fold each side is the mean over its seeds, the exact
+sign-flip test and interval of ``claims.csv``, Holm over every comparison of the call. Writes
+``score_folds.csv``, ``score_summary.csv`` and, with ``--against``, ``score.csv|.tex|.md``
+(printed too) into ``--out``, listed in ``score.json`` (``studies.method``).
+
+    multitask-tables score my_method/seed0 my_method/seed1 --rate 30 \\
+        --against results/grid:A-fixed,APoc-gradnorm results/tcn/ms-tcn:A-fixed --out my_tables
+"""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from jigsaws_tools.cli.format_options import add_format_option
+from jigsaws_tools.cli.options import add_data_arguments
+
+from .common import add_out_options, publish
+
+SUMMARY = "another method's predictions scored and paired with archived baselines"
+#: The list of the files the last call wrote into ``--out``; it names the folders and grids.
+MANIFEST = "score.json"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("folders", type=Path, nargs="+", metavar="PREDICTIONS",
+                        help="a folder of prediction files per seed of the method")
+    parser.add_argument("--rate", type=float, required=True, metavar="HZ",
+                        help="the predictions' rate in Hz, a divisor of the recordings' (30: "
+                             "one row per frame; 5: one per 6 frames) (required)")
+    parser.add_argument("--name", default="method",
+                        help="the method's name in the tables (default: method)")
+    parser.add_argument("--against", nargs="+", default=[], metavar="GRID[:CONFIG,...]",
+                        help="grids or scores archives to compare with, each with its "
+                             "configurations (default: its A, APc and APoc), e.g. "
+                             "results/tcn/ms-tcn:A-fixed")
+    parser.add_argument("--metrics", nargs="+", metavar="METRIC",
+                        default=["gesture_accuracy", "gesture_edit", "gesture_f1@10"],
+                        help="the scores compared (default: gesture_accuracy gesture_edit "
+                             "gesture_f1@10)")
+    data = add_data_arguments(parser)
+    add_format_option(data, "the release")
+    add_out_options(parser, MANIFEST)
+
+
+def run(args: argparse.Namespace) -> None:
+    from jigsaws_tools.cli.format_options import format_from_options
+    from jigsaws_tools.cli.options import data_dir_from_args
+    from jigsaws_tools.cli.task_options import task_from_options
+    from jigsaws_tools.dataset import DataConfig
+
+    from ..runs.method import method_scores
+    from ..studies.method import (caption, check_metrics, compare, comparison_markdown,
+                                  parse_against, read_baselines, write_method)
+
+    task = task_from_options(args)
+    config = DataConfig(str(data_dir_from_args(args, task)), annotations=args.annotations,
+                        task=task, recording_format=format_from_options(args))
+    against = [parse_against(text, args.annotations) for text in args.against]
+    scores, trials = method_scores(args.folders, config, args.rate)
+    check_metrics(scores, args.metrics)
+    table, text = None, ""
+    if against:
+        baselines, runs = read_baselines(against, args.annotations, trials)
+        table = compare(scores, args.name, baselines, runs, args.metrics)
+        text = caption(table, args.name, args.annotations, task.name)
+    publish(args.out, MANIFEST, args.overwrite,
+            lambda staging: write_method(scores, table, args.metrics, text, staging),
+            record={"predictions": [str(f) for f in args.folders], "rate_hz": args.rate,
+                    "annotations": args.annotations, "against": args.against})
+    if table is not None:
+        print(comparison_markdown(table, text), end="")

@@ -1,0 +1,239 @@
+"""A method scored elsewhere beside archived baselines, paired by fold (``multitask-tables
+score``).
+
+The method's per-fold scores (``runs.method``: one prediction folder per seed) become one side of
+a contrast whose other side is a configuration of a grid or scores archive (``Baseline``: e.g.
+``A-fixed`` of ``results/grid``, ``A-fixed`` of ``results/tcn/ms-tcn``), on the method's labels,
+bidirectional. Each comparison is ``method - baseline`` per fold, each side the mean over its
+seeds within the fold, tested as ``claims.csv`` tests a claim (``paired.paired_sides``: exact
+two-sided sign-flip test over the folds both sides have, the 95 % interval that inverts it);
+Holm's correction runs over every comparison of the call (baselines x metrics). Verdict at the
+adjusted p: ``<method> above`` / ``<method> below`` (p <= alpha), else ``no difference
+detected``.
+
+A grid is compared only when its runs were tested on the method's trials: per fold both must
+name the same trials (a grid records them in its kept predictions or its archive's
+``archive.json``), else the grid is refused (another release, task or subset).
+
+Files (``write_method``): ``score_folds.csv`` (the method's scores per seed and fold),
+``score_summary.csv`` (per metric, mean and sd over folds of the per-fold seed means) and, with
+baselines, ``score.csv`` (one row per comparison: ``COLUMNS``), ``score.tex`` and ``score.md``
+(the comparisons under a caption naming seeds, folds and labels).
+"""
+from __future__ import annotations
+
+import sys
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+import pandas as pd
+
+from rnn_seg.runs.folder import write_atomic
+
+from ...grid.archive import archived_test_trials, kept_predictions
+from ..render.latex import escape, number, requires
+from ..render.markdown import markdown_table
+from ..runs.collect import run_records
+from ..runs.pooling import architecture, architecture_name
+from ..statistics.paired import (ConfigId, NotPaired, StatsConfig, config_labels, fold_values,
+                                 holm, paired_sides, seed_values)
+
+#: The configurations a grid named without any is compared by: these variants' (any weighting).
+DEFAULT_VARIANTS = ("A", "APc", "APoc")
+#: The metrics compared by default.
+METRICS = ("gesture_accuracy", "gesture_edit", "gesture_f1@10")
+#: The columns of ``score.csv``.
+COLUMNS = ["method", "baseline", "grid", "metric", "folds", "method_seeds", "baseline_seeds",
+           "method_mean", "baseline_mean", "diff", "ci_low", "ci_high", "p_value", "p_holm",
+           "verdict"]
+
+
+@dataclass(frozen=True)
+class Baseline:
+    """A configuration of a grid (or scores archive) the method is compared with; ``name``:
+    its architecture and configuration, e.g. ``MS-TCN A-fixed``."""
+
+    grid: Path
+    config: ConfigId
+    name: str
+
+
+def parse_against(text: str, annotations: str) -> tuple[Path, list[ConfigId]]:
+    """``GRID[:CONFIG[,CONFIG...]]`` -> the grid and its configurations on ``annotations``
+    labels (none named: ``[]``, the defaults); a configuration of other labels is refused."""
+    grid, _, names = text.partition(":")
+    configs = []
+    for name in filter(None, names.split(",")):
+        config = ConfigId.parse(name if "/" in name else f"{annotations}/{name}")
+        if config.annotations != annotations:
+            raise ValueError(f"--against {text}: {name} is on {config.annotations} labels, the "
+                             f"predictions are scored on {annotations} labels (--annotations)")
+        configs.append(config)
+    return Path(grid), configs
+
+
+def read_baselines(against: Sequence[tuple[Path, list[ConfigId]]], annotations: str,
+                   trials: dict[str, list[str]]) -> tuple[list[Baseline], pd.DataFrame]:
+    """The baselines of ``against`` (``parse_against``' pairs) and their runs (one table, a
+    ``grid`` column naming each run's grid), every grid's runs checked (``collect.run_records``)
+    and tested on ``trials`` (fold -> the method's trials)."""
+    chosen, tables = [], []
+    for grid, configs in against:
+        runs, _, records = run_records(grid)
+        _check_trials(grid, records, trials)
+        kinds = sorted({architecture(record) for record in records.values()})
+        kind = architecture_name(kinds[0]) if len(kinds) == 1 else grid.name
+        configs = configs or [c for c in map(ConfigId.parse, config_labels(runs))
+                              if c.variant in DEFAULT_VARIANTS and c.annotations == annotations
+                              and c.direction == "bidirectional"]
+        if not configs:
+            raise ValueError(f"{grid}: none of {', '.join(DEFAULT_VARIANTS)} on {annotations} "
+                             f"labels; it holds {', '.join(config_labels(runs))} (name them: "
+                             f"{grid}:CONFIG,...)")
+        for config in configs:
+            config = ConfigId(config.variant, config.weighting, annotations, config.direction)
+            if config.select(runs).empty:
+                raise ValueError(f"{grid}: no run of {config.label}; it holds "
+                                 f"{', '.join(config_labels(runs))}")
+            chosen.append(Baseline(grid, config, f"{kind} {config.label}"))
+        tables.append(runs.assign(grid=str(grid)))
+    return chosen, pd.concat(tables, ignore_index=True) if tables else pd.DataFrame()
+
+
+def _check_trials(grid: Path, records: dict, trials: dict[str, list[str]]) -> None:
+    """A ``ValueError`` when a fold of ``grid`` was tested on other trials than ``trials``'."""
+    tested = archived_test_trials(grid)
+    for run in records:
+        tested.setdefault(Path(run).name, list(kept_predictions(run)))
+    for fold, names in sorted(tested.items()):
+        if names and fold in trials and sorted(names) != sorted(trials[fold]):
+            raise ValueError(f"{grid}: fold {fold} was tested on {', '.join(sorted(names))}, the "
+                             f"predictions are scored on {', '.join(trials[fold])}: another "
+                             "release or task (--data-dir, --task)")
+
+
+def compare(scores: pd.DataFrame, name: str, baselines: Sequence[Baseline],
+            runs: pd.DataFrame, metrics: Sequence[str],
+            config: StatsConfig = StatsConfig()) -> pd.DataFrame:
+    """One row per baseline and metric (``COLUMNS``): ``name - baseline`` paired by fold.
+
+    Args:
+        scores: the method's rows (``seed``, ``fold``, metrics; ``runs.method.method_scores``).
+        name: the method's name in the table.
+        baselines: what it is compared with.
+        runs: the baselines' runs (``read_baselines``).
+        metrics: the metric columns compared; a baseline without one (model A has no progress
+            scores) is left out of that metric's rows, with a note.
+        config: the test's level.
+    """
+    rows = []
+    for metric in metrics:
+        mine = fold_values(scores, metric, name)
+        for baseline in baselines:
+            try:
+                theirs = seed_values(runs[runs.grid == str(baseline.grid)], baseline.config,
+                                     metric)
+            except NotPaired as error:
+                print(f"note: {error}: not compared on {metric}", file=sys.stderr)
+                continue
+            result = paired_sides(f"{name} - {baseline.name}", metric,
+                                  {name: (1, mine), baseline.name: (-1, theirs)}, config)
+            rows.append({
+                "method": name, "baseline": baseline.name, "grid": str(baseline.grid),
+                "metric": metric, "folds": " ".join(result.folds),
+                "method_seeds": len(scores.seed.unique()),
+                "baseline_seeds": _seeds(runs, baseline),
+                "method_mean": float(np.mean([mine[f].mean() for f in result.folds])),
+                "baseline_mean": float(np.mean([theirs[f].mean() for f in result.folds])),
+                "diff": result.mean, "ci_low": result.ci_low, "ci_high": result.ci_high,
+                "p_value": result.p_value})
+    table = pd.DataFrame(rows, columns=COLUMNS)
+    table["p_holm"] = holm(table.p_value.to_numpy(float))
+    table["verdict"] = [f"{name} {'above' if d > 0 else 'below'}" if p <= config.alpha
+                        else "no difference detected" for d, p in zip(table["diff"],
+                                                                      table.p_holm)]
+    return table
+
+
+def _seeds(runs: pd.DataFrame, baseline: Baseline) -> int:
+    return len(baseline.config.select(runs[runs.grid == str(baseline.grid)]).seed.unique())
+
+
+def summary(scores: pd.DataFrame, metrics: Sequence[str]) -> pd.DataFrame:
+    """Per metric the mean and sd over folds of the method's per-fold seed means."""
+    folds = scores.groupby("fold")[list(metrics)].mean()
+    return pd.DataFrame({"metric": list(metrics), "mean": folds.mean().to_numpy(),
+                         "sd": folds.std(ddof=1).to_numpy(), "folds": len(folds),
+                         "seeds": len(scores.seed.unique())})
+
+
+def caption(table: pd.DataFrame, name: str, annotations: str, task: str,
+            config: StatsConfig = StatsConfig()) -> str:
+    """What the comparison table says, its seeds, folds and labels."""
+    folds = sorted({f for row in table.folds for f in row.split()})
+    seeds = "; ".join(f"{b} {n}" for b, n in
+                      table[["baseline", "baseline_seeds"]].drop_duplicates().itertuples(
+                          index=False))
+    return (f"{name} against archived baselines on {task}, {annotations} labels, "
+            f"leave-one-user-out over {len(folds)} folds ({', '.join(folds)}); seeds: {name} "
+            f"{table.method_seeds.iloc[0]}; {seeds}. Per fold each side is the mean over its "
+            f"seeds; diff = {name} - baseline (points; lower is better for MAE), its "
+            f"{config.confidence:.0%} interval and p from the exact sign-flip test over the "
+            f"folds (as claims.csv), p Holm-adjusted over the {len(table)} comparisons.")
+
+
+def _cells(row, fmt) -> list[str]:
+    """A comparison's cells, numbers written by ``fmt(value, signed)``."""
+    return [row.baseline, row.metric, fmt(row.method_mean, False), fmt(row.baseline_mean, False),
+            f"{fmt(row.diff, True)} [{fmt(row.ci_low, True)}, {fmt(row.ci_high, True)}]",
+            f"{row.p_value:.4f}", f"{row.p_holm:.4f}", row.verdict]
+
+
+HEADER = ["Baseline", "Metric", "Method", "Baseline score", "Diff [95% CI]", "p", "p (Holm)",
+          "Verdict"]
+
+
+def comparison_markdown(table: pd.DataFrame, caption_text: str) -> str:
+    """``table`` as Markdown under its caption."""
+    lines = markdown_table(HEADER, [_cells(row, lambda v, s: f"{v:+.2f}" if s else f"{v:.2f}")
+                                    for row in table.itertuples(index=False)])
+    return "\n".join([caption_text, "", *lines]) + "\n"
+
+
+def comparison_latex(table: pd.DataFrame, caption_text: str) -> str:
+    """``table`` as a booktabs table under its caption."""
+    body = [" & ".join(escape(c) if i in (0, 1, 7) else c for i, c in enumerate(
+        _cells(row, lambda v, s: number(v, 2, s)))) + r" \\"
+        for row in table.itertuples(index=False)]
+    return "".join([requires("booktabs"), "\\begin{table}[t]\n\\centering\\small\n",
+                    f"\\caption{{{escape(caption_text)}}}\n",
+                    "\\begin{tabular}{llrrlrrl}\n\\toprule\n",
+                    " & ".join(escape(h) for h in HEADER), r" \\", "\n\\midrule\n",
+                    "\n".join(body), "\n\\bottomrule\n\\end{tabular}\n\\end{table}\n"])
+
+
+def write_method(scores: pd.DataFrame, table: pd.DataFrame | None, metrics: Sequence[str],
+                 caption_text: str, out: Path) -> list[Path]:
+    """The study's files (module docstring) into ``out``; the paths written."""
+    paths = [out / "score_folds.csv", out / "score_summary.csv"]
+    columns = ["seed", "fold", *(c for c in scores.columns if c not in ("seed", "fold"))]
+    write_atomic(paths[0], scores[columns].to_csv(index=False, float_format="%.4f"))
+    write_atomic(paths[1], summary(scores, metrics).to_csv(index=False, float_format="%.4f"))
+    if table is not None:
+        paths += [out / "score.csv", out / "score.tex", out / "score.md"]
+        write_atomic(paths[2], table.to_csv(index=False, float_format="%.4f"))
+        write_atomic(paths[3], comparison_latex(table, caption_text))
+        write_atomic(paths[4], comparison_markdown(table, caption_text))
+    return paths
+
+
+def check_metrics(scores: pd.DataFrame, metrics: Sequence[str]) -> None:
+    """A ``ValueError`` naming a metric the method's scores lack (e.g. a progress metric
+    without progress predictions)."""
+    for metric in metrics:
+        if metric not in scores.columns:
+            known = [c for c in scores.columns if c not in ("seed", "fold")]
+            raise ValueError(f"--metrics {metric}: not a score of the predictions; known: "
+                             f"{', '.join(known)}")

@@ -1,0 +1,233 @@
+"""``multitask-tables score``: another method's predictions scored as our runs are, checked
+before scoring, and paired with archived baselines as ``statistics.paired`` pairs ours."""
+from __future__ import annotations
+
+import json
+import os
+import re
+import shlex
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from jigsaws_tools.dataset import DataConfig, load_dataset
+from jigsaws_tools.task_definition import SUTURING
+from multitask.evidence.cli import main as tables_main
+from multitask.evidence.runs.method import method_scores, truth
+from multitask.evidence.statistics.paired import ConfigId, Contrast, holm, paired
+from multitask.evidence.studies.method import compare, read_baselines
+from multitask.grid.archive import ARCHIVE_RECORD
+from multitask.grid.spec import Experiment
+from rnn_seg.metrics import segmentation_metrics
+from tests.fake_grid import write_fake_grid
+
+ROOT = Path(__file__).resolve().parents[1]
+GESTURES = np.asarray(SUTURING.gestures)
+#: The marker of docs/YOUR_METHOD.md's worked example, which ``test_the_worked_example_runs``
+#: runs.
+WORKED_EXAMPLE = "<!-- worked example: tests/test_method.py -->"
+
+
+@pytest.fixture(scope="module")
+def trials(synth_dir):
+    return truth(DataConfig(str(synth_dir)))
+
+
+def _frame_labels(trial, rng=None) -> np.ndarray:
+    """``[n_frames]`` gesture indices: each frame the true gesture of the last scored sample at or
+    before it (the first sample's before it); with ``rng``, a fifth of the segments relabelled."""
+    index = np.maximum(np.searchsorted(trial.frames, np.arange(1, trial.n_frames + 1),
+                                       side="right") - 1, 0)
+    labels = trial.gestures[index]
+    if rng is not None:
+        starts = np.flatnonzero(np.r_[True, labels[1:] != labels[:-1]])
+        for start in starts[rng.random(len(starts)) < 0.2]:
+            labels[start:start + 40] = rng.integers(len(GESTURES))
+    return labels
+
+
+def _write(folder: Path, labels: dict[str, np.ndarray], rate: int, fmt: str) -> Path:
+    """Each trial's ``[n_frames]`` labels at ``rate`` Hz (every 30/rate-th frame from the
+    first) as ``<trial>.txt`` or ``<trial>.csv`` (frame,gesture)."""
+    folder.mkdir(parents=True)
+    step = 30 // rate
+    for name, frame_labels in labels.items():
+        kept = GESTURES[frame_labels[::step]]
+        if fmt == "txt":
+            (folder / f"{name}.txt").write_text("\n".join(kept) + "\n")
+        else:
+            pd.DataFrame({"frame": 1 + step * np.arange(len(kept)), "gesture": kept}).to_csv(
+                folder / f"{name}.csv", index=False)
+    return folder
+
+
+def _score(folder: Path, synth_dir: Path, rate: float) -> pd.DataFrame:
+    return method_scores([folder], DataConfig(str(synth_dir)), rate)[0]
+
+
+def test_per_fold_scores_equal_what_the_metric_code_gives(tmp_path, synth_dir, trials):
+    rng = np.random.default_rng(0)
+    labels = {t.name: _frame_labels(t, rng) for t in trials}
+    scores = _score(_write(tmp_path / "p", labels, 30, "txt"), synth_dir, 30).set_index("fold")
+    dataset = load_dataset(DataConfig(str(synth_dir)))
+    for user in dataset.users:
+        test = dataset.louo_split(user)[1]
+        expected = segmentation_metrics([labels[t.name][t.frames - 1] for t in test],
+                                        [t.gestures for t in test])
+        for metric, value in expected.items():
+            assert scores.loc[user, f"gesture_{metric}"] == pytest.approx(value), metric
+    assert scores["gesture_accuracy"].lt(100).all()
+
+
+def test_the_true_labels_score_100(tmp_path, synth_dir, trials):
+    scores = _score(_write(tmp_path / "p", {t.name: _frame_labels(t) for t in trials}, 30,
+                           "csv"), synth_dir, 30)
+    for metric in ("accuracy", "edit", "f1@10", "f1@25", "f1@50"):
+        assert scores[f"gesture_{metric}"].eq(100).all(), metric
+
+
+def test_both_formats_and_both_rates_score_alike(tmp_path, synth_dir, trials):
+    rng = np.random.default_rng(1)
+    at_5hz = {t.name: np.repeat(_frame_labels(t, rng)[::6], 6)[:t.n_frames] for t in trials}
+    scores = [_score(_write(tmp_path / f"{fmt}{rate}", at_5hz, rate, fmt), synth_dir, rate)
+              for fmt in ("txt", "csv") for rate in (30, 5)]
+    for other in scores[1:]:
+        pd.testing.assert_frame_equal(scores[0], other)
+
+
+def _refused(tmp_path, capsys, folder: Path, synth_dir: Path, *extra: str) -> str:
+    out = tmp_path / "tables"
+    code = tables_main(["score", str(folder), "--data-dir", str(synth_dir), "--rate", "30",
+                        *extra, "--out", str(out)])
+    err = capsys.readouterr().err
+    assert code == 2 and not out.exists(), err
+    assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
+    return err
+
+
+def test_a_wrong_folder_is_refused_naming_the_trial(tmp_path, capsys, synth_dir, trials):
+    good = _write(tmp_path / "good", {t.name: _frame_labels(t) for t in trials}, 30, "txt")
+    first = trials[0]
+
+    def broken(name: str) -> Path:
+        folder = tmp_path / name
+        shutil.copytree(good, folder)
+        return folder
+
+    short = broken("short")
+    (short / f"{first.name}.txt").write_text("G1\n" * (first.n_frames - 5))
+    err = _refused(tmp_path, capsys, short, synth_dir)
+    assert first.name in err and f"{first.n_frames - 5} lines" in err
+    assert f"expected {first.n_frames}" in err
+
+    unknown = broken("unknown")
+    lines = (unknown / f"{first.name}.txt").read_text().splitlines()
+    lines[6] = "G99"
+    (unknown / f"{first.name}.txt").write_text("\n".join(lines) + "\n")
+    err = _refused(tmp_path, capsys, unknown, synth_dir)
+    assert f"{first.name}.txt:7:" in err and "'G99'" in err
+
+    missing = broken("missing")
+    (missing / f"{first.name}.txt").unlink()
+    assert first.name in _refused(tmp_path, capsys, missing, synth_dir)
+
+    extra = broken("extra")
+    (extra / "Suturing_Z001.txt").write_text("G1\n")
+    assert "Suturing_Z001" in _refused(tmp_path, capsys, extra, synth_dir)
+
+    other = broken("other")
+    (other / "Knot_Tying_B001.txt").write_text("G1\n")
+    assert "another task" in _refused(tmp_path, capsys, other, synth_dir)
+
+    assert "divisor" in _refused(tmp_path, capsys, good, synth_dir, "--rate", "7")
+
+
+@pytest.fixture(scope="module")
+def baselines(tmp_path_factory, synth_dir) -> dict[str, Path]:
+    """Scores archives of model A (an LSTM grid) and MS-TCN's A on the synthetic release's
+    trials, without training (``fake_grid``)."""
+    root = tmp_path_factory.mktemp("baselines")
+    experiments = (Experiment(("A", "APc"), ("fixed",), ("revised",), ("bidirectional",)),)
+    grids = {"lstm": write_fake_grid(root / "lstm", seeds=(0, 1, 2), experiments=experiments),
+             "ms-tcn": write_fake_grid(root / "ms-tcn", seeds=(0, 1), encoder="ms-tcn",
+                                       experiments=experiments[:1], scores_seed=1)}
+    folds: dict[str, list[str]] = {}
+    for trial in truth(DataConfig(str(synth_dir))):
+        folds.setdefault(trial.user, []).append(trial.name)
+    for grid in grids.values():                  # as archives: test trials, no predictions
+        for predictions in grid.glob("runs/**/eval"):
+            shutil.rmtree(predictions)
+        (grid / ARCHIVE_RECORD).write_text(json.dumps({"test_trials": folds}))
+    return grids
+
+
+def test_the_pairing_is_statistics_paired_on_the_same_numbers(tmp_path, synth_dir, trials,
+                                                              baselines):
+    rng = np.random.default_rng(2)
+    folders = [_write(tmp_path / f"seed{k}", {t.name: _frame_labels(t, rng) for t in trials},
+                      30, "txt") for k in range(2)]
+    scores, folds = method_scores(folders, DataConfig(str(synth_dir)), 30)
+    against = [(baselines["lstm"], []), (baselines["ms-tcn"], [ConfigId("A")])]
+    chosen, runs = read_baselines(against, "revised", folds)
+    assert [b.name for b in chosen] == ["LSTM-16 A-fixed", "LSTM-16 APc-fixed",
+                                        "MS-TCN A-fixed"]
+    metrics = ["gesture_accuracy", "gesture_edit"]
+    table = compare(scores, "M", chosen, runs, metrics)
+    assert len(table) == 6
+    np.testing.assert_allclose(table.p_holm, holm(table.p_value))
+    for row, baseline in zip(table.itertuples(), chosen * 2):
+        side = runs[runs.grid == str(baseline.grid)]
+        mine = scores.assign(variant="M", weighting="fixed", annotations="revised",
+                             direction="bidirectional")
+        result = paired(pd.concat([mine, side], ignore_index=True),
+                        Contrast(ConfigId("M"), baseline.config), row.metric)
+        assert (row.diff, row.ci_low, row.ci_high, row.p_value) == pytest.approx(
+            (result.mean, *result.ci, result.p_value))
+        assert row.folds == " ".join(result.folds) and row.baseline_seeds == result.seeds[1]
+
+
+def test_a_grid_tested_on_other_trials_is_refused(tmp_path, synth_dir, baselines):
+    folds = {"B": ["Suturing_B001"]}
+    with pytest.raises(ValueError, match="fold B was tested on"):
+        read_baselines([(baselines["lstm"], [])], "revised", folds)
+
+
+def _worked_example() -> list[str]:
+    """The commands of docs/YOUR_METHOD.md's worked example, continuation lines joined."""
+    text = (ROOT / "docs" / "YOUR_METHOD.md").read_text()
+    block = text.split(WORKED_EXAMPLE, 1)[1].split("```bash\n", 1)[1].split("```", 1)[0]
+    return [line for line in re.sub(r"\\\n\s*", "", block).splitlines() if line.strip()]
+
+
+@pytest.mark.slow
+def test_the_worked_example_runs(tmp_path, synth_dir, baselines):
+    """The documented commands, on the synthetic release with archives of A and MS-TCN's A in
+    place of results/grid and results/tcn/ms-tcn: a program that imports nothing of ours writes
+    the predictions, one command scores and compares them."""
+    source = (ROOT / "examples" / "foreign_method.py").read_text()
+    assert not re.search(r"^\s*(from|import)\s+(jigsaws_tools|rnn_seg|baseline|multitask)",
+                         source, re.M)
+    places = {"/path/to/Suturing": str(synth_dir), "results/grid": str(baselines["lstm"]),
+              "results/tcn/ms-tcn": str(baselines["ms-tcn"])}
+    printed = ""
+    for line in _worked_example():
+        for documented, here in places.items():
+            line = line.replace(documented, here)
+        words = shlex.split(line)
+        if words[0] == "python":
+            words = [sys.executable, str(ROOT / words[1]), *words[2:]]
+        else:
+            script = "import sys; from multitask.evidence.cli import main; sys.exit(main())"
+            words = [sys.executable, "-c", script, *words[1:]]
+        result = subprocess.run(words, cwd=tmp_path, capture_output=True, text=True,
+                                timeout=600, env={**os.environ, "PYTHONPATH": str(ROOT)})
+        assert result.returncode == 0, f"{line}\n{result.stderr}"
+        printed += result.stdout
+    assert "LSTM-16 A-fixed" in printed and "MS-TCN A-fixed" in printed
+    table = pd.read_csv(tmp_path / "my_method" / "tables" / "score.csv")
+    assert set(table.baseline) == {"LSTM-16 A-fixed", "MS-TCN A-fixed"}
