@@ -11,8 +11,8 @@ spec that runs it (``combination-<folds>.toml``): run it with ``multitask-grid``
 grid with ``--combination`` to settle each fold's setting. Listed in ``factors.json``
 (``studies.factors``).
 
-    multitask-tables factors runs/tcn/factors/baseline runs/tcn/factors/T-* runs/tcn/factors/L-off \\
-        --out results/tcn/factors/tables
+    multitask-tables factors runs/tcn/factors/baseline runs/tcn/factors/T-5hz-k15 \\
+        runs/tcn/factors/L-off --out results/tcn/factors/tables
     multitask-tables factors runs/tcn/factors/baseline runs/tcn/factors/[TLNFPH]-* \\
         --combination runs/tcn/factors/combination-B-C --out results/tcn/factors/tables
 """
