@@ -34,7 +34,8 @@ def write_fake_grid(root: Path, seeds: tuple[int, ...] = (0, 1), hidden: int = 1
                     schedule_factors: dict[str, float] | None = None,
                     per_class: bool = False, fingerprint: str | None = None,
                     encoder: str = "lstm", seconds: float | None = None,
-                    precision: str = "fp32", loops: str = "graph", scores_seed: int = 0) -> Path:
+                    precision: str = "fp32", loops: str = "graph", scores_seed: int = 0,
+                    data: Path | None = None) -> Path:
     """Every run of a grid (default: the paper's, 22 configurations) over 8 folds and ``seeds``
     under ``root``; every variant at the paper's relative length unless ``schedule_factors``.
     ``per_class``: metrics.json holds per-class precision, recall, F1 and the confusion matrices
@@ -46,15 +47,18 @@ def write_fake_grid(root: Path, seeds: tuple[int, ...] = (0, 1), hidden: int = 1
     ``schedule_factors`` then unused: its reference schedule). ``seconds``: every run's
     ``timing.json`` records this many seconds (data loading and training). ``precision``,
     ``loops``: the LSTM's execution path every config.json records; ``scores_seed`` seeds the
-    fake scores (another value: other scores)."""
+    fake scores (another value: other scores). ``data``: a (synthetic) Suturing release the runs
+    record as theirs, whose test trials (names and lengths) their predictions then follow, so that
+    the example figures find their true labels there."""
     lstm = encoder == "lstm"
     path = {"precision": precision, "loops": loops} if lstm else {}
-    spec = GridSpec(data_dir=str(root / "data" / "Suturing"), seeds=seeds,
+    spec = GridSpec(data_dir=str(data or root / "data" / "Suturing"), seeds=seeds,
                     hidden=hidden if lstm else None, epochs=epochs if lstm else None,
                     experiments=experiments, encoder=encoder,
                     schedule_factors=(schedule_factors or {}) if lstm else None, **path)
     rng = np.random.default_rng(scores_seed)
     keys = expand(spec, FOLDS)
+    trials = _test_trials(data)
     for key in keys:
         run_dir = root / key.path()
         config = run_config(spec, key)
@@ -67,9 +71,9 @@ def write_fake_grid(root: Path, seeds: tuple[int, ...] = (0, 1), hidden: int = 1
         point = config.train.eval_points[-1]
         predictions = run_dir / "eval" / f"epoch{point:04d}" / "predictions"
         predictions.mkdir(parents=True)
-        for trial in range(1, TRIALS[key.fold] + 1):
-            _predictions(rng, tasks, key.variant).to_csv(
-                predictions / f"Suturing_{key.fold}{trial:03d}.csv", index=False)
+        for name, samples in trials[key.fold].items():
+            _predictions(rng, tasks, key.variant, samples).to_csv(predictions / f"{name}.csv",
+                                                                  index=False)
         _history(rng, tasks, config.optim.total).to_csv(run_dir / "history.csv", index=False)
         if key.weighting == "gradnorm":
             n = np.arange(1, config.optim.total + 1)
@@ -109,6 +113,20 @@ def write_fake_run(run_dir: Path, key: RunKey, mean: dict[str, dict[str, float |
                                            "mean": mean, "unit": "epochs"})
     _write_json(run_dir / "finished.json", {"sweeps": 7 * config.optim.total})
     return run_dir
+
+
+def _test_trials(data: Path | None) -> dict[str, dict[str, int]]:
+    """Per fold, its test trials' names and lengths in samples: ``data``'s, else ``TRIALS``
+    trials of ``SAMPLES`` samples."""
+    if data is None:
+        return {fold: {f"Suturing_{fold}{k:03d}": SAMPLES for k in range(1, TRIALS[fold] + 1)}
+                for fold in FOLDS}
+    from jigsaws_tools.dataset import DataConfig, load_dataset
+
+    found: dict[str, dict[str, int]] = {fold: {} for fold in FOLDS}
+    for trial in load_dataset(DataConfig(str(data))).trials:
+        found[trial.user][trial.name] = len(trial)
+    return found
 
 
 def _write_json(path: Path, obj) -> None:
@@ -152,25 +170,26 @@ def _class_scores(confusion: dict) -> dict[str, float]:
             for c, v in zip(confusion["classes"], values)}
 
 
-def _labels(rng: np.random.Generator, classes: int) -> np.ndarray:
-    lengths = rng.integers(4, 12, size=SAMPLES)
-    labels = np.repeat(rng.integers(0, classes, size=SAMPLES), lengths)
-    return labels[:SAMPLES]
+def _labels(rng: np.random.Generator, classes: int, samples: int) -> np.ndarray:
+    lengths = rng.integers(4, 12, size=samples)
+    labels = np.repeat(rng.integers(0, classes, size=samples), lengths)
+    return labels[:samples]
 
 
-def _predictions(rng: np.random.Generator, tasks: list[str], variant: str) -> pd.DataFrame:
+def _predictions(rng: np.random.Generator, tasks: list[str], variant: str,
+                 samples: int = SAMPLES) -> pd.DataFrame:
     """One row per 5 Hz sample, in the format of ``rnn_seg.predictions``."""
-    frames = 1 + 6 * np.arange(SAMPLES)
+    frames = 1 + 6 * np.arange(samples)
     columns: dict[str, np.ndarray] = {"frame": frames, "time_s": (frames - 1) / 30,
-                                      "sample": np.arange(SAMPLES)}
+                                      "sample": np.arange(samples)}
     for task, names in (("gesture", GESTURES), ("progress", STAGES)):
         if task not in tasks:
             continue
-        true = _labels(rng, len(names))
-        pred = np.where(rng.random(SAMPLES) < 0.8, true, _labels(rng, len(names)))
+        true = _labels(rng, len(names), samples)
+        pred = np.where(rng.random(samples) < 0.8, true, _labels(rng, len(names), samples))
         columns[task], columns[f"{task}_true"] = np.asarray(names)[pred], np.asarray(names)[true]
         if task == "progress" and variant.endswith("Pr"):          # regression: the raw output
-            columns["progress_value"] = true + rng.normal(0, 0.4, SAMPLES)
+            columns["progress_value"] = true + rng.normal(0, 0.4, samples)
         elif task == "progress" and variant.endswith("oc"):        # ordinal: sigmoid outputs
             columns.update({f"progress_y_{n}": (pred >= k) * 0.9 for k, n in enumerate(names)})
         else:                                                       # softmax probabilities

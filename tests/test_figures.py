@@ -27,8 +27,8 @@ SECONDS_PER_CLASS = 2.0
 
 
 @pytest.fixture(scope="module")
-def grid(tmp_path_factory):
-    return write_fake_grid(tmp_path_factory.mktemp("grid"))
+def grid(tmp_path_factory, synth_dir):
+    return write_fake_grid(tmp_path_factory.mktemp("grid"), data=synth_dir)
 
 
 @pytest.fixture()
@@ -106,16 +106,15 @@ def test_per_gesture_accuracy_has_error_bars_and_tells_absent_from_never_recogni
 
 def test_example_figures_take_the_chosen_trial_and_show_seconds(grid, captured):
     folds = per_fold(run_rows(grid)[0])
-    example = figures.example_trial(grid, folds, "Suturing_D003")
-    assert example == ("Suturing_D003", "D")
+    choice = figures.example_trial(grid, folds, "Suturing_D003")
+    assert choice == ("Suturing_D003", "D")
+    example = figures.example_truth(grid, *choice)
     figures.all_figures(grid, folds, grid / "figures", example)
     segmentation = captured["segmentation_example"]
     assert "Suturing_D003" in segmentation.axes[0].get_title()
     assert segmentation.axes[-1].get_xlabel() == "time [s]"
-    predictions = pd.read_csv(next(grid.glob(
-        "runs/revised/bidirectional/A-fixed/seed0/D/eval/*/predictions/Suturing_D003.csv")))
-    end = segmentation.axes[-1].get_xlim()[1]
-    assert end == pytest.approx((predictions.frame.iloc[-1] - 1 + 6) / 30)
+    end = segmentation.axes[-1].get_xlim()[1]                   # the last sample's end
+    assert end == pytest.approx((example.truth.frames[-1] - 1 + 6) / 30)
     progress = captured["progress_example"].axes[0]
     assert "Suturing_D003" in progress.get_legend().get_title().get_text()
     assert any("APr" in t.get_text() for t in progress.get_legend().get_texts())
@@ -198,8 +197,8 @@ def test_training_curves_one_figure_per_configuration_a_line_per_run(grid, captu
     assert fig.axes[0].get_xlabel() == "epoch"
 
 
-def test_tables_command_draws_curves_and_the_chosen_trial(tmp_path, capsys):
-    grid = write_fake_grid(tmp_path / "grid", seeds=(0,), experiments=(
+def test_tables_command_draws_curves_and_the_chosen_trial(tmp_path, capsys, synth_dir):
+    grid = write_fake_grid(tmp_path / "grid", seeds=(0,), data=synth_dir, experiments=(
         Experiment(("A", "APr", "APc", "APoc"), ("fixed", "gradnorm")),))
     out = tmp_path / "tables"
     assert tables_main(["paper", str(grid), "--out", str(out), "--example-trial", "nope"]) == 2
@@ -278,27 +277,11 @@ def test_an_archive_without_confusion_matrices_is_tabulated_with_one_note(grid, 
     assert not (out / "per_gesture.csv").exists() and (out / "summary.csv").is_file()
 
 
-def test_predictions_of_earlier_versions_are_read_into_the_one_format(tmp_path):
-    """Class indices in ``<task>_pred`` / ``<task>_true`` and no ``time_s``: a run folder of an
-    earlier version still draws its example figures."""
-    old = tmp_path / "Suturing_B001.csv"
-    pd.DataFrame({"frame": [1, 7, 13], "gesture_true": [0, 2, 2], "gesture_pred": [0, 1, 2],
-                  "gesture_p_G1": [0.8, 0.1, 0.1], "gesture_p_G2": [0.1, 0.8, 0.1],
-                  "gesture_p_G3": [0.1, 0.1, 0.8], "progress_true": [0, 0, 1],
-                  "progress_pred": [0, 1, 1]}).to_csv(old, index=False)
-    table = figures.read_predictions(old, ("reach", "position"))
-    assert table.gesture.tolist() == ["G1", "G2", "G3"]
-    assert table.gesture_true.tolist() == ["G1", "G3", "G3"]
-    assert table.progress.tolist() == ["reach", "position", "position"]
-    assert table.progress_true.tolist() == ["reach", "reach", "position"]
-    np.testing.assert_allclose(table.time_s, [0, 0.2, 0.4])
-
-
 #: Figures meant for one column of a two-column paper; every other figure spans the page.
 COLUMN_FIGURES = {"fold_accuracy", "gesture_vs_progress"}
 
 
-def test_every_pdf_has_truetype_fonts_and_fits_a_column_or_the_page_at_8_pt(tmp_path):
+def test_every_pdf_has_truetype_fonts_and_fits_a_column_or_the_page_at_8_pt(tmp_path, synth_dir):
     """What IEEE PDF eXpress and a reader of the printed page check: no Type 3 font, a page no
     wider than the column (3.5 in) or the text (7.16 in) it is meant for, so that it prints at
     its own size, and text of 8 pt or larger (mathtext sub- and superscripts are 0.7 of it)."""
@@ -307,14 +290,16 @@ def test_every_pdf_has_truetype_fonts_and_fits_a_column_or_the_page_at_8_pt(tmp_
     from multitask.evidence.studies.width import write_width
     from tests.pdf_pages import read_pdf_page
 
-    grid = write_fake_grid(tmp_path / "grid", seeds=(0,), per_class=True, experiments=(
-        Experiment(("A", "APr", "APc", "APoc"), ("fixed", "gradnorm")),))
+    grid = write_fake_grid(tmp_path / "grid", seeds=(0,), per_class=True, data=synth_dir,
+                           experiments=(Experiment(("A", "APr", "APc", "APoc"),
+                                                   ("fixed", "gradnorm")),))
     narrow = write_fake_grid(tmp_path / "h8", seeds=(0,), hidden=8, experiments=(
         Experiment(("A",)), Experiment(("APoc",), ("gradnorm",))))
     out = tmp_path / "figures"
     runs = run_rows(grid)[0]
     folds = per_fold(runs)
-    figures.all_figures(grid, folds, out, figures.example_trial(grid, folds))
+    figures.all_figures(grid, folds, out,
+                        figures.example_truth(grid, *figures.example_trial(grid, folds)))
     write_per_class(grid, runs, folds, tmp_path, figures=True)
     curves.training_curves(narrow, out / "curves")
     write_width([grid, narrow], out)

@@ -496,8 +496,9 @@ def test_eta_counts_only_the_epochs_a_resumed_run_has_left(tmp_path):
 
 def test_scores_archive_tabulates_and_continues_like_its_grid(tmp_path, tiny_spec, tiny_grid,
                                                                 capsys):
-    """An archive keeps each finished run's config, metrics and logs (no weights, no
-    predictions): its tables are the grid's, and a copy of it resumes with nothing to train."""
+    """An archive keeps each finished run's config, metrics, logs and predicted labels (no
+    weights, no predictions CSVs): its tables are the grid's, and a copy of it resumes with
+    nothing to train."""
     archive = tmp_path / "archive"
     assert tables_main(["archive", str(tiny_grid), str(archive)]) == 0
     assert "4 of 4 runs archived" in capsys.readouterr().out
@@ -523,19 +524,25 @@ def test_scores_archive_tabulates_and_continues_like_its_grid(tmp_path, tiny_spe
     assert {p: p.stat().st_mtime_ns for p in copy.glob("runs/**/finished.json")} == finished
 
 
-def test_tables_of_an_archive_draw_what_needs_no_predictions_and_remove_the_rest(
+def test_tables_of_an_archive_draw_its_examples_from_the_kept_predictions(
         tmp_path, tiny_grid, capsys):
+    """An archive keeps the runs' predictions: its tables draw the grid's figures, the example
+    trial's among them; without its kept predictions (an earlier archive) they are left out, and
+    --example-trial is refused."""
     archive, out = tmp_path / "archive", tmp_path / "tables"
     assert tables_main(["archive", str(tiny_grid), str(archive)]) == 0
     assert tables_main(["paper", str(tiny_grid), "--out", str(out)]) == 0
-    figures = {p.name: p.stat().st_mtime_ns for p in (out / "figures").iterdir()}
+    figures = {p.name: p.read_bytes() for p in (out / "figures").iterdir()}
     assert "segmentation_example.png" in figures
+    assert tables_main(["paper", str(archive), "--out", str(out)]) == 0
+    assert {p.name: p.read_bytes() for p in (out / "figures").iterdir()} == figures
+    for kept in archive.glob("runs/*/*/*/*/*/test_predictions.json"):
+        kept.unlink()
     capsys.readouterr()
     assert tables_main(["paper", str(archive), "--out", str(out)]) == 0
     assert "no example-trial figures" in capsys.readouterr().err
-    redrawn = {p.name: p.stat().st_mtime_ns for p in (out / "figures").iterdir()}
-    assert redrawn.keys() == {n for n in figures if "_example." not in n}
-    assert all(redrawn[name] > figures[name] for name in redrawn)
+    redrawn = {p.name for p in (out / "figures").iterdir()}
+    assert redrawn == {n for n in figures if "_example." not in n}
     assert tables_main(["paper", str(archive), "--out", str(out),
                         "--example-trial", "Suturing_B001"]) == 2
     assert "kept its predictions" in capsys.readouterr().err
@@ -574,11 +581,11 @@ def test_a_grid_keeps_its_archive_up_to_date(tmp_path, tiny_spec, tiny_grid, cap
     import multitask.grid.archive as archive_module
     original, calls = archive_module.archive_grid, []
 
-    def full_disk_after_the_first(grid_dir, dest):
+    def full_disk_after_the_first(grid_dir, dest, **options):
         calls.append(dest)
         if len(calls) > 1:
             raise OSError(f"{dest}: No space left on device")
-        return original(grid_dir, dest)
+        return original(grid_dir, dest, **options)
 
     marker.unlink()
     monkeypatch.setattr(archive_module, "archive_grid", full_disk_after_the_first)

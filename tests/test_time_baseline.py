@@ -5,8 +5,8 @@ import pytest
 
 from jigsaws_tools.dataset import DataConfig, load_dataset
 from multitask.evidence.render.tables import PAPER_TABLES
-from multitask.evidence.statistics.time_baseline import (TimeBaseline, chance_accuracy, fold_scores,
-                                                         scores, time_baseline_rows)
+from multitask.evidence.statistics.time_baseline import chance_accuracy, time_baseline_rows
+from multitask.models.time_baseline import TimeBaseline, fold_scores, scores
 
 
 def _ramp(length, stages=5):

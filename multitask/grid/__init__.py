@@ -5,6 +5,7 @@
 * ``progress``: what the grid shows while it trains (runs done / running / queued, ETAs);
 * ``record`` and ``folder``: the grid folder's ``grid.json`` and the check of its runs;
 * ``archive``: a grid's scores archive, to commit or carry to another machine;
+  ``kept_predictions``: the runs' test predictions it keeps, compressed, and their reader;
 * ``cli``: ``multitask-grid``.
 
 May import ``multitask.models`` (and the packages below ``multitask``); not ``evidence`` or

@@ -2,14 +2,22 @@
 
 An archive is itself a grid folder: the grid's record (``grid.json``) and, for every finished
 run, the files that say what the run was and what it scored: ``config.json`` (its settings and
-settings hash), ``metrics.json``, ``finished.json``, ``timing.json`` and its loss logs
-(``history.csv``, ``gradnorm.csv``). It leaves out what is heavy or holds the data's values:
-checkpoints (the weights), ``eval/`` (per-trial predictions, which carry the release's labels),
-any other file of a run folder, ``train.log`` and lock files. ``archive.json`` says where and when
-it was archived, and each fold's test trials (their names only, for the tables' captions). So
+settings hash), ``metrics.json``, ``finished.json``, ``timing.json``, its loss logs
+(``history.csv``, ``gradnorm.csv``) and ``test_predictions.json``, its predicted labels (and
+regression outputs) of every test trial at its last evaluation point, compressed
+(``kept_predictions``; a run whose archive holds it already is copied, not encoded again). It
+leaves out what is heavy or holds the data's values: checkpoints (the weights), ``eval/`` (whose
+predictions CSVs carry the release's labels), any other file of a run folder, ``train.log`` and
+lock files. ``archive.json`` says where and when it was archived, each fold's test trials (their
+names only, for the tables' captions) and, per annotation version, the per-fold scores of the
+time-only progress model (``time_only``: derived numbers, ``multitask.models.time_baseline``),
+computed from the grid's release (``data_dir``, else the one its spec records; when it cannot be
+read, those of the archive the grid was copied from, else none, with a note). So
 
-- ``multitask-tables paper ARCHIVE`` tabulates it like the grid (the example-trial figures need
-  predictions and are left out, saying so);
+- ``multitask-tables paper ARCHIVE`` tabulates it like the grid, its time-only rows included,
+  with the data absent or elsewhere; its example-trial figures need the trial's true labels,
+  read from the data (``--data-dir``), and are left out, saying so, without them or in an archive
+  written before predictions were kept;
 - a grid continues from it on another machine: ``cp -r ARCHIVE NEW_FOLDER``, then the grid's
   command with ``--out NEW_FOLDER``; its finished runs count as finished, and every launch still
   checks each run's ``config.json`` against the spec (``record.prepare_grid``), so an
@@ -31,7 +39,10 @@ from __future__ import annotations
 import os
 import shutil
 import stat
+import sys
 from pathlib import Path
+
+import pandas as pd
 
 from rnn_seg.runs.folder import (CONFIG, FINISHED, GRADNORM_LOG, HISTORY, RunFolderError,
                                  is_finished, read_json, write_json)
@@ -39,18 +50,21 @@ from rnn_seg.runs.outputs import recorded_kind
 from rnn_seg.runs.provenance import now
 from rnn_seg.runs.publish import claimed, staged_folder
 
-from .folder import GRID_RECORD, comparable_spec, read_record
+from .folder import GRID_RECORD, comparable_spec, grid_release, read_record
+from .kept_predictions import FILE as KEPT, kept_record, kept_trials
 from .spec import RunKey
 
 ARCHIVE_RECORD = "archive.json"
-#: The files of a finished run an archive keeps; the first two must be there.
-RUN_FILES = (CONFIG, "metrics.json", FINISHED, "timing.json", HISTORY, GRADNORM_LOG)
+#: The files of a finished run an archive keeps; the first two must be there; the last it
+#: writes from the run's predictions CSVs when the run does not hold it (``kept_predictions``).
+RUN_FILES = (CONFIG, "metrics.json", FINISHED, "timing.json", HISTORY, GRADNORM_LOG, KEPT)
 REQUIRED = RUN_FILES[:2]
 #: Path parts of a run folder in a grid: runs/<annotations>/<direction>/<config>/seed<k>/<fold>.
 RUN_DEPTH = len(RunKey("a", "d", "v", "w", 0, "f").path().parts)
 
 
-def archive_grid(grid_dir: Path | str, dest: Path | str) -> tuple[int, int]:
+def archive_grid(grid_dir: Path | str, dest: Path | str, data_dir: Path | str | None = None,
+                 notes: bool = True) -> tuple[int, int]:
     """Write the scores archive of ``grid_dir`` to ``dest``, replacing an earlier archive there.
 
     The archive is written to a hidden folder beside ``dest`` and renamed into place once it is
@@ -59,6 +73,8 @@ def archive_grid(grid_dir: Path | str, dest: Path | str) -> tuple[int, int]:
     Args:
         grid_dir: a grid folder (``multitask-grid --out``) with its ``grid.json``.
         dest: a new or empty folder, or one holding only an archive's files.
+        data_dir: the grid's release, for the time-only scores (None: where its spec records).
+        notes: say on standard error when the time-only scores cannot be computed.
 
     Returns:
         ``(finished runs archived, runs the grid records)``.
@@ -78,12 +94,59 @@ def archive_grid(grid_dir: Path | str, dest: Path | str) -> tuple[int, int]:
         with staged_folder(resolved, overwrite=True) as staging:
             _copy_file(source / GRID_RECORD, staging / GRID_RECORD, source)
             for run in finished:
-                _copy_run(source, run, staging / run)
+                _copy_run(source, run, staging / run, resolved / run)
+            time_only = _time_only(source, record, data_dir, notes)
             write_json(staging / ARCHIVE_RECORD, {
-                "source": str(source), "archived": now(), "runs_finished": len(finished),
+                "source": _origin(source), "archived": now(), "runs_finished": len(finished),
                 "runs_recorded": len(record["runs"]), "run_files": list(RUN_FILES),
-                "test_trials": _test_trials(source, record["runs"])})
+                "test_trials": _test_trials(source, record["runs"]),
+                **({TIME_ONLY: time_only} if time_only else {})})
     return len(finished), len(record["runs"])
+
+
+def _origin(source: Path) -> str:
+    """The grid folder an archive's runs were trained in: ``source`` itself, or, when
+    ``source`` is an archive (an archive of an archive), the folder that archive records."""
+    path = source / ARCHIVE_RECORD
+    earlier = read_json(path) if path.is_file() else {}
+    origin = earlier.get("source") if isinstance(earlier, dict) else None
+    return origin if isinstance(origin, str) and origin else str(source)
+
+
+#: archive.json's entry of the time-only progress model's per-fold scores.
+TIME_ONLY = "time_only"
+
+
+def archived_time_only(grid_dir: Path | str, annotations: str) -> pd.DataFrame | None:
+    """The time-only progress model's per-fold scores on ``annotations`` that the archive in
+    ``grid_dir`` keeps (``time_baseline.fold_scores``' frame: ``fold``, ``progress_<metric>``),
+    or None (no archive, or one that keeps none on them)."""
+    path = Path(grid_dir) / ARCHIVE_RECORD
+    record = read_json(path) if path.is_file() else {}
+    kept = record.get(TIME_ONLY, {}).get(annotations) if isinstance(record, dict) else None
+    return pd.DataFrame(kept) if isinstance(kept, list) and kept else None
+
+
+def _time_only(source: Path, record: dict, data_dir: Path | str | None, notes: bool
+               ) -> dict[str, list[dict]]:
+    """Per annotation version of the grid's runs, the time-only model's per-fold scores
+    (``{"revised": [{"fold": "B", "progress_accuracy": ...}, ...]}``), from the grid's release
+    (``data_dir``, else its spec's); when it cannot be read, those the archive ``source`` was
+    copied from keeps, else none, with a note unless ``notes`` is False."""
+    from ..models.time_baseline import release_fold_scores
+
+    try:
+        release = grid_release(record, data_dir)
+        return {version: release_fold_scores(release, version).to_dict("records")
+                for version in release.annotations}
+    except (OSError, ValueError) as error:
+        kept = {version: frame.to_dict("records") for version in
+                sorted({Path(run).parts[1] for run in record["runs"]})
+                if (frame := archived_time_only(source, version)) is not None}
+        if not kept and notes:
+            print(f"note: the archive keeps no time-only progress scores: the grid's data cannot "
+                  f"be read ({error}); give it with --data-dir", file=sys.stderr)
+        return kept
 
 
 def archived_test_trials(grid_dir: Path | str) -> dict[str, list[str]]:
@@ -183,9 +246,11 @@ def _foreign_path(folder: Path) -> Path | None:
     return None
 
 
-def _copy_run(grid: Path, run: str, to: Path) -> None:
-    """The archived files of the finished run ``grid/run``; a missing required file is an
-    error, as is a run folder that is (or lies behind) a symbolic link."""
+def _copy_run(grid: Path, run: str, to: Path, earlier: Path) -> None:
+    """The archived files of the finished run ``grid/run``, its kept predictions encoded from
+    its CSVs unless the run holds them, or the archive it replaces (``earlier``) holds them for
+    this very run (the same ``finished.json``); a missing required file is an error, as is a run
+    folder that is (or lies behind) a symbolic link."""
     run_dir = grid / run
     if run_dir.resolve() != run_dir:
         raise RunFolderError(f"{run_dir}: a symbolic link (or behind one), not a folder of the "
@@ -198,6 +263,17 @@ def _copy_run(grid: Path, run: str, to: Path) -> None:
     for name in RUN_FILES:
         if (run_dir / name).exists() or (run_dir / name).is_symlink():
             _copy_file(run_dir / name, to / name, grid)
+    if (to / KEPT).exists():
+        return
+    if _same_file(earlier / FINISHED, run_dir / FINISHED) and (earlier / KEPT).is_file():
+        _copy_file(earlier / KEPT, to / KEPT, earlier.parents[RUN_DEPTH - 1])
+    elif (kept := kept_record(run_dir)) is not None:
+        write_json(to / KEPT, kept)
+
+
+def _same_file(a: Path, b: Path) -> bool:
+    """Whether the regular files ``a`` and ``b`` hold the same bytes (False if one is not)."""
+    return a.is_file() and b.is_file() and a.read_bytes() == b.read_bytes()
 
 
 def _copy_file(source: Path, to: Path, grid: Path) -> None:
@@ -223,20 +299,13 @@ def _copy_file(source: Path, to: Path, grid: Path) -> None:
             raise OSError(error.errno, error.strerror, str(to)) from None
 
 
-def kept_predictions(run_dir: Path) -> dict[str, Path]:
-    """The per-trial prediction files the run in ``run_dir`` kept at its last evaluation point,
-    by trial name, in name order; empty when it kept none (an archived run)."""
-    points = sorted((Path(run_dir) / "eval").glob("*/predictions"))
-    return {p.stem: p for p in sorted(points[-1].glob("*.csv"))} if points else {}
-
-
 def _test_trials(root: Path, runs: list[str]) -> dict[str, list[str]]:
     """Each fold's test trials (names), from the predictions of the first of its runs that kept
     them, else from the archive ``root`` was copied from."""
     found: dict[str, list[str]] = {}
     for run in runs:
         fold = Path(run).name
-        found[fold] = found.get(fold) or list(kept_predictions(root / run))
+        found[fold] = found.get(fold) or kept_trials(root / run)
     kept = {fold: names for fold, names in found.items() if names}
     return dict(sorted({**archived_test_trials(root), **kept}.items()))
 

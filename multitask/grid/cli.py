@@ -273,12 +273,13 @@ def _track(tracker, log: Callable[[str], None], run_dir: Path) -> None:
 
 
 def _archive(out: Path, dest: Path, log: Callable[[str], None], warn: bool = False) -> None:
-    """Write the scores archive of the grid ``out`` to ``dest`` and say so; with ``warn``, a
-    failure is a warning line instead of an error."""
+    """Write the scores archive of the grid ``out`` to ``dest`` and say so; with ``warn`` (after
+    each job), a failure is a warning line instead of an error, and the archive's notes, said
+    before training, are not said again."""
     from .archive import archive_grid
 
     try:
-        finished, recorded = archive_grid(out, dest)
+        finished, recorded = archive_grid(out, dest, notes=not warn)
     except (OSError, RunFolderError, WriteFailed) as error:     # WriteFailed: a full disk
         if not warn:
             raise

@@ -7,6 +7,7 @@ reads its run list to tell missing runs and stray folders apart. Both go through
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
 from baseline.config import DIRECTIONS
@@ -115,3 +116,37 @@ def comparable_spec(spec: dict) -> dict:
         kept["experiments"] = sorted(kept["experiments"],
                                      key=lambda experiment: json.dumps(experiment, sort_keys=True))
     return kept
+
+
+
+@dataclass(frozen=True)
+class GridRelease:
+    """Where a grid's data lies and what it holds: the release ``folder``, its ``task`` and
+    recording ``format`` (names or definition files, as the spec records them), the test users
+    (``folds``) and ``annotations`` versions of the grid's runs, sorted."""
+
+    folder: Path
+    task: str
+    format: str | None
+    folds: list[str]
+    annotations: list[str]
+
+
+def grid_release(record: dict, data_dir: Path | str | None = None) -> GridRelease:
+    """The release of the grid whose record is ``record``: ``data_dir`` when given, else the
+    folder its spec records; its spec's task (Suturing when it records none) and recording
+    format (None when it records none: the release's).
+
+    Raises:
+        OSError: no folder is given and the spec records none, or names the synthetic release
+            (which nothing reading a grid writes in its place).
+    """
+    spec = record.get("spec") or {}
+    recorded = spec.get("data_dir")
+    if data_dir is None and (not recorded or recorded == "synthetic"):
+        raise OSError(f"the grid records no release folder ({recorded or 'none'})")
+    keys = [run_key(run) for run in record.get("runs", [])]
+    return GridRelease(Path(data_dir if data_dir is not None else recorded),
+                       spec.get("task") or "Suturing", spec.get("format"),
+                       sorted({key.fold for key in keys}),
+                       sorted({key.annotations for key in keys}))

@@ -6,7 +6,9 @@
   TensorFlow import);
 * ``fold_run``: one variant on one LOUO fold (``train_variant``);
 * ``run_record``: what a run's config.json records, written and read back checked (no
-  TensorFlow import).
+  TensorFlow import);
+* ``time_baseline``: the time-only progress model (de Boer et al.), its per-fold scores on a
+  release.
 
 May import ``jigsaws_tools``, ``rnn_seg`` and ``baseline``; no other wing of ``multitask``.
 """

@@ -16,7 +16,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from .common import add_out_options, check_folders, publish
+from .common import add_data_option, add_out_options, check_folders, publish
 
 SUMMARY = "LSTM widths, ED-TCN and MS-TCN side by side, one grid each"
 #: The list of the files the last call wrote into ``--out``.
@@ -27,6 +27,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("grids", type=Path, nargs="+", metavar="GRID",
                         help="one grid folder or scores archive per architecture")
     add_out_options(parser, MANIFEST)
+    add_data_option(parser, "the time-only progress row (the first grid's)")
 
 
 def run(args: argparse.Namespace) -> None:
@@ -34,4 +35,4 @@ def run(args: argparse.Namespace) -> None:
 
     check_folders(args.grids, "a grid's scores archive, e.g. results/tcn/ed-tcn")
     publish(args.out, MANIFEST, args.overwrite,
-            lambda staging: write_architectures(args.grids, staging))
+            lambda staging: write_architectures(args.grids, staging, args.data_dir))

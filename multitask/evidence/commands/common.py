@@ -45,6 +45,15 @@ def add_run_options(parser: argparse.ArgumentParser) -> None:
     add_seeds_option(parser)
 
 
+def add_data_option(parser: argparse.ArgumentParser, reads: str) -> None:
+    """``--data-dir DIR``: the grid's release, where its archive or its spec does not say enough
+    (``reads``: what the command reads there)."""
+    parser.add_argument("--data-dir", type=Path, metavar="DIR",
+                        help=f"the grid's release, for {reads} (default: the numbers its scores "
+                             "archive keeps, else the folder its grid.json records; without "
+                             "either they are left out, saying so)")
+
+
 def add_seeds_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seeds", type=non_negative_int, nargs="+", metavar="K",
                         help="only the runs of these seeds, e.g. --seeds 0 (default: every "

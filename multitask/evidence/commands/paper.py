@@ -6,18 +6,22 @@ Writes to ``--out`` (default ``GRID/tables``), listed in ``tables.json``: ``runs
 statistics (``claims.csv|.tex``, ``claims_note.tex``, ``claims_config.json``); ``per_gesture.csv``
 and ``figures/`` (PNG and PDF; ``--curves`` adds the training curves). A grid of another task
 gets the claims of the paper's conjecture (multi-task against A on that task) instead of the
-paper's tables. Missing, unfinished or unreadable runs are an error naming them, unless
+paper's tables. The time-only progress rows and the example figures' true labels come from the
+grid's release (``--data-dir``, else the folder the grid records); the rows, from a scores
+archive, need no release. Missing, unfinished or unreadable runs are an error naming them, unless
 ``--allow-incomplete`` (marked in the tables) or ``--finished-only`` (left out).
 
     multitask-tables paper runs/converged --out results --curves --example-trial Suturing_D003
     multitask-tables paper results/grid --out tables --seeds 0 --no-figures
+    multitask-tables paper results/grid --out tables --data-dir /path/to/Suturing
 """
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
-from .common import add_out_options, add_run_options, check_folders, publish, seeds_of
+from .common import (add_data_option, add_out_options, add_run_options, check_folders, publish,
+                     seeds_of)
 
 SUMMARY = "the paper's Tables I-III, claims and figures from a grid"
 #: The list of the files the last call wrote into ``--out`` (``rnn_seg.runs.manifest``).
@@ -38,6 +42,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--ours-only", action="store_true",
                         help="LaTeX tables with our numbers alone, without the paper's columns "
                              "(the CSVs keep them)")
+    add_data_option(parser, "the time-only progress rows and the example figures' true labels")
     add_run_options(parser)
 
 
@@ -54,7 +59,7 @@ def run(args: argparse.Namespace) -> None:
                 args.grid, staging, figures=not args.no_figures, ours_only=args.ours_only,
                 example_trial=args.example_trial, curves=args.curves,
                 allow_incomplete=args.allow_incomplete, seeds=seeds_of(args),
-                finished_only=args.finished_only),
+                finished_only=args.finished_only, data_dir=args.data_dir),
             kept=_left_alone(args))
 
 

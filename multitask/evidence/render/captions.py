@@ -14,7 +14,8 @@ import pandas as pd
 from jigsaws_tools.task_definition import PAPER_TASK
 from rnn_seg.runs.folder import read_json
 
-from ...grid.archive import archived_test_trials, kept_predictions
+from ...grid.archive import archived_test_trials
+from ...grid.kept_predictions import kept_trials
 from ...grid.spec import RunKey
 from ...models.variants import VARIANTS
 
@@ -92,7 +93,7 @@ def _test_trials(root: Path, keys: list[RunKey]) -> set[str]:
     trials = set()
     for fold in {key.fold for key in keys}:
         runs = (root / key.path() for key in sorted(k for k in keys if k.fold == fold))
-        kept = next((list(files) for run in runs if (files := kept_predictions(run))), None)
+        kept = next((names for run in runs if (names := kept_trials(run))), None)
         trials.update(kept or archived.get(fold, ()))
     return trials
 

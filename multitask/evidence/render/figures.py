@@ -14,13 +14,16 @@
   the variants, on a common epoch axis.
 
 Figures read the revised-annotation, bidirectional runs of seed 0 where one run is needed; the
-example trial is a choice (``--example-trial``); the two example figures need that trial's
-predictions (a scores archive keeps none: ``multitask.grid.archive``). Time is in seconds; class
-names come from the per-class accuracy columns of the runs' metrics (``gesture_accuracy_<class>``)
-and from the predictions' score columns (``<task>_p_<class>``), colours from ``jigsaws_tools.plots``.
+example trial is a choice (``--example-trial``); the two example figures draw that trial's
+predictions as a run's folder or its scores archive keeps them (``multitask.grid.kept_predictions``:
+the same arrays from either) beside its true labels and times, re-read from the data
+(``ExampleTrial``). Time is in seconds; class names come from the per-class accuracy columns of
+the runs' metrics (``gesture_accuracy_<class>``) and from the kept predictions (the run's task),
+colours from ``jigsaws_tools.plots``.
 """
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Sequence
 
@@ -34,15 +37,13 @@ import pandas as pd  # noqa: E402
 from jigsaws_tools.plots import (COLUMN_INCHES, LEGEND_ROW_INCHES, PAGE_INCHES,  # noqa: E402
                                  Ribbon, draw_ribbon, figure_style, layout_with_legends,
                                  legend_rows, task_colours)
-from jigsaws_tools.release import KINEMATICS_HZ  # noqa: E402
-from jigsaws_tools.task_definition import load_task  # noqa: E402
 
 from rnn_seg.runs.folder import read_json  # noqa: E402
 from rnn_seg.runs.logs import read_log  # noqa: E402
 
-from ...grid.archive import kept_predictions  # noqa: E402
+from ...grid.kept_predictions import (KeptPredictions, TrialTruth, kept_trials,  # noqa: E402
+                                      read_kept_predictions, read_truth)
 from ...grid.spec import RunKey  # noqa: E402
-from ..runs.collect import grid_task_name  # noqa: E402
 from ..statistics.paired import ConfigId  # noqa: E402
 from . import drawing  # noqa: E402
 from .tables import CONFIG_LABELS  # noqa: E402
@@ -150,36 +151,22 @@ def _run_dir(grid_dir: Path, config: str, fold: str) -> Path:
                              fold).path()
 
 
-def _predictions(grid_dir: Path, config: str, fold: str) -> dict[str, Path]:
-    """The last evaluation point's per-trial prediction files of one run (seed 0)."""
-    return kept_predictions(_run_dir(grid_dir, config, fold))
+@dataclass(frozen=True)
+class ExampleTrial:
+    """The test trial of the example figures: its name (e.g. ``Suturing_D003``), its fold (test
+    user) and, re-read from the data, its samples' frames and true labels."""
+
+    name: str
+    fold: str
+    truth: TrialTruth
 
 
-def _trial_predictions(grid_dir: Path, configs: Sequence[str], trial: str, fold: str
-                       ) -> dict[str, pd.DataFrame]:
-    """The predictions of ``trial`` (one row per 5 Hz sample) by each of ``configs`` whose run on
-    ``fold`` predicted it, by configuration."""
-    stages = load_task(grid_task_name(grid_dir)).stage_names
-    return {c: read_predictions(files[trial], stages) for c in configs
-            if trial in (files := _predictions(grid_dir, c, fold))}
-
-
-def read_predictions(path: Path, stages: Sequence[str]) -> pd.DataFrame:
-    """A predictions CSV in the one format (``rnn_seg.predictions``). One written before that
-    format (runs of earlier versions: class indices in ``<task>_pred`` and ``<task>_true``, no
-    ``time_s``) is read into it: gesture names from its score columns, stage names ``stages``
-    from the task file, time from its 30 Hz frames."""
-    table = pd.read_csv(path)
-    if "time_s" in table:
-        return table
-    table["time_s"] = (table.frame - 1) / KINEMATICS_HZ
-    for task, names in (("gesture", class_names(table, "gesture")), ("progress", stages)):
-        for column in (f"{task}_pred", f"{task}_true"):
-            if column in table:
-                table[column] = np.asarray(names)[table[column].to_numpy()]
-        if f"{task}_pred" in table:
-            table = table.rename(columns={f"{task}_pred": task})
-    return table
+def _trial_predictions(grid_dir: Path, configs: Sequence[str], example: ExampleTrial
+                       ) -> dict[str, KeptPredictions]:
+    """The kept predictions of the seed-0 runs of ``configs`` on the example's fold that
+    predicted its trial, by configuration."""
+    runs = {c: read_kept_predictions(_run_dir(grid_dir, c, example.fold)) for c in configs}
+    return {c: kept for c, kept in runs.items() if kept and example.name in kept.trials}
 
 
 def trial_folds(grid_dir: Path, folds: Sequence[str], config: str = SEGMENTATION_RUNS[0]
@@ -191,14 +178,28 @@ def trial_folds(grid_dir: Path, folds: Sequence[str], config: str = SEGMENTATION
         folds: the folds (test users) to look in, e.g. ``["B", "C"]``.
         config: ``<variant>-<weighting>`` whose runs are read.
     """
-    return {trial: fold for fold in folds for trial in _predictions(grid_dir, config, fold)}
+    return {trial: fold for fold in folds
+            for trial in kept_trials(_run_dir(grid_dir, config, fold))}
 
 
-def class_names(predictions: pd.DataFrame, task: str) -> tuple[str, ...]:
-    """A task's classes, in index order, from the score columns ``<task>_p_<class>`` of its
-    predictions; ``()`` for a task without them (regression, ordinal outputs)."""
-    prefix = f"{task}_p_"
-    return tuple(c.removeprefix(prefix) for c in predictions.columns if c.startswith(prefix))
+def example_truth(grid_dir: Path, trial: str, fold: str, data_dir: Path | None = None
+                  ) -> ExampleTrial:
+    """The example trial ``trial`` of ``fold`` with its frames and true labels, from the data
+    the seed-0 ``SEGMENTATION_RUNS[0]`` run trained on (``data_dir``, else the folder its
+    config.json records; ``multitask.grid.kept_predictions.read_truth``).
+
+    Raises:
+        OSError: that data is not here; ValueError: it holds no such trial, or one of another
+            length than the run's predictions of it (other data than the run's).
+    """
+    run_dir = _run_dir(grid_dir, SEGMENTATION_RUNS[0], fold)
+    truth = read_truth(run_dir, trial, data_dir)
+    kept = read_kept_predictions(run_dir)
+    predicted = len(next(iter(kept.trials[trial].labels.values())))
+    if predicted != len(truth.frames):
+        raise ValueError(f"its {trial} has {len(truth.frames)} samples, the run {run_dir} "
+                         f"predicted {predicted}: not the data the run trained on")
+    return ExampleTrial(trial, fold, truth)
 
 
 def accuracy_classes(folds: pd.DataFrame, task: str = "gesture") -> tuple[str, ...]:
@@ -209,78 +210,66 @@ def accuracy_classes(folds: pd.DataFrame, task: str = "gesture") -> tuple[str, .
                  if c.startswith(prefix) and c != f"{prefix}pooled")
 
 
-def _indices(labels: pd.Series, names: Sequence[str]) -> np.ndarray:
-    """``[T]`` class indices of a predictions column of class names (``rnn_seg.predictions``)."""
-    return pd.Categorical(labels, categories=list(names)).codes.astype(np.int64)
-
-
-def _seconds(predictions: pd.DataFrame) -> np.ndarray:
-    """Time of each row in seconds (the predictions CSV's ``time_s``, ``rnn_seg.predictions``)."""
-    return predictions.time_s.to_numpy()
-
-
 @figure_style
-def segmentation_example(grid_dir: Path, trial: str, fold: str, out_dir: Path) -> list[Path]:
+def segmentation_example(grid_dir: Path, example: ExampleTrial, out_dir: Path) -> list[Path]:
     """Ribbons of ground truth, A and APoc for one test trial, over time in seconds.
 
     Args:
-        grid_dir: the grid's folder.
-        trial: the trial's name, e.g. ``"Suturing_B001"``.
-        fold: the fold (test user) whose runs predicted it.
+        grid_dir: the grid's folder (or its scores archive).
+        example: the trial, its fold and its true labels (``example_truth``).
         out_dir: the folder written into.
 
     Returns:
         The PNG and PDF written; empty when no run predicted the trial.
     """
-    runs = _trial_predictions(grid_dir, SEGMENTATION_RUNS, trial, fold)
+    runs = _trial_predictions(grid_dir, SEGMENTATION_RUNS, example)
     if not runs:
         return []
-    first = next(iter(runs.values()))
-    names = class_names(first, "gesture")
+    names = next(iter(runs.values())).classes["gesture"]
     colours = task_colours(len(names), ordered=False)
-    times = _seconds(first)
-    ribbons = [Ribbon("ground truth", _indices(first.gesture_true, names), times, names, colours)]
-    ribbons += [Ribbon(label(c), _indices(p.gesture, names), times, names, colours)
-                for c, p in runs.items()]
+    times = example.truth.seconds
+    ribbons = [Ribbon("ground truth", example.truth.labels["gesture"], times, names, colours)]
+    ribbons += [Ribbon(label(c), kept.trials[example.name].labels["gesture"], times, names,
+                       colours) for c, kept in runs.items()]
     fig, axes = plt.subplots(len(ribbons), 1, sharex=True, figsize=(
         PAGE_INCHES, 0.45 * len(ribbons) + 0.6 + LEGEND_ROW_INCHES * legend_rows(ribbons)))
     for ax, ribbon in zip(axes, ribbons):
         draw_ribbon(ax, ribbon)
     axes[-1].set_xlabel("time [s]")
-    axes[0].set_title(f"{trial}: gesture segmentation")
+    axes[0].set_title(f"{example.name}: gesture segmentation")
     layout_with_legends(fig, ribbons)
     return save(fig, out_dir, "segmentation_example")
 
 
 @figure_style
-def progress_example(grid_dir: Path, trial: str, fold: str, out_dir: Path) -> list[Path]:
+def progress_example(grid_dir: Path, example: ExampleTrial, out_dir: Path) -> list[Path]:
     """True progress of one test trial (a wide grey band, so that it shows beneath the
     predictions) and the predictions over time in seconds: APr's raw regression output (a line),
-    APc's and APoc's stages (steps); stages named from the grid's task file. Arguments and return
+    APc's and APoc's stages (steps); stages named from the runs' task. Arguments and return
     value as ``segmentation_example``'s.
     """
-    runs = _trial_predictions(grid_dir, PROGRESS_RUNS, trial, fold)
+    runs = _trial_predictions(grid_dir, PROGRESS_RUNS, example)
     if not runs:
         return []
     fig, ax = plt.subplots(figsize=(PAGE_INCHES, 2.8))
-    first = next(iter(runs.values()))
-    times = _seconds(first)
-    names = load_task(grid_task_name(grid_dir)).stage_names
-    ax.step(times, _indices(first.progress_true, names), where="post", color="0.55", lw=6,
+    times = example.truth.seconds
+    names = next(iter(runs.values())).classes["progress"]
+    ax.step(times, example.truth.labels["progress"], where="post", color="0.55", lw=6,
             alpha=0.5, solid_capstyle="butt", label="ground truth", zorder=1)
-    for config, predictions in runs.items():
-        if "progress_value" in predictions:
-            ax.plot(times, predictions.progress_value, color="tab:red", lw=1, zorder=3,
+    for config, kept in runs.items():
+        predictions = kept.trials[example.name]
+        if "progress" in predictions.values:
+            ax.plot(times, predictions.values["progress"], color="tab:red", lw=1, zorder=3,
                     label=f"{label(config)}: regression output")
         else:
-            ax.step(times, _indices(predictions.progress, names), where="post", lw=1.2,
+            ax.step(times, predictions.labels["progress"], where="post", lw=1.2,
                     zorder=2, label=label(config))
     ax.set_yticks(range(len(names)), names)
     ax.set_ylabel("progress stage")
     ax.set_xlabel("time [s]")
     ax.set_xlim(times[0], times[-1])
     ax.legend(loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=2, frameon=False,
-              title=f"{trial}: progress prediction")        # above the axes, clear of the lines
+              title=f"{example.name}: progress prediction")  # above the axes, clear of the lines
     return save(fig, out_dir, "progress_example")
 
 
@@ -436,7 +425,8 @@ def gradnorm_weights(grid_dir: Path, out_dir: Path) -> list[Path]:
 
 def example_trial(grid_dir: Path, folds: pd.DataFrame, requested: str | None = None
                   ) -> tuple[str, str] | None:
-    """``(trial, fold)`` of the example figures; None if the grid has no run to show.
+    """``(trial, fold)`` of the example figures (``example_truth`` adds its true labels); None
+    if the grid has no run to show.
 
     Args:
         grid_dir: the grid's folder.
@@ -449,8 +439,8 @@ def example_trial(grid_dir: Path, folds: pd.DataFrame, requested: str | None = N
         return next(iter(trials.items()), None)
     if not trials:
         raise ValueError(f"example trial {requested!r}: no seed-0 {SEGMENTATION_RUNS[0]} run of "
-                         "the grid kept its predictions (a scores archive keeps none); leave out "
-                         "--example-trial")
+                         "the grid kept its predictions (an archive written before predictions "
+                         "were kept has none); leave out --example-trial")
     if requested not in trials:
         raise ValueError(f"example trial {requested!r} is not a test trial of the grid's "
                          f"{SEGMENTATION_RUNS[0]} runs; choose one of {', '.join(trials)}")
@@ -458,15 +448,15 @@ def example_trial(grid_dir: Path, folds: pd.DataFrame, requested: str | None = N
 
 
 def all_figures(grid_dir: Path, folds: pd.DataFrame, out_dir: Path,
-                example: tuple[str, str] | None, gradnorm: bool = True) -> list[Path]:
+                example: ExampleTrial | None, gradnorm: bool = True) -> list[Path]:
     """Every figure the grid has the runs for.
 
     Args:
         grid_dir: the grid's folder.
         folds: one row per configuration and fold (``collect.per_fold``).
         out_dir: the folder written into.
-        example: ``(trial, fold)`` of the example figures (``example_trial``); None = no
-            example figures.
+        example: the trial of the example figures (``example_truth``); None = no example
+            figures.
         gradnorm: also draw the GradNorm weights (read from every GradNorm run's folder).
 
     Returns:
@@ -474,9 +464,8 @@ def all_figures(grid_dir: Path, folds: pd.DataFrame, out_dir: Path,
     """
     written = per_gesture_accuracy(folds, accuracy_classes(folds), out_dir)
     if example is not None:
-        trial, fold = example
-        written += segmentation_example(grid_dir, trial, fold, out_dir)
-        written += progress_example(grid_dir, trial, fold, out_dir)
+        written += segmentation_example(grid_dir, example, out_dir)
+        written += progress_example(grid_dir, example, out_dir)
     written += fold_accuracy(folds, out_dir)
     written += gesture_vs_progress(folds, out_dir)
     written += gradnorm_weights(grid_dir, out_dir) if gradnorm else []

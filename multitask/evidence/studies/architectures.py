@@ -21,7 +21,8 @@ writes into ``--out``:
 * ``architectures.csv`` / ``.tex`` / ``.md``: per architecture, model A, APc (w1 = w2 = 1) and
   APoc (GradNorm, alpha 1.5), revised labels, offline: gesture and progress accuracy, edit and
   F1@10, mean and std over folds of each fold's mean over its seeds; the time-only progress
-  row (``time_baseline``, when the grids' release can be read here); each configuration's cost
+  row (``time_baseline``: as the first grid's archive keeps it, else when its release can be
+  read here); each configuration's cost
   per run (``seconds_*``: the seconds its runs' ``timing.json`` records, every phase of every
   session, on the machine and with the workers that ran it: compare within a grid, or across
   grids run alike);
@@ -370,9 +371,12 @@ def _lstm_label(label: str, name: str) -> str:
 
 # --- The files ------------------------------------------------------------------------------
 
-def write_architectures(grids: list[Path], out: Path) -> list[Path]:
+def write_architectures(grids: list[Path], out: Path, data_dir: Path | None = None
+                        ) -> list[Path]:
     """Every file of the module docstring from one grid per architecture into ``out``; returns
-    the paths written (no claims without a TCN grid, no Table II without original labels)."""
+    the paths written (no claims without a TCN grid, no Table II without original labels).
+    ``data_dir``: the first grid's release, for the time-only row (None: as its archive keeps
+    it, else where it records)."""
     from rnn_seg.runs.folder import write_atomic
 
     from ..render.tables import PAPER_TABLES, paper_best, to_latex
@@ -381,7 +385,7 @@ def write_architectures(grids: list[Path], out: Path) -> list[Path]:
     from .claims_table import write_claims
 
     evidence = read_architectures(grids)
-    time_only = grid_fold_scores(evidence[0].grid, "revised", "architectures")
+    time_only = grid_fold_scores(evidence[0].grid, "revised", "architectures", data_dir)
     table = architecture_table(evidence, time_only)
     written = [out / "architectures.csv", out / "architectures.tex", out / "architectures.md"]
     write_atomic(written[0], table.to_csv(index=False, float_format="%.4f"))

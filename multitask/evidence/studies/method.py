@@ -32,7 +32,8 @@ import pandas as pd
 
 from rnn_seg.runs.folder import write_atomic
 
-from ...grid.archive import archived_test_trials, kept_predictions
+from ...grid.archive import archived_test_trials
+from ...grid.kept_predictions import kept_trials
 from ..render.latex import escape, number, requires
 from ..render.markdown import markdown_table
 from ..runs.collect import run_records
@@ -106,7 +107,7 @@ def _check_trials(grid: Path, records: dict, trials: dict[str, list[str]]) -> No
     """A ``ValueError`` when a fold of ``grid`` was tested on other trials than ``trials``'."""
     tested = archived_test_trials(grid)
     for run in records:
-        tested.setdefault(Path(run).name, list(kept_predictions(run)))
+        tested.setdefault(Path(run).name, kept_trials(run))
     for fold, names in sorted(tested.items()):
         if names and fold in trials and sorted(names) != sorted(trials[fold]):
             raise ValueError(f"{grid}: fold {fold} was tested on {', '.join(sorted(names))}, the "

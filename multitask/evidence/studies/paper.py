@@ -28,7 +28,7 @@ from rnn_seg.runs.folder import write_atomic
 from ..render.captions import describe_runs
 from ..render.confusion import write_per_class
 from ..render.curves import training_curves
-from ..render.figures import all_figures
+from ..render.figures import ExampleTrial, all_figures, example_truth
 from ..render.figures import example_trial as choose_example
 from ..render.tables import (PAPER_TABLES, ablation_caption, annotation_ablation, paper_best,
                              paper_caption, paper_comparison, table_runs, to_latex)
@@ -44,7 +44,7 @@ from .claims_table import write_claims
 def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: bool = False,
                  example_trial: str | None = None, curves: bool = False,
                  allow_incomplete: bool = False, seeds: tuple[int, ...] | None = None,
-                 finished_only: bool = False) -> list[Path]:
+                 finished_only: bool = False, data_dir: Path | None = None) -> list[Path]:
     """Everything ``multitask-tables paper`` writes (the module docstring) into ``out``; returns
     the paths. A folder of runs trained one by one gets ``run_collection_tables``.
 
@@ -59,6 +59,8 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
             (``runs.collect.run_rows``).
         seeds: only the runs of these seeds (None: all).
         finished_only: leave out the configurations with a run not finished yet.
+        data_dir: the grid's release (the time-only rows, the example figures' true labels);
+            None: the folder the grid records, where the archive keeps no time-only scores.
     """
     if is_run_collection(grid_dir):
         return run_collection_tables(grid_dir, out, allow_incomplete or finished_only, seeds)
@@ -67,8 +69,9 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
     if foreign and (figures or curves):      # these read run folders, not the checked table
         print("note: no example-trial, GradNorm-weight or training-curve figures: they read run "
               "folders, and folders of other settings were left out (above)", file=sys.stderr)
-    example = _example(Path(grid_dir), folds, example_trial) if figures and not foreign else None
-    written = _evidence_tables(Path(grid_dir), runs, folds, out, seeds, ours_only)
+    example = (_example(Path(grid_dir), folds, example_trial, data_dir)
+               if figures and not foreign else None)
+    written = _evidence_tables(Path(grid_dir), runs, folds, out, seeds, ours_only, data_dir)
     written += write_per_class(Path(grid_dir), runs, folds, out, figures)
     if figures:
         written += all_figures(Path(grid_dir), folds, out / "figures", example,
@@ -79,7 +82,8 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
 
 
 def _evidence_tables(grid_dir: Path, runs: pd.DataFrame, folds: pd.DataFrame, out: Path,
-                     seeds: tuple[int, ...] | None, ours_only: bool) -> list[Path]:
+                     seeds: tuple[int, ...] | None, ours_only: bool,
+                     data_dir: Path | None) -> list[Path]:
     """``runs.csv``, ``per_fold.csv``, ``summary.csv`` (with each configuration's completeness),
     then the paper's tables and claims for Suturing, the conjecture's claims for another task."""
     expected = expected_runs(grid_dir, of_seeds(grid_dir, recorded_runs(grid_dir)[0], seeds))
@@ -88,24 +92,31 @@ def _evidence_tables(grid_dir: Path, runs: pd.DataFrame, folds: pd.DataFrame, ou
                _csv(stats, out / "summary.csv")]
     budget = describe_runs(grid_dir, runs).sentence()
     if grid_task_name(grid_dir) == PAPER_TASK:
-        written += _paper_tables(grid_dir, runs, stats, out, ours_only)
+        written += _paper_tables(grid_dir, runs, stats, out, ours_only, data_dir)
         written += write_claims(runs, out, budget=budget)
     else:
         written += write_claims(runs, out, claims=CONJECTURE_CLAIMS, budget=budget)
     return written
 
 
-def _example(grid_dir: Path, folds: pd.DataFrame, example_trial: str | None
-             ) -> tuple[str, str] | None:
+def _example(grid_dir: Path, folds: pd.DataFrame, example_trial: str | None,
+             data_dir: Path | None) -> ExampleTrial | None:
     """The example figures' trial (``render.figures.example_trial``), chosen before anything is
-    written (an unknown ``example_trial`` is an error); None, with a note, when no run kept
-    predictions."""
+    written (an unknown ``example_trial`` is an error), with its true labels from the data
+    (``render.figures.example_truth``); None, with a note, when no run kept predictions or the
+    data cannot be read."""
+    skipped = "note: no example-trial figures (figures/segmentation_example, progress_example): "
     example = choose_example(grid_dir, folds, example_trial)
     if example is None:
-        print("note: no example-trial figures (figures/segmentation_example, progress_example): "
-              "no seed-0 A-fixed run of the grid kept its predictions (a scores archive keeps "
-              "none)", file=sys.stderr)
-    return example
+        print(f"{skipped}no seed-0 A-fixed run of the grid kept its predictions (an archive "
+              "written before predictions were kept has none)", file=sys.stderr)
+        return None
+    try:
+        return example_truth(grid_dir, *example, data_dir)
+    except (OSError, ValueError) as error:
+        print(f"{skipped}their true labels are read from the data: {error} (--data-dir: the "
+              "release)", file=sys.stderr)
+        return None
 
 
 def read_runs(grid_dir: Path, allow_incomplete: bool, seeds: tuple[int, ...] | None,
@@ -137,14 +148,14 @@ def run_collection_tables(folder: Path, out: Path, allow_incomplete: bool,
 
 
 def _paper_tables(grid_dir: Path, runs: pd.DataFrame, stats: pd.DataFrame, out: Path,
-                  ours_only: bool) -> list[Path]:
+                  ours_only: bool, data_dir: Path | None) -> list[Path]:
     """Tables I-III against the paper and the annotation ablation (Suturing grids only)."""
     written = []
     for table in PAPER_TABLES:
         frame = paper_comparison(stats, table)
         if frame.empty:
             continue
-        frame = with_time_baseline(frame, grid_dir, table)
+        frame = with_time_baseline(frame, grid_dir, table, data_dir)
         budget = describe_runs(grid_dir, table_runs(runs, frame, (table.annotations,),
                                                     table.direction)).sentence()
         written.append(_csv(frame, out / f"{table.name}.csv"))

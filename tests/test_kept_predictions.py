@@ -1,0 +1,195 @@
+"""Archives that keep predictions: each run's predicted labels (and APr's output), never the true
+ones; figures drawn from a run folder and from its archive alike; tables that regenerate
+identically with the data elsewhere or absent; an archive without predictions still tabulates."""
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from multitask.evidence.cli import main as tables_main
+from multitask.grid.archive import ARCHIVE_RECORD, archive_grid
+from multitask.grid.cli import main as grid_main
+from multitask.grid.kept_predictions import (FILE, VALUE_SCALE, kept_record, prediction_files,
+                                             read_kept_predictions)
+from rnn_seg.runs.folder import RunFolderError
+
+SPEC = """
+preset = "quick"
+data_dir = "{data}"
+test_users = ["B"]
+seeds = [0]
+hidden = 8
+epochs = 2
+
+[[experiments]]
+variants = ["A", "APr", "APc", "APoc"]
+"""
+#: The files of a table folder that list its files (they differ when the figures do).
+LISTS = ("tables.json",)
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory, synth_dir) -> tuple[Path, Path, Path]:
+    """``(grid, its archive, its data)``: four runs (A, APr, APc, APoc) on fold B of a copy of
+    the synthetic release, which the tests may move."""
+    root = tmp_path_factory.mktemp("kept")
+    data = shutil.copytree(synth_dir, root / "data" / "Suturing")
+    spec = root / "spec.toml"
+    spec.write_text(SPEC.format(data=data))
+    grid, archive = root / "grid", root / "archive"
+    assert grid_main(["--spec", str(spec), "--out", str(grid), "--workers", "2"]) == 0
+    assert tables_main(["archive", str(grid), str(archive)]) == 0
+    return grid, archive, data
+
+
+def _runs(folder: Path) -> list[Path]:
+    return sorted(p.parent for p in folder.glob("runs/*/*/*/*/*/finished.json"))
+
+
+def _files(folder: Path) -> dict[str, bytes]:
+    return {p.relative_to(folder).as_posix(): p.read_bytes()
+            for p in sorted(folder.rglob("*")) if p.is_file() and p.name not in LISTS}
+
+
+def _tables(grid: Path, out: Path, *options: str) -> dict[str, bytes]:
+    assert tables_main(["paper", str(grid), "--out", str(out), *options]) == 0
+    return _files(out)
+
+
+def test_an_archive_keeps_the_predicted_labels_and_never_the_true_ones(trained):
+    grid, archive, _ = trained
+    for run in _runs(grid):
+        kept_file = archive / run.relative_to(grid) / FILE
+        text = kept_file.read_text()
+        assert "_true" not in text and "frame" not in text and "time" not in text
+        from_run, from_archive = read_kept_predictions(run), read_kept_predictions(kept_file.parent)
+        assert from_archive.classes == from_run.classes and from_archive.trials.keys() == \
+            from_run.trials.keys() == prediction_files(run).keys()
+        for name, path in prediction_files(run).items():
+            table = pd.read_csv(path)
+            kept = from_archive.trials[name]
+            for task, names in from_archive.classes.items():       # samples 0..T-1 in order
+                assert [names[k] for k in kept.labels[task]] == table[task].tolist()
+                assert kept.labels[task].dtype == np.int64
+                np.testing.assert_array_equal(kept.labels[task], from_run.trials[name].labels[task])
+            if "progress_value" in table:
+                np.testing.assert_allclose(kept.values["progress"], table.progress_value,
+                                           atol=0.5 / VALUE_SCALE + 1e-9)
+                np.testing.assert_array_equal(kept.values["progress"],
+                                              from_run.trials[name].values["progress"])
+            else:
+                assert kept.values == {}
+    sizes = [(archive / run.relative_to(grid) / FILE).stat().st_size for run in _runs(grid)]
+    assert max(sizes) < 10_000                   # a few hundred 5 Hz samples a trial, 5 trials
+
+
+def test_figures_from_a_run_folder_and_from_its_archive_are_identical(trained, tmp_path):
+    from tests.pdf_pages import read_pdf_page
+
+    grid, archive, _ = trained
+    drawn = {folder: _tables(folder, tmp_path / folder.name) for folder in (grid, archive)}
+    assert drawn[grid] == drawn[archive]
+    examples = [name for name in drawn[grid] if "_example." in name]
+    assert len(examples) == 4                       # segmentation and progress, PNG and PDF
+    for pdf in (tmp_path / archive.name / "figures").glob("*.pdf"):
+        assert "Type3" not in read_pdf_page(pdf).font_subtypes, pdf.name
+
+
+def test_tables_regenerate_identically_with_the_data_elsewhere_or_absent(trained, tmp_path,
+                                                                        capsys):
+    grid, archive, data = trained
+    here = _tables(archive, tmp_path / "here")
+    assert (pd.read_csv(tmp_path / "here" / "table1.csv").model == "Time only (t/T)").sum() == 4
+    moved = data.parent.parent / "moved"
+    data.parent.rename(moved)
+    try:
+        capsys.readouterr()
+        absent = _tables(archive, tmp_path / "absent")
+        notes = [line for line in capsys.readouterr().err.splitlines() if line.startswith("note")]
+        assert len(notes) == 1 and "no example-trial figures" in notes[0] \
+            and str(data) in notes[0]
+        assert absent == {name: text for name, text in here.items() if "_example." not in name}
+        elsewhere = _tables(archive, tmp_path / "elsewhere", "--data-dir",
+                            str(moved / "Suturing"))
+        assert elsewhere == here
+    finally:
+        moved.rename(data.parent)
+
+
+def test_an_archive_without_predictions_or_time_only_scores_still_tabulates(trained, tmp_path,
+                                                                           capsys):
+    grid, archive, data = trained
+    old = shutil.copytree(archive, tmp_path / "old")
+    for kept in old.glob(f"runs/*/*/*/*/*/{FILE}"):
+        kept.unlink()
+    record = json.loads((old / ARCHIVE_RECORD).read_text())
+    del record["time_only"]
+    (old / ARCHIVE_RECORD).write_text(json.dumps(record))
+    full = _tables(archive, tmp_path / "full")
+    capsys.readouterr()
+    tables = _tables(old, tmp_path / "tables")          # the time-only rows from the data
+    assert "kept its predictions" in capsys.readouterr().err
+    assert tables == {name: text for name, text in full.items() if "_example." not in name}
+    data.rename(data.parent / "away")                     # no archived scores, no data: a note
+    try:
+        assert tables_main(["paper", str(old), "--out", str(tmp_path / "bare")]) == 0
+        assert "no time-only progress row in table1" in capsys.readouterr().err
+        assert not (pd.read_csv(tmp_path / "bare" / "table1.csv").model == "Time only (t/T)").any()
+    finally:
+        (data.parent / "away").rename(data)
+
+
+def test_an_archive_of_an_archive_keeps_its_predictions_and_scores_without_the_data(
+        trained, tmp_path, capsys):
+    grid, archive, data = trained
+    copy = shutil.copytree(archive, tmp_path / "copy")
+    data.rename(data.parent / "away")
+    try:
+        assert archive_grid(copy, tmp_path / "again") == (4, 4)
+    finally:
+        (data.parent / "away").rename(data)
+    assert "note" not in capsys.readouterr().err
+    for run in _runs(archive):
+        relative = run.relative_to(archive)
+        assert (tmp_path / "again" / relative / FILE).read_bytes() == (run / FILE).read_bytes()
+    again = json.loads((tmp_path / "again" / ARCHIVE_RECORD).read_text())
+    assert again["time_only"] == json.loads((archive / ARCHIVE_RECORD).read_text())["time_only"]
+    assert again["source"] == str(grid.resolve())           # the grid it was trained in, kept
+    rewritten = archive_grid(grid, archive)                 # its own archive again: unchanged
+    assert rewritten == (4, 4) and all(
+        (run / FILE).read_bytes() == (tmp_path / "again" / run.relative_to(archive) / FILE)
+        .read_bytes() for run in _runs(archive))
+
+
+def test_predictions_of_earlier_versions_and_damaged_records_are_read_or_named(tmp_path):
+    """A CSV of an earlier version (class indices in ``<task>_pred``, no ``time_s``) is kept
+    alike; a damaged record and a CSV of an unknown class are errors naming the file."""
+    from tests.fake_grid import write_fake_run
+    from multitask.grid.spec import RunKey
+
+    run = write_fake_run(tmp_path / "run", RunKey("revised", "bidirectional", "APc", "fixed", 0,
+                                                  "B"), {})
+    predictions = run / "eval" / "epoch0012" / "predictions"
+    predictions.mkdir(parents=True)
+    pd.DataFrame({"frame": [1, 7, 13], "gesture_true": [0, 2, 2], "gesture_pred": [0, 1, 2],
+                  "progress_true": [0, 0, 1], "progress_pred": [0, 1, 1]}
+                 ).to_csv(predictions / "Suturing_B001.csv", index=False)
+    kept = read_kept_predictions(run)
+    assert kept.evaluation == "epoch0012"
+    assert kept.trials["Suturing_B001"].labels["gesture"].tolist() == [0, 1, 2]
+    assert kept.trials["Suturing_B001"].labels["progress"].tolist() == [0, 1, 1]
+    record = kept_record(run)
+    record["trials"]["Suturing_B001"]["samples"] = 4
+    (run / FILE).write_text(json.dumps(record))
+    with pytest.raises(RunFolderError, match=rf"{FILE}: damaged kept predictions"):
+        read_kept_predictions(run)
+    (run / FILE).unlink()
+    pd.DataFrame({"sample": [0, 1], "gesture": ["G1", "G99"], "progress": ["reach", "reach"]}
+                 ).to_csv(predictions / "Suturing_B001.csv", index=False)
+    with pytest.raises(RunFolderError, match=r"Suturing_B001\.csv: gesture: 'G99'"):
+        read_kept_predictions(run)
