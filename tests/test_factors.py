@@ -257,6 +257,15 @@ def test_factor_tables_from_inner_grids_and_no_other_table_of_them(inner_grids, 
     row = per_fold.set_index("metric").loc["mean"]
     assert row.difference == pytest.approx(row.level_score - row.baseline_score, abs=2e-4)
     assert json.loads((out / "factors.json").read_text())
+    archives = {name: tmp_path / "archives" / name for name in inner_grids}
+    for name, archive in archives.items():           # no time-only scores of any outer user
+        assert tables_main(["archive", str(inner_grids[name]), str(archive)]) == 0
+        assert "time_only" not in json.loads((archive / "archive.json").read_text()) or not \
+            json.loads((archive / "archive.json").read_text())["time_only"]
+    assert tables_main(["factors", str(archives["baseline"]), str(archives["T-5hz-k5"]),
+                        "--out", str(tmp_path / "from-archives")]) == 0
+    assert (tmp_path / "from-archives/factors.csv").read_bytes() == (
+        out / "factors.csv").read_bytes()
     capsys.readouterr()
     assert tables_main(["paper", str(inner_grids["baseline"]), "--out",
                         str(tmp_path / "paper")]) != 0
