@@ -41,8 +41,10 @@ class SegmentationModel(tf.Module):
         self.padded = layout(self.encoder) == PADDED
         width = (self.encoder.output_size if isinstance(encoder, CustomEncoderConfig)
                  else encoder.output_size)          # a user's: its layer's, once built
-        self.heads = {t.name: Dense(width, t.num_outputs, _head_scale(encoder, width), rng,
-                                    name=f"head_{t.name}") for t in tasks}
+        glorot = getattr(encoder, "head_init", None) == "glorot"
+        self.heads = {t.name: Dense(width, t.num_outputs, _head_scale(encoder, width,
+                                                                      t.num_outputs), rng,
+                                    name=f"head_{t.name}", zero_bias=glorot) for t in tasks}
         self._multistage = isinstance(encoder, MSTCNConfig)
         if self._multistage and encoder.stages > 1:
             from .encoders.ms_tcn import Refinement
@@ -153,10 +155,13 @@ class SegmentationModel(tf.Module):
                                    for t, y in zip(tasks, targets)]) for outputs in stages])
 
 
-def _head_scale(encoder: AnyEncoderConfig, width: int) -> float:
-    """The heads' initial weights' bound: the LSTM's ``init_scale`` (DiPietro's uniform), or
-    another encoder's ``1 / sqrt(width)`` for ``width`` features (PyTorch's default for a 1x1
-    convolution, MS-TCN's heads)."""
+def _head_scale(encoder: AnyEncoderConfig, width: int, outputs: int) -> float:
+    """The initial weights' bound of a head of ``outputs`` outputs on ``width`` features: the
+    LSTM's ``init_scale`` (DiPietro's uniform), another encoder's ``1 / sqrt(width)`` (PyTorch's
+    default for a 1x1 convolution, MS-TCN's heads), or Glorot's ``sqrt(6 / (width + outputs))``
+    for an ED-TCN with ``head_init = "glorot"`` (Keras's ``Dense``, Lea et al.'s)."""
     if isinstance(encoder, EncoderConfig):
         return encoder.init_scale
+    if getattr(encoder, "head_init", None) == "glorot":
+        return (6.0 / (width + outputs)) ** 0.5
     return 1.0 / width ** 0.5

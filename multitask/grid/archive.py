@@ -132,9 +132,13 @@ def _time_only(source: Path, record: dict, data_dir: Path | str | None, notes: b
     """Per annotation version of the grid's runs, the time-only model's per-fold scores
     (``{"revised": [{"fold": "B", "progress_accuracy": ...}, ...]}``), from the grid's release
     (``data_dir``, else its spec's); when it cannot be read, those the archive ``source`` was
-    copied from keeps, else none, with a note unless ``notes`` is False."""
+    copied from keeps, else none, with a note unless ``notes`` is False. None for a grid of
+    inner runs (``spec.inner_validation``): their folds are validation users, and the outer
+    folds' users are scored by no one (results/tcn/PLAN_factors.md, section A)."""
     from ..models.time_baseline import release_fold_scores
 
+    if (record.get("spec") or {}).get("inner_validation") is not None:
+        return {}
     try:
         release = grid_release(record, data_dir)
         return {version: release_fold_scores(release, version).to_dict("records")

@@ -172,6 +172,10 @@ def _run(args: argparse.Namespace) -> int:
     print(f"grid: task {spec.task}, preset {spec.preset}, {size}, "
           f"schedule {budget.describe_schedule()}, seeds {sorted({k.seed for k in keys})}, "
           f"data {spec.data_dir}", flush=True)
+    if spec.inner_validation is not None:
+        print(f"inner runs: {spec.inner_validation} validation user(s) per outer fold, each "
+              "scored on its validation user with the outer fold's user held out (folders "
+              "<outer>-val-<validation>)", flush=True)
     if args.dry_run:
         return _dry_run(args, spec, keys)
     tracker = None
@@ -217,7 +221,9 @@ def _run(args: argparse.Namespace) -> int:
         for key, message in failed:
             print(f"  {key.path()}: {message}", file=sys.stderr)
         return 1
-    print(f"grid complete: {len(keys)} runs in {args.out}; tables: multitask-tables paper "
+    study = ("paper" if spec.inner_validation is None
+             else "factors BASELINE")              # inner runs: against a baseline's grid
+    print(f"grid complete: {len(keys)} runs in {args.out}; tables: multitask-tables {study} "
           f"{args.out}")
     return 0
 

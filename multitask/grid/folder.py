@@ -25,7 +25,9 @@ LOCATION_KEYS = ("data_dir",)
 EXECUTION_KEYS = ("loops",)
 #: Spec keys added after grid.json was first written -> the value their absence meant.
 IMPLIED_BY_OLDER_RECORDS = {"schedule_factors": {}, "encoder": "lstm", "resample_factor": None,
-                            "kernel": None, "format": "jigsaws"}
+                            "kernel": None, "format": "jigsaws", "lowpass": None,
+                            "normalise": None, "feature_set": None, "padding": None,
+                            "head_init": None, "inner_validation": None}
 
 
 def read_record(grid_dir: Path | str) -> dict | None:

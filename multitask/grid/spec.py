@@ -68,6 +68,16 @@ own, are refused with it. Each run records its import path and its module source
 (``rnn_seg.encoders.config.CustomEncoderConfig``): a grid resumed after that source changed
 finds its runs of other settings.
 
+The factor study's keys (``results/tcn/PLAN_factors.md``; each None = the default, so a spec
+without them trains what it always did): ``lowpass = false`` and ``normalise = false`` switch
+those preprocessing steps off, ``feature_set`` names the inputs (``psm_all``, ``all``;
+``jigsaws_tools.features``), ``padding = "reference"`` and ``head_init = "glorot"`` are ED-TCN's
+Lea et al. options (``EDTCNConfig``). ``inner_validation = n`` trains, instead of each fold's
+run, its *inner* runs: for outer fold u, one run per validation user v among the n users that
+follow u in the release's (cyclic) user order, trained on the users other than u and v, scored
+on v; u's trials are dropped first (``RunConfig.held_out_users``), so no score of u exists. An
+inner run's folder is named ``<u>-val-<v>`` (``inner_fold``) where an outer run's is ``<u>``.
+
 The keys ``data`` and ``folds`` of earlier versions are read as ``data_dir`` and ``test_users``,
 with a deprecation warning.
 """
@@ -81,6 +91,7 @@ from pathlib import Path
 from baseline.config import DIRECTIONS, RunConfig
 from jigsaws_tools.annotations import ANNOTATION_VERSIONS
 from jigsaws_tools.dataset import DataConfig, default_cache_dir, default_data_dir
+from jigsaws_tools.features import FEATURE_SETS
 from jigsaws_tools.preprocessing import PreprocessConfig
 from jigsaws_tools.release import discover
 from jigsaws_tools.synth import SynthConfig, ensure_release
@@ -88,9 +99,9 @@ from jigsaws_tools.task_definition import PAPER_TASK, TaskDefinition, load_task
 from jigsaws_tools.toml_files import read_toml
 from rnn_seg.config import LOOPS, PRECISIONS, EncoderConfig, TrainConfig
 from jigsaws_tools.recording_format import DEFAULT_FORMAT, RecordingFormat, load_format
-from rnn_seg.encoders.config import ENCODERS, SCHEDULES, encoder_config
+from rnn_seg.encoders.config import ENCODERS, HEAD_INITS, PADDINGS, SCHEDULES, encoder_config
 from rnn_seg.encoders.import_path import is_import_path, split_path
-from rnn_seg.validation import require_choice, require_number
+from rnn_seg.validation import require_bool, require_choice, require_number
 
 from ..models.config import ORDINAL_LOSSES, RELATIVE_RATES, WEIGHTINGS, GradNormConfig, HeadConfig
 from ..models.variants import MULTITASK_EVAL, VARIANTS, batch_size, get_variant
@@ -152,12 +163,43 @@ def expand(spec: GridSpec, users: tuple[str, ...]) -> list[RunKey]:
     if missing:
         raise ValueError(f"fold(s) {', '.join(missing)} not among the release's users "
                          f"{', '.join(users)}")
+    if spec.inner_validation is not None:
+        folds = tuple(inner_fold(u, v) for u in folds
+                      for v in validation_users(users, u, spec.inner_validation))
     keys = (RunKey(a, d, v, w, s, f)
             for e in spec.experiments
             for v in e.variants for w in e.weightings for a in e.annotations for d in e.directions
             for s in spec.seeds_of(e) for f in folds
             if w == "fixed" or get_variant(v).multitask)
     return list(dict.fromkeys(keys))
+
+
+#: Between an inner run's outer fold and its validation user in its fold's name (``inner_fold``).
+INNER = "-val-"
+
+
+def inner_fold(outer: str, validation: str) -> str:
+    """The fold name of the inner run of outer fold ``outer`` scored on ``validation``:
+    ``B-val-C``; never a user's name, so never an outer run's fold."""
+    return f"{outer}{INNER}{validation}"
+
+
+def fold_users(fold: str) -> tuple[str, tuple[str, ...]]:
+    """A run's test user and held-out users from its fold's name: ``B`` -> ``("B", ())``, the
+    inner run ``B-val-C`` -> ``("C", ("B",))``."""
+    outer, inner, validation = fold.partition(INNER)
+    return (validation, (outer,)) if inner else (fold, ())
+
+
+def validation_users(users: tuple[str, ...], outer: str, count: int) -> tuple[str, ...]:
+    """The ``count`` users that follow ``outer`` in the cyclic order of ``users`` (the release's):
+    B's two among B..I are C and D, H's I and B (results/tcn/PLAN_factors.md, section B). At least
+    one user must stay to train on."""
+    if not count < len(users) - 1:
+        raise ValueError(f"inner_validation = {count} leaves no training user among the "
+                         f"{len(users)} users {', '.join(users)} once the outer fold's is dropped")
+    at = users.index(outer)
+    return tuple(users[(at + k) % len(users)] for k in range(1, count + 1))
 
 
 def release_users(spec: GridSpec) -> tuple[str, ...]:
@@ -178,19 +220,25 @@ def run_config(spec: GridSpec, key: RunKey) -> RunConfig:
     encoder = (EncoderConfig(hidden=budget.hidden, bidirectional=bidirectional,
                              precision=spec.precision, loops=spec.loops)
                if spec.encoder == "lstm" else encoder_config(spec.encoder, not bidirectional))
-    if spec.kernel is not None:
-        encoder = replace(encoder, kernel=spec.kernel)
-    preprocessing = (PreprocessConfig() if spec.resample_factor is None
-                     else PreprocessConfig(resample_factor=spec.resample_factor))
+    encoder = replace(encoder, **_given(spec, "kernel", "padding", "head_init"))
+    preprocessing = PreprocessConfig(**_given(spec, "resample_factor", "lowpass", "normalise"))
+    test_user, held_out = fold_users(key.fold)
     return RunConfig(
         data=DataConfig(str(spec.release_dir()), annotations=key.annotations,
                         preprocessing=preprocessing, task=spec.task_definition(),
-                        recording_format=spec.recording_format()),
-        test_user=key.fold,
+                        recording_format=spec.recording_format(),
+                        **_given(spec, "feature_set")),
+        test_user=test_user,
         encoder=encoder,
         optim=optim,
         train=TrainConfig(seed=key.seed, eval_points=points,
-                          batch_size=batch_size(spec.encoder)))
+                          batch_size=batch_size(spec.encoder)),
+        held_out_users=held_out)
+
+
+def _given(spec: GridSpec, *names: str) -> dict:
+    """The keys ``names`` of ``spec`` that it sets (not None), as keyword arguments."""
+    return {name: getattr(spec, name) for name in names if getattr(spec, name) is not None}
 
 
 def schedule_epochs(spec: GridSpec, key: RunKey) -> int:
@@ -371,6 +419,12 @@ class GridSpec:
     resample_factor: int | None = None     # None = PreprocessConfig's (5 Hz)
     kernel: int | None = None              # ED-TCN's, in samples; None = its reference's
     format: str = DEFAULT_FORMAT           # the recordings': a built-in's name or a file's path
+    lowpass: bool | None = None            # None = PreprocessConfig's (on)
+    normalise: bool | None = None          # None = PreprocessConfig's (per trial)
+    feature_set: str | None = None         # None = DataConfig's (14 features)
+    padding: str | None = None             # ED-TCN's; None = "masked"
+    head_init: str | None = None           # ED-TCN's heads; None = "uniform"
+    inner_validation: int | None = None    # validation users per outer fold; None = outer runs
     experiments: tuple[Experiment, ...] = PAPER_EXPERIMENTS
 
     def __post_init__(self):
@@ -412,9 +466,8 @@ class GridSpec:
                 raise ValueError(f"test_users must be a list of user letters (got {user!r})")
         if self.seeds is not None:
             _require_seeds("seeds", self.seeds)
-        if self.kernel is not None and self.encoder != "ed-tcn":
-            raise ValueError(f"kernel is ED-TCN's setting (encoder is {self.encoder!r})")
-        for name in ("hidden", "epochs", "resample_factor", "kernel"):
+        self._check_factor_keys()
+        for name in ("hidden", "epochs", "resample_factor", "kernel", "inner_validation"):
             if getattr(self, name) is not None:
                 require_number(name, getattr(self, name), integer=True, low=1)
         if self.schedule_factors is not None:
@@ -429,6 +482,21 @@ class GridSpec:
             if not isinstance(experiment, Experiment):
                 raise ValueError(f"experiments must be tables of variants, weightings, "
                                  f"annotations, directions (got {experiment!r})")
+
+    def _check_factor_keys(self) -> None:
+        """The keys of the factor study (module docstring): ED-TCN's only with it."""
+        for name, allowed in (("kernel", None), ("padding", PADDINGS),
+                              ("head_init", HEAD_INITS)):
+            value = getattr(self, name)
+            if value is not None and self.encoder != "ed-tcn":
+                raise ValueError(f"{name} is ED-TCN's setting (encoder is {self.encoder!r})")
+            if value is not None and allowed is not None:
+                require_choice(name, value, allowed)
+        for name in ("lowpass", "normalise"):
+            if getattr(self, name) is not None:
+                require_bool(name, getattr(self, name))
+        if self.feature_set is not None:
+            require_choice("feature_set", self.feature_set, FEATURE_SETS)
 
     @property
     def budget(self) -> Budget:

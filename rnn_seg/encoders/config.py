@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from typing import ClassVar, Literal
 
 from ..config import EncoderConfig, OptimConfig
-from ..validation import require_bool, require_number
+from ..validation import require_bool, require_choice, require_number
 
 EncoderKind = Literal["lstm", "ed-tcn", "ms-tcn"]
 #: The built-in encoders; ``--encoder`` and a grid spec's ``encoder`` also take a user's encoder
@@ -31,6 +31,12 @@ ENCODERS = ("lstm", "ed-tcn", "ms-tcn")
 
 #: A SHA-256 digest in hexadecimal (a user's encoder's source, ``CustomEncoderConfig``).
 SHA256 = re.compile(r"[0-9a-f]{64}")
+#: ED-TCN's padding: the engine's (zeros, every layer's output masked) or Lea et al.'s (-1, the
+#: layers unmasked, the loss masked; ``rnn_seg.encoders.ed_tcn``).
+PADDINGS = ("masked", "reference")
+#: ED-TCN's heads' initial weights: U(+-1/sqrt(D)), bias alike (PyTorch's 1x1 convolution), or
+#: Glorot uniform with a zero bias (Keras's ``Dense``, Lea et al.'s heads).
+HEAD_INITS = ("uniform", "glorot")
 
 #: Samples per second of every model input (``jigsaws_tools.preprocessing``).
 MODEL_HZ = 5.0
@@ -61,14 +67,20 @@ class EDTCNConfig(_Convolutional):
     Encoder: per entry of ``filters`` a temporal convolution of ``kernel`` samples, spatial
     dropout (whole channels) at rate ``dropout``, ReLU, normalisation by the step's largest
     activation, max pooling by 2; decoder: the mirror image, upsampling by 2 before each
-    convolution. ``[B, T, F]`` -> ``[B, T, filters[0]]``.
+    convolution. ``[B, T, F]`` -> ``[B, T, filters[0]]``. ``padding`` and ``head_init``
+    (``PADDINGS``, ``HEAD_INITS``) are Lea et al.'s options of results/tcn/PLAN_factors.md, not
+    recorded while they hold the engine's defaults (earlier runs keep their settings hash).
     """
+
+    unrecorded_defaults: ClassVar[tuple[str, ...]] = ("padding", "head_init")
 
     kind: Literal["ed-tcn"] = "ed-tcn"
     filters: tuple[int, ...] = (64, 96)     # per encoder layer; the decoder runs them backwards
     kernel: int = samples(2.0)              # 2.0 s: Lea et al.'s 20 samples at 10 Hz
     dropout: float = 0.3                    # spatial dropout rate (whole channels)
     causal: bool = False
+    padding: str = PADDINGS[0]
+    head_init: str = HEAD_INITS[0]
 
     def __post_init__(self):
         if not isinstance(self.filters, tuple) or not self.filters:
@@ -79,6 +91,8 @@ class EDTCNConfig(_Convolutional):
         require_number("EDTCNConfig.kernel", self.kernel, integer=True, low=1)
         require_number("EDTCNConfig.dropout", self.dropout, low=0, high=1, open_high=True)
         require_bool("EDTCNConfig.causal", self.causal)
+        require_choice("EDTCNConfig.padding", self.padding, PADDINGS)
+        require_choice("EDTCNConfig.head_init", self.head_init, HEAD_INITS)
 
     @property
     def output_size(self) -> int:

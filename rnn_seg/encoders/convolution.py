@@ -84,11 +84,12 @@ def dropout(x: tf.Tensor, rate: float, seed: tf.Tensor | None, spatial: bool = F
     return tf.transpose(dropped, [1, 0, 2])
 
 
-def pad_to_multiple(x: tf.Tensor, multiple: int) -> tf.Tensor:
-    """``[B, T, C]`` zero-padded at the end to a multiple of ``multiple`` steps."""
+def pad_to_multiple(x: tf.Tensor, multiple: int, value: float = 0.0) -> tf.Tensor:
+    """``[B, T, C]`` padded at the end with ``value`` (zeros by default) to a multiple of
+    ``multiple`` steps."""
     steps = tf.shape(x)[1]
     extra = (multiple - steps % multiple) % multiple
-    return tf.pad(x, [[0, 0], [0, extra], [0, 0]])
+    return tf.pad(x, [[0, 0], [0, extra], [0, 0]], constant_values=value)
 
 
 def max_pool(x: tf.Tensor) -> tf.Tensor:

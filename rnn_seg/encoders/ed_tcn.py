@@ -11,6 +11,17 @@ activation, ``pool`` max pooling by 2 and ``upsample`` its inverse (causal when 
 no future sample leaks through a pooled pair). The sequence is padded with zeros to a multiple of
 ``2**L`` steps and cut back after the decoder. ``[B, T, F]`` -> ``[B, T, F_1]``; the heads read
 the last decoder layer, which is GradNorm's shared layer.
+
+Padding (``EDTCNConfig.padding``): ``masked`` (the engine's) multiplies every layer's output by
+the mask of the real steps, so a sequence's outputs do not depend on its row's padding.
+``reference`` is Lea et al.'s (``TCN_main.py``): the steps after a sequence's end hold -1 in
+every feature and no layer is masked, so the -1 steps reach the last real steps through the
+convolutions; only the loss is masked (``Task.loss``'s ``valid``). They padded every sequence
+to the longest trial; here every sequence gets at least ``reference_reach`` steps of -1 (more
+than one output step reads of the future, ``2 * ceil((k-1)/2) * (2**L - 1) + 2**L``), which gives
+every real step the output their padding gives it, whatever its row's length, but for a trial
+so nearly the longest that their padding ended within that reach (its last steps read the
+convolutions' zero padding there).
 """
 from __future__ import annotations
 
@@ -68,6 +79,8 @@ class EDTCNEncoder(tf.Module):
             ``[B, T, filters[0]]`` float32, zero at the steps that are not valid.
         """
         del resets
+        if self.config.padding == "reference":
+            return self._apply_unmasked(params, inputs, dropout_seeds, valid)
         config, depth = self.config, len(self.config.filters)
         steps = tf.shape(inputs)[1]
         mask = pad_to_multiple(mask_of(valid, inputs), 2 ** depth)
@@ -81,6 +94,28 @@ class EDTCNEncoder(tf.Module):
             mask = masks[depth - 1 - i]
             x = upsample(x, config.causal) * mask
             x = self._block(x, p, self._seed(dropout_seeds, depth + i)) * mask
+        return x[:, :steps]
+
+    @property
+    def reference_reach(self) -> int:
+        """Steps of -1 after every sequence with ``reference`` padding: ``kernel * 2**(L+1)``,
+        more than the future steps one output step reads (module docstring)."""
+        return self.config.kernel * 2 ** (len(self.config.filters) + 1)
+
+    def _apply_unmasked(self, params: EDTCNParams, inputs: tf.Tensor,
+                        dropout_seeds: tf.Tensor | None, valid: tf.Tensor | None) -> tf.Tensor:
+        """``apply`` with Lea et al.'s padding (module docstring): ``[B, T, F]`` ->
+        ``[B, T, filters[0]]``, not zero after a sequence's end."""
+        depth = len(self.config.filters)
+        steps = tf.shape(inputs)[1]
+        x = tf.where(mask_of(valid, inputs) > 0, inputs, -1.0)
+        x = tf.pad(x, [[0, 0], [0, self.reference_reach], [0, 0]], constant_values=-1.0)
+        x = pad_to_multiple(x, 2 ** depth, value=-1.0)
+        for i, p in enumerate(params["encoder"]):
+            x = max_pool(self._block(x, p, self._seed(dropout_seeds, i)))
+        for i, p in enumerate(params["decoder"]):
+            x = self._block(upsample(x, self.config.causal), p,
+                            self._seed(dropout_seeds, depth + i))
         return x[:, :steps]
 
     def _block(self, x: tf.Tensor, params: ConvParams, seed: tf.Tensor | None) -> tf.Tensor:

@@ -28,4 +28,4 @@ May import (in ``run``) ``..studies``, ``..render``, ``..statistics``, ``..runs`
 
 #: The subcommands, in the order ``multitask-tables --help`` lists them: each a module here.
 STUDIES = ("paper", "runs", "pair", "archive", "width", "architectures", "execution", "confirm",
-           "design", "tasks", "score", "release")
+           "design", "tasks", "score", "release", "factors")

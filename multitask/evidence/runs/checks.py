@@ -21,7 +21,8 @@ from pathlib import Path
 
 from jigsaws_tools.errors import JigsawsError
 from multitask.grid.folder import GRID_RECORD, read_record
-from multitask.grid.spec import GridSpec, RunKey, expand, run_arguments, spec_from_dict
+from multitask.grid.spec import (GridSpec, RunKey, expand, fold_users, run_arguments,
+                                 spec_from_dict)
 from multitask.models.run_record import variant_record
 from rnn_seg.runs.folder import CONFIG, RunFolderError, read_json
 from rnn_seg.runs.settings import SettingsMismatchError, check_run_dir
@@ -60,7 +61,7 @@ def other_settings(root: Path, keys: dict[Path, RunKey]) -> dict[Path, str]:
             return {}
     spec = spec_from_dict(record["spec"], source=f"{Path(root) / GRID_RECORD}: spec")
     spec = replace(spec, data_dir=".")              # where the data is: not a setting
-    planned = set(expand(spec, spec.test_users or tuple(sorted({k.fold for k in keys.values()}))))
+    planned = _planned(spec, keys)
     mismatched = {}
     for run, key in keys.items():
         details = (_mismatch(Path(root) / run, spec, key) if key in planned
@@ -69,6 +70,19 @@ def other_settings(root: Path, keys: dict[Path, RunKey]) -> dict[Path, str]:
         if details:
             mismatched[run] = details
     return mismatched
+
+
+def _planned(spec: GridSpec, keys: dict[Path, RunKey]) -> set[RunKey]:
+    """The runs of ``spec`` among the folds of ``keys`` (the data, and so the release's users,
+    unknown here): its LOUO folds; for inner runs (``inner_validation``), every inner fold of
+    ``keys`` whose outer fold is the spec's (which users follow it in the release is not
+    checked)."""
+    folds = tuple(sorted({key.fold for key in keys.values()}))
+    if spec.inner_validation is None:
+        return set(expand(spec, spec.test_users or folds))
+    inner = tuple(fold for fold in folds if fold_users(fold)[1] and (
+        not spec.test_users or fold_users(fold)[1][0] in spec.test_users))
+    return set(expand(replace(spec, inner_validation=None, test_users=()), inner))
 
 
 def _mismatch(run_dir: Path, spec: GridSpec, key: RunKey) -> str | None:

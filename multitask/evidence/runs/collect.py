@@ -89,7 +89,8 @@ def run_rows(grid_dir: Path | str, allow_incomplete: bool = False,
 
 
 def run_records(grid_dir: Path | str, allow_incomplete: bool = False,
-                seeds: tuple[int, ...] | None = None, finished_only: bool = False
+                seeds: tuple[int, ...] | None = None, finished_only: bool = False,
+                varying: tuple[str, ...] = ()
                 ) -> tuple[pd.DataFrame, list[str], dict[Path, RunRecord]]:
     """``run_rows``' rows and problems, and the record (config.json) of each run in the rows,
     keyed by the run's folder (``grid_dir / run``).
@@ -102,6 +103,7 @@ def run_records(grid_dir: Path | str, allow_incomplete: bool = False,
             counting that run a problem; a line per configuration left out, starting with
             ``LEFT_OUT``, is added to the returned problems. For a grid still running: tables of
             its finished part.
+        varying: settings the runs of one configuration may differ in (``pooling.pool``).
     """
     root = Path(grid_dir)
     every_run, problems = recorded_runs(root)
@@ -124,7 +126,7 @@ def run_records(grid_dir: Path | str, allow_incomplete: bool = False,
         if found is not None:
             rows.append(found[0])
             records[run] = found[1]
-    pool(records, root)
+    pool(records, root, varying)
     if problems and not allow_incomplete:
         raise IncompleteEvidence(
             f"{root}: incomplete evidence, no tables written:\n  " + "\n  ".join(problems)

@@ -26,7 +26,11 @@ one, whether or not a grid's spec vouches for the runs.
   are kept apart: a table of several architectures reads one grid per architecture, each
   pooled by the rule above, tags each run with its grid's architecture and pairs nothing across
   them (``apart``); two grids of one architecture, a grid of several, or grids on other data are
-  refused (``MixedArchitectures``).
+  refused (``MixedArchitectures``);
+* an inner run (a validation user's, inside an outer fold's training users: its config.json
+  records ``held_out_users``; ``multitask.grid.spec``, ``inner_validation``) is pooled only by a
+  table made for inner runs (``INNER_SETTING`` among ``pool``'s ``varying``), and never with
+  outer runs: the folds of the paper's tables are test users, not validation users.
 """
 from __future__ import annotations
 
@@ -38,11 +42,13 @@ from rnn_seg.encoders.config import ENCODERS
 from rnn_seg.encoders.import_path import is_import_path
 from rnn_seg.runs.settings import settings_of
 
-from ...grid.spec import RunKey
+from ...grid.spec import RunKey, inner_fold
 from ...models.run_record import RunRecord
 
 #: The settings the runs of one configuration differ in: a table pools over them.
 POOLED = ("run.train.seed", "run.test_user")
+#: The setting that marks an inner run (``RunConfig.held_out_users``: its outer fold's user).
+INNER_SETTING = "run.held_out_users"
 #: Runs named per value in a difference, the rest counted.
 SHOWN = 3
 
@@ -153,10 +159,13 @@ def _data(record: RunRecord) -> dict[str, Any]:
 def record_key(record: RunRecord) -> RunKey:
     """The configuration, seed and held-out user the run's config.json records."""
     config = record.config
+    fold = config.test_user
+    if len(config.held_out_users) == 1:
+        fold = inner_fold(config.held_out_users[0], config.test_user)
     return RunKey(annotations=config.data.annotations,
                   direction="bidirectional" if config.encoder.bidirectional else "forward",
                   variant=record.variant, weighting=record.weighting, seed=config.train.seed,
-                  fold=config.test_user)
+                  fold=fold)
 
 
 def configuration(record: RunRecord) -> dict[str, Any]:
@@ -188,9 +197,11 @@ def pool(records: dict[Path, RunRecord], where: Path | str, varying: tuple[str, 
     Raises:
         MixedSettings: runs of several encoders (an LSTM, ED-TCN, MS-TCN, a user's encoder of
             another import path or source: a table of one grid would pair them as one model's
-            configurations), naming each; or, naming, per row whose runs
-            differ, each setting that differs and the runs of each of its values.
+            configurations), naming each; inner runs in a table not made for them
+            (``INNER_SETTING`` not in ``varying``), or with outer runs; or, naming, per row
+            whose runs differ, each setting that differs and the runs of each of its values.
     """
+    _check_inner(records, where, INNER_SETTING in varying)
     encoders: dict[str, list[str]] = {}
     for run, record in records.items():
         encoders.setdefault(encoder_identity(record), []).append(str(run))
@@ -214,6 +225,21 @@ def pool(records: dict[Path, RunRecord], where: Path | str, varying: tuple[str, 
             f"{where}: runs of one configuration differ in settings that change results, so no table "
             "pools them (" + "; ".join(mixed) + "). Tabulate runs of other settings from a "
             "folder of their own.")
+
+
+def _check_inner(records: dict[Path, RunRecord], where: Path | str, wanted: bool) -> None:
+    """Refuse inner runs where they are not ``wanted`` and, where they are, outer runs beside
+    them (``pool``)."""
+    inner = [str(run) for run, record in records.items() if record.config.held_out_users]
+    outer = [str(run) for run, record in records.items() if not record.config.held_out_users]
+    if inner and not wanted:
+        raise MixedSettings(
+            f"{where}: inner runs, scored on a validation user with their outer fold's user held "
+            f"out ({_runs(inner)}): their folds are not test users, so this table does not pool "
+            "them; multitask-tables factors reads them.")
+    if inner and outer:
+        raise MixedSettings(f"{where}: inner runs ({_runs(inner)}) beside outer runs "
+                            f"({_runs(outer)}); no table pools the two.")
 
 
 def _differences(runs: dict[Path, dict]) -> str:
