@@ -34,6 +34,9 @@ except ImportError:              # pragma: no cover - Windows
     fcntl = None
 
 LOCK_FILE = ".lock"
+#: How many times taking a lock starts again after a folder vanished on its way (another
+#: process's release removing it) before the error is taken for what it says.
+RACES = 100
 log = logging.getLogger(__name__)
 
 
@@ -105,13 +108,17 @@ def appears_held(folder: Path | str) -> bool:
 def _take(folder: Path, what: str, lock_file: str) -> _Hold:
     """Create ``folder`` if need be and lock it; again while another process's release removes
     the lock file or a folder on its way (between our ``mkdir`` and ``open``, or ``open`` and
-    ``flock``)."""
+    ``flock``), at most ``RACES`` times."""
     made: dict[Path, None] = {}                        # in creation order, each once
+    races = 0
     while True:
         try:
             made.update(dict.fromkeys(_make_folders(folder)))
             taken = _acquire(folder, what, lock_file)
-        except FileNotFoundError:                      # a folder made was removed meanwhile
+        except FileNotFoundError:                      # a folder made was removed meanwhile,
+            races += 1                                 # or one no folder can be made in
+            if races > RACES:                          # (/proc: mkdir says ENOENT every time)
+                raise
             continue
         if taken is not None:
             return _Hold(*taken, list(made))
