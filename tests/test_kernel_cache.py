@@ -494,3 +494,16 @@ def test_a_remembered_failure_costs_a_training_one_line_and_the_kernels_command_
                              text=True, env=env, timeout=600)
     assert kernels.returncode == 0, kernels.stderr
     assert _calls(tools) == 2 and not build.failure_path(path).exists()
+
+
+def test_a_cache_folder_that_is_a_file_is_named_as_such(tmp_path, monkeypatch):
+    """``$JIGSAWS_CACHE_DIR`` naming a file: the library was said to be "unreadable (Not a
+    directory), not the cache's file: move it away" — a file that does not exist."""
+    taken = tmp_path / "notes.txt"
+    taken.write_text("mine")
+    monkeypatch.setenv("JIGSAWS_CACHE_DIR", str(taken))
+    path = build.library_path()
+    with at_most(60), pytest.raises(build.KernelUnavailable,
+                                    match=f"cannot be made: {taken} is a file, not a folder"):
+        build.ensure_built(path)
+    assert taken.read_text() == "mine"

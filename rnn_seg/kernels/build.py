@@ -442,6 +442,11 @@ def ensure_built(path: Path) -> None:
         KernelUnavailable: the build failed, now or before (see ``build``, ``known_failure``).
         OSError: the cache cannot be written.
     """
+    blocked = next((folder for folder in path.parents if folder.exists()
+                    and not folder.is_dir()), None)
+    if blocked is not None:
+        raise KernelUnavailable(f"the kernel cache {path.parent} cannot be made: {blocked} is "
+                                "a file, not a folder")
     for part in (path, record_path(path)):
         kind = _not_a_file(part)
         if kind:
