@@ -453,6 +453,31 @@ def test_a_folder_no_folder_can_be_made_in_is_an_error_not_a_hang(tmp_path, monk
                 pass
 
 
+def test_a_folder_no_lock_file_can_be_made_in_is_an_error_not_a_hang(tmp_path, monkeypatch):
+    """The other half: a folder that exists but takes no file (``/proc`` for a publish's
+    ``.<name>.lock`` beside ``--out /proc/x``: ``multitask-tables archive``, ``-evaluate``,
+    ``-export`` hung) is one error naming the lock file; the folders made for it are removed."""
+    from test_archive_and_inputs import at_most
+
+    real_open = os.open
+
+    def no_files(path, flags, *args):
+        if str(path).startswith(str(tmp_path)) and flags & os.O_CREAT:
+            raise FileNotFoundError(2, "No such file or directory", str(path))
+        return real_open(path, flags, *args)
+
+    monkeypatch.setattr(lock.os, "open", no_files)
+    with at_most(60), pytest.raises(FileNotFoundError, match="no file can be created there"):
+        with hold_folder(tmp_path / "new" / "x", "grid folder"):
+            pass
+    assert list(tmp_path.iterdir()) == []
+    if Path("/proc/self").is_dir():
+        monkeypatch.undo()
+        with at_most(60), pytest.raises(FileNotFoundError, match=r"/proc/\.mtrnn-x\.lock"):
+            with hold_folder("/proc", "output", ".mtrnn-x.lock"):
+                pass
+
+
 @pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="no /proc")
 def test_an_output_folder_in_proc_is_one_line_and_exit_2(capsys):
     from test_archive_and_inputs import at_most

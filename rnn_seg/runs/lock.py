@@ -35,8 +35,9 @@ except ImportError:              # pragma: no cover - Windows
     fcntl = None
 
 LOCK_FILE = ".lock"
-#: How many times taking a lock starts again after a folder vanished on its way (another
-#: process's release removing it) before the error is taken for what it says.
+#: How many times taking a lock starts again after a folder or the lock file vanished on its way
+#: (another process's release removing it) before the error is taken for what it says: a place
+#: where no folder or file can be made (``/proc``: ENOENT every time).
 RACES = 100
 log = logging.getLogger(__name__)
 
@@ -111,18 +112,20 @@ def _take(folder: Path, what: str, lock_file: str) -> _Hold:
     the lock file or a folder on its way (between our ``mkdir`` and ``open``, or ``open`` and
     ``flock``), at most ``RACES`` times."""
     made: dict[Path, None] = {}                        # in creation order, each once
-    races = 0
-    while True:
+    for _ in range(RACES):
         try:
             made.update(dict.fromkeys(_make_folders(folder)))
             taken = _acquire(folder, what, lock_file)
         except FileNotFoundError:                      # a folder made was removed meanwhile,
-            races += 1                                 # or one no folder can be made in
-            if races > RACES:                          # (/proc: mkdir says ENOENT every time)
-                raise
-            continue
+            continue                                   # or none can be made there (/proc)
         if taken is not None:
             return _Hold(*taken, list(made))
+    made.update(dict.fromkeys(_make_folders(folder)))  # raises where no folder can be made;
+    for path in reversed(made):                        # else no lock file can (removed again)
+        if path.is_dir() and not any(path.iterdir()):
+            path.rmdir()
+    raise FileNotFoundError(errno.ENOENT, f"no file can be created there (the lock of the "
+                            f"{what})", str(folder / lock_file))
 
 
 def _make_folders(folder: Path) -> list[Path]:
