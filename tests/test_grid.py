@@ -703,6 +703,26 @@ def test_a_dry_run_refuses_what_the_launch_refuses_and_writes_nothing(
     assert capsys.readouterr().err == said.err
 
 
+@pytest.mark.parametrize("place", ["new/grid", "/proc/mtrnn-jigsaws-grid"])
+def test_a_dry_run_of_a_folder_not_there_yet_agrees_with_the_launch_and_leaves_none(
+        tmp_path, tiny_spec, capsys, place):
+    """Issue 66: a dry run listed "4 to run" for ``--out /proc/x``, where the launch cannot make
+    its folder; now both refuse in the same words. A folder that can be made is not left."""
+    if place.startswith("/proc") and not Path("/proc/self").is_dir():
+        pytest.skip("no /proc")
+    out = Path(place) if place.startswith("/") else tmp_path / place
+    command = ["--spec", str(tiny_spec), "--out", str(out)]
+    dry = grid_main([*command, "--dry-run"])
+    said = capsys.readouterr()
+    if place.startswith("/proc"):
+        assert dry == 2 and str(out) in said.err
+        assert grid_main(command) == 2
+        assert capsys.readouterr().err.splitlines()[-1] == said.err.splitlines()[-1]
+    else:
+        assert dry == 0 and "0 already finished" in said.out
+        assert not out.parent.exists()
+
+
 def test_a_dry_run_says_which_runs_resume_and_which_are_trained_afresh(
         tmp_path, tiny_spec, tiny_grid, capsys):
     """Per run still to run: resumed from its checkpoint (its epochs done), trained afresh

@@ -1,7 +1,8 @@
 """The compiled kernel's cache can never take a run down: a damaged library is found before it is
 loaded and rebuilt (or, where that fails, the graph loops run), a library that loads but holds no
-op is refused, a hanging compiler is stopped with its children, a killed build leaves nothing a
-later build keeps, and ``$CXX`` may carry flags. Builds here go through a stand-in compiler that
+op is refused, a hanging compiler is stopped with its children, a killed build ends its compiler
+and leaves nothing a later build keeps, a failed build is remembered (not compiled again by every
+process) until its inputs change, and ``$CXX`` may carry flags. Builds here go through a stand-in compiler that
 copies the suite's own library, so no test compiles for a minute."""
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import fcntl
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import threading
@@ -304,3 +306,204 @@ def test_the_product_path_follows_the_targets_instruction_sets():
         == 512
     assert build.product_path(frozenset({"__AVX2__", "__FMA__"}))["product"] == "AVX2"
     assert "generic" in build.product_path(frozenset())["product"]
+
+
+def _switchable_compiler(folder: Path, library: Path | None = None) -> Path:
+    """A "compiler" run by the file ``mode`` beside it, so one command (one cache key) can
+    succeed, fail or hang: ``hang`` starts a child and waits (writing both process ids to
+    ``pids``), ``fail`` says an error, anything else (or no file) writes ``library`` (or a few
+    bytes) wherever ``-o`` points; each compile (not ``-E``) adds a line to ``calls``."""
+    script = folder / "cxx"
+    copy = f'cp "{library}" "$2"' if library else 'echo built > "$2"'
+    script.write_text(f"""#!/bin/sh
+case " $* " in *" -E "*) exec g++ "$@";; esac
+echo call >> "{folder}/calls"
+mode=$(cat "{folder}/mode" 2>/dev/null)
+if [ "$mode" = hang ]; then
+  sleep 600 &
+  echo $! >> "{folder}/pids"
+  echo $$ >> "{folder}/pids"
+  wait
+fi
+if [ "$mode" = fail ]; then echo "lstm_loops.cc:1:1: error: a test's failure" >&2; exit 1; fi
+while [ $# -gt 0 ]; do
+  if [ "$1" = -o ]; then {copy}; exit 0; fi
+  shift
+done
+exit 1
+""")
+    script.chmod(0o755)
+    return script
+
+
+def _calls(folder: Path) -> int:
+    try:
+        return len((folder / "calls").read_text().split())
+    except FileNotFoundError:
+        return 0
+
+
+def _wait_for(condition, seconds: float = 180) -> None:
+    deadline = time.monotonic() + seconds
+    while not condition():
+        assert time.monotonic() < deadline, "waited too long"
+        time.sleep(0.2)
+
+
+@pytest.mark.parametrize("how", [signal.SIGKILL, signal.SIGTERM, signal.SIGINT],
+                         ids=["SIGKILL", "SIGTERM", "SIGINT"])
+def test_a_killed_build_ends_its_compiler_and_the_next_use_rebuilds(tmp_path, monkeypatch,
+                                                                     capsys, how):
+    """The compiler ran in its own session to completion after its process was killed (SIGKILL,
+    SIGTERM) or interrupted: now it dies with it, with what it started, and nothing the killed
+    build left (no library, record or failure) is taken for finished: the next use builds."""
+    tools = tmp_path / "tools"
+    tools.mkdir()
+    monkeypatch.setenv("CXX", str(_switchable_compiler(tools)))
+    monkeypatch.setenv("JIGSAWS_CACHE_DIR", str(tmp_path / "cache"))
+    (tools / "mode").write_text("hang")
+    builder = subprocess.Popen(
+        [sys.executable, "-c", "from rnn_seg.kernels import build; "
+                               "build.ensure_built(build.library_path())"],
+        env={**os.environ, "PYTHONPATH": str(ROOT)}, stderr=subprocess.PIPE, text=True)
+    try:
+        _wait_for(lambda: (tools / "pids").is_file()
+                  and len((tools / "pids").read_text().split()) == 2)
+        builder.send_signal(how)
+        builder.wait(timeout=60)
+    finally:
+        builder.kill()
+        builder.communicate()
+    pids = [int(pid) for pid in (tools / "pids").read_text().split()]
+    _wait_for(lambda: not any(_running(pid) for pid in pids), seconds=30)
+
+    path = build.library_path()
+    left = {p.name for p in path.parent.iterdir()}
+    assert not {path.name, build.record_path(path).name, build.failure_path(path).name} & left
+    (tools / "mode").write_text("build")
+    capsys.readouterr()
+    build.ensure_built(path)
+    assert "building the fused LSTM loops" in capsys.readouterr().err
+    assert build.damage(path) is None and _calls(tools) == 2
+    assert not [p for p in path.parent.iterdir() if p.name.startswith(build.BUILD_PREFIX)]
+
+
+def test_a_failed_build_is_remembered_and_not_tried_again(tmp_path, monkeypatch):
+    """Every process (every worker of a grid) compiled a known-failing build again, for up to a
+    minute each: now the second and later fall back at once, naming the failure and the retry."""
+    tools = tmp_path / "tools"
+    tools.mkdir()
+    monkeypatch.setenv("CXX", str(_switchable_compiler(tools)))
+    monkeypatch.setenv("JIGSAWS_CACHE_DIR", str(tmp_path / "cache"))
+    (tools / "mode").write_text("fail")
+    path = build.library_path()
+    with pytest.raises(build.BuildFailed, match="error: a test's failure"):
+        build.ensure_built(path)
+    for _ in range(2):
+        with pytest.raises(build.KernelUnavailable) as refused:
+            build.ensure_built(path)
+        said = str(refused.value)
+        assert "\n" not in said and "error: a test's failure" in said
+        assert "python -m rnn_seg.kernels" in said and str(build.failure_path(path)) in said
+    assert _calls(tools) == 1 and not path.exists()
+
+    build.failure_path(path).unlink()                   # the documented retry
+    (tools / "mode").write_text("build")
+    build.ensure_built(path)
+    assert _calls(tools) == 2 and build.damage(path) is None
+
+
+@pytest.mark.parametrize("change", ["compiler replaced", "record of another TensorFlow",
+                                    "record of another source", "record of another command",
+                                    "record unreadable", "record a FIFO"])
+def test_a_remembered_failure_of_other_inputs_is_tried_again(tmp_path, monkeypatch, change):
+    tools = tmp_path / "tools"
+    tools.mkdir()
+    compiler = _switchable_compiler(tools)
+    monkeypatch.setenv("CXX", str(compiler))
+    monkeypatch.setenv("JIGSAWS_CACHE_DIR", str(tmp_path / "cache"))
+    (tools / "mode").write_text("fail")
+    path = build.library_path()
+    with pytest.raises(build.BuildFailed):
+        build.ensure_built(path)
+    failed = build.failure_path(path)
+    record = json.loads(failed.read_text())
+    if change == "compiler replaced":                   # an upgrade: same name, other file
+        compiler.write_text(compiler.read_text() + "\n")
+        os.utime(compiler, ns=(0, record["compiler"]["mtime_ns"] + 10**9))
+    elif change == "record unreadable":
+        failed.write_text("{not json")
+    elif change == "record a FIFO":
+        failed.unlink()
+        os.mkfifo(failed)
+    else:
+        key = {"record of another TensorFlow": "tensorflow",
+               "record of another source": "source_sha256",
+               "record of another command": "compile_command"}[change]
+        failed.write_text(json.dumps({**record, key: "other"}))
+    (tools / "mode").write_text("build")
+    with at_most(60):
+        build.ensure_built(path)
+    assert _calls(tools) == 2 and build.damage(path) is None
+    assert change == "record a FIFO" or not failed.exists()
+
+
+def test_a_build_that_fails_while_another_waits_is_not_tried_again_by_it(tmp_path, monkeypatch,
+                                                                         capsys):
+    """Two workers of a grid: the second waits on the first's build lock, then finds its failure
+    and falls back without compiling."""
+    tools = tmp_path / "tools"
+    tools.mkdir()
+    monkeypatch.setenv("CXX", str(_switchable_compiler(tools)))
+    monkeypatch.setenv("JIGSAWS_CACHE_DIR", str(tmp_path / "cache"))
+    path = build.library_path()
+    path.parent.mkdir(parents=True)
+
+    def fail_then_unlock(held) -> None:
+        build.remember_failure(path, build.BuildFailed("compiling lstm_loops.cc failed: x"))
+        fcntl.flock(held, fcntl.LOCK_UN)
+
+    with open(path.with_suffix(".lock"), "w") as held:
+        fcntl.flock(held, fcntl.LOCK_EX)
+        threading.Timer(2, fail_then_unlock, args=(held,)).start()
+        with at_most(120), pytest.raises(build.KernelUnavailable, match="not tried again"):
+            build.ensure_built(path)
+    assert _calls(tools) == 0
+
+
+@needs_fused
+def test_a_remembered_failure_costs_a_training_one_line_and_the_kernels_command_retries(
+        tmp_path, monkeypatch, synth_dir):
+    tools = tmp_path / "tools"
+    tools.mkdir()
+    monkeypatch.setenv("CXX", str(_switchable_compiler(tools, build.loaded()[1])))
+    monkeypatch.setenv("JIGSAWS_CACHE_DIR", str(tmp_path / "cache"))
+    (tools / "mode").write_text("fail")
+    path = build.library_path()
+    with pytest.raises(build.BuildFailed):
+        build.ensure_built(path)
+    done = _train(tmp_path / "run", synth_dir)
+    assert done.returncode == 0, done.stderr
+    lines = [line for line in done.stderr.splitlines() if "fused LSTM loops" in line]
+    assert len(lines) == 1 and "not tried again" in lines[0], done.stderr
+    assert _calls(tools) == 1
+
+    (tools / "mode").write_text("build")
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    kernels = subprocess.run([sys.executable, "-m", "rnn_seg.kernels"], capture_output=True,
+                             text=True, env=env, timeout=600)
+    assert kernels.returncode == 0, kernels.stderr
+    assert _calls(tools) == 2 and not build.failure_path(path).exists()
+
+
+def test_a_cache_folder_that_is_a_file_is_named_as_such(tmp_path, monkeypatch):
+    """``$JIGSAWS_CACHE_DIR`` naming a file: the library was said to be "unreadable (Not a
+    directory), not the cache's file: move it away" — a file that does not exist."""
+    taken = tmp_path / "notes.txt"
+    taken.write_text("mine")
+    monkeypatch.setenv("JIGSAWS_CACHE_DIR", str(taken))
+    path = build.library_path()
+    with at_most(60), pytest.raises(build.KernelUnavailable,
+                                    match=f"cannot be made: {taken} is a file, not a folder"):
+        build.ensure_built(path)
+    assert taken.read_text() == "mine"

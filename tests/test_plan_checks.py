@@ -3,7 +3,7 @@ project reads can crash its reader.
 
 A plan (``multitask.evidence.studies.confirm``) and its exploratory file are checked as strictly as a grid
 spec: every number finite and in range, outcomes three distinct words, one-line names and titles,
-configurations and metrics that exist, no endpoint twice in a family. Every TOML file (task
+configurations and metrics that exist, no endpoint twice in a part. Every TOML file (task
 definitions, recording formats, grid specs, plans, exploratory files) is read by
 ``jigsaws_tools.toml_files.read_toml``: a folder, a FIFO, a file too large, bad UTF-8, nesting
 too deep or an integer too long is one line naming the file, at once.
@@ -59,6 +59,12 @@ BAD_PLANS = {
                           '"reproduced", 2, "inconclusive"', "parts[0].outcomes"),
     "two outcomes": ('"reproduced", "contradicted", "inconclusive"',
                      '"reproduced", "contradicted"', "parts[0].outcomes"),
+    "two outcomes alike but for case": ('"reproduced", "contradicted", "inconclusive"',
+                                        '"reproduced", "Reproduced", "inconclusive"',
+                                        "parts[0].outcomes must be 3 distinct"),
+    "two outcomes alike but for spaces": ('"replicated", "not replicated", "inconclusive"',
+                                          '"replicated", "not  replicated ", "not replicated"',
+                                          "parts[1].outcomes must be 3 distinct"),
     # names and titles on one line
     "a title of two lines": ('title = "a claim"', 'title = "a claim\\n## injected"',
                              "parts[0].title"),
@@ -73,6 +79,14 @@ BAD_PLANS = {
         'x = "APc-fixed", y = "A-fixed"', 'x = "A-fixed", y = "APc-fixed"'), "endpoints[2]"),
     "an endpoint spelt another way": (ENDPOINT, ENDPOINT + ", " + ENDPOINT.replace(
         'y = "A-fixed"', 'y = "revised/A"'), "endpoints[2]"),
+    # ... or in two families of a part (one test reported twice, counted in both corrections)
+    "an endpoint in two families": ('metric = "gesture_accuracy", paper_gain = 0.7',
+                                    'metric = "gesture_edit", paper_gain = 0.7',
+                                    "parts[0].families[1].endpoints[0]: APoc-gradnorm - A-fixed"),
+    "an endpoint reversed in another family": (
+        '{x = "APoc-gradnorm", y = "A-fixed", metric = "gesture_accuracy"',
+        '{x = "A-fixed", y = "APc-fixed", metric = "gesture_edit"',
+        "parts[0].families[1].endpoints[0]: A-fixed - APc-fixed"),
     "a configuration against itself": ('y = "A-fixed", metric = "gesture_edit", paper_gain = 2.3',
                                        'y = "APc", metric = "gesture_edit", paper_gain = 2.3',
                                        "endpoints[1]"),

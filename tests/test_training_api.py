@@ -110,11 +110,14 @@ def test_a_finished_run_is_logged_to_mlflow_once(synth_dir, tmp_path, monkeypatc
 
 @pytest.mark.parametrize("uri", ["bogus://nowhere", "http://127.0.0.1:{port}",
                                  "sqlite:///{tmp}/a-folder", "sqlite:///{tmp}/notes.txt",
-                                 "sqlite:///{tmp}/notes.txt/mlflow.db"])
+                                 "sqlite:///{tmp}/notes.txt/mlflow.db",
+                                 "sqlite:///{tmp}/no-folder/mlflow.db",
+                                 "sqlite:////proc/mtrnn-mlflow.db"])
 def test_an_unusable_tracking_uri_stops_before_any_work(tmp_path, capsys, uri):
     """An unknown scheme, a server that does not answer (issue 66: about 4 minutes of retries)
-    or a database path that is none (MLflow retries it for minutes) is one line before any
-    work, within seconds."""
+    or a database file that is none or cannot be created (a missing folder, ``/proc``: MLflow
+    retries it for two minutes, 36 lines of warnings) is one line before any work, within
+    seconds."""
     (tmp_path / "a-folder").mkdir()
     (tmp_path / "notes.txt").write_text("mine")
     with socket.socket() as closed:                         # a port nothing listens on
@@ -128,6 +131,7 @@ def test_an_unusable_tracking_uri_stops_before_any_work(tmp_path, capsys, uri):
     if "http" in uri and importlib.util.find_spec("mlflow") is not None:
         assert "no MLflow tracking server answers there" in err
     assert not (tmp_path / "run").exists() and (tmp_path / "notes.txt").read_text() == "mine"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a-folder", "notes.txt"]
 
 
 def _finished_run(folder: Path) -> Path:

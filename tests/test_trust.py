@@ -433,6 +433,64 @@ def test_a_folder_its_holder_removed_meanwhile_is_made_again(tmp_path, monkeypat
     assert list(tmp_path.iterdir()) == []
 
 
+def test_a_folder_no_folder_can_be_made_in_is_an_error_not_a_hang(tmp_path, monkeypatch):
+    """``mkdir`` says ENOENT where a race removed a parent, and also where no folder can ever be
+    made (``/proc``): taking the lock looped forever there (``multitask-train --out /proc/x``
+    hung); now the race is retried a bounded number of times and the error is raised."""
+    from test_archive_and_inputs import at_most
+
+    def refused(self, *args, **kwargs):
+        raise FileNotFoundError(2, "No such file or directory", str(self))
+
+    monkeypatch.setattr(Path, "mkdir", refused)
+    with at_most(60), pytest.raises(FileNotFoundError, match="No such file or directory"):
+        with hold_folder(tmp_path / "never" / "x"):
+            pass
+    monkeypatch.undo()
+    if Path("/proc/self").is_dir():
+        with at_most(60), pytest.raises(FileNotFoundError):
+            with hold_folder("/proc/mtrnn-jigsaws-probe"):
+                pass
+
+
+def test_a_folder_no_lock_file_can_be_made_in_is_an_error_not_a_hang(tmp_path, monkeypatch):
+    """The other half: a folder that exists but takes no file (``/proc`` for a publish's
+    ``.<name>.lock`` beside ``--out /proc/x``: ``multitask-tables archive``, ``-evaluate``,
+    ``-export`` hung) is one error naming the lock file; the folders made for it are removed."""
+    from test_archive_and_inputs import at_most
+
+    real_open = os.open
+
+    def no_files(path, flags, *args):
+        if str(path).startswith(str(tmp_path)) and flags & os.O_CREAT:
+            raise FileNotFoundError(2, "No such file or directory", str(path))
+        return real_open(path, flags, *args)
+
+    monkeypatch.setattr(lock.os, "open", no_files)
+    with at_most(60), pytest.raises(FileNotFoundError, match="no file can be created there"):
+        with hold_folder(tmp_path / "new" / "x", "grid folder"):
+            pass
+    assert list(tmp_path.iterdir()) == []
+    if Path("/proc/self").is_dir():
+        monkeypatch.undo()
+        with at_most(60), pytest.raises(FileNotFoundError, match=r"/proc/\.mtrnn-x\.lock"):
+            with hold_folder("/proc", "output", ".mtrnn-x.lock"):
+                pass
+
+
+@pytest.mark.skipif(not Path("/proc/self").is_dir(), reason="no /proc")
+def test_an_output_folder_in_proc_is_one_line_and_exit_2(capsys):
+    from test_archive_and_inputs import at_most
+
+    with at_most(300):
+        code = multitask_main(["--synthetic", "--variant", "A", "--hidden", "8", "--epochs", "1",
+                               "--test-user", "C", "--no-plots", "--out", "/proc/mtrnn-x"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and err[-1].startswith("multitask-train: error: ")
+    assert "/proc/mtrnn-x" in err[-1]
+    assert "Traceback" not in "\n".join(err)
+
+
 def _wait_for(condition, what: str, timeout: float = 300) -> None:
     deadline = time.time() + timeout
     while not condition():

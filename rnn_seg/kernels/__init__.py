@@ -9,11 +9,13 @@ of the layer (input product, dropout, resets, reversal, ``dW_h``, clipping) is u
 * ``build``: compiles ``lstm_loops.cc`` on first use with the system C++ compiler (``g++``, or
   ``$CXX``) against the installed TensorFlow's headers, into
   ``~/.cache/mtrnn-jigsaws/kernels/tf-<version>/`` (``$JIGSAWS_CACHE_DIR``), and loads it; when it
-  cannot, says why (``unavailable``) and the encoder runs the graph loops;
+  cannot, says why (``unavailable``) and the encoder runs the graph loops; a failed build is
+  remembered, so later processes fall back at once;
+* ``tether``: runs the compiler so that it ends with the process that started it;
 * ``loops``: the two loop functions ``rnn_seg.lstm`` calls for ``loops = "fused"``.
 
-``python -m rnn_seg.kernels`` builds the library now (e.g. right after installing) and prints
-where it is, or why it cannot be built (exit status 1).
+``python -m rnn_seg.kernels`` builds the library now (e.g. right after installing; it retries a
+build that failed before) and prints where it is, or why it cannot be built (exit status 1).
 
 Imports: TensorFlow, ``jigsaws_tools`` (the cache folder) and the engine's ``config`` only.
 """

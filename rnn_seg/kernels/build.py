@@ -11,10 +11,18 @@ instruction set beside it (``lstm_loops-<key>.json``), and a library whose bytes
 record (truncated, replaced, or without one) or whose record names another TensorFlow version or
 source is removed and rebuilt, with one line; a library that loads but holds no op is refused in
 the same way. A folder, a FIFO or a device at the library's or the record's name is refused, left
-as it is. So a damaged cache costs one rebuild, never a crash or a hang. A build runs under a lock (one build at a time per library), writes into a temporary
-folder (marked with its process id) renamed into place, record first; a compiler that runs over
-``BUILD_SECONDS`` is stopped with everything it started; a build folder left by a killed process
-is removed by the next build. ``$CXX`` may carry flags (``CXX="g++ -std=c++17"``).
+as it is. So a damaged cache costs one rebuild, never a crash or a hang.
+
+A build runs under a lock (one build at a time per library), writes into a temporary folder
+(marked with its process id) renamed into place, record first. The compiler runs through
+``tether.py``, in a session of its own: a compiler that runs over ``BUILD_SECONDS`` is stopped
+with everything it started, and so is one whose process is killed (any signal, SIGKILL
+included) or interrupted; a build folder left by a killed process is removed by the next build.
+A failed build is remembered (``lstm_loops-<key>.failed.json`` beside the library: the reason,
+the source, TensorFlow, the compiler command and the compiler's file), so every later process
+falls back at once, in one line naming it, instead of compiling again; a changed source,
+TensorFlow, compiler command or compiler retries, and so do ``python -m rnn_seg.kernels`` and
+removing that file. ``$CXX`` may carry flags (``CXX="g++ -std=c++17"``).
 """
 from __future__ import annotations
 
@@ -67,10 +75,18 @@ BUILD_PREFIX = ".build-"
 #: The most bytes a build record may hold (one is under a kilobyte).
 RECORD_BYTES = 1 << 16
 OWNER_FILE = "builder.pid"
+FAILURE_SUFFIX = ".failed.json"
+#: Runs a command in its process's group, ended when the process that started it ends.
+TETHER = Path(__file__).with_name("tether.py")
 
 
 class KernelUnavailable(RuntimeError):
     """The fused loops cannot be built or loaded here; the message says why."""
+
+
+class BuildFailed(KernelUnavailable):
+    """The compiler failed, wrote no library or ran over ``BUILD_SECONDS``: a build that would
+    fail again the same way, so it is remembered (``remember_failure``)."""
 
 
 def library_dir() -> Path:
@@ -114,9 +130,8 @@ def target_macros(command: tuple[str, ...], target: str = "native") -> frozenset
     """The macros ``command -march=target`` predefines (empty when it cannot say, or takes
     over ``MACROS_SECONDS``: then stopped with every process it started)."""
     try:
-        process = subprocess.Popen([*command, f"-march={target}", "-dM", "-E", "-x", "c++",
-                                    os.devnull], stdout=subprocess.PIPE,
-                                   stderr=subprocess.DEVNULL, text=True, start_new_session=True)
+        process = _start([*command, f"-march={target}", "-dM", "-E", "-x", "c++", os.devnull],
+                         stderr=subprocess.DEVNULL)
     except OSError:
         return frozenset()
     try:
@@ -247,7 +262,7 @@ def build(path: Path) -> None:
         target = Path(work) / path.name
         _compile(compile_command(SOURCE, target), command[0])
         if not target.is_file() or not target.stat().st_size:
-            raise KernelUnavailable(f"{command[0]} exited without error but wrote no library "
+            raise BuildFailed(f"{command[0]} exited without error but wrote no library "
                                     f"(CXX={os.environ.get('CXX', 'g++')!r})")
         macros = target_macros(tuple(compiler()), march())
         record = Path(work) / record_path(path).name
@@ -266,8 +281,7 @@ def _compile(command: list[str], name: str) -> None:
     """Run the compiler, a line every ``PROGRESS_SECONDS``; stop it and every process it started
     after ``BUILD_SECONDS``."""
     try:
-        process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                                   text=True, start_new_session=True)
+        process = _start(command, stderr=subprocess.PIPE)
     except OSError as error:
         raise KernelUnavailable(f"{name}: {error.strerror}") from None
     started = time.monotonic()
@@ -279,7 +293,7 @@ def _compile(command: list[str], name: str) -> None:
             except subprocess.TimeoutExpired:
                 elapsed = time.monotonic() - started
                 if elapsed > BUILD_SECONDS:
-                    raise KernelUnavailable(f"compiling {SOURCE.name} took over {BUILD_SECONDS} s; "
+                    raise BuildFailed(f"compiling {SOURCE.name} took over {BUILD_SECONDS} s; "
                                             "stopped") from None
                 print(f"  still compiling ({elapsed:.0f} s)", file=sys.stderr, flush=True)
     finally:
@@ -289,7 +303,15 @@ def _compile(command: list[str], name: str) -> None:
         errors = [line for line in stderr.splitlines() if "error" in line]
         said = errors or stderr.splitlines() or [
             f"{name} exited with status {process.returncode} and no message"]
-        raise KernelUnavailable(f"compiling {SOURCE.name} failed: {said[0].strip()}")
+        raise BuildFailed(f"compiling {SOURCE.name} failed: {said[0].strip()}")
+
+
+def _start(command: list[str], stderr: int) -> subprocess.Popen:
+    """Start ``command`` through ``TETHER`` in a session of its own (its output piped as text):
+    it ends, with everything it started, when this process ends or ``_stop`` ends it."""
+    return subprocess.Popen([sys.executable, "-I", "-S", str(TETHER), str(os.getpid()), *command],
+                            stdout=subprocess.PIPE, stderr=stderr, text=True,
+                            start_new_session=True)
 
 
 def _stop(process: subprocess.Popen) -> None:
@@ -347,14 +369,84 @@ def build_lock(path: Path) -> Iterator[None]:
         yield
 
 
+def failure_path(library: Path) -> Path:
+    """The record of a failed build beside ``library``."""
+    return library.with_name(library.stem + FAILURE_SUFFIX)
+
+
+def _build_inputs() -> dict:
+    """What a build's outcome depends on beyond the library's name: the source, TensorFlow, the
+    compiler command and the compiler's file (its path, size and time, so an upgrade retries)."""
+    words = compiler()
+    found = shutil.which(words[0])
+    try:
+        status = os.stat(found) if found else None
+    except OSError:
+        status = None
+    return {"source_sha256": hashlib.sha256(SOURCE.read_bytes()).hexdigest(),
+            "tensorflow": tf.__version__,
+            "compile_command": compile_command(Path("src"), Path("lib")),
+            "compiler": None if status is None else {
+                "path": os.path.realpath(found), "size": status.st_size,
+                "mtime_ns": status.st_mtime_ns}}
+
+
+def remember_failure(library: Path, error: BuildFailed) -> None:
+    """Record that building ``library`` failed with ``error`` (nothing where the cache cannot be
+    written: then every process tries again)."""
+    record = {"library": library.name, "reason": str(error),
+              "failed": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), **_build_inputs()}
+    try:
+        fd, name = tempfile.mkstemp(dir=library.parent, prefix=".failure-", suffix=".json")
+    except OSError:
+        return
+    try:
+        with os.fdopen(fd, "w") as f:
+            f.write(json.dumps(record, indent=1) + "\n")
+        os.replace(name, failure_path(library))
+    except OSError:
+        Path(name).unlink(missing_ok=True)
+
+
+def known_failure(library: Path) -> str | None:
+    """One line on the remembered failed build of ``library`` with today's inputs (source,
+    TensorFlow, compiler command and file), naming how to retry it; None when there is none (or
+    it was of other inputs, or is unreadable)."""
+    where = failure_path(library)
+    try:
+        record = json.loads(read_regular(where, RECORD_BYTES).decode())
+        reason, when = str(record["reason"]), str(record["failed"])
+        same = all(record.get(key) == value for key, value in _build_inputs().items())
+    except (OSError, ValueError, TypeError, KeyError, AttributeError, RecursionError):
+        return None
+    if not same:
+        return None
+    return (f"its build failed on {when} ({reason}); not tried again: `python -m rnn_seg.kernels` "
+            f"retries it, or remove {where}")
+
+
+def forget_failure(library: Path) -> None:
+    """Remove the record of a failed build of ``library``, if any (a build retries)."""
+    try:
+        failure_path(library).unlink()
+    except OSError:                     # none, or a read-only cache: the build says what it can
+        pass
+
+
 def ensure_built(path: Path) -> None:
     """Build the library into ``path`` where it is missing or damaged (``damage``: removed first,
-    saying so in one line), under its build lock.
+    saying so in one line), under its build lock; unless a build with today's inputs failed
+    before (``known_failure``). A failed build is remembered.
 
     Raises:
-        KernelUnavailable: the build failed (see ``build``).
+        KernelUnavailable: the build failed, now or before (see ``build``, ``known_failure``).
         OSError: the cache cannot be written.
     """
+    blocked = next((folder for folder in path.parents if folder.exists()
+                    and not folder.is_dir()), None)
+    if blocked is not None:
+        raise KernelUnavailable(f"the kernel cache {path.parent} cannot be made: {blocked} is "
+                                "a file, not a folder")
     for part in (path, record_path(path)):
         kind = _not_a_file(part)
         if kind:
@@ -362,7 +454,9 @@ def ensure_built(path: Path) -> None:
                                     "the library is built there")
     if path.is_file() and not damage(path):
         return
+    _refuse_known_failure(path)
     with build_lock(path):
+        _refuse_known_failure(path)                   # another process's build just failed
         problem = damage(path) if path.is_file() else None
         if problem:
             try:
@@ -372,7 +466,18 @@ def ensure_built(path: Path) -> None:
                                         f"({error.strerror}): the cache is read-only") from None
             print(f"{path}: {problem}; removed, building it again", file=sys.stderr)
         if not path.is_file():
-            build(path)
+            try:
+                build(path)
+            except BuildFailed as error:
+                remember_failure(path, error)
+                raise
+            forget_failure(path)
+
+
+def _refuse_known_failure(path: Path) -> None:
+    failed = known_failure(path)
+    if failed:
+        raise KernelUnavailable(f"{path.name}: {failed}")
 
 
 def _not_a_file(path: Path) -> str | None:

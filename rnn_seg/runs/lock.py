@@ -17,6 +17,7 @@ holds the lock, that the path no longer names that file, and takes the lock agai
 """
 from __future__ import annotations
 
+import errno
 import logging
 import os
 import socket
@@ -34,6 +35,10 @@ except ImportError:              # pragma: no cover - Windows
     fcntl = None
 
 LOCK_FILE = ".lock"
+#: How many times taking a lock starts again after a folder or the lock file vanished on its way
+#: (another process's release removing it) before the error is taken for what it says: a place
+#: where no folder or file can be made (``/proc``: ENOENT every time).
+RACES = 100
 log = logging.getLogger(__name__)
 
 
@@ -105,16 +110,22 @@ def appears_held(folder: Path | str) -> bool:
 def _take(folder: Path, what: str, lock_file: str) -> _Hold:
     """Create ``folder`` if need be and lock it; again while another process's release removes
     the lock file or a folder on its way (between our ``mkdir`` and ``open``, or ``open`` and
-    ``flock``)."""
+    ``flock``), at most ``RACES`` times."""
     made: dict[Path, None] = {}                        # in creation order, each once
-    while True:
+    for _ in range(RACES):
         try:
             made.update(dict.fromkeys(_make_folders(folder)))
             taken = _acquire(folder, what, lock_file)
-        except FileNotFoundError:                      # a folder made was removed meanwhile
-            continue
+        except FileNotFoundError:                      # a folder made was removed meanwhile,
+            continue                                   # or none can be made there (/proc)
         if taken is not None:
             return _Hold(*taken, list(made))
+    made.update(dict.fromkeys(_make_folders(folder)))  # raises where no folder can be made;
+    for path in reversed(made):                        # else no lock file can (removed again)
+        if path.is_dir() and not any(path.iterdir()):
+            path.rmdir()
+    raise FileNotFoundError(errno.ENOENT, f"no file can be created there (the lock of the "
+                            f"{what})", str(folder / lock_file))
 
 
 def _make_folders(folder: Path) -> list[Path]:
@@ -172,20 +183,28 @@ def _in_use(folder: Path, what: str, fd: int) -> FolderLockedError:
 
 def check_free(folder: Path | str, what: str = "run folder", lock_file: str = LOCK_FILE
                ) -> None:
-    """Raise the ``FolderLockedError`` that ``hold_folder`` would raise now, without writing
-    anything (for a dry run): the lock file, if there is one, is locked and unlocked at once
-    (a stale one, of a process gone, is free)."""
-    if fcntl is None or not (Path(folder) / lock_file).is_file():
+    """Raise the error that ``hold_folder`` would raise now, leaving nothing behind (for a dry
+    run): ``FolderLockedError`` (the lock file, if there is one, is locked and unlocked at once;
+    a stale one, of a process gone, is free), or the ``OSError`` of a folder that cannot be
+    made (``/proc/x``: ``hold_folder`` makes one not there yet and removes it again, as a
+    launch's first step does) or written in."""
+    folder = Path(folder)
+    if not (folder.exists() or folder.is_symlink()):
+        with hold_folder(folder, what, lock_file):
+            return
+    if folder.is_dir() and not os.access(folder, os.W_OK | os.X_OK):
+        raise PermissionError(errno.EACCES, "the folder cannot be written", str(folder))
+    if fcntl is None or not (folder / lock_file).is_file():
         return
     try:
-        fd = os.open(Path(folder) / lock_file, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0))
+        fd = os.open(folder / lock_file, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0))
     except OSError:
         return                                  # gone meanwhile, or unusable: hold_folder says
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         fcntl.flock(fd, fcntl.LOCK_UN)
     except BlockingIOError:
-        raise _in_use(Path(folder), what, fd) from None
+        raise _in_use(folder, what, fd) from None
     except OSError:
         pass                                    # a file system without flock: used unlocked
     finally:

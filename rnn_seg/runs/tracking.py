@@ -32,7 +32,8 @@ server gone) is logged again whole in place of the partial one.
 
 * ``sqlite:///mlflow.db``: a database file (``pip install -e ".[mlflow]"`` brings the
   SQLAlchemy it needs); its artifacts go to MLflow's default place, ``./mlruns`` beside where
-  the experiment was created;
+  the experiment was created. A file that cannot be opened or created (a missing or read-only
+  folder, ``/proc``) is one line at once, where MLflow would retry it for two minutes;
 * ``http://host:5000``: a tracking server. One that does not answer is reported within seconds
   (one try of at most ``CHECK_TIMEOUT`` seconds before any work; later, ``LOG_RETRIES`` retries
   of at most ``LOG_TIMEOUT`` seconds each, then a warning), unless ``MLFLOW_HTTP_REQUEST_*``
@@ -49,8 +50,9 @@ import csv
 import math
 import os
 import re
+import sqlite3
 import time
-from contextlib import contextmanager
+from contextlib import closing, contextmanager
 from datetime import datetime
 from pathlib import Path
 from typing import Any, Iterator
@@ -246,6 +248,22 @@ def _database_problem(uri: str) -> str | None:
                     and not parent.is_dir()), None)
     if blocked is not None:
         return f"cannot create {path}: {blocked} is a file, not a folder"
+    return _unopenable(path)
+
+
+def _unopenable(path: Path) -> str | None:
+    """SQLite's reason it cannot open or create the database file ``path`` (a missing or
+    read-only folder, a file system that holds no files), or None; a file this check created
+    is removed again (MLflow creates it)."""
+    existed = path.exists()
+    try:
+        with closing(sqlite3.connect(path, timeout=CHECK_TIMEOUT)) as database:
+            database.execute("PRAGMA schema_version")
+    except sqlite3.Error as error:
+        return f"cannot open or create {path} ({error})"
+    finally:
+        if not existed:
+            path.unlink(missing_ok=True)
     return None
 
 

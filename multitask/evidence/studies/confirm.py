@@ -34,10 +34,11 @@ The plan is checked as strictly as a grid spec, each problem a one-line ``PlanEr
 file and the key: a missing, mistyped or unknown key; a number that is not finite (``inf``,
 ``nan``: a gain or threshold no interval can be compared with) or out of range (``confidence``
 in (0, 1), ``hidden`` >= 1, seeds >= 0); a name, title, outcome or configuration that is empty
-or not one line of text; ``outcomes`` not three distinct words; a configuration that is none
-(``APoc-gradnrom``: an unknown variant or weighting) or a metric the runs have not; an endpoint
-comparing a configuration with itself, or tested twice in a family (``x - y`` and ``y - x``
-alike: it would enter Holm's correction twice). The file is read by the project's one TOML
+or not one line of text; ``outcomes`` not three distinct words (as a reader tells them: case
+and spacing aside); a configuration that is none (``APoc-gradnrom``: an unknown variant or
+weighting) or a metric the runs have not; an endpoint comparing a configuration with itself, or
+tested twice in a part, in one family or two (``x - y`` and ``y - x`` alike: it would enter
+Holm's correction twice). The file is read by the project's one TOML
 reader (``jigsaws_tools.toml_files.read_toml``), which refuses a folder, a FIFO, a file too large
 or nested too deeply at once.
 
@@ -251,12 +252,13 @@ def _part(entry: dict, path: Path, where: str) -> Part:
     if len(set(names)) != len(names):
         raise PlanError(f"{path}: {where}.families: two families of one name (names: "
                         f"{', '.join(names)})")
+    _tested_once(families, path, where)
     outcomes = tuple(plan_value(entry, "outcomes", list, path, where))
     if len(outcomes) != 3 or not all(isinstance(o, str) for o in outcomes):
         raise PlanError(f"{path}: {where}.outcomes must name 3 outcomes (value: {outcomes})")
     for i, word in enumerate(outcomes):
         plan_text(word, path, f"{where}.outcomes[{i}]")
-    if len(set(outcomes)) != 3:
+    if len({" ".join(o.casefold().split()) for o in outcomes}) != 3:   # as a reader tells them
         raise PlanError(f"{path}: {where}.outcomes must be 3 distinct outcomes (value: "
                         f"{list(outcomes)})")
     hidden = None if "hidden" not in entry else plan_value(entry, "hidden", int, path, where)
@@ -284,20 +286,31 @@ def _family(entry: dict, path: Path, where: str) -> Family:
     if role not in ROLES:
         raise PlanError(f"{path}: {where}.role must be one of {', '.join(ROLES)} "
                         f"(value: {role!r})")
-    endpoints, tested = [], {}
+    endpoints = []
     for i, e in enumerate(plan_list(entry, "endpoints", path, where)):
         endpoint = _endpoint(e, path, f"{where}.endpoints[{i}]")
-        sides = frozenset(endpoint.contrast.configs)
-        if len(sides) == 1:
+        if len(frozenset(endpoint.contrast.configs)) == 1:
             raise PlanError(f"{path}: {where}.endpoints[{i}]: x and y are one configuration, "
                             f"{endpoint.x!r}")
-        same = tested.setdefault((sides, endpoint.metric), i)
-        if same != i:
-            raise PlanError(f"{path}: {where}.endpoints[{i}]: {endpoint.x} - {endpoint.y} on "
-                            f"{endpoint.metric} is tested already (endpoints[{same}]); an "
-                            "endpoint tested twice would enter Holm's correction twice")
         endpoints.append(endpoint)
     return Family(plan_value(entry, "name", str, path, where), role, tuple(endpoints))
+
+
+def _tested_once(families: tuple[Family, ...], path: Path, where: str) -> None:
+    """Refuse an endpoint (two configurations, either order, and a metric) tested twice in one
+    part, in one family (it would enter Holm's correction twice) or in two (one test would be
+    reported as two, and counted in the second family's correction)."""
+    tested = {}
+    for f, family in enumerate(families):
+        for i, endpoint in enumerate(family.endpoints):
+            here = f"families[{f}].endpoints[{i}]"
+            same = tested.setdefault((frozenset(endpoint.contrast.configs), endpoint.metric),
+                                     here)
+            if same != here:
+                raise PlanError(f"{path}: {where}.{here}: {endpoint.x} - {endpoint.y} on "
+                                f"{endpoint.metric} is tested already ({where}.{same}); an "
+                                "endpoint is tested once in a part (twice, it would enter "
+                                "Holm's correction twice)")
 
 
 def _endpoint(entry: dict, path: Path, where: str) -> Endpoint:
