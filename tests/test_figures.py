@@ -318,3 +318,17 @@ def test_every_pdf_has_truetype_fonts_and_fits_a_column_or_the_page_at_8_pt(tmp_
         scripts = sizes - full
         assert full and all(any(abs(s - 0.7 * f) < 0.05 for f in full) for s in scripts), (
             pdf.name, sorted(sizes))
+
+
+def test_no_committed_figure_holds_a_type3_font():
+    """Every PDF under results/ embeds its fonts as TrueType (what IEEE PDF eXpress checks): a
+    figure drawn before the style set ``pdf.fonttype`` must be redrawn, from its archive."""
+    from pathlib import Path
+
+    from tests.pdf_pages import read_pdf_page
+
+    results = Path(__file__).resolve().parents[1] / "results"
+    pdfs = sorted(results.rglob("*.pdf"))
+    assert pdfs
+    assert [p.relative_to(results).as_posix() for p in pdfs
+            if "Type3" in read_pdf_page(p).font_subtypes] == []
