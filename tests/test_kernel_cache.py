@@ -363,7 +363,11 @@ def test_a_killed_build_ends_its_compiler_and_the_next_use_rebuilds(tmp_path, mo
     monkeypatch.setenv("JIGSAWS_CACHE_DIR", str(tmp_path / "cache"))
     (tools / "mode").write_text("hang")
     builder = subprocess.Popen(
-        [sys.executable, "-c", "from rnn_seg.kernels import build; "
+        # Ctrl-C's handler set: an xdist worker (or a shell's background job) ignores SIGINT,
+        # its children inherit that, and Python then installs no handler
+        [sys.executable, "-c", "import signal; "
+                               "signal.signal(signal.SIGINT, signal.default_int_handler); "
+                               "from rnn_seg.kernels import build; "
                                "build.ensure_built(build.library_path())"],
         env={**os.environ, "PYTHONPATH": str(ROOT)}, stderr=subprocess.PIPE, text=True)
     try:
