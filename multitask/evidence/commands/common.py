@@ -13,6 +13,7 @@ standard output (``render.drawing``); at the end, every file written is printed.
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
@@ -98,3 +99,17 @@ def publish(out: Path, manifest: str, overwrite: bool, write: Callable[[Path], l
         written = write(staging)
     for path in written:
         print(out / path.relative_to(staging))
+
+
+def publish_noted(out: Path, manifest: str, overwrite: bool,
+                  work: Callable[[Path], tuple[list[Path], list[str]]],
+                  record: dict[str, Any] | None = None) -> None:
+    """``publish`` of a study whose ``work(staging)`` returns the paths it wrote and notes on
+    what it read, each note printed to standard error as ``note: ...``."""
+    def write(staging: Path) -> list[Path]:
+        written, notes = work(staging)
+        for line in notes:
+            print(f"note: {line}", file=sys.stderr)
+        return written
+
+    publish(out, manifest, overwrite, write, record=record)

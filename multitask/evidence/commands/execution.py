@@ -14,10 +14,9 @@ in ``--out``, listed in ``execution.json`` with the two grids and the margin
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
-from .common import add_out_options, check_folders, publish
+from .common import add_out_options, check_folders, publish_noted
 
 SUMMARY = "an execution path (fused loops, bf16) against its reference"
 #: The list of the files the last call wrote into ``--out``; it names the two grids and the
@@ -40,13 +39,8 @@ def run(args: argparse.Namespace) -> None:
 
     check_folders([args.grid, args.reference],
                   "a grid folder, a scores archive or a folder of runs")
-
-    def write(staging: Path) -> list[Path]:
-        written, notes = write_execution(args.grid, args.reference, args.margin, staging)
-        for line in notes:
-            print(f"note: {line}", file=sys.stderr)
-        return written
-
-    publish(args.out, MANIFEST, args.overwrite, write,
-            record={"option": str(args.grid), "reference": str(args.reference),
-                    "margin": args.margin})
+    publish_noted(args.out, MANIFEST, args.overwrite,
+                  lambda staging: write_execution(args.grid, args.reference, args.margin,
+                                                  staging),
+                  record={"option": str(args.grid), "reference": str(args.reference),
+                          "margin": args.margin})

@@ -19,10 +19,9 @@ grid with ``--combination`` to settle each fold's setting. Listed in ``factors.j
 from __future__ import annotations
 
 import argparse
-import sys
 from pathlib import Path
 
-from .common import add_out_options, check_folders, publish
+from .common import add_out_options, check_folders, publish_noted
 
 SUMMARY = "the factor study's inner runs: each level against the baseline, each fold's choice"
 #: The list of the files the last call wrote into ``--out``; it names the grids too.
@@ -45,13 +44,8 @@ def run(args: argparse.Namespace) -> None:
 
     check_folders([args.baseline, *args.levels, *args.combination],
                   "a grid folder of inner runs or its scores archive")
-
-    def write(staging: Path) -> list[Path]:
-        written, notes = write_factors(args.baseline, args.levels, args.combination, staging)
-        for line in notes:
-            print(f"note: {line}", file=sys.stderr)
-        return written
-
-    publish(args.out, MANIFEST, args.overwrite, write,
-            record={"baseline": str(args.baseline), "levels": [str(p) for p in args.levels],
-                    "combinations": [str(p) for p in args.combination]})
+    publish_noted(args.out, MANIFEST, args.overwrite,
+                  lambda staging: write_factors(args.baseline, args.levels, args.combination,
+                                                staging),
+                  record={"baseline": str(args.baseline), "levels": [str(p) for p in args.levels],
+                          "combinations": [str(p) for p in args.combination]})
