@@ -196,7 +196,7 @@ def test_predictions_of_earlier_versions_and_damaged_records_are_read_or_named(t
 
 
 def test_a_release_writes_each_configuration_and_seed_per_frame_as_score_reads_it(
-        trained, tmp_path, capsys):
+        trained, tmp_path, capsys, monkeypatch):
     from dataclasses import replace
 
     from multitask.evidence.runs.method import Layout, read_folder, truth
@@ -219,7 +219,8 @@ def test_a_release_writes_each_configuration_and_seed_per_frame_as_score_reads_i
             text = (folder / f"{trial.name}.csv").read_text()
             assert "true" not in text and len(text.splitlines()) == trial.n_frames + 1
     assert "README.md" in {p.name for p in out.iterdir()}
-    assert tables_main(["release", str(archive), "--out", str(tmp_path / "A"),
+    monkeypatch.chdir(archive.parent)                       # the grid named relative too
+    assert tables_main(["release", archive.name, "--out", str(tmp_path / "A"),
                         "--configs", "A-fixed"]) == 0
     assert [p.name for p in (tmp_path / "A" / "revised" / "bidirectional").iterdir()] == [
         "A-fixed"]

@@ -63,9 +63,10 @@ def write_release(grid: Path, out: Path, configs: Sequence[str] = (),
     Raises:
         ValueError: a named configuration the grid lacks, or no run that kept predictions.
     """
+    grid = Path(grid)
     _, _, records = run_records(grid, allow_incomplete=True, finished_only=True)
-    chosen = {grid / run: record for run, record in records.items()
-              if _wanted(grid / run, grid, configs)}
+    chosen = {Path(run): record for run, record in records.items()  # keyed by grid / run
+              if _wanted(Path(run), grid, configs)}
     missing = [c for c in configs if not any(_wanted(r, grid, [c]) for r in chosen)]
     if missing:
         raise ValueError(f"{grid}: no finished run of configuration {missing[0]}")
