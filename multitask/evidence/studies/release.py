@@ -34,8 +34,8 @@ from ..runs.method import TrialTruth, truth
 #: The text of the release's ``README.md``; ``{grid}`` and ``{folders}`` filled in.
 README = """# Per-split test predictions of {grid}
 
-Written by `multitask-tables release` (https://github.com/ - this project's repository) from the
-grid's scores archive. One folder per configuration and seed:
+Written by `multitask-tables release` (this project's evidence command line) from the grid's
+scores archive. One folder per configuration and seed:
 
 {folders}
 
