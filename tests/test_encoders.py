@@ -335,6 +335,25 @@ def test_grid_specs_choose_an_encoder_and_refuse_lstm_settings():
         spec_from_dict({"encoder": "tcn"})
 
 
+def test_a_tcn_grids_epochs_set_its_reference_schedules_length():
+    """``epochs`` with a TCN: its reference's optimiser and constant rate for that many epochs,
+    evaluated at the same fractions of the length (the convergence ladders); without it, the
+    reference's own length."""
+    from multitask.grid.spec import schedule_epochs
+    from rnn_seg.encoders.config import SCHEDULES
+
+    key = RunKey("revised", "bidirectional", "APoc", "gradnorm", 0, "B")
+    for encoder, reference in SCHEDULES.items():
+        spec = spec_from_dict({"encoder": encoder, "preset": "paper", "epochs": 3 * 50})
+        optim = run_config(spec, key).optim
+        assert (optim.total, optim.decay_start) == (150, 150)
+        assert (optim.optimizer, optim.learning_rate) == (reference.optim.optimizer,
+                                                          reference.optim.learning_rate)
+        assert schedule_epochs(spec, key) == 150
+        unset = spec_from_dict({"encoder": encoder, "preset": "paper"})
+        assert schedule_epochs(unset, key) == reference.optim.total
+
+
 def test_grid_specs_set_the_sample_rate_and_ed_tcns_kernel(synth_dir):
     """Lea et al.'s released JIGSAWS ED-TCN: 3 Hz (one labelled frame in 10), 15-sample
     kernels; a spec without the keys compares equal to a grid.json written before them."""

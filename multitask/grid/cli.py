@@ -41,6 +41,7 @@ from jigsaws_tools.cli.options import DEFAULT_DATA_DIR_TEXT
 from jigsaws_tools.errors import WriteFailed
 from jigsaws_tools.recording_format import RELEASE_LAYOUT_ONLY
 from rnn_seg.config import LOOPS, RUNNABLE_LOOPS, require_native_precision
+from rnn_seg.encoders.config import SCHEDULES
 from rnn_seg.runs.folder import RunFolderError, is_finished
 from rnn_seg.runs.outputs import OutputFolderError, check_output_folder, folders_below
 from rnn_seg.runs.provenance import set_command
@@ -169,8 +170,10 @@ def _run(args: argparse.Namespace) -> int:
     keys = expand(spec, release_users(spec))
     budget = spec.budget
     size = f"H={budget.hidden}" if spec.encoder == "lstm" else f"encoder {spec.encoder}"
+    schedule = (f"{spec.epochs} epochs" if spec.encoder in SCHEDULES and spec.epochs
+                else budget.describe_schedule())
     print(f"grid: task {spec.task}, preset {spec.preset}, {size}, "
-          f"schedule {budget.describe_schedule()}, seeds {sorted({k.seed for k in keys})}, "
+          f"schedule {schedule}, seeds {sorted({k.seed for k in keys})}, "
           f"data {spec.data_dir}", flush=True)
     if spec.inner_validation is not None:
         print(f"inner runs: {spec.inner_validation} validation user(s) per outer fold, each "

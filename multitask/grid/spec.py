@@ -54,8 +54,10 @@ Example spec (every key optional)::
 A temporal-convolution ``encoder`` trains every variant with its reference's configuration,
 optimiser, batch size and length (``rnn_seg.encoders.config.SCHEDULES``), scaled only by the
 preset's ``schedule_scale`` (``quick``: 4x shorter), never by the LSTM-measured
-``schedule_factors``; ``hidden``, ``epochs``, ``schedule_factors``, ``precision`` and ``loops``,
-the LSTM's, are refused with it. ``directions = ["forward"]`` makes its convolutions causal.
+``schedule_factors``; ``epochs`` sets its length instead (the same optimiser and constant
+learning rate, evaluated at the same fractions of the length: ``schedule_of_length``, e.g. the
+convergence ladders of results/tcn/PLAN_factors.md); ``hidden``, ``schedule_factors``,
+``precision`` and ``loops``, the LSTM's, are refused with it. ``directions = ["forward"]`` makes its convolutions causal.
 ``resample_factor`` (any encoder) and ``kernel`` (ED-TCN only, in samples) change the model's
 sample rate and ED-TCN's kernel, e.g. Lea et al.'s released JIGSAWS model: 3 Hz, 15 samples
 (``resample_factor = 10``, ``kernel = 15``; docs/REPRODUCTION.md, "ED-TCN at its reference's
@@ -99,7 +101,8 @@ from jigsaws_tools.task_definition import PAPER_TASK, TaskDefinition, load_task
 from jigsaws_tools.toml_files import read_toml
 from rnn_seg.config import LOOPS, PRECISIONS, EncoderConfig, TrainConfig
 from jigsaws_tools.recording_format import DEFAULT_FORMAT, RecordingFormat, load_format
-from rnn_seg.encoders.config import ENCODERS, HEAD_INITS, PADDINGS, SCHEDULES, encoder_config
+from rnn_seg.encoders.config import (ENCODERS, HEAD_INITS, PADDINGS, SCHEDULES, encoder_config,
+                                     schedule_of_length)
 from rnn_seg.encoders.import_path import is_import_path, split_path
 from rnn_seg.validation import require_bool, require_choice, require_number
 
@@ -250,6 +253,9 @@ def _schedule(spec: GridSpec, key: RunKey):
     """The run's optimiser schedule and evaluation points: its variant's paper schedule scaled by
     the budget (``Variant.schedule``, a user's encoder's too); a TCN's reference schedule scaled
     by the preset's ``schedule_scale`` only (module docstring)."""
+    if spec.encoder in SCHEDULES and spec.epochs is not None:
+        schedule = schedule_of_length(spec.encoder, spec.epochs)
+        return schedule.optim, schedule.eval_points
     if spec.encoder in SCHEDULES:
         return get_variant(key.variant).schedule(PRESETS[spec.preset].schedule_scale,
                                                  spec.encoder)
@@ -437,7 +443,6 @@ class GridSpec:
             schedule = self.encoder in SCHEDULES          # a TCN's own; a user's: the LSTM's
             lstm_only = [name for name, given in (
                 ("hidden", self.hidden is not None),
-                ("epochs", schedule and self.epochs is not None),
                 ("schedule_factors", schedule and self.schedule_factors is not None),
                 ("precision", self.precision != EncoderConfig.precision),
                 ("loops", self.loops not in UNCOMPILED_LOOPS)) if given]

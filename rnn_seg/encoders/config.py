@@ -18,7 +18,7 @@ options; a TCN always runs float32 TensorFlow ops).
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import ClassVar, Literal
 
 from ..config import EncoderConfig, OptimConfig
@@ -210,6 +210,15 @@ SCHEDULES = {
     "ed-tcn": Schedule(_constant("rmsprop", 1e-3, 200), _relative_points(200), 8),
     "ms-tcn": Schedule(_constant("adam", 5e-4, 50), _relative_points(50), 1),
 }
+
+
+def schedule_of_length(kind: str, epochs: int) -> Schedule:
+    """Encoder ``kind``'s reference training (``SCHEDULES``) run for ``epochs`` epochs: the same
+    optimiser, constant learning rate and batch size, evaluated at the same fractions of the
+    length (``_relative_points``). E.g. the convergence ladders of results/tcn/PLAN_factors.md."""
+    reference = SCHEDULES[kind]
+    return Schedule(replace(reference.optim, total=epochs, decay_start=epochs),
+                    _relative_points(epochs), reference.batch_size)
 
 
 def encoder_config(kind: str, causal: bool = False
