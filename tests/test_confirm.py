@@ -1,4 +1,4 @@
-"""The pre-registered confirmatory analysis (``multitask.evidence.studies.confirm``,
+"""The pre-registered confirmatory analysis (``multitask.evidence.plans.confirm``,
 ``multitask-tables confirm``)."""
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ import pandas as pd
 import pytest
 
 from multitask.evidence.cli import main as tables_main
+from multitask.evidence.plans.confirm import Part, PlanError, analyse, outcome, read_plan
 from multitask.evidence.runs.collect import run_rows
-from multitask.evidence.studies.confirm import Part, PlanError, analyse, outcome, read_plan
 from multitask.grid.spec import Experiment
 from tests.fake_grid import FOLDS, write_fake_grid
 
@@ -219,7 +219,7 @@ def test_the_rule_out_criterion_reads_our_upper_end_with_two_decimals(project: P
                                                                      apoc_high, excluded):
     """PLAN.md: "The paper's gains are compared to the interval with their published digit and
     ours with two decimals": an upper end of 2.996 is 3.00, not below the paper's +3.0."""
-    from multitask.evidence.studies import confirm
+    from multitask.evidence.plans import confirm
 
     real = confirm.paired
 
@@ -389,7 +389,7 @@ def test_the_reports_numbers_are_the_analysis_rounded_as_the_plan_says(project: 
 
 
 def test_the_report_labels_exploratory_rows_and_keeps_them_out_of_the_outcomes(project: Path):
-    from multitask.evidence.studies.confirm_report import confirm_markdown
+    from multitask.evidence.plans.confirm_report import confirm_markdown
 
     plan = read_plan(project / "confirm" / "plan.toml")
     table, _, skipped = analyse(plan)

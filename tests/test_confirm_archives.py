@@ -18,9 +18,9 @@ from pathlib import Path
 
 import pytest
 
-from multitask.evidence.studies.confirm import analyse, read_plan
-from multitask.evidence.studies.exploratory import (EXPLORATORY_FILE, analyse_exploratory,
-                                                    read_exploratory)
+from multitask.evidence.plans.confirm import analyse, read_plan
+from multitask.evidence.plans.exploratory import (EXPLORATORY_FILE, analyse_exploratory,
+                                                  read_exploratory)
 from multitask.grid.folder import GRID_RECORD
 from multitask.grid.spec import expand, load_spec, spec_payload
 from rnn_seg.runs.folder import write_json

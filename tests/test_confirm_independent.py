@@ -215,7 +215,7 @@ def compare(table: pd.DataFrame, expected: pd.DataFrame, tolerance: float) -> No
 def check(tmp_path: Path, wide_effects: dict | None, narrow_effects: dict | None) -> pd.DataFrame:
     """Run the command on grids with these effects and compare every row with the reference,
     from the in-memory table (to 1e-9) and from confirm.csv (to its 4 decimals)."""
-    from multitask.evidence.studies.confirm import analyse, read_plan
+    from multitask.evidence.plans.confirm import analyse, read_plan
 
     wide = (chosen_scores(wide_effects, (A, APOC, APC), WIDE_SEEDS)
             if wide_effects is not None else None)
@@ -304,7 +304,7 @@ def test_the_rule_out_criterion_at_its_boundary(tmp_path: Path, apoc, apc, exclu
 def test_mixed_seed_counts_are_refused_and_the_other_part_still_analysed(tmp_path: Path, spoil):
     """A fold of part 1 where one configuration has 2 seeds instead of 3 (its third unfinished, or
     never recorded): part 1 gets no row, part 2 its full rows, as the reference computes them."""
-    from multitask.evidence.studies.confirm import analyse, read_plan
+    from multitask.evidence.plans.confirm import analyse, read_plan
 
     narrow = chosen_scores({(APOC, "gesture_edit"): CLEAR}, (A, APOC), NARROW_SEEDS)
     plan = project(tmp_path, chosen_scores({(APOC, "gesture_edit"): CLEAR}, (A, APOC, APC),
@@ -348,8 +348,8 @@ def test_the_exploratory_seed_0_analysis_pools_the_width_grids_seed_0(tmp_path: 
     """PLAN.md part 2: "labelled exploratory, the same analysis with seed 0 pooled (seeds 0-5;
     A's seed 0 from results/width/h512-a180/, APoc's from results/width/h512/)": in its own
     file, the planned rows as without it."""
-    from multitask.evidence.studies.confirm import read_plan
-    from multitask.evidence.studies.exploratory import analyse_exploratory, read_exploratory
+    from multitask.evidence.plans.confirm import read_plan
+    from multitask.evidence.plans.exploratory import analyse_exploratory, read_exploratory
 
     narrow = chosen_scores({(APOC, "gesture_edit"): MIXED, (APOC, "gesture_f1@10"): CLEAR},
                            (A, APOC), NARROW_SEEDS)
@@ -386,8 +386,8 @@ def test_the_exploratory_seed_0_analysis_pools_the_width_grids_seed_0(tmp_path: 
 
 
 def test_no_exploratory_look_before_the_part_is_complete(tmp_path: Path):
-    from multitask.evidence.studies.confirm import read_plan
-    from multitask.evidence.studies.exploratory import analyse_exploratory, read_exploratory
+    from multitask.evidence.plans.confirm import read_plan
+    from multitask.evidence.plans.exploratory import analyse_exploratory, read_exploratory
 
     narrow = chosen_scores({}, (A, APOC), NARROW_SEEDS)
     plan_path = project(tmp_path, None, narrow)
@@ -403,8 +403,8 @@ def test_no_exploratory_look_before_the_part_is_complete(tmp_path: Path):
 
 
 def test_borrowed_runs_of_other_settings_are_not_pooled(tmp_path: Path):
-    from multitask.evidence.studies.confirm import read_plan
-    from multitask.evidence.studies.exploratory import analyse_exploratory, read_exploratory
+    from multitask.evidence.plans.confirm import read_plan
+    from multitask.evidence.plans.exploratory import analyse_exploratory, read_exploratory
 
     plan_path = project(tmp_path, None, chosen_scores({}, (A, APOC), NARROW_SEEDS))
     width_grids(tmp_path, chosen_scores({}, (A, APOC), (0, 1, 2)))

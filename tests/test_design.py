@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 
 from multitask.evidence.cli import main as tables_main
-from multitask.evidence.studies import design as design_study
+from multitask.evidence.plans import design as design_study
 from multitask.evidence.statistics.design import (detection_power, holm_config,
                                                   variance_split)
 from multitask.evidence.statistics.paired import ConfigId, Contrast, StatsConfig, paired

@@ -11,8 +11,8 @@ import pytest
 import tensorflow as tf
 
 from multitask.evidence.cli import main as tables_main
-from multitask.evidence.studies.factors import (BASELINE, PENDING, Level, choice,
-                                                combination_spec, settings)
+from multitask.evidence.plans.factors import (BASELINE, PENDING, Level, choice,
+                                              combination_spec, settings)
 from multitask.grid.cli import main as grid_main
 from multitask.grid.folder import comparable_spec
 from multitask.grid.spec import (RunKey, expand, fold_users, inner_fold, load_spec, run_arguments,

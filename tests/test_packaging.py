@@ -109,7 +109,7 @@ def _imports(module: str, source: str) -> set[str]:
 _BELOW_EVIDENCE = {"jigsaws_tools", "rnn_seg", "baseline", "multitask.models", "multitask.grid",
                    "multitask.inference"}
 #: ``multitask.evidence``'s wings in the order the evidence flows: each imports those before it.
-EVIDENCE_WINGS = ("runs", "statistics", "render", "studies", "commands")
+EVIDENCE_WINGS = ("runs", "statistics", "render", "studies", "plans", "commands")
 LAYERS = {
     "jigsaws_tools": set(),
     "rnn_seg": {"jigsaws_tools"},
@@ -172,6 +172,15 @@ def test_the_import_rule_refuses_an_import_against_the_evidence_flow():
         "multitask.evidence.runs.collect imports multitask.evidence"]
     assert not _upward_imports("multitask.evidence.studies.width",
                                "from ..render.figures import save\nfrom .claims import CLAIMS")
+    assert _upward_imports("multitask.evidence.studies.claims",
+                           "from ..plans.confirm import read_plan") == [
+        "multitask.evidence.studies.claims imports multitask.evidence.plans.confirm"]
+    assert _upward_imports("multitask.evidence.plans.design",
+                           "from ..commands.common import publish\nfrom ..studies import claims\n"
+                           "from .confirm import Plan") == [
+        "multitask.evidence.plans.design imports multitask.evidence.commands.common"]
+    assert not _upward_imports("multitask.evidence.commands.plans.confirm",
+                               "from ..common import publish\nfrom ...plans.confirm import a")
 
 
 def test_every_pip_install_builds_through_the_declared_build_system():

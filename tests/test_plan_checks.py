@@ -1,7 +1,7 @@
 """A confirmatory plan cannot say what its numbers do not (issue 66, item 3), and no TOML file the
 project reads can crash its reader.
 
-A plan (``multitask.evidence.studies.confirm``) and its exploratory file are checked as strictly as a grid
+A plan (``multitask.evidence.plans.confirm``) and its exploratory file are checked as strictly as a grid
 spec: every number finite and in range, outcomes three distinct words, one-line names and titles,
 configurations and metrics that exist, no endpoint twice in a part. Every TOML file (task
 definitions, recording formats, grid specs, plans, exploratory files) is read by
@@ -21,8 +21,8 @@ from jigsaws_tools.recording_format import load_format
 from jigsaws_tools.task_definition import read_task_file
 from jigsaws_tools.toml_files import MAX_TOML_BYTES, read_toml
 from multitask.evidence.cli import main as tables_main
-from multitask.evidence.studies.confirm import PlanError, analyse, read_plan
-from multitask.evidence.studies.exploratory import read_exploratory
+from multitask.evidence.plans.confirm import PlanError, analyse, read_plan
+from multitask.evidence.plans.exploratory import read_exploratory
 from multitask.grid.spec import load_spec
 from test_archive_and_inputs import at_most
 from test_confirm import PLAN, project  # noqa: F401  (a fixture)

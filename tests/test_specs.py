@@ -9,8 +9,8 @@ import pytest
 from multitask.grid.spec import expand, load_spec, release_users, with_budget
 
 ROOT = Path(__file__).resolve().parents[1]
-#: Confirmatory plans (``multitask.evidence.studies.confirm``) and the exploratory analyses
-#: beside them (``multitask.evidence.studies.exploratory``) are TOML too, but no grid spec.
+#: Confirmatory plans (``multitask.evidence.plans.confirm``) and the exploratory analyses
+#: beside them (``multitask.evidence.plans.exploratory``) are TOML too, but no grid spec.
 PLANS = sorted((ROOT / "results").rglob("plan.toml"))
 EXPLORATORY = sorted((ROOT / "results").rglob("exploratory.toml"))
 SPECS = sorted(set((ROOT / "results").rglob("*.toml")) - set(PLANS) - set(EXPLORATORY))
@@ -31,7 +31,7 @@ def test_every_committed_spec_expands(path):
 
 @pytest.mark.parametrize("path", PLANS, ids=[str(p.relative_to(ROOT)) for p in PLANS])
 def test_every_committed_plan_reads(path):
-    from multitask.evidence.studies.confirm import read_plan
+    from multitask.evidence.plans.confirm import read_plan
 
     plan = read_plan(path)
     assert plan.parts and all(family.endpoints for part in plan.parts
@@ -40,8 +40,8 @@ def test_every_committed_plan_reads(path):
 
 @pytest.mark.parametrize("path", EXPLORATORY, ids=[str(p.relative_to(ROOT)) for p in EXPLORATORY])
 def test_every_committed_exploratory_file_reads_beside_its_plan(path):
-    from multitask.evidence.studies.confirm import read_plan
-    from multitask.evidence.studies.exploratory import read_exploratory
+    from multitask.evidence.plans.confirm import read_plan
+    from multitask.evidence.plans.exploratory import read_exploratory
 
     assert read_exploratory(path, read_plan(path.parent / "plan.toml"))
 

@@ -25,7 +25,8 @@ OLD_FORMS = (f"Earlier versions' flag forms ({PROG} GRID --widths ...) still wor
 
 def build_parser() -> argparse.ArgumentParser:
     """The parser of every study's subcommand (``commands.STUDIES``), listed in ``--help``."""
-    studies = [importlib.import_module(f"{__package__}.commands.{name}") for name in STUDIES]
+    studies = [importlib.import_module(f"{__package__}.commands.{module}")
+               for module in STUDIES.values()]
     listing = "\n".join(f"  {name:<15}{study.SUMMARY}" for name, study in zip(STUDIES, studies))
     parser = command_parser(
         PROG, f"{__doc__}\nstudies (STUDY --help: its options and an example; all: "

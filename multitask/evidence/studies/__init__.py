@@ -12,16 +12,15 @@ of ``multitask.evidence``).
   table, the claims on TCN backbones and Table II with measured rows;
 * ``execution``: an execution path (fused loops, bfloat16) against its reference grid,
   equivalent / different / inconclusive against a margin;
-* ``confirm``: a pre-registered confirmatory analysis, run as its plan file says;
-  ``exploratory``: the exploratory analyses its plan names, apart from its rows;
-  ``confirm_report``: both written out, with ``confirm.md``, the outcome in the plan's words;
-  ``design``: what the plan's folds x seeds could detect (variance shares, power);
 * ``tasks``: the JIGSAWS tasks side by side, from each task's tables.
-* ``method``: another method's scores beside archived baselines, paired by fold.
+* ``method``: another method's scores beside archived baselines, paired by fold;
+* ``release``: a grid's kept predictions as per-split files.
 
-A new study is a module here and its subcommand in ``..commands`` (how: ``..commands``).
+A new study is a module here and its subcommand in ``..commands`` (how: ``..commands``); the
+pre-registered plans (the confirmatory analysis, its design, the factor study) are the next
+wing, ``..plans``.
 
 May import ``..runs``, ``..statistics`` and ``..render`` (and ``multitask.grid``,
-``multitask.models``, ``jigsaws_tools``, ``rnn_seg``); not ``..commands``
+``multitask.models``, ``jigsaws_tools``, ``rnn_seg``); not ``..plans`` or ``..commands``
 (``tests/test_packaging.py`` checks it).
 """

@@ -5,7 +5,7 @@ For each primary endpoint of the plan's parts: the seed and fold shares of the v
 per-fold differences, with their 95 % intervals, and the exact sign-flip test's power at the
 paper's gain, alone and under the plan's Holm correction, for 1 to 10 seeds and without bound
 (the ceiling), at the runs' folds and at more. Writes ``design.csv`` and ``design_power.csv`` to
-``--out``, listed in ``design.json`` (``studies.design``; the methods: ``statistics.design``).
+``--out``, listed in ``design.json`` (``plans.design``; the methods: ``statistics.design``).
 ``--part P --grid GRID`` reads part P's endpoints on another grid's runs (its width unchecked).
 
     multitask-tables design results/confirm/plan.toml --out results/confirm/design
@@ -18,7 +18,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from .common import add_out_options, add_seeds_option, check_folders, publish, seeds_of
+from ..common import add_out_options, add_seeds_option, check_folders, publish, seeds_of
 
 SUMMARY = "what a plan's folds x seeds could detect: variance shares, power"
 #: The list of the files the last call wrote into ``--out``.
@@ -39,7 +39,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> None:
-    from ..studies.design import write_design
+    from ...plans.design import write_design
 
     if args.grid is not None:
         check_folders([args.grid], "a grid folder or a scores archive")

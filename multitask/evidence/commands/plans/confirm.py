@@ -6,7 +6,7 @@ decision rules; a part whose grid has not finished every run of its seeds is not
 interim looks). The exploratory analyses the plan's text names, in an ``exploratory.toml``
 beside the plan file, go to ``exploratory.csv``, never into the plan's rows. Writes
 ``confirm.csv``, ``confirm_per_fold.csv`` and ``confirm.md`` (the outcome in the plan's words)
-to ``--out``, listed in ``confirm.json`` (``studies.confirm``, ``studies.confirm_report``).
+to ``--out``, listed in ``confirm.json`` (``plans.confirm``, ``plans.confirm_report``).
 
     multitask-tables confirm results/confirm/plan.toml --out results/confirm
 """
@@ -16,7 +16,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from .common import add_out_options, publish
+from ..common import add_out_options, publish
 
 SUMMARY = "a pre-registered confirmatory analysis, as its plan file says"
 #: The list of the files the last call wrote into ``--out``.
@@ -33,9 +33,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> None:
     """The plan's analysis into ``--out``, all files or none; the plan and its exploratory file
     are checked before ``--out``'s lock is taken."""
-    from ..studies.confirm import read_plan
-    from ..studies.confirm_report import write_confirmatory
-    from ..studies.exploratory import EXPLORATORY_FILE, read_exploratory
+    from ...plans.confirm import read_plan
+    from ...plans.confirm_report import write_confirmatory
+    from ...plans.exploratory import EXPLORATORY_FILE, read_exploratory
 
     read_exploratory(args.plan.parent / EXPLORATORY_FILE, read_plan(args.plan))
 

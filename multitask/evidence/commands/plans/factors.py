@@ -9,7 +9,7 @@ fold, the eligible levels, each factor's level taken and their combination
 (``factors_choice.csv``, ``factors_settings.csv``); and, for each combination not yet run, the
 spec that runs it (``combination-<folds>.toml``): run it with ``multitask-grid``, then give its
 grid with ``--combination`` to settle each fold's setting. Listed in ``factors.json``
-(``studies.factors``).
+(``plans.factors``).
 
     multitask-tables factors runs/tcn/factors/baseline runs/tcn/factors/T-5hz-k15 \\
         runs/tcn/factors/L-off --out results/tcn/factors/tables
@@ -21,7 +21,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from .common import add_out_options, check_folders, publish_noted
+from ..common import add_out_options, check_folders, publish_noted
 
 SUMMARY = "the factor study's inner runs: each level against the baseline, each fold's choice"
 #: The list of the files the last call wrote into ``--out``; it names the grids too.
@@ -40,7 +40,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> None:
-    from ..studies.factors import write_factors
+    from ...plans.factors import write_factors
 
     check_folders([args.baseline, *args.levels, *args.combination],
                   "a grid folder of inner runs or its scores archive")
