@@ -31,4 +31,5 @@ and ``multitask.grid``; ``..cli`` imports this wing, and no other wing imports i
 STUDIES = {"paper": "paper", "runs": "runs", "pair": "pair", "archive": "archive",
            "width": "width", "architectures": "architectures", "execution": "execution",
            "confirm": "plans.confirm", "design": "plans.design", "tasks": "tasks",
-           "score": "score", "release": "release", "factors": "plans.factors"}
+           "score": "score", "release": "release", "factors": "plans.factors",
+           "ladder": "plans.ladder"}

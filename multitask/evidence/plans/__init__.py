@@ -6,7 +6,9 @@ of ``multitask.evidence``, after ``..studies``; ``..commands.plans`` holds their
   ``confirm_report``: both written out, with ``confirm.md``, the outcome in the plan's words;
 * ``design``: what the plan's folds x seeds could detect (variance shares, power);
 * ``factors``: the factor study of ``results/tcn/PLAN_factors.md``: each level's validation
-  scores against the baseline's, each outer fold's choice of setting.
+  scores against the baseline's, each outer fold's choice of setting;
+* ``ladder``: its convergence ladders (section E): each pilot run's training loss checked as if
+  its schedule had ended at each shorter length, and each backbone's length.
 
 May import ``..runs``, ``..statistics``, ``..render`` and ``..studies`` (and ``multitask.grid``,
 ``multitask.models``, ``jigsaws_tools``, ``rnn_seg``); not ``..commands``; ``..studies`` does

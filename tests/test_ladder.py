@@ -1,0 +1,95 @@
+"""The convergence ladders of results/tcn/PLAN_factors.md, section E: ``epochs`` on a TCN grid,
+a run's history cut at a shorter length, and ``multitask-tables ladder``."""
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from multitask.evidence.cli import main as tables_main
+from multitask.evidence.plans.ladder import TOO_SHORT, ladder_choice
+from multitask.grid.cli import main as grid_main
+from rnn_seg.convergence import VERDICTS
+from rnn_seg.runs.logs import read_log
+
+PILOT = """
+preset = "paper"
+encoder = "ed-tcn"
+data_dir = "{data}"
+test_users = ["B"]
+seeds = [0]
+inner_validation = 1
+epochs = {epochs}
+[[experiments]]
+variants = ["A"]
+annotations = ["original"]
+"""
+RUN = "runs/original/bidirectional/A-fixed/seed0/B-val-C"
+
+
+@pytest.fixture(scope="module")
+def pilots(tmp_path_factory, synth_dir) -> dict[int, Path]:
+    """One ED-TCN pilot run trained for 24 epochs, and the same run trained for 12."""
+    root = tmp_path_factory.mktemp("ladder")
+    grids = {}
+    for epochs in (24, 12):
+        spec = root / f"pilot-{epochs}.toml"
+        spec.write_text(PILOT.format(data=synth_dir, epochs=epochs))
+        assert grid_main(["--spec", str(spec), "--out", str(root / f"g{epochs}")]) == 0
+        grids[epochs] = root / f"g{epochs}"
+    return grids
+
+
+@pytest.mark.slow
+def test_a_constant_rate_runs_first_epochs_do_not_depend_on_its_length(pilots):
+    """What the ladder rests on: the longer run's history cut at 12 epochs is the shorter's."""
+    long, short = (read_log(pilots[n] / RUN / "history.csv") for n in (24, 12))
+    assert len(long) == 24 and len(short) == 12
+    pd.testing.assert_series_equal(long["loss_gesture"].iloc[:12], short["loss_gesture"],
+                                   rtol=1e-5)
+
+
+@pytest.mark.slow
+def test_ladder_tables_from_pilot_runs_and_their_archive(pilots, tmp_path, capsys):
+    out = tmp_path / "ladder"
+    assert tables_main(["ladder", str(pilots[24]), "--lengths", "20", "24", "12",
+                        "--out", str(out)]) == 0
+    runs = pd.read_csv(out / "ladder_runs.csv")
+    assert runs.length.tolist() == [12, 20, 24]
+    assert runs.verdict.iloc[0] == TOO_SHORT and set(runs.verdict[1:]) <= set(VERDICTS)
+    assert runs.fold.unique().tolist() == ["B-val-C"]
+    summary = pd.read_csv(out / "ladder.csv")
+    counted = summary[["converged", "undecided", "still_falling", "too_short"]].sum(axis=1)
+    assert (counted == summary.runs).all() and (summary.runs == 1).all()
+    choice = pd.read_csv(out / "ladder_choice.csv")
+    assert len(choice) == 1 and choice.length.iloc[0] in (20, 24)
+    assert "| ED-TCN | A-fixed, original |" in (out / "ladder.md").read_text()
+    assert json.loads((out / "ladder.json").read_text())["lengths"] == [20, 24, 12]
+    archive = tmp_path / "archive"
+    assert tables_main(["archive", str(pilots[24]), str(archive)]) == 0
+    again = tmp_path / "again"
+    assert tables_main(["ladder", str(archive), "--lengths", "12", "20", "24",
+                        "--out", str(again)]) == 0
+    for name in ("ladder_runs.csv", "ladder.csv", "ladder_choice.csv", "ladder.md"):
+        assert (again / name).read_text().replace(str(archive), "G") == (
+            out / name).read_text().replace(str(pilots[24]), "G")
+    capsys.readouterr()
+    assert tables_main(["ladder", str(pilots[24]), "--lengths", "25",
+                        "--out", str(tmp_path / "beyond")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "25" in err and "24" in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "beyond").exists()
+
+
+def test_a_backbone_takes_the_shortest_length_without_a_run_still_falling():
+    def summary(falling):
+        return pd.DataFrame({"grid": "g", "architecture": "ED-TCN",
+                             "length": [200, 300, 400, 600], "still_falling": falling,
+                             "too_short": 0, "runs": 8})
+
+    taken = ladder_choice(summary([3, 0, 1, 0])).iloc[0]
+    assert (taken.length, taken.still_falling) == (300, 0)
+    taken = ladder_choice(summary([3, 2, 1, 1])).iloc[0]
+    assert taken.length == 600 and "longest" in taken.reason
