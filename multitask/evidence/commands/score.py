@@ -78,11 +78,15 @@ def run(args: argparse.Namespace) -> None:
     scores, trials = method_scores(args.folders, config, args.rate)
     for folder in args.folders:
         grid = released_from(folder)
-        if grid is not None:
-            print(f"note: {folder}: released predictions of {grid}, scored at its runs' last "
-                  "evaluation point; its tables and --against score a run as the mean over its "
-                  "evaluation points, about 1 point apart per run (the release's README.md)",
-                  file=sys.stderr)
+        if grid is None:
+            continue
+        labels = Path(folder).resolve().parents[2].name
+        other = (f"; trained on {labels} labels, scored on {args.annotations} labels "
+                 f"(--annotations)" if labels != args.annotations else "")
+        print(f"note: {folder}: released predictions of {grid}, scored at its runs' last "
+              "evaluation point; its tables and --against score a run as the mean over its "
+              f"evaluation points, about 1 point apart per run (the release's README.md){other}",
+              file=sys.stderr)
     check_metrics(scores, args.metrics)
     table, text = None, ""
     if against:

@@ -224,7 +224,7 @@ def _read_csv(path: Path, text: str, layout: Layout) -> dict[str, list[tuple[int
         if values["frame"] != str(layout.frame_of(row)):
             raise ValueError(f"{path}:{line}: frame {values['frame']!r}, expected "
                              f"{layout.frame_of(row)} (row {row + 1} at --rate "
-                             f"{layout.rate_hz:g})")
+                             f"{layout.rate_hz:g}; frames count from 1)")
         for column in columns:
             rows[column].append((line, values[column] or ""))   # None: a short row
     return rows
