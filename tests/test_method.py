@@ -259,7 +259,9 @@ def test_against_names_a_folder_that_is_no_grid_and_a_baseline_named_twice(
                                                       "grid": "results/reference/grid"}))
     assert tables_main(["score", str(release / "revised" / "bidirectional" / "A-fixed" / "seed0"),
                         "--data-dir", str(synth_dir), "--rate", "30", "--out", str(out)]) == 0
-    notes = [line for line in capsys.readouterr().err.splitlines() if line.startswith("note:")]
+    printed = capsys.readouterr()
+    notes = [line for line in printed.err.splitlines() if line.startswith("note:")]
+    assert "| gesture_accuracy | 100.00 |" in printed.out     # without --against: the summary
     assert len(notes) == 1 and "results/reference/grid" in notes[0]
     assert "last evaluation point" in notes[0] and "labels" not in notes[0]
     assert tables_main(["score", str(release / "revised" / "bidirectional" / "A-fixed" / "seed0"),

@@ -16,8 +16,9 @@ run's (accuracy, edit, F1@{10,25,50}; progress with a ``progress`` column).
 ``--against GRID[:CONFIG,...]``: compare with configurations of grids or scores archives (default
 configurations: their A, APc and APoc); per fold each side is the mean over its seeds, the exact
 sign-flip test and interval of ``claims.csv``, Holm over every comparison of the call. Writes
-``score_folds.csv``, ``score_summary.csv`` and, with ``--against``, ``score.csv|.tex|.md``
-(printed too) into ``--out``, listed in ``score.json`` (``studies.method``).
+``score_folds.csv``, ``score_summary.csv`` (printed without ``--against``) and, with
+``--against``, ``score.csv|.tex|.md`` (printed) into ``--out``, listed in ``score.json``
+(``studies.method``).
 
     multitask-tables score my_method/seed0 my_method/seed1 --rate 30 \\
         --against results/grid:A-fixed,APoc-gradnorm results/tcn/ms-tcn:A-fixed --out my_tables
@@ -69,7 +70,7 @@ def run(args: argparse.Namespace) -> None:
 
     from ..runs.method import method_scores
     from ..studies.method import (caption, check_metrics, compare, comparison_markdown,
-                                  parse_against, read_baselines, write_method)
+                                  parse_against, read_baselines, summary_markdown, write_method)
 
     task = task_from_options(args)
     config = DataConfig(str(data_dir_from_args(args, task)), annotations=args.annotations,
@@ -97,8 +98,8 @@ def run(args: argparse.Namespace) -> None:
             lambda staging: write_method(scores, table, args.metrics, text, staging),
             record={"predictions": [str(f) for f in args.folders], "rate_hz": args.rate,
                     "annotations": args.annotations, "against": args.against})
-    if table is not None:
-        print(comparison_markdown(table, text), end="")
+    print(comparison_markdown(table, text) if table is not None else summary_markdown(
+        scores, args.metrics, args.name, args.annotations, task.name), end="")
 
 
 def released_from(folder: Path) -> str | None:

@@ -188,6 +188,20 @@ def summary(scores: pd.DataFrame, metrics: Sequence[str]) -> pd.DataFrame:
                          "seeds": len(scores.seed.unique())})
 
 
+def summary_markdown(scores: pd.DataFrame, metrics: Sequence[str], name: str,
+                     annotations: str, task: str) -> str:
+    """``summary`` as Markdown under a line naming the method, task, labels, folds and seeds:
+    what ``score`` prints without baselines."""
+    table = summary(scores, metrics)
+    lines = markdown_table(["Metric", "Mean", "SD over folds"],
+                           [[row.metric, f"{row.mean:.2f}", f"{row.sd:.2f}"]
+                            for row in table.itertuples(index=False)])
+    head = (f"{name} on {task}, {annotations} labels: mean and sample SD over "
+            f"{table.folds.iloc[0]} leave-one-user-out folds of the per-fold mean over "
+            f"{table.seeds.iloc[0]} seed(s).")
+    return "\n".join([head, "", *lines]) + "\n"
+
+
 def caption(table: pd.DataFrame, name: str, annotations: str, task: str,
             config: StatsConfig = StatsConfig()) -> str:
     """What the comparison table says, its seeds, folds and labels."""

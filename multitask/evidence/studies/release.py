@@ -38,8 +38,8 @@ from ..runs.method import TrialTruth, truth
 #: ``results/reference/grid`` (18 configurations x 3 seeds x 8 folds) at 30 Hz against the
 #: per-run scores its archive records.
 LAST_POINT = """\
-Scored with `multitask-tables score FOLDER --rate 30`, a folder gives exactly its runs' scores at
-their last evaluation point. The grid's own tables, and `multitask-tables score --against GRID`,
+Scored with `multitask-tables score FOLDER --rate 30` (and `--annotations original` for the
+`original/` folders), a folder gives exactly its runs' scores at their last evaluation point. The grid's own tables, and `multitask-tables score --against GRID`,
 score each run as the mean over its evaluation points (three near the end of training, the
 paper's protocol), so a release scored and its archive differ a little. Measured on
 `results/reference/grid` (gesture accuracy / edit score, points): per run 0.4 / 1.0 (median;
@@ -48,8 +48,8 @@ to -0.15 / -0.13 to +0.25 (revised A-fixed: -0.24 / +0.04). To compare with the 
 numbers, pair with `--against GRID:CONFIG`; score a release to compare with what its models
 predicted.
 """
-#: The text of the release's ``README.md``; ``{grid}``, ``{folders}`` and ``{last_point}``
-#: filled in.
+#: The text of the release's ``README.md``; ``{grid}`` (its folder's last two names, never a
+#: path of the machine), ``{folders}`` and ``{last_point}`` filled in.
 README = """# Per-split test predictions of {grid}
 
 Written by `multitask-tables release` (this project's evidence command line) from the grid's
@@ -113,7 +113,7 @@ def write_release(grid: Path, out: Path, configs: Sequence[str] = (),
         raise ValueError(f"{grid}: no finished run kept its predictions (archives written "
                          "before 2026-12-02 keep none); retrain, then archive")
     readme = out / "README.md"
-    write_atomic(readme, README.format(grid=grid.name or grid, last_point=LAST_POINT,
+    write_atomic(readme, README.format(grid="/".join(grid.parts[-2:]), last_point=LAST_POINT,
                                        folders="\n".join(f"- `{folder.as_posix()}/`"
                                                          for folder in sorted(folders))))
     return [readme, *written]
