@@ -239,3 +239,26 @@ def test_a_release_refuses_a_configuration_the_grid_lacks_and_an_archive_without
     assert tables_main(["release", str(old), "--out", str(tmp_path / "y")]) == 2
     assert "kept its predictions" in capsys.readouterr().err
     assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()
+
+
+def test_a_release_and_score_say_that_a_release_scores_the_last_evaluation_point(
+        trained, tmp_path, capsys):
+    """The release's README says that a release scores its runs' last evaluation point, not the
+    mean over their points that the archive tabulates, and ``score`` knows a released folder
+    (to note it); an unknown configuration is named with those the grid holds."""
+    from multitask.evidence.commands.score import released_from
+    from multitask.evidence.studies.release import LAST_POINT
+
+    grid, archive, data = trained
+    out = tmp_path / "release"
+    assert tables_main(["release", str(archive), "--out", str(out), "--configs", "A-fixed"]) == 0
+    assert LAST_POINT in (out / "README.md").read_text()
+    seed = out / "revised" / "bidirectional" / "A-fixed" / "seed0"
+    assert released_from(seed) == str(archive)
+    assert released_from(shutil.copytree(seed, tmp_path / "mine" / "seed0")) is None
+    assert released_from(out) is None
+    capsys.readouterr()
+    assert tables_main(["release", str(archive), "--out", str(tmp_path / "x"),
+                        "--configs", "Z-fixed"]) == 2
+    error = capsys.readouterr().err.strip()
+    assert len(error.splitlines()) == 1 and "Z-fixed" in error and "revised/A-fixed" in error

@@ -147,6 +147,47 @@ def test_a_wrong_folder_is_refused_naming_the_trial(tmp_path, capsys, synth_dir,
     assert "divisor" in _refused(tmp_path, capsys, good, synth_dir, "--rate", "7")
 
 
+def test_files_as_other_tools_write_them_are_read_or_refused_in_one_line(tmp_path, capsys,
+                                                                       synth_dir, trials):
+    """A byte-order mark and Windows line endings are read; a byte that is not UTF-8, an empty
+    line, a file of another rate, MS-TCN's results layout and a file given as the folder are
+    refused naming file, line and value (or the rate whose length the file has)."""
+    rng = np.random.default_rng(3)
+    labels = {t.name: _frame_labels(t, rng) for t in trials}
+    good = _write(tmp_path / "good", labels, 30, "txt")
+    first = trials[0]
+    windows = shutil.copytree(good, tmp_path / "windows")
+    for path in windows.iterdir():
+        path.write_bytes(b"\xef\xbb\xbf" + path.read_bytes().replace(b"\n", b"\r\n"))
+    windows_csv = _write(tmp_path / "windows_csv", labels, 30, "csv")
+    for path in windows_csv.iterdir():
+        path.write_bytes(b"\xef\xbb\xbf" + path.read_bytes())
+    for folder in (windows, windows_csv):
+        pd.testing.assert_frame_equal(_score(folder, synth_dir, 30), _score(good, synth_dir, 30))
+
+    def broken(name: str, content: bytes) -> Path:
+        folder = shutil.copytree(good, tmp_path / name)
+        (folder / f"{first.name}.txt").write_bytes(content)
+        return folder
+
+    lines = (good / f"{first.name}.txt").read_bytes().splitlines(keepends=True)
+    latin = broken("latin", b"".join(lines[:3] + [b"G1\xe9\n"] + lines[4:]))
+    err = _refused(tmp_path, capsys, latin, synth_dir)
+    assert f"{first.name}.txt:4:" in err and "xe9" in err and "UTF-8" in err
+    blank = broken("blank", b"".join(lines) + b"\n")
+    err = _refused(tmp_path, capsys, blank, synth_dir)
+    assert f"{first.name}.txt:{len(lines) + 1}:" in err and "empty" in err
+    at_5hz = broken("at_5hz", b"".join(lines[::6]))
+    err = _refused(tmp_path, capsys, at_5hz, synth_dir)
+    assert f"{len(lines[::6])} lines, expected {first.n_frames}" in err and "--rate 5:" in err
+    ms_tcn = broken("ms_tcn", b"### Frame level recognition: ###\n" + b" ".join(
+        line.strip() for line in lines))
+    err = _refused(tmp_path, capsys, ms_tcn, synth_dir)
+    assert f"{first.name}.txt:1:" in err and "MS-TCN" in err
+    err = _refused(tmp_path, capsys, good / f"{first.name}.txt", synth_dir)
+    assert "not a folder" in err
+
+
 @pytest.fixture(scope="module")
 def baselines(tmp_path_factory, synth_dir) -> dict[str, Path]:
     """Scores archives of model A (an LSTM grid) and MS-TCN's A on the synthetic release's
@@ -195,6 +236,39 @@ def test_a_grid_tested_on_other_trials_is_refused(tmp_path, synth_dir, baselines
     folds = {"B": ["Suturing_B001"]}
     with pytest.raises(ValueError, match="fold B was tested on"):
         read_baselines([(baselines["lstm"], [])], "revised", folds)
+
+
+def test_against_names_a_folder_that_is_no_grid_and_a_baseline_named_twice(
+        tmp_path, capsys, synth_dir, trials, baselines):
+    good = _write(tmp_path / "good", {t.name: _frame_labels(t) for t in trials}, 30, "txt")
+    lstm = baselines["lstm"]
+    err = _refused(tmp_path, capsys, good, synth_dir, "--against", str(lstm.parent))
+    assert "not a grid folder or scores archive" in err and str(lstm.parent) in err
+    err = _refused(tmp_path, capsys, good, synth_dir, "--against", str(tmp_path / "none"))
+    assert "no such folder" in err
+    err = _refused(tmp_path, capsys, good, synth_dir, "--against", f"{lstm}:A-fixed", str(lstm))
+    assert "A-fixed named twice" in err
+    out = tmp_path / "tables"
+    assert tables_main(["score", str(good), "--data-dir", str(synth_dir), "--rate", "30",
+                        "--against", f"{lstm}:A-fixed", "--out", str(out)]) == 0
+    assert "mean over its evaluation points" in (out / "score.md").read_text()
+    assert "note:" not in capsys.readouterr().err          # no release: nothing to note
+    release = tmp_path / "release"                          # a release's layout and manifest
+    shutil.copytree(good, release / "revised" / "bidirectional" / "A-fixed" / "seed0")
+    (release / "release.json").write_text(json.dumps({"written_by": "multitask-tables",
+                                                      "grid": "results/reference/grid"}))
+    assert tables_main(["score", str(release / "revised" / "bidirectional" / "A-fixed" / "seed0"),
+                        "--data-dir", str(synth_dir), "--rate", "30", "--out", str(out)]) == 0
+    printed = capsys.readouterr()
+    notes = [line for line in printed.err.splitlines() if line.startswith("note:")]
+    assert "| gesture_accuracy | 100.00 |" in printed.out     # without --against: the summary
+    assert len(notes) == 1 and "results/reference/grid" in notes[0]
+    assert "last evaluation point" in notes[0] and "labels" not in notes[0]
+    assert tables_main(["score", str(release / "revised" / "bidirectional" / "A-fixed" / "seed0"),
+                        "--data-dir", str(synth_dir), "--rate", "30", "--annotations",
+                        "original", "--out", str(out)]) == 0
+    notes = [line for line in capsys.readouterr().err.splitlines() if line.startswith("note:")]
+    assert "trained on revised labels, scored on original labels" in notes[0]
 
 
 def _worked_example() -> list[str]:

@@ -8,14 +8,17 @@ is the prediction at frame ``i * 30 / rate + 1`` and holds until the next (30: o
 5: one per 6 frames from the first). Our runs are scored at their 5 Hz samples (the labelled
 frames, every 6th from the first): each sample takes the row holding its frame. Every file is
 checked first (a missing, extra or other task's trial, a wrong length, an unknown label: one
-line naming it, exit 2, nothing written). Scores per LOUO fold as ``rnn_seg.metrics`` gives a
+line naming it, exit 2, nothing written). A folder of a ``multitask-tables release`` is noted:
+it scores its runs' last evaluation point, its grid's tables the mean over their evaluation
+points (``studies.release.LAST_POINT``). Scores per LOUO fold as ``rnn_seg.metrics`` gives a
 run's (accuracy, edit, F1@{10,25,50}; progress with a ``progress`` column).
 
 ``--against GRID[:CONFIG,...]``: compare with configurations of grids or scores archives (default
 configurations: their A, APc and APoc); per fold each side is the mean over its seeds, the exact
 sign-flip test and interval of ``claims.csv``, Holm over every comparison of the call. Writes
-``score_folds.csv``, ``score_summary.csv`` and, with ``--against``, ``score.csv|.tex|.md``
-(printed too) into ``--out``, listed in ``score.json`` (``studies.method``).
+``score_folds.csv``, ``score_summary.csv`` (printed without ``--against``) and, with
+``--against``, ``score.csv|.tex|.md`` (printed) into ``--out``, listed in ``score.json``
+(``studies.method``).
 
     multitask-tables score my_method/seed0 my_method/seed1 --rate 30 \\
         --against results/grid:A-fixed,APoc-gradnorm results/tcn/ms-tcn:A-fixed --out my_tables
@@ -23,12 +26,15 @@ sign-flip test and interval of ``claims.csv``, Holm over every comparison of the
 from __future__ import annotations
 
 import argparse
+import json
+import sys
 from pathlib import Path
 
 from jigsaws_tools.cli.format_options import add_format_option
 from jigsaws_tools.cli.options import add_data_arguments
 
 from .common import add_out_options, publish
+from .release import MANIFEST as RELEASE_MANIFEST
 
 SUMMARY = "another method's predictions scored and paired with archived baselines"
 #: The list of the files the last call wrote into ``--out``; it names the folders and grids.
@@ -64,13 +70,24 @@ def run(args: argparse.Namespace) -> None:
 
     from ..runs.method import method_scores
     from ..studies.method import (caption, check_metrics, compare, comparison_markdown,
-                                  parse_against, read_baselines, write_method)
+                                  parse_against, read_baselines, summary_markdown, write_method)
 
     task = task_from_options(args)
     config = DataConfig(str(data_dir_from_args(args, task)), annotations=args.annotations,
                         task=task, recording_format=format_from_options(args))
     against = [parse_against(text, args.annotations) for text in args.against]
     scores, trials = method_scores(args.folders, config, args.rate)
+    for folder in args.folders:
+        grid = released_from(folder)
+        if grid is None:
+            continue
+        labels = Path(folder).resolve().parents[2].name
+        other = (f"; trained on {labels} labels, scored on {args.annotations} labels "
+                 f"(--annotations)" if labels != args.annotations else "")
+        print(f"note: {folder}: released predictions of {grid}, scored at its runs' last "
+              "evaluation point; its tables and --against score a run as the mean over its "
+              f"evaluation points, about 1 point apart per run (the release's README.md){other}",
+              file=sys.stderr)
     check_metrics(scores, args.metrics)
     table, text = None, ""
     if against:
@@ -81,5 +98,20 @@ def run(args: argparse.Namespace) -> None:
             lambda staging: write_method(scores, table, args.metrics, text, staging),
             record={"predictions": [str(f) for f in args.folders], "rate_hz": args.rate,
                     "annotations": args.annotations, "against": args.against})
-    if table is not None:
-        print(comparison_markdown(table, text), end="")
+    print(comparison_markdown(table, text) if table is not None else summary_markdown(
+        scores, args.metrics, args.name, args.annotations, task.name), end="")
+
+
+def released_from(folder: Path) -> str | None:
+    """The grid whose ``multitask-tables release`` wrote ``folder`` (a seed folder,
+    ``<release>/<annotations>/<direction>/<config>/seed<k>``, whose release folder holds the
+    release's manifest), else None."""
+    parents = Path(folder).resolve().parents
+    manifest = parents[3] / RELEASE_MANIFEST if len(parents) > 3 else None
+    if manifest is None or not manifest.is_file():
+        return None
+    try:
+        record = json.loads(manifest.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return record.get("grid") if isinstance(record, dict) else None

@@ -10,6 +10,8 @@ format:
   ``push``); other columns are ignored;
 * text: one gesture name per line, nothing else (as MS-TCN's and ED-TCN's users write them).
 
+Both are UTF-8 (a byte-order mark is allowed), with ``\n`` or ``\r\n`` line endings.
+
 Rows are predictions at ``rate`` Hz, a divisor of the recording's rate (30 Hz for JIGSAWS): with
 ``step = recording rate / rate`` frames per row, row ``i`` (0-based) is the prediction at frame
 ``i * step + 1``, holding until the next row, so a trial of ``n`` frames has ``ceil(n / step)``
@@ -24,12 +26,14 @@ gives a run's: ``gesture_<metric>`` and, with progress predictions, ``progress_<
 ``progress_mae`` (100 x mean |stage - true stage| / (stages - 1), per trial then averaged).
 
 Every file is checked before anything is scored (``read_folder``): a missing trial, a file that is
-no trial of the task, a trial of another task, a file of another format, a file of the wrong
-length, an unknown label or a wrong frame is a ``ValueError`` naming the file (line and value).
+no trial of the task, a trial of another task, a file of another format, a file that is not
+UTF-8, an unknown or empty label, a wrong frame or a file of the wrong length (with the rate
+whose length it has, if any) is a ``ValueError`` naming the file (line and value).
 """
 from __future__ import annotations
 
 import csv
+import io
 import math
 import re
 from dataclasses import dataclass
@@ -46,6 +50,8 @@ from rnn_seg.metrics import segmentation_metrics
 
 #: The formats by file extension.
 FORMATS = {".csv": "CSV (frame,gesture[,progress])", ".txt": "text (one gesture per line)"}
+#: The first line of MS-TCN's result files (its ``predict``), whose labels follow on one line.
+MS_TCN_HEADER = "### Frame level recognition: ###"
 #: A trial's name in any task: ``<Task>_<User><three digits>``.
 _TRIAL_NAME = re.compile(r"^(?P<task>\w+?)_(?P<user>[A-Za-z])(?P<trial>\d{3})$")
 
@@ -120,7 +126,8 @@ def read_folder(folder: Path, trials: Sequence[TrialTruth], task: TaskDefinition
     """Every trial's predictions in ``folder``, checked (module docstring), by trial name."""
     folder = Path(folder)
     if not folder.is_dir():
-        raise FileNotFoundError(f"{folder}: no such folder (a folder of prediction files)")
+        what = "not a folder" if folder.exists() else "no such folder"
+        raise FileNotFoundError(f"{folder}: {what} (give a folder of prediction files)")
     files = _trial_files(folder, {t.name for t in trials}, task)
     return {t.name: _read_trial(files[t.name], t, task, layout) for t in trials}
 
@@ -157,42 +164,69 @@ def _trial_files(folder: Path, expected: set[str], task: TaskDefinition) -> dict
 def _read_trial(path: Path, trial: TrialTruth, task: TaskDefinition, layout: Layout
                 ) -> Predicted:
     """The predictions of ``trial`` in ``path`` taken at its scored samples."""
-    rows = _read_csv(path, layout) if path.suffix == ".csv" else {
-        "gesture": list(enumerate(path.read_text(encoding="utf-8").splitlines(), start=1))}
+    text = _text(path)
+    if path.suffix == ".txt" and text.startswith(MS_TCN_HEADER):
+        raise ValueError(f"{path}:1: MS-TCN's results layout (value: {MS_TCN_HEADER!r}, then the "
+                         "labels space-separated on one line); write one gesture name per line")
+    rows = _read_csv(path, text, layout) if path.suffix == ".csv" else {
+        "gesture": list(enumerate(text.splitlines(), start=1))}
+    gestures = _indices(path, rows["gesture"], task.gestures, "gesture")
+    progress = rows.get("progress")
+    progress = None if progress is None else _indices(path, progress, task.stage_names,
+                                                      "progress stage")
     expected = layout.rows(trial.n_frames)
-    if len(rows["gesture"]) != expected:
+    if len(gestures) != expected:
         unit = "rows" if path.suffix == ".csv" else "lines"
-        raise ValueError(f"{path}: trial {trial.name}: {len(rows['gesture'])} {unit}, expected "
+        raise ValueError(f"{path}: trial {trial.name}: {len(gestures)} {unit}, expected "
                          f"{expected} (its {trial.n_frames} frames at "
                          f"{layout.recording_hz:g} Hz, one per {layout.step} at --rate "
-                         f"{layout.rate_hz:g})")
+                         f"{layout.rate_hz:g}){_rate_hint(len(gestures), trial, layout)}")
     chosen = layout.rows_of(trial.frames)
-    gestures = _indices(path, rows["gesture"], task.gestures, "gesture")[chosen]
-    progress = rows.get("progress")
-    return Predicted(gestures, None if progress is None else
-                     _indices(path, progress, task.stage_names, "progress stage")[chosen])
+    return Predicted(gestures[chosen], None if progress is None else progress[chosen])
 
 
-def _read_csv(path: Path, layout: Layout) -> dict[str, list[tuple[int, str]]]:
-    """Column -> ``(line, value)`` per row of ``gesture`` (and ``progress``) of a predictions CSV,
-    its ``frame`` column checked against ``layout``."""
-    with open(path, newline="", encoding="utf-8") as f:
-        reader = csv.DictReader(f)
-        needed = [c for c in ("frame", "gesture") if c not in (reader.fieldnames or [])]
-        if needed:
-            raise ValueError(f"{path}:1: no column {', '.join(needed)} (value: "
-                             f"{','.join(reader.fieldnames or [])!r}); a predictions CSV has "
-                             "frame,gesture[,progress]")
-        columns = ["gesture"] + (["progress"] if "progress" in reader.fieldnames else [])
-        rows: dict[str, list[tuple[int, str]]] = {c: [] for c in columns}
-        for row, values in enumerate(reader):
-            line = reader.line_num
-            if values["frame"] != str(layout.frame_of(row)):
-                raise ValueError(f"{path}:{line}: frame {values['frame']!r}, expected "
-                                 f"{layout.frame_of(row)} (row {row + 1} at --rate "
-                                 f"{layout.rate_hz:g})")
-            for column in columns:
-                rows[column].append((line, values[column]))
+def _text(path: Path) -> str:
+    """The text of a prediction file: UTF-8, a byte-order mark dropped; a ``ValueError`` naming
+    the line of the first byte that is not UTF-8."""
+    data = path.read_bytes()
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as error:
+        line = data.count(b"\n", 0, error.start) + 1
+        raise ValueError(f"{path}:{line}: byte {data[error.start:error.start + 1]!r} is not "
+                         "UTF-8 text; write the file as UTF-8") from None
+
+
+def _rate_hint(rows: int, trial: TrialTruth, layout: Layout) -> str:
+    """``"; that is its length at --rate R..."`` when ``rows`` is ``trial``'s length at another
+    rate ``R`` that divides the recording's, else ``""``."""
+    recording = round(layout.recording_hz)
+    for step in (s for s in range(1, recording + 1) if recording % s == 0 and s != layout.step):
+        if -(-trial.n_frames // step) == rows:
+            return (f"; that is its length at --rate {layout.recording_hz / step:g}: was it "
+                    "written at that rate?")
+    return ""
+
+
+def _read_csv(path: Path, text: str, layout: Layout) -> dict[str, list[tuple[int, str]]]:
+    """Column -> ``(line, value)`` per row of ``gesture`` (and ``progress``) of a predictions CSV
+    (``text``, read from ``path``), its ``frame`` column checked against ``layout``."""
+    reader = csv.DictReader(io.StringIO(text, newline=""))
+    needed = [c for c in ("frame", "gesture") if c not in (reader.fieldnames or [])]
+    if needed:
+        raise ValueError(f"{path}:1: no column {', '.join(needed)} (value: "
+                         f"{','.join(reader.fieldnames or [])!r}); a predictions CSV has "
+                         "frame,gesture[,progress]")
+    columns = ["gesture"] + (["progress"] if "progress" in reader.fieldnames else [])
+    rows: dict[str, list[tuple[int, str]]] = {c: [] for c in columns}
+    for row, values in enumerate(reader):
+        line = reader.line_num
+        if values["frame"] != str(layout.frame_of(row)):
+            raise ValueError(f"{path}:{line}: frame {values['frame']!r}, expected "
+                             f"{layout.frame_of(row)} (row {row + 1} at --rate "
+                             f"{layout.rate_hz:g}; frames count from 1)")
+        for column in columns:
+            rows[column].append((line, values[column] or ""))   # None: a short row
     return rows
 
 
@@ -202,6 +236,9 @@ def _indices(path: Path, rows: list[tuple[int, str]], names: Sequence[str], what
     is not one of ``names``."""
     index = {name: k for k, name in enumerate(names)}
     for line, value in rows:
+        if not value.strip():
+            raise ValueError(f"{path}:{line}: no {what} (an empty line or cell); one of: "
+                             f"{', '.join(names)}")
         if value.strip() not in index:
             raise ValueError(f"{path}:{line}: unknown {what} {value!r}; known: "
                              f"{', '.join(names)}")

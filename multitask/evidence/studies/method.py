@@ -31,6 +31,7 @@ import numpy as np
 import pandas as pd
 
 from rnn_seg.runs.folder import write_atomic
+from rnn_seg.runs.outputs import GRID_RECORD
 
 from ...grid.archive import archived_test_trials
 from ...grid.kept_predictions import kept_trials
@@ -82,6 +83,7 @@ def read_baselines(against: Sequence[tuple[Path, list[ConfigId]]], annotations: 
     and tested on ``trials`` (fold -> the method's trials)."""
     chosen, tables = [], []
     for grid, configs in against:
+        _check_grid(grid)
         runs, _, records = run_records(grid)
         _check_trials(grid, records, trials)
         kinds = sorted({architecture(record) for record in records.values()})
@@ -98,9 +100,25 @@ def read_baselines(against: Sequence[tuple[Path, list[ConfigId]]], annotations: 
             if config.select(runs).empty:
                 raise ValueError(f"{grid}: no run of {config.label}; it holds "
                                  f"{', '.join(config_labels(runs))}")
+            if any(b.grid.resolve() == grid.resolve() and b.config == config for b in chosen):
+                raise ValueError(f"--against {grid}: {config.label} named twice (each baseline "
+                                 "once: Holm counts every comparison)")
             chosen.append(Baseline(grid, config, f"{kind} {config.label}"))
         tables.append(runs.assign(grid=str(grid)))
     return chosen, pd.concat(tables, ignore_index=True) if tables else pd.DataFrame()
+
+
+def _check_grid(grid: Path) -> None:
+    """A ``ValueError`` when ``grid`` is no grid folder or scores archive (no ``grid.json``),
+    naming its ``grid/`` subfolder when that is one (``results/reference`` for
+    ``results/reference/grid``)."""
+    if not grid.is_dir():
+        raise ValueError(f"--against {grid}: no such folder (a grid folder or scores archive)")
+    if not (grid / GRID_RECORD).is_file():
+        inner = grid / "grid"
+        hint = f"; {inner} is one" if (inner / GRID_RECORD).is_file() else ""
+        raise ValueError(f"--against {grid}: not a grid folder or scores archive (no "
+                         f"{GRID_RECORD}){hint}")
 
 
 def _check_trials(grid: Path, records: dict, trials: dict[str, list[str]]) -> None:
@@ -170,6 +188,20 @@ def summary(scores: pd.DataFrame, metrics: Sequence[str]) -> pd.DataFrame:
                          "seeds": len(scores.seed.unique())})
 
 
+def summary_markdown(scores: pd.DataFrame, metrics: Sequence[str], name: str,
+                     annotations: str, task: str) -> str:
+    """``summary`` as Markdown under a line naming the method, task, labels, folds and seeds:
+    what ``score`` prints without baselines."""
+    table = summary(scores, metrics)
+    lines = markdown_table(["Metric", "Mean", "SD over folds"],
+                           [[row.metric, f"{row.mean:.2f}", f"{row.sd:.2f}"]
+                            for row in table.itertuples(index=False)])
+    head = (f"{name} on {task}, {annotations} labels: mean and sample SD over "
+            f"{table.folds.iloc[0]} leave-one-user-out folds of the per-fold mean over "
+            f"{table.seeds.iloc[0]} seed(s).")
+    return "\n".join([head, "", *lines]) + "\n"
+
+
 def caption(table: pd.DataFrame, name: str, annotations: str, task: str,
             config: StatsConfig = StatsConfig()) -> str:
     """What the comparison table says, its seeds, folds and labels."""
@@ -179,7 +211,8 @@ def caption(table: pd.DataFrame, name: str, annotations: str, task: str,
                           index=False))
     return (f"{name} against archived baselines on {task}, {annotations} labels, "
             f"leave-one-user-out over {len(folds)} folds ({', '.join(folds)}); seeds: {name} "
-            f"{table.method_seeds.iloc[0]}; {seeds}. Per fold each side is the mean over its "
+            f"{table.method_seeds.iloc[0]}; {seeds}. A baseline run scores as archived: the mean "
+            f"over its evaluation points. Per fold each side is the mean over its "
             f"seeds; diff = {name} - baseline (points; lower is better for MAE), its "
             f"{config.confidence:.0%} interval and p from the exact sign-flip test over the "
             f"folds (as claims.csv), p Holm-adjusted over the {len(table)} comparisons.")

@@ -11,7 +11,9 @@ progress head, ``progress`` (a stage name). A run predicts at its 5 Hz samples (
 frames, every 6th from the first); frame ``f`` takes the prediction of the last sample at or
 before it (``multitask-predict``'s rule), and the frames before the first sample take the first
 sample's. Scoring such a folder at ``--rate 30`` reproduces, at every sample, the run's own
-predictions of its last evaluation point (``grid.kept_predictions``).
+predictions of its last evaluation point (``grid.kept_predictions``), and so that point's
+scores; the grid's tables score a run as the mean over its evaluation points (``LAST_POINT``
+says how far apart the two are).
 
 The frames come from the data (the kept predictions hold none): the grid's release, or
 ``data_dir``. ``README.md`` in the output says all this for readers without this project.
@@ -31,7 +33,23 @@ from ...models.run_record import read_run_record
 from ..runs.collect import run_records
 from ..runs.method import TrialTruth, truth
 
-#: The text of the release's ``README.md``; ``{grid}`` and ``{folders}`` filled in.
+#: What scoring a release gives, beside the grid's own tables: in the release's README and in
+#: ``multitask-tables score``'s note on a released folder. Measured by scoring the release of
+#: ``results/reference/grid`` (18 configurations x 3 seeds x 8 folds) at 30 Hz against the
+#: per-run scores its archive records.
+LAST_POINT = """\
+Scored with `multitask-tables score FOLDER --rate 30` (and `--annotations original` for the
+`original/` folders), a folder gives exactly its runs' scores at their last evaluation point. The grid's own tables, and `multitask-tables score --against GRID`,
+score each run as the mean over its evaluation points (three near the end of training, the
+paper's protocol), so a release scored and its archive differ a little. Measured on
+`results/reference/grid` (gesture accuracy / edit score, points): per run 0.4 / 1.0 (median;
+at most 2.8 / 6.7), per fold over its 3 seeds at most 1.5 / 2.9, and over the 8 folds by -0.35
+to -0.15 / -0.13 to +0.25 (revised A-fixed: -0.24 / +0.04). To compare with the archived
+numbers, pair with `--against GRID:CONFIG`; score a release to compare with what its models
+predicted.
+"""
+#: The text of the release's ``README.md``; ``{grid}`` (its folder's last two names, never a
+#: path of the machine), ``{folders}`` and ``{last_point}`` filled in.
 README = """# Per-split test predictions of {grid}
 
 Written by `multitask-tables release` (this project's evidence command line) from the grid's
@@ -44,9 +62,9 @@ run whose test user made the trial. Columns: `frame` (1-based frame of the 30 Hz
 frame of it), `gesture` (the predicted gesture name) and, for models with a progress head,
 `progress` (the predicted stage name). The models predict every 6th frame of a trial's labelled
 span (5 Hz); a frame holds the prediction of the last such sample at or before it (the first
-sample's before it). Scored with `multitask-tables score FOLDER --rate 30`, a folder gives the
-runs' scores at their last evaluation point.
-"""
+sample's before it).
+
+{last_point}"""
 
 
 def write_release(grid: Path, out: Path, configs: Sequence[str] = (),
@@ -69,7 +87,9 @@ def write_release(grid: Path, out: Path, configs: Sequence[str] = (),
               if _wanted(Path(run), grid, configs)}
     missing = [c for c in configs if not any(_wanted(r, grid, [c]) for r in chosen)]
     if missing:
-        raise ValueError(f"{grid}: no finished run of configuration {missing[0]}")
+        held = sorted({"/".join(_folder(Path(r), grid).parts[::2][:2]) for r in records})
+        raise ValueError(f"{grid}: no finished run of configuration {missing[0]}; it holds "
+                         f"{', '.join(held) or 'none'}")
     written, folders, releases = [], set(), {}
     for run_dir, record in sorted(chosen.items()):
         kept = read_kept_predictions(run_dir)
@@ -93,8 +113,9 @@ def write_release(grid: Path, out: Path, configs: Sequence[str] = (),
         raise ValueError(f"{grid}: no finished run kept its predictions (archives written "
                          "before 2026-12-02 keep none); retrain, then archive")
     readme = out / "README.md"
-    write_atomic(readme, README.format(grid=grid.name or grid, folders="\n".join(
-        f"- `{folder.as_posix()}/`" for folder in sorted(folders))))
+    write_atomic(readme, README.format(grid="/".join(grid.parts[-2:]), last_point=LAST_POINT,
+                                       folders="\n".join(f"- `{folder.as_posix()}/`"
+                                                         for folder in sorted(folders))))
     return [readme, *written]
 
 
