@@ -130,6 +130,8 @@ def test_an_unusable_tracking_uri_stops_before_any_work(tmp_path, capsys, uri):
     assert ("--mlflow" in err or "MLflow is not installed" in err)
     if "http" in uri and importlib.util.find_spec("mlflow") is not None:
         assert "no MLflow tracking server answers there" in err
+    if uri.startswith("bogus") and importlib.util.find_spec("mlflow") is not None:
+        assert "unsupported scheme 'bogus'" in err and "sqlite:" in err
     assert not (tmp_path / "run").exists() and (tmp_path / "notes.txt").read_text() == "mine"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a-folder", "notes.txt"]
 

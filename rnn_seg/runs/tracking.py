@@ -97,7 +97,7 @@ class Tracker:
             raise TrackingError(INSTALL) from None
         self.uri = uri
         name = os.environ.get("MLFLOW_EXPERIMENT_NAME") or DEFAULT_EXPERIMENT
-        problem = _database_problem(uri)
+        problem = _scheme_problem(uri) or _database_problem(uri)
         if problem:
             raise TrackingError(f"--mlflow {uri}: {problem}")
         try:
@@ -232,6 +232,20 @@ def _artifacts(run_dir: Path) -> list[tuple[Path, str | None]]:
             found += [(file, file.parent.relative_to(run_dir).as_posix())
                       for file in files if file.is_file() and not file.is_symlink()]
     return found
+
+
+#: The URI schemes of MLflow's tracking stores ("": a folder).
+SCHEMES = ("", "file", "http", "https", "sqlite", "postgresql", "mysql", "mssql", "databricks")
+
+
+def _scheme_problem(uri: str) -> str | None:
+    """Why ``uri``'s scheme names no MLflow tracking store, or None (MLflow's own message is a
+    paragraph about its model registry)."""
+    scheme = urlparse(uri).scheme.split("+")[0]            # postgresql+psycopg2 and the like
+    if scheme in SCHEMES or len(scheme) == 1:              # or a Windows drive letter
+        return None
+    return (f"unsupported scheme {scheme!r}: give a folder, or a URI of "
+            f"{', '.join(f'{name}:' for name in SCHEMES[1:])}")
 
 
 def _database_problem(uri: str) -> str | None:
