@@ -739,7 +739,8 @@ def test_a_dry_run_says_which_runs_resume_and_which_are_trained_afresh(
     out = capsys.readouterr().out
     assert f"{partial.relative_to(grid)} (resumes after 3 of its epochs)" in out
     assert "A-fixed/seed0/C (other settings: cleared, trained afresh)" in out
-    assert "4 runs, 2 already finished, 2 to run (1 resumed, 1 trained afresh)" in out
+    assert ("4 runs, 2 already finished, 2 to run (1 resumed, 1 of other settings, trained "
+            "afresh)") in out
     assert _snapshot(grid) == before
     holder = subprocess.Popen([sys.executable, "-c", (
         "import sys, time; from rnn_seg.runs.lock import hold_folder\n"

@@ -260,8 +260,11 @@ def _dry_run(args: argparse.Namespace, spec: GridSpec, keys: list) -> int:
             note = (" (other settings: cleared, trained afresh)" if str(key.path()) in afresh
                     else f" (resumes after {done:g} of its epochs)" if done else "")
             print(f"{key.path()}{note}")
+    started = len(pending) - resumed - len(afresh)
+    parts = [f"{count} {what}" for count, what in ((started, "new"), (resumed, "resumed"), (
+        len(afresh), "of other settings, trained afresh")) if count]
     print(f"{len(keys)} runs, {len(keys) - len(pending)} already finished, "
-          f"{len(pending)} to run ({resumed} resumed, {len(afresh)} trained afresh)")
+          f"{len(pending)} to run" + (f" ({', '.join(parts)})" if parts else ""))
     return 0
 
 
