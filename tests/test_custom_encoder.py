@@ -169,7 +169,7 @@ epochs = 4
 encoder = "{encoder}"
 {extra}
 [[experiments]]
-variants = ["A", "APc"]
+variants = ["APc"]
 """
 
 
