@@ -277,7 +277,7 @@ def test_dask_cluster_gives_the_local_pool_metrics(tmp_path, tiny_spec, tiny_gri
     distributed = pytest.importorskip("dask.distributed")
     spec = load_spec(tiny_spec)
     keys = [key for key in expand(spec, ("B", "C")) if key.variant == "APc"]
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
                                   host="127.0.0.1", dashboard_address=None) as cluster:
         failed = run_grid(spec, keys, tmp_path, scheduler=cluster.scheduler_address,
                           log=lambda message: None)
