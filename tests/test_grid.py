@@ -160,6 +160,7 @@ def test_schedule_factors_lengthen_only_their_variants(tmp_path):
             load_spec(path)
 
 
+@pytest.mark.slow
 def test_tiny_grid_end_to_end(tiny_grid):
     metrics = _metrics(tiny_grid)
     assert len(metrics) == 4
@@ -172,6 +173,7 @@ def test_tiny_grid_end_to_end(tiny_grid):
     assert (tables / "figures" / "fold_accuracy.png").exists()
 
 
+@pytest.mark.slow
 def test_table_csv_matches_the_per_fold_numbers(tiny_grid):
     tables_main(["paper", str(tiny_grid), "--no-figures"])
     folds = pd.read_csv(tiny_grid / "tables" / "per_fold.csv")
@@ -188,6 +190,7 @@ def test_table_csv_matches_the_per_fold_numbers(tiny_grid):
         assert row.diff == pytest.approx(row.left_mean - row.right_mean, abs=1e-3)
 
 
+@pytest.mark.slow
 def test_latex_table_shape(tiny_grid):
     tables_main(["paper", str(tiny_grid), "--no-figures"])
     tex = (tiny_grid / "tables" / "table1.tex").read_text()
@@ -234,6 +237,7 @@ def test_killed_grid_resumes_without_redoing_finished_runs(tmp_path, tiny_spec, 
     assert all(p.stat().st_mtime_ns == t for p, t in finished.items())
 
 
+@pytest.mark.slow
 def test_a_run_does_not_depend_on_the_jobs_before_it_in_its_worker(tmp_path, tiny_spec,
                                                                     tiny_grid, monkeypatch):
     """One worker runs two runs in turn, then a fresh worker the third (more jobs than one
@@ -273,6 +277,7 @@ def _assert_same_metrics(got: dict, expected: dict, **tolerance) -> None:
                                            err_msg=f"{run} {task} {name}", **tolerance)
 
 
+@pytest.mark.slow
 def test_dask_cluster_gives_the_local_pool_metrics(tmp_path, tiny_spec, tiny_grid):
     distributed = pytest.importorskip("dask.distributed")
     spec = load_spec(tiny_spec)
@@ -287,6 +292,7 @@ def test_dask_cluster_gives_the_local_pool_metrics(tmp_path, tiny_spec, tiny_gri
     _assert_same_metrics(dask, {run: local[run] for run in dask}, rtol=1e-6)
 
 
+@pytest.mark.slow
 def test_stacked_grid_gives_the_lone_runs_metrics(tmp_path, tiny_spec, tiny_grid):
     """``--stack 2`` trains folds B and C of a configuration (the multi-task APc) in one
     vectorised step, on the graph loops when the spec leaves the loops to ``auto``."""
@@ -301,6 +307,7 @@ def test_stacked_grid_gives_the_lone_runs_metrics(tmp_path, tiny_spec, tiny_grid
     _assert_same_metrics(stacked, {run: lone[run] for run in stacked}, rtol=1e-3, atol=0.05)
 
 
+@pytest.mark.slow
 def test_a_grid_resumed_with_the_default_loops_keeps_those_it_was_launched_with(
         tmp_path, tiny_spec, tiny_grid, capsys):
     """A grid whose grid.json records ``graph`` (launched before ``auto`` was the default, or
@@ -363,6 +370,7 @@ def test_annotation_ablation_reports_revised_minus_original():
     assert r" & Original & \textbf{83.0 (1.0)} \\" in tex and r" & $\Delta$ & $+$2.0 \\" in tex
 
 
+@pytest.mark.slow
 def test_runs_table_records_convergence(tiny_grid):
     tables_main(["paper", str(tiny_grid), "--no-figures"])
     runs = pd.read_csv(tiny_grid / "tables" / "runs.csv")
@@ -509,6 +517,7 @@ def test_eta_counts_only_the_epochs_a_resumed_run_has_left(tmp_path):
     assert _epochs_left(spec, fresh, tmp_path) == 80
 
 
+@pytest.mark.slow
 def test_scores_archive_tabulates_and_continues_like_its_grid(tmp_path, tiny_spec, tiny_grid,
                                                                 capsys):
     """An archive keeps each finished run's config, metrics, logs and predicted labels (no
@@ -539,6 +548,7 @@ def test_scores_archive_tabulates_and_continues_like_its_grid(tmp_path, tiny_spe
     assert {p: p.stat().st_mtime_ns for p in copy.glob("runs/**/finished.json")} == finished
 
 
+@pytest.mark.slow
 def test_tables_of_an_archive_draw_its_examples_from_the_kept_predictions(
         tmp_path, tiny_grid, capsys):
     """An archive keeps the runs' predictions: its tables draw the grid's figures, the example
@@ -563,6 +573,7 @@ def test_tables_of_an_archive_draw_its_examples_from_the_kept_predictions(
     assert "kept its predictions" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_an_archived_run_of_other_settings_is_never_taken_for_the_specs(tmp_path, tiny_spec,
                                                                          tiny_grid, capsys):
     copy = tmp_path / "continued"
@@ -577,6 +588,7 @@ def test_an_archived_run_of_other_settings_is_never_taken_for_the_specs(tmp_path
     assert "other settings" in error and "A-fixed/seed0/C" in error and "hidden" in error
 
 
+@pytest.mark.slow
 def test_a_grid_keeps_its_archive_up_to_date(tmp_path, tiny_spec, tiny_grid, capsys,
                                              monkeypatch):
     """--archive writes the archive before training (refusing a place it may not go, before any
@@ -609,6 +621,7 @@ def test_a_grid_keeps_its_archive_up_to_date(tmp_path, tiny_spec, tiny_grid, cap
     assert "warning: the archive in" in out and "No space left" in out and marker.exists()
 
 
+@pytest.mark.slow
 def test_a_dry_run_checks_the_archive_folder_and_writes_nothing(tmp_path, tiny_spec, tiny_grid,
                                                                 capsys):
     grid, archive = tmp_path / "grid", tmp_path / "archive"
@@ -624,6 +637,7 @@ def test_a_dry_run_checks_the_archive_folder_and_writes_nothing(tmp_path, tiny_s
     assert "replacing it would lose them" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_archive_leaves_out_unfinished_runs_and_replaces_only_an_archive(tmp_path, tiny_grid,
                                                                          capsys):
     grid = tmp_path / "grid"
@@ -692,6 +706,7 @@ def _dead_pid() -> int:
     return child.pid
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("state", FOLDER_STATES)
 def test_a_dry_run_refuses_what_the_launch_refuses_and_writes_nothing(
         tmp_path, tiny_spec, tiny_grid, capsys, state):
@@ -738,6 +753,7 @@ def test_a_dry_run_of_a_folder_not_there_yet_agrees_with_the_launch_and_leaves_n
         assert not out.parent.exists()
 
 
+@pytest.mark.slow
 def test_a_dry_run_says_which_runs_resume_and_which_are_trained_afresh(
         tmp_path, tiny_spec, tiny_grid, capsys):
     """Per run still to run: resumed from its checkpoint (its epochs done), trained afresh
