@@ -289,7 +289,7 @@ def test_dask_cluster_gives_the_local_pool_metrics(tmp_path, tiny_spec, tiny_gri
     assert failed == []
     local, dask = _metrics(tiny_grid), _metrics(tmp_path)
     assert dask.keys() == {str(key.path()) for key in keys} and len(dask) == 2
-    _assert_same_metrics(dask, {run: local[run] for run in dask}, rtol=1e-6)
+    _assert_same_metrics(dask, {name: local[name] for name in dask}, rtol=1e-6)
 
 
 @pytest.mark.slow
@@ -303,8 +303,8 @@ def test_stacked_grid_gives_the_lone_runs_metrics(tmp_path, tiny_spec, tiny_grid
     assert "resuming" not in (run / "train.log").read_text()
     assert json.loads((run / "config.json").read_text())["provenance"]["loops"] == "graph"
     lone, stacked = _metrics(tiny_grid), _metrics(out)
-    assert stacked.keys() == {run for run in lone if "APc-fixed" in run} and len(stacked) == 2
-    _assert_same_metrics(stacked, {run: lone[run] for run in stacked}, rtol=1e-3, atol=0.05)
+    assert stacked.keys() == {name for name in lone if "APc-fixed" in name} and len(stacked) == 2
+    _assert_same_metrics(stacked, {name: lone[name] for name in stacked}, rtol=1e-3, atol=0.05)
 
 
 @pytest.mark.slow
