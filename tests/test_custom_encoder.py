@@ -62,10 +62,11 @@ def _train(data, out, encoder, *extra) -> int:
 @pytest.fixture(scope="module")
 def gru_run(importable, synth_dir, tmp_path_factory):
     """The example encoder, copied under a module name of the test's own (so that its source
-    can be changed), trained 12 epochs on fold B."""
+    can be changed), trained 6 epochs on fold B (held-out gesture accuracy 94 % against a
+    commonest-gesture share of 27 % when this was written; 96 % after 12 epochs)."""
     shutil.copy(EXAMPLES / "gru_encoder.py", importable / "my_gru.py")
     out = tmp_path_factory.mktemp("gru") / "run"
-    assert _train(synth_dir, out, "my_gru:build", "--epochs", "12") == 0
+    assert _train(synth_dir, out, "my_gru:build", "--epochs", "6") == 0
     return out
 
 
