@@ -62,10 +62,11 @@ def _train(data, out, encoder, *extra) -> int:
 @pytest.fixture(scope="module")
 def gru_run(importable, synth_dir, tmp_path_factory):
     """The example encoder, copied under a module name of the test's own (so that its source
-    can be changed), trained 12 epochs on fold B."""
+    can be changed), trained 6 epochs on fold B (held-out gesture accuracy 94 % against a
+    commonest-gesture share of 27 % when this was written; 96 % after 12 epochs)."""
     shutil.copy(EXAMPLES / "gru_encoder.py", importable / "my_gru.py")
     out = tmp_path_factory.mktemp("gru") / "run"
-    assert _train(synth_dir, out, "my_gru:build", "--epochs", "12") == 0
+    assert _train(synth_dir, out, "my_gru:build", "--epochs", "6") == 0
     return out
 
 
@@ -75,6 +76,7 @@ def _error(capsys) -> str:
     return err
 
 
+@pytest.mark.slow
 def test_it_learns_on_held_out_data_and_records_path_and_hash(gru_run, synth_dir):
     metrics = json.loads((gru_run / "metrics.json").read_text())["mean"]
     labels = np.concatenate([pd.read_csv(p)["gesture_true"].to_numpy() for p in
@@ -88,6 +90,7 @@ def test_it_learns_on_held_out_data_and_records_path_and_hash(gru_run, synth_dir
     assert read_run_record(gru_run).config.encoder.path == "my_gru:build"
 
 
+@pytest.mark.slow
 def test_it_evaluates_predicts_and_exports(gru_run, synth_dir, tmp_path):
     assert evaluate_main([str(gru_run)]) == 0
     trial = discover(synth_dir).trials[0].kinematics
@@ -97,6 +100,7 @@ def test_it_evaluates_predicts_and_exports(gru_run, synth_dir, tmp_path):
     assert (tmp_path / "exported" / "saved_model.pb").is_file()
 
 
+@pytest.mark.slow
 def test_a_changed_or_missing_source_is_refused_naming_the_path(gru_run, importable, tmp_path,
                                                               capsys):
     source = importable / "my_gru.py"
@@ -169,7 +173,7 @@ epochs = 4
 encoder = "{encoder}"
 {extra}
 [[experiments]]
-variants = ["A", "APc"]
+variants = ["APc"]
 """
 
 
@@ -186,6 +190,7 @@ def grids(importable, synth_dir, tmp_path_factory):
     return made
 
 
+@pytest.mark.slow
 def test_a_grid_of_it_tabulates_beside_a_built_in_encoder(grids, tmp_path):
     assert tables_main(["paper", str(grids["gru"]), "--out", str(tmp_path / "gru")]) == 0
     assert (tmp_path / "gru" / "table1.csv").is_file()
@@ -196,6 +201,7 @@ def test_a_grid_of_it_tabulates_beside_a_built_in_encoder(grids, tmp_path):
     assert GRU in written and "LSTM-16" in written
 
 
+@pytest.mark.slow
 def test_runs_of_two_sources_of_one_encoder_are_never_pooled(grids, tmp_path):
     runs = sorted(p.parent for p in grids["gru"].glob("runs/*/*/*/*/*/config.json"))
     records = {run: read_run_record(run) for run in runs}
@@ -221,6 +227,7 @@ def test_a_spec_refuses_the_lstm_s_settings_with_a_user_s_encoder():
 
 # --- a grid on a user's recordings: another rate and column layout ---------------------------
 
+@pytest.mark.slow
 def test_a_grid_runs_tabulates_and_pairs_on_recordings_of_another_format(synth_dir, tmp_path,
                                                                        capsys):
     robot = write_robot_folder(synth_dir, tmp_path / "robot")

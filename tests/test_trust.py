@@ -97,6 +97,7 @@ def _snapshot(run: Path) -> dict[str, bytes]:
             if p.is_file() and p.name != ".lock"}
 
 
+@pytest.mark.slow
 def test_relaunch_with_other_settings_stops_before_any_work(finished_run, small_dir, capsys):
     before = _snapshot(finished_run)
     code, out, err = _cli(multitask_main, [*TINY, "--data-dir", str(small_dir), "--test-user",
@@ -107,6 +108,7 @@ def test_relaunch_with_other_settings_stops_before_any_work(finished_run, small_
     assert _snapshot(finished_run) == before           # config.json and results untouched
 
 
+@pytest.mark.slow
 def test_unfinished_run_relaunched_for_another_fold_does_not_resume(small_dir, tmp_path, capsys):
     """The test user must never leak into training through another fold's weights."""
     out = tmp_path / "x"
@@ -120,6 +122,7 @@ def test_unfinished_run_relaunched_for_another_fold_does_not_resume(small_dir, t
     assert _snapshot(out) == before
 
 
+@pytest.mark.slow
 def test_restart_trains_afresh_and_output_settings_may_change(small_dir, tmp_path, capsys):
     out = tmp_path / "x"
     assert multitask_main([*TINY, "--data-dir", str(small_dir), "--test-user", "B",
@@ -137,6 +140,7 @@ def test_restart_trains_afresh_and_output_settings_may_change(small_dir, tmp_pat
     assert predictions == [f"Suturing_C00{i}" for i in (1, 2, 3)]
 
 
+@pytest.mark.slow
 def test_changed_data_is_a_changed_setting(small_dir, tmp_path, capsys):
     data = shutil.copytree(small_dir, tmp_path / "Suturing")
     out = tmp_path / "x"
@@ -150,6 +154,7 @@ def test_changed_data_is_a_changed_setting(small_dir, tmp_path, capsys):
     _assert_clean_error(code, err, "data_fingerprint:")
 
 
+@pytest.mark.slow
 def test_the_same_data_at_another_path_is_the_same_setting(finished_run, small_dir, tmp_path,
                                                            capsys):
     """The fingerprint holds the data; its folder (moved, a relative path) is not a setting."""
@@ -162,6 +167,7 @@ def test_the_same_data_at_another_path_is_the_same_setting(finished_run, small_d
     assert _snapshot(finished_run) == before
 
 
+@pytest.mark.slow
 def test_settings_hash_in_config_checkpoints_and_finished(finished_run):
     config = _strict(finished_run / "config.json")
     finished = _strict(finished_run / "finished.json")
@@ -208,6 +214,7 @@ def finished_grid(small_dir, tmp_path_factory) -> tuple[Path, Path]:
     return folder, folder / "out"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("change,named", [({"hidden": 16}, "spec.hidden: 8 -> 16"),
                                           ({"epochs": 3}, "spec.epochs: 2 -> 3")])
 def test_another_budget_over_a_grid_is_not_already_finished(finished_grid, small_dir, capsys,
@@ -221,6 +228,7 @@ def test_another_budget_over_a_grid_is_not_already_finished(finished_grid, small
     assert (out / "grid.json").read_bytes() == record
 
 
+@pytest.mark.slow
 def test_a_record_from_before_a_spec_key_existed_is_the_same_grid(finished_grid, small_dir,
                                                                    tmp_path, capsys):
     """grid.json written before ``schedule_factors`` existed meant no factors: the same spec
@@ -239,6 +247,7 @@ def test_a_record_from_before_a_spec_key_existed_is_the_same_grid(finished_grid,
     _assert_clean_error(code, err, "schedule_factors", "--restart")
 
 
+@pytest.mark.slow
 def test_a_grid_resumes_on_its_data_moved_but_not_changed(finished_grid, small_dir, tmp_path,
                                                           capsys):
     folder, out = finished_grid
@@ -256,6 +265,7 @@ def test_a_grid_resumes_on_its_data_moved_but_not_changed(finished_grid, small_d
     _assert_clean_error(code, err, "data_fingerprint:", "--restart")
 
 
+@pytest.mark.slow
 def test_grid_checks_every_run_folder_and_restart_retrains_only_those(finished_grid, small_dir,
                                                                       tmp_path, capsys):
     _, out = finished_grid
@@ -282,10 +292,12 @@ def test_a_record_listing_the_runs_in_another_order_is_the_same_grid(small_dir, 
     prepare_grid(tmp_path / "out", spec, keys, log=lambda m: None)       # no mismatch raised
 
 
+@pytest.mark.slow
 def test_a_spec_listing_its_experiments_in_another_order_is_the_same_grid(finished_grid,
                                                                          small_dir, tmp_path,
                                                                          capsys):
-    """Reordering a spec's experiments changes which runs go first, not the grid: it resumes;
+    """Reordering a spec's experiments changes which runs go first, not the grid: it resumes
+    (the dry run, which refuses what the launch refuses, lists its finished run as finished);
     changing an experiment still names the difference."""
     _, out = finished_grid
     copy = shutil.copytree(out, tmp_path / "out")
@@ -294,16 +306,18 @@ def test_a_spec_listing_its_experiments_in_another_order_is_the_same_grid(finish
     spec = _spec(tmp_path, small_dir)
     head = spec.read_text()[:spec.read_text().index("[[experiments]]")]
     spec.write_text(head + one + two)
-    assert grid_main(["--spec", str(spec), "--out", str(copy), "--restart"]) == 0
-    capsys.readouterr()
+    both = with_budget(load_spec(spec))            # the grid's record, as --restart writes it
+    prepare_grid(copy, both, expand(both, ("B", "C", "D")), restart=True, log=lambda m: None)
     spec.write_text(head + two + one)
-    code, stdout, err = _cli(grid_main, ["--spec", str(spec), "--out", str(copy)], capsys)
-    assert code == 0 and "already finished" in stdout, err
+    code, stdout, err = _cli(grid_main, ["--spec", str(spec), "--out", str(copy), "--dry-run"],
+                             capsys)
+    assert code == 0 and "2 runs, 1 already finished, 1 to run" in stdout, err
     spec.write_text(head + two + one + 'directions = ["forward"]\n')
     code, _, err = _cli(grid_main, ["--spec", str(spec), "--out", str(copy)], capsys)
     _assert_clean_error(code, err, "spec.experiments", "--restart")
 
 
+@pytest.mark.slow
 def test_grid_record_carries_provenance(finished_grid):
     _, out = finished_grid
     record = _strict(out / "grid.json")
@@ -531,6 +545,7 @@ def _checkpointed(out: Path) -> bool:
     return any(out.glob("runs/**/checkpoints/ckpt-*.index"))
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc")
 def test_grid_workers_die_with_their_parent(tmp_path, small_dir):
     out = tmp_path / "out"
@@ -559,11 +574,14 @@ def _default_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
+@pytest.mark.slow
 def test_ctrl_c_stops_a_grid_cleanly_and_it_resumes(tmp_path, small_dir):
+    """Ctrl-C to the command's process group ends it with 130; the same command again (here
+    called from Python: the resuming needs no process of its own) resumes the run."""
     out = tmp_path / "out"
-    command = [sys.executable, "-m", "multitask.grid.cli", "--spec",
-               str(_spec(tmp_path, small_dir, epochs=12)), "--out", str(out)]
-    grid = subprocess.Popen(command, env=ENV, start_new_session=True, stdout=subprocess.PIPE,
+    command = ["--spec", str(_spec(tmp_path, small_dir, epochs=12)), "--out", str(out)]
+    grid = subprocess.Popen([sys.executable, "-m", "multitask.grid.cli", *command], env=ENV,
+                            start_new_session=True, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, preexec_fn=_default_sigint)
     _wait_for(lambda: _checkpointed(out), "a first checkpoint")
     os.killpg(grid.pid, signal.SIGINT)                   # as a terminal's Ctrl-C does
@@ -571,17 +589,20 @@ def test_ctrl_c_stops_a_grid_cleanly_and_it_resumes(tmp_path, small_dir):
     assert grid.returncode == 130, err
     assert "Traceback" not in err and err.count("multitask-grid: interrupted") == 1, err
     _wait_for(lambda: not _group_alive(grid.pid), "the grid's processes to end", 60)
-    again = subprocess.run(command, env=ENV, capture_output=True, text=True, timeout=600)
-    assert again.returncode == 0, again.stderr
+    assert grid_main(command) == 0
     log = next(out.glob("runs/**/train.log")).read_text()
     assert "resuming from sweep" in log and (next(out.glob("runs/**/finished.json"))).is_file()
 
 
-def test_ctrl_c_stops_training_cleanly_and_it_resumes(tmp_path, small_dir):
-    command = [sys.executable, "-m", "multitask.train_cli", *TINY[:-3], "--epochs", "20",
-               "--no-plots", "--data-dir", str(small_dir), "--out", str(tmp_path / "x")]
-    train = subprocess.Popen(command, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                             text=True, preexec_fn=_default_sigint)
+@pytest.mark.slow
+def test_ctrl_c_stops_training_cleanly_and_it_resumes(tmp_path, small_dir, capsys):
+    """Ctrl-C ends the command with 130; the same command again (called from Python: the
+    resuming needs no process of its own) resumes the run."""
+    command = [*TINY[:-3], "--epochs", "20", "--no-plots", "--data-dir", str(small_dir),
+               "--out", str(tmp_path / "x")]
+    train = subprocess.Popen([sys.executable, "-m", "multitask.train_cli", *command], env=ENV,
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                             preexec_fn=_default_sigint)
     for line in train.stdout:
         if line.startswith("[x] epoch 2/20"):
             break
@@ -589,11 +610,13 @@ def test_ctrl_c_stops_training_cleanly_and_it_resumes(tmp_path, small_dir):
     out, err = train.communicate(timeout=120)
     assert train.returncode == 130, err
     assert "Traceback" not in err and err.count("multitask-train: interrupted") == 1, err
-    again = subprocess.run(command, env=ENV, capture_output=True, text=True, timeout=600)
-    assert again.returncode == 0, again.stderr
-    assert "resuming from sweep" in again.stdout and "done:" in again.stdout
+    capsys.readouterr()
+    assert multitask_main(command) == 0
+    again = capsys.readouterr().out
+    assert "resuming from sweep" in again and "done:" in again
 
 
+@pytest.mark.slow
 def test_ctrl_c_in_a_command_called_from_python_reaches_the_caller(tmp_path, small_dir, capsys,
                                                                   monkeypatch):
     """``main(argv)`` called from Python (a test, a notebook): Ctrl-C during training leaves the
@@ -685,6 +708,7 @@ def _train_until(trainer: Trainer, sweeps: int) -> None:
         trainer.after_sweep(sweep, lr, trainer.step(sweep, lr))
 
 
+@pytest.mark.slow
 def test_stack_members_at_far_apart_checkpoints_resume_and_catch_up(tmp_path):
     lone = [_trainer(tmp_path / f"lone{s}", s, False) for s in (0, 1)]
     for t in lone:
@@ -702,6 +726,7 @@ def test_stack_members_at_far_apart_checkpoints_resume_and_catch_up(tmp_path):
     assert TrainerStack(done).run() == metrics                 # finished: nothing to train
 
 
+@pytest.mark.slow
 def test_truncated_checkpoint_falls_back_and_leftovers_are_removed(tmp_path):
     lone = _trainer(tmp_path / "lone", 0, False)
     lone.run()
@@ -743,6 +768,7 @@ def test_finished_runs_keep_what_they_are_asked_to(tmp_path, keep, kept):
     assert trainer.checkpoint_sweeps() == kept
 
 
+@pytest.mark.slow
 def test_keep_checkpoints_option_keeps_the_evaluation_points(finished_run):
     points = sorted(_strict(p)["sweep"] for p in finished_run.glob("eval/*/metrics.json"))
     kept = sorted(int(p.name.split("-")[1].split(".")[0])
@@ -751,6 +777,7 @@ def test_keep_checkpoints_option_keeps_the_evaluation_points(finished_run):
     assert points[-1] == _strict(finished_run / "finished.json")["sweeps"]
 
 
+@pytest.mark.slow
 def test_restore_weights_of_the_final_and_an_evaluation_point(finished_run, tmp_path):
     config = _strict(finished_run / "config.json")["run"]
     tasks = [gesture_task()]
@@ -773,6 +800,7 @@ def test_restore_weights_of_the_final_and_an_evaluation_point(finished_run, tmp_
         restore_weights(final_only.model, final_only.run_dir, point=3)
 
 
+@pytest.mark.slow
 def test_restore_weights_names_the_folder_of_every_failure(tmp_path):
     trainer = _tiny(tmp_path / "run")
     trainer.run()
@@ -800,6 +828,7 @@ def test_restore_weights_names_the_folder_of_every_failure(tmp_path):
 
 
 # -- 6. provenance, strict JSON, umask ----------------------------------------------------------
+@pytest.mark.slow
 def test_every_json_of_a_finished_run_is_strict_with_provenance(finished_run):
     files = sorted(finished_run.rglob("*.json"))
     assert len(files) >= 5
