@@ -75,6 +75,7 @@ def test_three_families_of_4_claims_per_score_without_a_published_side():
                for c in TCN_CLAIMS)
 
 
+@pytest.mark.slow
 def test_holm_runs_over_each_familys_declared_4_and_a_missing_backbone_counts_as_untested(
         grids):
     runs = runs_of(read_architectures([grids["lstm"], grids["ed-tcn"]]))
@@ -252,6 +253,7 @@ def test_a_run_without_timing_is_named_and_left_out_of_the_cost(grids, tmp_path)
 
 # --- The command ----------------------------------------------------------------------------
 
+@pytest.mark.slow
 def test_one_command_writes_every_file_and_again_the_same_bytes(grids, tmp_path, capsys):
     args = ["architectures", str(grids["lstm"]), str(grids["ed-tcn"]), str(grids["ms-tcn"])]
     assert tables_main([*args, "--out", str(tmp_path / "a")]) == 0
@@ -331,6 +333,7 @@ def test_grids_are_compared_per_annotation_version_whose_labels_the_fingerprint_
         read_architectures([originals_first, revised_only])
 
 
+@pytest.mark.slow
 def test_the_latex_compiles_and_fits_an_ieee_page(grids, tmp_path):
     from tests.test_latex import IEEE_TWO_COLUMN, _pdflatex
 

@@ -30,6 +30,7 @@ def _majority_accuracy(trials):
 
 
 @pytest.mark.parametrize("bidirectional", [True, False])
+@pytest.mark.slow
 def test_model_a_beats_majority_on_held_out_user(synth_dir, tmp_path, bidirectional):
     config = _config(synth_dir, bidirectional=bidirectional)
     result = train_baseline(config, tmp_path / "run", log=lambda m: None)
@@ -102,6 +103,7 @@ def _interrupted_at_epoch_3(config, run, monkeypatch):
             train_baseline(config, run, log=lambda m: None)
 
 
+@pytest.mark.slow
 def test_resume_after_interruption_matches_uninterrupted(synth_dir, tmp_path, monkeypatch):
     config = _config(synth_dir, epochs=4, eval_points=(4,), plots="none")
     straight = tmp_path / "straight"

@@ -426,6 +426,7 @@ def _write_grid(root, runs: pd.DataFrame) -> None:
     (root / "grid.json").write_text(json.dumps({"runs": paths}))
 
 
+@pytest.mark.slow
 def test_cli_writes_the_claims_and_compares_two_configurations(tmp_path, capsys):
     _write_grid(tmp_path, _runs({APC: 2.0, A: 0.0}, np.random.default_rng(13), seeds=2))
     assert tables_main(["paper", str(tmp_path), "--no-figures"]) == 0

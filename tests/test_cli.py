@@ -145,6 +145,7 @@ def test_range_checked_types(parse, good, bad):
             parse(text)
 
 
+@pytest.mark.slow
 def test_deprecated_spellings_still_work_and_say_so_once(synth_dir, tmp_path, capsys, caplog):
     from jigsaws_tools.cli.main import main as tools_main
     from multitask.grid.cli import main as grid_main
@@ -257,6 +258,7 @@ def test_verbose_shows_tensorflow_logs_and_default_respects_the_environment(monk
     assert os.environ["TF_CPP_MIN_LOG_LEVEL"] == "0"
 
 
+@pytest.mark.slow
 def test_training_prediction_and_export_print_no_tensorflow_line(synth_dir, tmp_path):
     result = _python("-m", "multitask.train_cli", "--data-dir", str(synth_dir), "--variant",
                      "APc", "--hidden", "8", "--epochs", "1", "--test-user", "C", "--no-plots",
@@ -283,6 +285,7 @@ def test_training_prediction_and_export_print_no_tensorflow_line(synth_dir, tmp_
     assert "exported to" in result.stdout and result.stderr == ""
 
 
+@pytest.mark.slow
 def test_grid_prints_each_warning_once_and_logs_no_stray_message(synth_dir, tmp_path):
     release = shutil.copytree(synth_dir, tmp_path / "Suturing")
     (release / "kinematics" / "AllGestures" / "Suturing_B001.txt").unlink()
@@ -300,6 +303,7 @@ def test_grid_prints_each_warning_once_and_logs_no_stray_message(synth_dir, tmp_
     assert "already finished" not in log
 
 
+@pytest.mark.slow
 def test_dry_run_lists_only_the_runs_still_to_run(synth_dir, tmp_path, capsys):
     from multitask.grid.cli import main as grid_main
 

@@ -72,6 +72,7 @@ def _replication_grid(dest: Path, width: Path) -> None:
 
 @pytest.mark.skipif(not (PAPER / GRID_RECORD).is_file() or not (WIDTH / "h512").is_dir(),
                     reason="the committed archives are not in this checkout")
+@pytest.mark.slow
 def test_the_committed_archives_structure_is_analysed_once_complete(tmp_path: Path):
     confirm = tmp_path / "results" / "confirm"
     confirm.mkdir(parents=True)

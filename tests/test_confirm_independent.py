@@ -244,6 +244,7 @@ MIXED = per_fold([3.0, -1.5, 2.25, 0.5, -2.0, 4.0, 1.0, -0.75])
 SYMMETRIC = per_fold([1.0, -1.0, 2.5, -2.5, 0.75, -0.75, 4.0, -4.0])
 
 
+@pytest.mark.slow
 def test_a_clear_gain_a_null_and_a_clear_loss(tmp_path: Path):
     table = check(tmp_path, {(APOC, "gesture_edit"): CLEAR, (APC, "gesture_edit"): -CLEAR,
                              (APOC, "gesture_f1@10"): MIXED, (APC, "gesture_accuracy"): SYMMETRIC},
@@ -252,6 +253,7 @@ def test_a_clear_gain_a_null_and_a_clear_loss(tmp_path: Path):
     assert set(planned.outcome) == {"reproduced", "contradicted", "not replicated"}
 
 
+@pytest.mark.slow
 def test_zeros_and_equal_fold_differences(tmp_path: Path):
     """Zero fold differences still flip (PLAN.md: 2^8 = 256 sign vectors), so 3 zeros and 5
     positive differences are not significant; 8 equal differences are (p = 2/256)."""
@@ -292,6 +294,7 @@ def test_the_replication_rule_at_its_boundary(tmp_path: Path, high: float, outco
     (CLEAR / 2, scaled(CLEAR, 2.3), (False, False)),       # CLEAR's upper end is 6.0 exactly
     (scaled(CLEAR, 2.996), scaled(CLEAR, 2.296), (False, False)),
     (scaled(CLEAR, 2.994), scaled(CLEAR, 2.294), (True, True))])
+@pytest.mark.slow
 def test_the_rule_out_criterion_at_its_boundary(tmp_path: Path, apoc, apc, excluded):
     """The paper's +3.0 and +2.3 against our upper ends with two decimals."""
     table = check(tmp_path, {(APOC, "gesture_edit"): apoc, (APC, "gesture_edit"): apc}, None)
@@ -344,6 +347,7 @@ def width_grids(root: Path, scores: dict) -> None:
                             for config in (A, APOC) for fold in FOLDS})
 
 
+@pytest.mark.slow
 def test_the_exploratory_seed_0_analysis_pools_the_width_grids_seed_0(tmp_path: Path):
     """PLAN.md part 2: "labelled exploratory, the same analysis with seed 0 pooled (seeds 0-5;
     A's seed 0 from results/width/h512-a180/, APoc's from results/width/h512/)": in its own

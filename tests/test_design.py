@@ -85,6 +85,7 @@ def test_one_seed_leaves_the_split_unknown():
         variance_split(runs, CONTRAST, "gesture_edit")
 
 
+@pytest.mark.slow
 def test_the_command_writes_the_design_of_the_plans_primary_endpoints(
         project: Path, tmp_path: Path, monkeypatch, capsys):  # noqa: F811
     monkeypatch.chdir(project)

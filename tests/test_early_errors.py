@@ -159,6 +159,7 @@ def incomplete_release(synth_dir, tmp_path):
     return release
 
 
+@pytest.mark.slow
 def test_a_training_says_each_data_warning_once_with_its_level(incomplete_release, tmp_path):
     result = _python("-m", "multitask.train_cli", "--data-dir", str(incomplete_release),
                      "--test-user", "C", "--variant", "A", "--hidden", "4", "--epochs", "1",
@@ -169,6 +170,7 @@ def test_a_training_says_each_data_warning_once_with_its_level(incomplete_releas
     assert result.stdout.startswith("model: A (gestures only)")
 
 
+@pytest.mark.slow
 def test_the_python_api_says_a_data_warning_once_with_its_level(incomplete_release):
     script = ("from jigsaws_tools.dataset import DataConfig, load_dataset\n"
               f"config = DataConfig({str(incomplete_release)!r})\n"

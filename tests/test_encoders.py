@@ -184,6 +184,7 @@ def _trainer(tmp_path, kind):
 
 
 @pytest.mark.parametrize("kind", ["ed-tcn", "ms-tcn"])
+@pytest.mark.slow
 def test_gradnorm_on_a_tcn_uses_the_last_shared_layer(tmp_path, kind):
     trainer = _trainer(tmp_path, kind)
     model = trainer.model
@@ -255,6 +256,7 @@ def test_every_variant_builds_and_trains_one_sweep(tmp_path, kind):
     ("ed-tcn", EDTCNConfig(filters=(16, 24)), 25, 1e-3, 6),
     ("ed-tcn", EDTCNConfig(filters=(16, 24), kernel=15), 25, 1e-3, 10),    # Lea et al.'s 3 Hz
     ("ms-tcn", MSTCNConfig(stages=2, layers=6, filters=16), 12, 3e-3, 6)])
+@pytest.mark.slow
 def test_tcn_learns_above_chance_on_a_held_out_user(synth_dir, tmp_path, kind, config, epochs,
                                                     lr, factor):
     """Small models with their reference optimiser (a higher rate for MS-TCN's few sweeps);
@@ -272,6 +274,7 @@ def test_tcn_learns_above_chance_on_a_held_out_user(synth_dir, tmp_path, kind, c
 
 
 @pytest.mark.parametrize("kind", ["ed-tcn", "ms-tcn"])
+@pytest.mark.slow
 def test_commands_train_predict_evaluate_and_export_a_tcn_run(synth_dir, tmp_path, monkeypatch,
                                                               kind, capsys):
     monkeypatch.setenv("JIGSAWS_DIR", str(synth_dir))
@@ -295,6 +298,7 @@ def test_commands_train_predict_evaluate_and_export_a_tcn_run(synth_dir, tmp_pat
         trained["mean"]["gesture"]["accuracy"])
 
 
+@pytest.mark.slow
 def test_an_inner_run_holds_out_the_outer_test_user(synth_dir, tmp_path, monkeypatch, capsys):
     """``--hold-out B --test-user C``: a validation run inside outer fold B's training users."""
     monkeypatch.setenv("JIGSAWS_DIR", str(synth_dir))
@@ -403,6 +407,7 @@ def _lone_or_stacked(folder, seed, config):
 
 
 @pytest.mark.parametrize("kind", ["ed-tcn", "ms-tcn"])
+@pytest.mark.slow
 def test_a_tcn_trains_in_a_stack_as_alone(tmp_path, kind):
     """Members' sweeps padded to the longest (``rnn_seg.stack``), dropout included. MS-TCN with
     two stages of two layers: vectorising the step costs seconds a layer to trace."""

@@ -85,6 +85,7 @@ def test_a_model_comparison_in_each_grid_and_their_difference(tmp_path):
         assert row[f"{side}_verdict"] == expected
 
 
+@pytest.mark.slow
 def test_each_configuration_is_compared_with_a_of_its_labels_and_direction(tmp_path):
     models = MODELS + (Experiment(variants=("A", "APoc"), directions=("forward",)),
                        Experiment(variants=("A", "APoc"), weightings=("fixed", "gradnorm"),

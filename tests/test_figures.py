@@ -82,6 +82,7 @@ def test_stage_colours_span_the_map_and_qualitative_maps_are_not_stretched():
         class_colours(10, "Set2")
 
 
+@pytest.mark.slow
 def test_per_gesture_accuracy_has_error_bars_and_tells_absent_from_never_recognised(
         grid, captured):
     folds = per_fold(run_rows(grid)[0])
@@ -181,6 +182,7 @@ def test_gradnorm_panels_in_the_paper_order_on_one_epoch_axis(grid, captured):
 
 
 @pytest.mark.filterwarnings("ignore:More than 20 figures")
+@pytest.mark.slow
 def test_training_curves_one_figure_per_configuration_a_line_per_run(grid, captured):
     curves.training_curves(grid, grid / "curves")
     assert len(captured) == 22
@@ -197,6 +199,7 @@ def test_training_curves_one_figure_per_configuration_a_line_per_run(grid, captu
     assert fig.axes[0].get_xlabel() == "epoch"
 
 
+@pytest.mark.slow
 def test_tables_command_draws_curves_and_the_chosen_trial(tmp_path, capsys, synth_dir):
     grid = write_fake_grid(tmp_path / "grid", seeds=(0,), data=synth_dir, experiments=(
         Experiment(("A", "APoc"), ("fixed", "gradnorm")),))          # 3 configurations
@@ -234,6 +237,7 @@ def test_seeds_name_each_configuration_they_leave_out(tmp_path, capsys):
     assert set(pd.read_csv(tmp_path / "t" / "runs.csv").variant) == {"A", "APc"}
 
 
+@pytest.mark.slow
 def test_per_gesture_table_and_confusion_figure_from_saved_matrices(tmp_path, capsys):
     import json
 
@@ -281,6 +285,7 @@ def test_an_archive_without_confusion_matrices_is_tabulated_with_one_note(grid, 
 COLUMN_FIGURES = {"fold_accuracy", "gesture_vs_progress"}
 
 
+@pytest.mark.slow
 def test_every_pdf_has_truetype_fonts_and_fits_a_column_or_the_page_at_8_pt(tmp_path, synth_dir):
     """What IEEE PDF eXpress and a reader of the printed page check: no Type 3 font, a page no
     wider than the column (3.5 in) or the text (7.16 in) it is meant for, so that it prints at

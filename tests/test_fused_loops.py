@@ -36,6 +36,7 @@ def _run(data_dir, out, loops, ran=None):
 
 
 @needs_fused
+@pytest.mark.slow
 def test_a_seeded_run_on_the_fused_loops_scores_as_on_the_graph_loops(synth_dir, tmp_path):
     """Model A, 6 epochs on the synthetic release, same seed: the two paths differ only in
     float32 rounding, so the held-out scores agree closely; the run's config names its loops."""
@@ -58,6 +59,7 @@ def test_the_fused_loops_build_wherever_a_compiler_is():
 @needs_fused
 @pytest.mark.skipif(lstm._fused_slower() is not None, reason="a generic fused library: auto "
                     "runs the graph loops (test_auto_passes_over_a_generic_fused_library)")
+@pytest.mark.slow
 def test_the_default_loops_run_the_fused_ones_where_they_build(synth_dir, tmp_path):
     """``auto``, the default, is the fused loops here: the run computes what a ``fused`` run
     does, records ``auto`` as configured and ``fused`` as what ran."""
@@ -116,6 +118,7 @@ def test_a_failed_build_says_why_and_leaves_nothing(tmp_path, monkeypatch, compi
     assert [p for p in tmp_path.rglob("*") if p.is_file()] == []
 
 
+@pytest.mark.slow
 def test_a_cpu_with_avx512_fp16_builds_the_loops_without_it(tmp_path, monkeypatch):
     """``-march=native`` on a CPU with AVX512-FP16 (Sapphire Rapids and later) turns on Eigen's
     half-precision code, which TensorFlow 2.21's headers do not compile under with g++ 12; the
@@ -161,6 +164,7 @@ class _Interrupt(Exception):
 
 @pytest.mark.parametrize("asked, ran", [("auto", "graph"), ("graph", "graph"),
                                         pytest.param("fused", "fused", marks=needs_fused)])
+@pytest.mark.slow
 def test_a_run_resumed_with_the_default_loops_keeps_those_it_started_on(synth_dir, tmp_path,
                                                                          monkeypatch, asked, ran):
     """A run started on the graph loops (e.g. before ``auto`` was the default) resumes on them

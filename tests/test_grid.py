@@ -254,6 +254,7 @@ def test_a_run_does_not_depend_on_the_jobs_before_it_in_its_worker(tmp_path, tin
     assert _metrics(tmp_path) == {str(key.path()): expected[str(key.path())] for key in keys}
 
 
+@pytest.mark.slow
 def test_workers_run_several_jobs_only_when_the_jobs_share_a_thread_plan(tiny_spec):
     from multitask.grid.executors import JOBS_PER_WORKER, jobs_per_worker
 
@@ -734,6 +735,7 @@ def test_a_dry_run_refuses_what_the_launch_refuses_and_writes_nothing(
 
 
 @pytest.mark.parametrize("place", ["new/grid", "/proc/mtrnn-jigsaws-grid"])
+@pytest.mark.slow
 def test_a_dry_run_of_a_folder_not_there_yet_agrees_with_the_launch_and_leaves_none(
         tmp_path, tiny_spec, capsys, place):
     """Issue 66: a dry run listed "4 to run" for ``--out /proc/x``, where the launch cannot make

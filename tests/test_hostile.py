@@ -72,6 +72,7 @@ def _metrics(run: Path) -> dict:
 
 # -- 1. resume and the files of a run folder besides its weights -------------------------------
 @pytest.mark.parametrize("before,after", [(False, True), (True, False)])
+@pytest.mark.slow
 def test_monitor_train_may_change_at_resume(tmp_path, reference, before, after):
     run = tmp_path / "run"
     _train_until(_trainer(run, monitor_train=before), 3)
@@ -263,6 +264,7 @@ def test_overwrite_replaces_an_earlier_output_of_the_same_command_only(trained, 
     assert len(list(default.iterdir())) == 1
 
 
+@pytest.mark.slow
 def test_an_export_is_replaced_by_the_next_and_is_not_taken_for_a_run(trained, small_dir,
                                                                      tmp_path, capsys):
     """A SavedModel holds a copy of its run's config.json: a folder holding one is not taken for
@@ -299,6 +301,7 @@ def _writing_to(command: str, out: str, trained: Path, grid: Path, small_dir: Pa
 
 
 @pytest.mark.parametrize("command", ["export", "predict", "tables", "train"])
+@pytest.mark.slow
 def test_nothing_but_an_evaluation_writes_inside_a_run(trained, tiny_grid, small_dir, capsys,
                                                        command):
     """A folder inside a run (not one of the run's own names) is refused before any work, as
@@ -343,6 +346,7 @@ def test_training_refuses_a_grid_root_or_a_folder_of_runs(small_dir, tmp_path, c
 
 
 @pytest.mark.parametrize("place", ["run", "inside", "holder"])
+@pytest.mark.slow
 def test_a_grid_writes_only_into_a_new_folder_or_its_own_grid(trained, tmp_path, capsys, place):
     """``multitask-grid --out``: a run folder, a place among a run's files, or a folder of the
     user's runs is refused before any work; the grid's own folder is resumed (tiny_grid)."""
@@ -396,6 +400,7 @@ def test_tables_refuse_a_run_folder_and_write_beside_grids(tiny_grid, trained, t
     assert (beside / "runs.csv").is_file()
 
 
+@pytest.mark.slow
 def test_an_evaluation_the_disk_refuses_is_one_line_and_exit_1(trained, tmp_path):
     """A file size limit refuses the evaluation's files: a failure (exit 1) naming the file and
     the space left, not a usage error (2); nothing left that looks finished."""
@@ -553,6 +558,7 @@ def test_stream_normalisation_with_a_bad_std_is_refused(trained, std, problem):
         path.unlink()
 
 
+@pytest.mark.slow
 def test_a_checkpoint_that_does_not_fit_is_one_line_and_the_run_resumes(small_dir, tmp_path):
     """A file size limit (``ulimit -f``) refuses the first checkpoint: one line naming it and
     the space left, exit 1; without the limit the same command finishes the run."""
@@ -601,6 +607,7 @@ def _run(grid: Path, variant: str, fold: str) -> Path:
     return grid / "runs" / "revised" / "bidirectional" / f"{variant}-fixed" / "seed0" / fold
 
 
+@pytest.mark.slow
 def test_tables_of_the_grid_as_trained(tiny_grid, tmp_path, capsys):
     code, err = _cli(tables_main, ["paper", str(tiny_grid), "--out", str(tmp_path / "tables")],
                      capsys)
@@ -652,6 +659,7 @@ def test_allow_incomplete_leaves_a_run_of_other_settings_out_and_marks_it(tiny_g
     assert not summary.loc["A", "complete"] and summary.loc["APc", "complete"]
 
 
+@pytest.mark.slow
 def test_figures_never_read_a_run_folder_the_tables_left_out(tiny_grid, tmp_path, capsys):
     grid = _copy_grid(tiny_grid, tmp_path / "grid")
     target = _run(grid, "APc", "B")

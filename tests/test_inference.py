@@ -278,6 +278,7 @@ def test_every_predictions_csv_has_predicts_columns_and_names(bi_run, synth_dir,
 
 
 # -- streaming -------------------------------------------------------------------------------------
+@pytest.mark.slow
 def test_streaming_equals_the_whole_sequence_under_causal_preprocessing(fw_run, synth_dir):
     run = load_run(fw_run)
     assert run.variant == "A" and [t.name for t in run.tasks] == ["gesture"]
@@ -402,6 +403,7 @@ np.savez(sys.argv[3], **{name: value.numpy() for name, value in out.items()})
 """
 
 
+@pytest.mark.slow
 def test_exported_model_alone_reproduces_multitask_predict(bi_run, synth_dir, tmp_path):
     kinematics, _ = _held_out(synth_dir)
     assert predict_main([str(bi_run), str(kinematics), "--out", str(tmp_path / "pred"),
@@ -483,6 +485,7 @@ def test_an_unfinished_run_loads_with_a_warning(bi_run, tmp_path, caplog):
     assert "unfinished" in caplog.text
 
 
+@pytest.mark.slow
 def test_predict_evaluate_and_export_replace_earlier_output_all_or_nothing(
         bi_run, fw_run, synth_dir, tmp_path, monkeypatch):
     """Over an earlier output, each command killed at any step of its publish (its place copied

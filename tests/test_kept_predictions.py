@@ -61,6 +61,7 @@ def _tables(grid: Path, out: Path, *options: str) -> dict[str, bytes]:
     return _files(out)
 
 
+@pytest.mark.slow
 def test_an_archive_keeps_the_predicted_labels_and_never_the_true_ones(trained):
     grid, archive, _ = trained
     for run in _runs(grid):
@@ -88,6 +89,7 @@ def test_an_archive_keeps_the_predicted_labels_and_never_the_true_ones(trained):
     assert max(sizes) < 10_000                   # a few hundred 5 Hz samples a trial, 5 trials
 
 
+@pytest.mark.slow
 def test_figures_from_a_run_folder_and_from_its_archive_are_identical(trained, tmp_path):
     from tests.pdf_pages import read_pdf_page
 
@@ -100,6 +102,7 @@ def test_figures_from_a_run_folder_and_from_its_archive_are_identical(trained, t
         assert "Type3" not in read_pdf_page(pdf).font_subtypes, pdf.name
 
 
+@pytest.mark.slow
 def test_tables_regenerate_identically_with_the_data_elsewhere_or_absent(trained, tmp_path,
                                                                         capsys):
     grid, archive, data = trained
@@ -121,6 +124,7 @@ def test_tables_regenerate_identically_with_the_data_elsewhere_or_absent(trained
         moved.rename(data.parent)
 
 
+@pytest.mark.slow
 def test_an_archive_without_predictions_or_time_only_scores_still_tabulates(trained, tmp_path,
                                                                            capsys):
     grid, archive, data = trained
@@ -144,6 +148,7 @@ def test_an_archive_without_predictions_or_time_only_scores_still_tabulates(trai
         (data.parent / "away").rename(data)
 
 
+@pytest.mark.slow
 def test_an_archive_of_an_archive_keeps_its_predictions_and_scores_without_the_data(
         trained, tmp_path, capsys):
     grid, archive, data = trained
@@ -195,6 +200,7 @@ def test_predictions_of_earlier_versions_and_damaged_records_are_read_or_named(t
         read_kept_predictions(run)
 
 
+@pytest.mark.slow
 def test_a_release_writes_each_configuration_and_seed_per_frame_as_score_reads_it(
         trained, tmp_path, capsys, monkeypatch):
     from dataclasses import replace
@@ -226,6 +232,7 @@ def test_a_release_writes_each_configuration_and_seed_per_frame_as_score_reads_i
         "A-fixed"]
 
 
+@pytest.mark.slow
 def test_a_release_refuses_a_configuration_the_grid_lacks_and_an_archive_without_predictions(
         trained, tmp_path, capsys):
     grid, archive, data = trained
@@ -241,6 +248,7 @@ def test_a_release_refuses_a_configuration_the_grid_lacks_and_an_archive_without
     assert not (tmp_path / "x").exists() and not (tmp_path / "y").exists()
 
 
+@pytest.mark.slow
 def test_a_release_and_score_say_that_a_release_scores_the_last_evaluation_point(
         trained, tmp_path, capsys):
     """The release's README says that a release scores its runs' last evaluation point, not the

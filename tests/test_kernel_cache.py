@@ -138,6 +138,7 @@ def test_a_fifo_as_the_build_lock_is_no_lock_and_no_hang(cache):
 
 
 @needs_fused
+@pytest.mark.slow
 def test_a_build_waiting_for_another_says_so_then_uses_its_library(cache, capsys):
     """A second process's first use during a build waited a minute without a word."""
     path = build.library_path()
@@ -160,6 +161,7 @@ def test_a_compiler_that_writes_no_library_is_refused_for_it(tmp_path, monkeypat
 
 
 @needs_fused
+@pytest.mark.slow
 def test_a_truncated_library_costs_a_training_one_line_and_a_rebuild(cache, tmp_path, synth_dir):
     """Today's crash (SIGBUS on loading a truncated library, in every later run too) cannot
     happen: the run rebuilds it and trains on the fused loops."""
@@ -175,6 +177,7 @@ def test_a_truncated_library_costs_a_training_one_line_and_a_rebuild(cache, tmp_
 
 
 @needs_fused
+@pytest.mark.slow
 def test_a_library_that_holds_no_op_falls_back_to_the_graph_loops(cache, tmp_path, synth_dir):
     """A library whose bytes match its record but that registers no op (another program's, or a
     build gone wrong): one line, the graph loops, and the library removed for the next process."""
@@ -204,6 +207,7 @@ def _train(out: Path, data: Path) -> subprocess.CompletedProcess:
         capture_output=True, text=True, env=env, timeout=600)
 
 
+@pytest.mark.slow
 def test_a_hanging_compiler_is_stopped_with_every_process_it_started(tmp_path, monkeypatch):
     pids = tmp_path / "pids"
     hang = tmp_path / "hang"
@@ -352,6 +356,7 @@ def _wait_for(condition, seconds: float = 180) -> None:
 
 @pytest.mark.parametrize("how", [signal.SIGKILL, signal.SIGTERM, signal.SIGINT],
                          ids=["SIGKILL", "SIGTERM", "SIGINT"])
+@pytest.mark.slow
 def test_a_killed_build_ends_its_compiler_and_the_next_use_rebuilds(tmp_path, monkeypatch,
                                                                      capsys, how):
     """The compiler ran in its own session to completion after its process was killed (SIGKILL,
@@ -452,6 +457,7 @@ def test_a_remembered_failure_of_other_inputs_is_tried_again(tmp_path, monkeypat
     assert change == "record a FIFO" or not failed.exists()
 
 
+@pytest.mark.slow
 def test_a_build_that_fails_while_another_waits_is_not_tried_again_by_it(tmp_path, monkeypatch,
                                                                          capsys):
     """Two workers of a grid: the second waits on the first's build lock, then finds its failure
@@ -476,6 +482,7 @@ def test_a_build_that_fails_while_another_waits_is_not_tried_again_by_it(tmp_pat
 
 
 @needs_fused
+@pytest.mark.slow
 def test_a_remembered_failure_costs_a_training_one_line_and_the_kernels_command_retries(
         tmp_path, monkeypatch, synth_dir):
     tools = tmp_path / "tools"

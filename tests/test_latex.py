@@ -41,6 +41,7 @@ def paper_tables(tables) -> dict[str, Path]:
     return {name: path for name, path in tables.items() if not name.startswith("claims")}
 
 
+@pytest.mark.slow
 def test_every_table_is_written(tables):
     assert set(tables) == {f"{name}{suffix}" for suffix in ("", "_ours")
                            for name in (*PAPER_TABLES, "claims")}

@@ -70,6 +70,7 @@ def _score(folder: Path, synth_dir: Path, rate: float) -> pd.DataFrame:
     return method_scores([folder], DataConfig(str(synth_dir)), rate)[0]
 
 
+@pytest.mark.slow
 def test_per_fold_scores_equal_what_the_metric_code_gives(tmp_path, synth_dir, trials):
     rng = np.random.default_rng(0)
     labels = {t.name: _frame_labels(t, rng) for t in trials}
@@ -91,6 +92,7 @@ def test_the_true_labels_score_100(tmp_path, synth_dir, trials):
         assert scores[f"gesture_{metric}"].eq(100).all(), metric
 
 
+@pytest.mark.slow
 def test_both_formats_and_both_rates_score_alike(tmp_path, synth_dir, trials):
     rng = np.random.default_rng(1)
     at_5hz = {t.name: np.repeat(_frame_labels(t, rng)[::6], 6)[:t.n_frames] for t in trials}
@@ -110,6 +112,7 @@ def _refused(tmp_path, capsys, folder: Path, synth_dir: Path, *extra: str) -> st
     return err
 
 
+@pytest.mark.slow
 def test_a_wrong_folder_is_refused_naming_the_trial(tmp_path, capsys, synth_dir, trials):
     good = _write(tmp_path / "good", {t.name: _frame_labels(t) for t in trials}, 30, "txt")
     first = trials[0]
@@ -147,6 +150,7 @@ def test_a_wrong_folder_is_refused_naming_the_trial(tmp_path, capsys, synth_dir,
     assert "divisor" in _refused(tmp_path, capsys, good, synth_dir, "--rate", "7")
 
 
+@pytest.mark.slow
 def test_files_as_other_tools_write_them_are_read_or_refused_in_one_line(tmp_path, capsys,
                                                                        synth_dir, trials):
     """A byte-order mark and Windows line endings are read; a byte that is not UTF-8, an empty
@@ -207,6 +211,7 @@ def baselines(tmp_path_factory, synth_dir) -> dict[str, Path]:
     return grids
 
 
+@pytest.mark.slow
 def test_the_pairing_is_statistics_paired_on_the_same_numbers(tmp_path, synth_dir, trials,
                                                               baselines):
     rng = np.random.default_rng(2)
@@ -238,6 +243,7 @@ def test_a_grid_tested_on_other_trials_is_refused(tmp_path, synth_dir, baselines
         read_baselines([(baselines["lstm"], [])], "revised", folds)
 
 
+@pytest.mark.slow
 def test_against_names_a_folder_that_is_no_grid_and_a_baseline_named_twice(
         tmp_path, capsys, synth_dir, trials, baselines):
     good = _write(tmp_path / "good", {t.name: _frame_labels(t) for t in trials}, 30, "txt")

@@ -178,6 +178,7 @@ def _chance(trials, field):
 @pytest.mark.parametrize("name,weighting", [("APr", "gradnorm"), ("APc", "fixed"),
                                             ("APoc", "gradnorm"), ("Pc", "fixed"),
                                             ("Poc", "fixed"), ("Pr", "fixed")])
+@pytest.mark.slow
 def test_variant_learns_on_held_out_user(synth_dir, tmp_path, name, weighting):
     variant = get_variant(name)
     config = _run_config(synth_dir, variant.optim())
@@ -214,6 +215,7 @@ def test_variant_a_equals_baseline_train(synth_dir, tmp_path, monkeypatch):
         pd.testing.assert_frame_equal(a, b)
 
 
+@pytest.mark.slow
 def test_multitask_cli_outputs_progress_columns_and_plots(synth_dir, tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("JIGSAWS_DIR", str(synth_dir))
     out = tmp_path / "apoc"

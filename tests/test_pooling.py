@@ -379,6 +379,7 @@ def test_a_grid_record_listing_a_run_twice_is_one_line(tmp_path, capsys):
 
 
 # -- 6. no side doors ---------------------------------------------------------------------------
+@pytest.mark.slow
 def test_a_spec_check_reads_recorded_settings_only(tmp_path):
     """Tables over a grid whose spec names the synthetic release: every run checked against the
     spec, without TensorFlow and without writing a synthetic release."""

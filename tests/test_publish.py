@@ -174,6 +174,7 @@ def observed_steps(monkeypatch, place: Path, copies: Path) -> list[tuple[str, Pa
     return taken
 
 
+@pytest.mark.slow
 def test_tables_killed_at_any_step_over_an_earlier_output_are_all_old_or_all_new(
         fake_grid, tmp_path, monkeypatch):
     """``multitask-tables --out`` over the tables of another call (the grid's 15 files; now
@@ -196,6 +197,7 @@ def test_tables_killed_at_any_step_over_an_earlier_output_are_all_old_or_all_new
     assert visible(taken[-1][1]) == new
 
 
+@pytest.mark.slow
 def test_an_archive_killed_at_any_step_over_an_earlier_one_is_the_old_or_the_new(
         fake_grid, tmp_path, monkeypatch):
     """``--archive`` over an earlier archive of the same grid: the destination holds the old
@@ -301,6 +303,7 @@ def test_a_publish_never_removes_a_users_folder_that_looks_like_its_own(tmp_path
                 if publish.is_own(p, "out") or publish.is_own(p, "t.json")]
 
 
+@pytest.mark.slow
 def test_an_archive_leaves_the_users_folders_of_its_hidden_names(fake_grid, tmp_path):
     """Issue 66: ``.A.mynotes1.tmp/`` and ``.A.backup_1.old.tmp/`` beside an archive ``A`` are
     the user's: the next archive into ``A`` leaves them (and the other look-alikes) whole."""

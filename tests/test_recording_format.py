@@ -70,6 +70,7 @@ def test_decimation_keeps_the_model_rate_and_refuses_other_ratios():
             decimation(config, rate)
 
 
+@pytest.mark.slow
 def test_reads_and_discovers_the_declared_layout(robot_dir, synth_dir):
     fmt = read_format_file(robot_dir / "my_robot.toml")
     index = discover(robot_dir / "data", recording_format=fmt)
@@ -381,6 +382,7 @@ def test_a_lower_case_user_letter_is_refused_naming_the_file(robot_dir, synth_di
     assert renamed in _error_line(capsys)
 
 
+@pytest.mark.slow
 def test_jigsaws_tools_reads_a_folder_of_another_layout_with_format(robot_dir, tmp_path, capsys):
     data, fmt = str(robot_dir / "data"), str(robot_dir / "my_robot.toml")
     assert tools_main(["inspect", "--data-dir", data, "--format", fmt]) == 0
@@ -450,6 +452,7 @@ def robot_forward_run(robot_dir):
     return out
 
 
+@pytest.mark.slow
 def test_an_own_format_run_streams_its_recordings(robot_forward_run, robot_dir, tmp_path):
     recording = robot_dir / "data" / "recordings" / "Suturing-B-1.csv"
     out = tmp_path / "stream"

@@ -67,6 +67,7 @@ def test_a_grid_refuses_to_stack_compiled_loops(tmp_path, capsys):
     assert code == 2 and "--stack 1 with loops xla" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_a_stack_traces_its_step_once(tmp_path):
     members = [_trainer(tmp_path / f"m{s}", seed=s, monitor_every=1) for s in (0, 1)]
     stack = TrainerStack(members)
@@ -76,6 +77,7 @@ def test_a_stack_traces_its_step_once(tmp_path):
     assert all(m.model.infer.experimental_get_tracing_count() == 1 for m in members)
 
 
+@pytest.mark.slow
 def test_monitoring_never_changes_training(tmp_path):
     quiet = _trainer(tmp_path / "quiet", monitor_every=100)
     busy = _trainer(tmp_path / "busy", monitor_every=1, monitor_train=True)
@@ -138,6 +140,7 @@ def test_progress_lines_say_what_their_numbers_are(tmp_path):
     assert all(" s/epoch  ETA " in line for line in progress)
 
 
+@pytest.mark.slow
 def test_the_first_lines_eta_leaves_out_the_sessions_first_sweep(tmp_path, monkeypatch):
     """TensorFlow's one-off work lands in a session's first sweep (here 10 s, then 1 s a sweep,
     on a clock that moves only while a sweep trains). The first line measures its epoch as it

@@ -50,6 +50,7 @@ def _segments(run: Path) -> list[dict]:
     return json.loads((run / "finished.json").read_text())["segments"]
 
 
+@pytest.mark.slow
 def test_a_run_trained_in_one_session_records_one_segment(synth_dir, tmp_path):
     run = tmp_path / "run"
     train_baseline(_config(synth_dir, "graph"), run, log=lambda m: None)
@@ -62,6 +63,7 @@ def test_a_run_trained_in_one_session_records_one_segment(synth_dir, tmp_path):
 
 
 @pytest.mark.parametrize("first, then", [("xla", "graph"), ("graph", "xla")])
+@pytest.mark.slow
 def test_a_run_resumed_on_other_loops_records_both_and_reads_as_mixed(synth_dir, tmp_path,
                                                                       monkeypatch, first, then):
     """Today config.json kept the loops the run started on, and finished.json none: a run begun
@@ -78,6 +80,7 @@ def test_a_run_resumed_on_other_loops_records_both_and_reads_as_mixed(synth_dir,
 
 
 @needs_fused
+@pytest.mark.slow
 def test_a_run_whose_fused_loops_vanish_records_the_fallback_and_why(synth_dir, tmp_path,
                                                                      monkeypatch):
     run = tmp_path / "run"
@@ -92,6 +95,7 @@ def test_a_run_whose_fused_loops_vanish_records_the_fallback_and_why(synth_dir, 
 
 
 @needs_fused
+@pytest.mark.slow
 def test_a_resumed_auto_run_keeps_the_loops_it_started_on_and_says_why(synth_dir, tmp_path,
                                                                        monkeypatch):
     """Begun where the fused loops could not be built, an ``auto`` run resumed where they can
@@ -118,6 +122,7 @@ def test_an_auto_run_says_why_it_runs_the_fused_loops(synth_dir, tmp_path, monke
     assert read_run_record(run).loops() == "fused"
 
 
+@pytest.mark.slow
 def test_a_checkpoint_older_than_segment_records_counts_from_the_provenance(synth_dir, tmp_path,
                                                                             monkeypatch):
     run = tmp_path / "run"

@@ -27,6 +27,7 @@ def runs(tmp_path_factory) -> Path:
     return root / "mine"
 
 
+@pytest.mark.slow
 def test_a_folder_of_runs_is_tabulated_from_their_configs(runs, tmp_path, capsys):
     out = tmp_path / "tables"
     assert tables_main(["runs", str(runs), "--out", str(out)]) == 0
@@ -41,11 +42,13 @@ def test_a_folder_of_runs_is_tabulated_from_their_configs(runs, tmp_path, capsys
                                                "tables.json"}
 
 
+@pytest.mark.slow
 def test_one_run_folder_is_a_table_of_one_run(runs, tmp_path):
     assert tables_main(["runs", str(runs / "A_B"), "--out", str(tmp_path / "one")]) == 0
     assert pd.read_csv(tmp_path / "one" / "runs.csv").run.tolist() == ["."]
 
 
+@pytest.mark.slow
 def test_a_copy_of_a_run_and_an_unfinished_run_are_named(runs, tmp_path, capsys):
     mine = tmp_path / "mine"
     shutil.copytree(runs, mine)

@@ -25,6 +25,7 @@ def test_synthetic_release_round_trips(synth_dir):
     assert lines[0][2] == "G1" and lines[-1][2] == "G11"
 
 
+@pytest.mark.slow
 def test_same_seed_same_files(tmp_path, synth_dir):
     again = write_release(tmp_path / "again", SynthConfig(seed=0))
     for sub in ("kinematics/AllGestures", "transcriptions"):
@@ -35,6 +36,7 @@ def test_same_seed_same_files(tmp_path, synth_dir):
         not np.allclose(other, read_kinematics(discover(synth_dir).trials[0].kinematics))
 
 
+@pytest.mark.slow
 def test_dataset_cache_is_reused_and_keyed_by_options(synth_dir, tmp_path):
     config = DataConfig(str(synth_dir))
     first = load_dataset(config, cache_dir=tmp_path)
@@ -132,6 +134,7 @@ def test_frame_labels_mark_gaps_unlabelled(synth_dir):
     assert np.all(labels[:segments[0].start - 1] == -1) and np.all(labels[-5:] == -1)
 
 
+@pytest.mark.slow
 def test_cli_commands(synth_dir, tmp_path, capsys):
     from jigsaws_tools.cli.main import main
 
@@ -161,6 +164,7 @@ def test_ensure_release_writes_once_and_keys_by_config(tmp_path):
     assert not list(tmp_path.glob(".synthetic-*"))
 
 
+@pytest.mark.slow
 def test_a_cache_that_cannot_be_written_is_one_warning_with_synthetic_data(
         tmp_path, monkeypatch, caplog):
     """README: "a cache folder that cannot be written costs one warning and no cache". With

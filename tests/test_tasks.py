@@ -155,6 +155,7 @@ def test_definition_file_errors(tmp_path):
 
 # -- Suturing's labels unchanged on the real data ---------------------------------------------------
 @pytest.mark.parametrize("version", ["original", "revised"])
+@pytest.mark.slow
 def test_real_suturing_labels_and_inputs_unchanged(real_dir, version):
     """Gesture labels from the paper's fixed vocabulary, progress from the paper's rule written
     out above, and inputs preprocessed from those labels: identical to what the task-driven
@@ -226,6 +227,7 @@ def test_real_knot_tying_dataset(knot_dir):
 
 # -- every task's synthetic release, end to end ----------------------------------------------------
 @pytest.mark.parametrize("name", ["Suturing", "Knot_Tying", "Needle_Passing"])
+@pytest.mark.slow
 def test_synthetic_release_of_every_task_trains(tmp_path, name, capsys):
     task = load_task(name)
     root = write_release(tmp_path / name, SynthConfig(seed=1, users=("B", "C", "D"),
@@ -259,6 +261,7 @@ def test_synthetic_sequences_follow_the_grammar():
         assert body[:4] == ["G12", "G13", "G14", "G15"]
 
 
+@pytest.mark.slow
 def test_made_up_task_drives_synth_inspect_and_training(tmp_path, capsys):
     definition = _write(tmp_path, TOY_TASK, "toy.toml")
     release = tmp_path / "Toy_Sort"
@@ -281,6 +284,7 @@ def test_made_up_task_drives_synth_inspect_and_training(tmp_path, capsys):
     assert len(list((run / "eval/epoch0002/plots").glob("*.png"))) == 5
 
 
+@pytest.mark.slow
 def test_knot_tying_grid_tables_and_figures(tmp_path, capsys):
     """A grid spec with ``task``: runs on the task's synthetic release, tables without the paper's
     (Suturing) comparisons, figures with the task's gestures and stages."""
@@ -313,6 +317,7 @@ def test_knot_tying_grid_tables_and_figures(tmp_path, capsys):
     assert "Knot Tying kinematics, 2 trials, leave-one-user-out over 1 fold (B)" in caption
 
 
+@pytest.mark.slow
 def test_a_grid_of_ones_own_task_tabulates_where_its_task_file_is_not(tmp_path, caplog):
     """grid.json names the task file by its path; on another machine (here: the file moved) the
     tables are still made, with a warning that the spec check was skipped."""

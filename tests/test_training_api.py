@@ -61,6 +61,7 @@ def test_a_bad_setting_is_a_value_error_before_any_work(settings, message, tmp_p
 
 
 @needs_mlflow
+@pytest.mark.slow
 def test_a_finished_run_is_logged_to_mlflow_once(synth_dir, tmp_path, monkeypatch, capsys):
     """To a folder (MLflow's file store, without ``MLFLOW_ALLOW_FILE_STORE``), from a run
     folder whose path holds the characters a search filter quotes (issue 66: such a run was
@@ -195,6 +196,7 @@ def test_train_raises_what_its_docstring_says(tmp_path, monkeypatch, settings, r
 
 
 @needs_mlflow
+@pytest.mark.slow
 def test_a_grid_is_a_parent_run_with_its_runs_nested_under_it(synth_dir, tmp_path,
                                                                monkeypatch):
     from mlflow.tracking import MlflowClient

@@ -26,6 +26,7 @@ def _fold_means(grid, variant, metric):
     return runs[runs.variant == variant].groupby("fold")[metric].mean()
 
 
+@pytest.mark.slow
 def test_one_row_per_width_and_metric_from_each_grids_runs(tmp_path, capsys):
     small, paper = _grid(tmp_path, 32), _grid(tmp_path, 1024, seeds=(0, 1))
     assert tables_main(["width", str(paper), str(small), "--out", str(tmp_path / "w")]) == 0
@@ -171,6 +172,7 @@ def _pooled(tmp_path, *options, first=(0,), second=(1, 2), **second_grid):
                         "--out", str(tmp_path / "w")]), one, two
 
 
+@pytest.mark.slow
 def test_grids_of_one_width_pool_their_seeds(tmp_path):
     code, one, two = _pooled(tmp_path)
     assert code == 0
@@ -189,6 +191,7 @@ def test_grids_of_one_width_pool_their_seeds(tmp_path):
     assert set(table[table.hidden == 16].grids) == {f"{tmp_path / 'h16'}: 0"}
 
 
+@pytest.mark.slow
 def test_a_pooled_width_is_the_table_of_one_grid_holding_its_runs(tmp_path):
     """Pooling changes nothing but where the runs lie: the table of the two grids' runs copied
     into one grid is the pooled one."""
@@ -206,6 +209,7 @@ def test_a_pooled_width_is_the_table_of_one_grid_holding_its_runs(tmp_path):
     pd.testing.assert_frame_equal(alone, pooled.drop(columns="grids"))
 
 
+@pytest.mark.slow
 def test_one_grid_per_width_writes_no_grids_column(tmp_path):
     small, wide = _grid(tmp_path, 32), _grid(tmp_path, 64, seeds=(0, 1))
     assert tables_main(["width", str(small), str(wide), "--out", str(tmp_path / "w")]) == 0
@@ -252,6 +256,7 @@ def test_pooled_grids_on_other_data_are_refused(tmp_path, capsys):
     assert f"the grids differ in their data settings (preprocessing): {one} and {two}" in err
 
 
+@pytest.mark.slow
 def test_seeds_take_each_from_the_grid_that_holds_it(tmp_path):
     code, one, two = _pooled(tmp_path, "--seeds", "0", "2")
     assert code == 0
@@ -303,6 +308,7 @@ def test_a_missing_grid_of_an_entry_is_named(tmp_path, capsys):
     assert f"{tmp_path / 'nope'}: no such folder" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_grid_dir_may_be_a_joined_entry_too(tmp_path):
     code, one, two = _pooled(tmp_path)
     pooled = pd.read_csv(tmp_path / "w" / "width.csv")
