@@ -312,3 +312,27 @@ def test_an_archive_leaves_the_users_folders_of_its_hidden_names(fake_grid, tmp_
     users = _users_lookalikes(dest.parent, "A")
     assert tables_main(["archive", str(fake_grid), str(dest)]) == 0
     assert _hidden(dest.parent, tmp_path / "elsewhere") == users
+
+
+def test_a_study_of_many_files_prints_their_count_and_its_manifest(tmp_path, capsys):
+    """Up to ``LISTED`` files a study's publish names each; past it (a release's trial files),
+    one line with their count and the manifest that lists every one of them."""
+    from multitask.evidence.commands.common import LISTED, publish as publish_study
+
+    def write(count):
+        def files(staging: Path) -> list[Path]:
+            written = [staging / "trials" / f"t{i:04d}.csv" for i in range(count)]
+            for path in written:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                path.write_text("frame,gesture\n1,G1\n")
+            return written
+        return files
+
+    publish_study(tmp_path / "few", "few.json", False, write(LISTED))
+    assert len(capsys.readouterr().out.splitlines()) == LISTED
+    publish_study(tmp_path / "many", "many.json", False, write(LISTED + 1))
+    out = capsys.readouterr().out.splitlines()
+    assert out == [f"{tmp_path / 'many'}: {LISTED + 1} files written, listed in "
+                   f"{tmp_path / 'many' / 'many.json'}"]
+    listed = json.loads((tmp_path / "many" / "many.json").read_text())["files"]
+    assert len(listed) == LISTED + 1 and all((tmp_path / "many" / f).is_file() for f in listed)

@@ -74,10 +74,15 @@ def check_folders(folders: Sequence[Path], what: str) -> None:
             raise FileNotFoundError(f"{folder}: no such folder ({what})")
 
 
+#: How many written files ``publish`` names one by one.
+LISTED = 100
+
+
 def publish(out: Path, manifest: str, overwrite: bool, write: Callable[[Path], list[Path]],
             record: dict[str, Any] | None = None, kept: tuple[str, ...] = ()) -> None:
     """``write(staging)`` (the study: returns the paths it wrote under ``staging``), published
-    into ``out`` and listed in ``manifest`` (module docstring); then every path printed.
+    into ``out`` and listed in ``manifest`` (module docstring); then every path printed, or, past
+    ``LISTED`` paths (a release's trial files), their count and where the manifest lists them.
 
     Args:
         out: the output folder (``--out``).
@@ -97,6 +102,9 @@ def publish(out: Path, manifest: str, overwrite: bool, write: Callable[[Path], l
     with staged_outputs(out, manifest, PROG, overwrite, record=record, kept=kept) as staging, \
             drawing.shown(PROG):
         written = write(staging)
+    if len(written) > LISTED:
+        print(f"{out}: {len(written)} files written, listed in {out / manifest}")
+        return
     for path in written:
         print(out / path.relative_to(staging))
 
