@@ -500,9 +500,20 @@ def test_an_output_folder_in_proc_is_one_line_and_exit_2(capsys):
         code = multitask_main(["--synthetic", "--variant", "A", "--hidden", "8", "--epochs", "1",
                                "--test-user", "C", "--no-plots", "--out", "/proc/mtrnn-x"])
     err = capsys.readouterr().err.strip().splitlines()
-    assert code == 2 and err[-1].startswith("multitask-train: error: ")
-    assert "/proc/mtrnn-x" in err[-1]
+    assert code == 2 and err[-1] == ("multitask-train: error: /proc/mtrnn-x: cannot create this "
+                                     "folder (No such file or directory)")
     assert "Traceback" not in "\n".join(err)
+
+
+def test_an_output_under_a_file_is_one_line_naming_the_file(tmp_path, capsys):
+    """The operating system's errors on a file read ``<file>: <reason>``, never ``[Errno 17]
+    File exists: '...'``."""
+    (tmp_path / "notes.txt").write_text("mine")
+    code = multitask_main(["--synthetic", "--out", str(tmp_path / "notes.txt" / "run")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and err == (f"multitask-train: error: {tmp_path / 'notes.txt'}: a file, "
+                                 "not a folder")
+    assert (tmp_path / "notes.txt").read_text() == "mine"
 
 
 def _wait_for(condition, what: str, timeout: float = 300) -> None:

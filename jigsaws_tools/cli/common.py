@@ -408,9 +408,20 @@ def run_command(prog: str, verbose: bool, body: Callable[[], int | None],
 
 def _worded(error: BaseException, layout_advice: str | None) -> str:
     """``error``'s message, its advice for recordings of another layout (to give ``--format``)
-    replaced by ``layout_advice`` unless that is None (``run_command``)."""
+    replaced by ``layout_advice`` unless that is None (``run_command``); an operating system's
+    error on a file as ``<file>: <reason>`` (``/proc/x: No such file or directory``)."""
+    text = _file_error(error) if isinstance(error, OSError) else str(error)
     if layout_advice is None:
-        return str(error)
+        return text
     from ..recording_format import another_layout_hint
 
-    return str(error).replace(another_layout_hint(), layout_advice)
+    return text.replace(another_layout_hint(), layout_advice)
+
+
+def _file_error(error: OSError) -> str:
+    """``<file>: <reason>`` (``<file> -> <other>: <reason>`` for a rename) for an error of the
+    operating system on a file; any other ``OSError`` as it reads."""
+    if not (error.errno and error.strerror and error.filename is not None):
+        return str(error)
+    names = str(error.filename) + (f" -> {error.filename2}" if error.filename2 else "")
+    return f"{names}: {error.strerror}"

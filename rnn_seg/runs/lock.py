@@ -120,7 +120,13 @@ def _take(folder: Path, what: str, lock_file: str) -> _Hold:
             continue                                   # or none can be made there (/proc)
         if taken is not None:
             return _Hold(*taken, list(made))
-    made.update(dict.fromkeys(_make_folders(folder)))  # raises where no folder can be made;
+    try:                                               # raises where no folder can be made;
+        made.update(dict.fromkeys(_make_folders(folder)))
+    except FileExistsError:
+        raise
+    except OSError as error:
+        raise type(error)(error.errno, f"cannot create this folder ({error.strerror})",
+                          error.filename) from None
     for path in reversed(made):                        # else no lock file can (removed again)
         if path.is_dir() and not any(path.iterdir()):
             path.rmdir()
@@ -138,7 +144,7 @@ def _make_folders(folder: Path) -> list[Path]:
             path.mkdir()
         except FileExistsError:
             if not path.is_dir():
-                raise
+                raise FileExistsError(errno.EEXIST, "a file, not a folder", str(path)) from None
             continue                        # created meanwhile by another process
         made.append(path)
     return made
