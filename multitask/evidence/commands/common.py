@@ -67,11 +67,13 @@ def seeds_of(args: argparse.Namespace) -> tuple[int, ...] | None:
 
 
 def check_folders(folders: Sequence[Path], what: str) -> None:
-    """A ``FileNotFoundError`` naming the first of ``folders`` that is no folder, and ``what``
-    it should be (e.g. ``a grid folder, a scores archive or a folder of runs``)."""
+    """A ``FileNotFoundError`` naming the first of ``folders`` that is no folder (missing, or a
+    file), and ``what`` it should be (e.g. ``a grid folder, a scores archive or a folder of
+    runs``)."""
     for folder in folders:
         if not folder.is_dir():
-            raise FileNotFoundError(f"{folder}: no such folder ({what})")
+            found = "a file, not a folder" if folder.exists() else "no such folder"
+            raise FileNotFoundError(f"{folder}: {found} ({what})")
 
 
 #: How many written files ``publish`` names one by one.

@@ -37,8 +37,9 @@ _COUNTS = {"converged": "converged", "undecided": "undecided", "still_falling": 
 
 
 class LadderError(ValueError):
-    """A ladder that the grid's runs cannot answer (a length beyond a run's schedule, a unit
-    that is not the history's)."""
+    """A ladder that the grid's runs cannot answer (a grid not finished, a run whose learning
+    rate decays, a length beyond a run's schedule, a unit that is not the history's, no length
+    long enough to judge every run)."""
 
 
 def ladder_runs(grid: Path, lengths: Sequence[int]) -> pd.DataFrame:
@@ -48,14 +49,23 @@ def ladder_runs(grid: Path, lengths: Sequence[int]) -> pd.DataFrame:
     is too short to judge).
 
     Raises:
-        LadderError: a length longer than a run's schedule, or a run whose history counts
-            another unit than epochs.
+        LadderError: a grid with a problem (a run not finished, a stray folder: the first named,
+            in one line), a run whose learning rate decays (its first epochs depend on its
+            schedule's length), a length longer than a run's schedule, or a run whose history
+            counts another unit than epochs.
     """
-    _, _, records = run_records(grid, varying=(INNER_SETTING,))
+    _, problems, records = run_records(grid, allow_incomplete=True, varying=(INNER_SETTING,))
+    if problems:
+        more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+        raise LadderError(f"{grid}: {problems[0]}{more}: a ladder reads a finished grid")
     out = []
     for run_dir, record in sorted(records.items()):
+        optim = record.config.optim
+        total = optim.total
+        if optim.decay_start < total:
+            raise LadderError(f"{run_dir}: its learning rate decays from epoch "
+                              f"{optim.decay_start} of {total}: a ladder needs a constant rate")
         history = read_log(run_dir / HISTORY)
-        total = record.config.optim.total
         unit = str(history["unit"].iloc[0]) if "unit" in history and len(history) else "epochs"
         if unit != "epochs":
             raise LadderError(f"{run_dir / HISTORY}: unit {unit!r}: a ladder is in epochs")
@@ -85,19 +95,28 @@ def ladder_summary(runs: pd.DataFrame) -> pd.DataFrame:
 
 
 def ladder_choice(summary: pd.DataFrame) -> pd.DataFrame:
-    """Per grid (a backbone's pilot runs): the shortest length at which no run is still falling
-    (and every run is judged), else the longest, with ``reason`` saying which."""
+    """Per grid (a backbone's pilot runs): among the lengths that judge every run (none too
+    short), the shortest at which no run is still falling, else the longest, with ``reason``
+    saying which.
+
+    Raises:
+        LadderError: a grid whose every length leaves a run too short to judge.
+    """
     out = []
     for grid, rows in summary.groupby("grid", sort=False):
         per_length = rows.groupby("length")[["still_falling", "too_short"]].sum().sort_index()
-        clear = per_length[(per_length.still_falling == 0) & (per_length.too_short == 0)]
+        judged = per_length[per_length.too_short == 0]
+        if not len(judged):
+            raise LadderError(f"{grid}: every length ({', '.join(map(str, per_length.index))}) "
+                              f"is too short to judge a run: give a longer one")
+        clear = judged[judged.still_falling == 0]
         if len(clear):
             length, reason = int(clear.index[0]), "the shortest length with no run still falling"
         else:
-            length = int(per_length.index[-1])
-            reason = (f"every length leaves a run still falling or too short to judge "
-                      f"({int(per_length.still_falling.iloc[-1])} still falling at the "
-                      f"longest): the longest taken")
+            length = int(judged.index[-1])
+            falling = int(judged.still_falling.iloc[-1])
+            reason = (f"every length leaves a run still falling ({falling} at the longest): "
+                      f"the longest taken")
         out.append({"grid": grid, "architecture": rows["architecture"].iloc[0],
                     "length": length, "still_falling": int(per_length.still_falling.loc[length]),
                     "runs": int(rows[rows["length"] == length]["runs"].sum()), "reason": reason})
@@ -109,6 +128,11 @@ def write_ladder(grids: Sequence[Path], lengths: Sequence[int], out: Path) -> li
     ``grids`` (each a backbone's pilot runs, or its scores archive) at ``lengths`` into
     ``out``; returns the paths written."""
     lengths = sorted(set(int(n) for n in lengths))
+    seen = set()
+    for grid in grids:
+        if Path(grid).resolve() in seen:
+            raise LadderError(f"{grid}: given twice (its runs would be counted twice)")
+        seen.add(Path(grid).resolve())
     runs = pd.concat([ladder_runs(Path(grid), lengths) for grid in grids], ignore_index=True)
     summary = ladder_summary(runs)
     choice = ladder_choice(summary)
@@ -132,15 +156,15 @@ def _report(summary: pd.DataFrame, choice: pd.DataFrame, lengths: list[int]) -> 
         counts=[f"{r.still_falling} / {r.undecided} / {r.converged}"
                 + (f" ({r.too_short} too short to judge)" if r.too_short else "")
                 for r in summary.itertuples()])
-    wide = table.pivot_table(index=["architecture", "configuration"], columns="length",
+    wide = table.pivot_table(index=["grid", "architecture", "configuration"], columns="length",
                              values="counts", aggfunc="first", sort=False).reset_index()
-    header = ["backbone", "configuration", *[f"{n} epochs" for n in lengths]]
-    body = [[row["architecture"], row["configuration"], *[row.get(n, "") for n in lengths]]
-            for _, row in wide.iterrows()]
-    chosen = [[row.architecture, str(row.length), f"{row.still_falling} of {row.runs}",
+    header = ["grid", "backbone", "configuration", *[f"{n} epochs" for n in lengths]]
+    body = [[row["grid"], row["architecture"], row["configuration"],
+             *[row.get(n, "") for n in lengths]] for _, row in wide.iterrows()]
+    chosen = [[row.grid, row.architecture, str(row.length), f"{row.still_falling} of {row.runs}",
                row.reason] for row in choice.itertuples()]
     lines = ["Runs still falling / undecided / converged (`rnn_seg.convergence`, training loss "
              "only) when the schedule is cut at each length:", "",
              *markdown_table(header, body), "",
-             *markdown_table(["backbone", "length", "still falling", "why"], chosen)]
+             *markdown_table(["grid", "backbone", "length", "still falling", "why"], chosen)]
     return "\n".join(lines) + "\n"
