@@ -356,6 +356,20 @@ def test_a_tcn_grids_epochs_set_its_reference_schedules_length():
         assert schedule_epochs(spec, key) == 150
         unset = spec_from_dict({"encoder": encoder, "preset": "paper"})
         assert schedule_epochs(unset, key) == reference.optim.total
+        for epochs in (150, 600):
+            spec = spec_from_dict({"encoder": encoder, "preset": "paper", "epochs": epochs})
+            train = run_config(spec, key).train
+            assert train.batch_size == reference.batch_size
+            assert len(train.eval_points) == 3 and train.eval_points[-1] == epochs
+            for point, fraction in zip(train.eval_points, (100 / 120, 110 / 120, 1)):
+                assert abs(point - fraction * epochs) <= 0.5
+        for name, value in (("hidden", 64), ("schedule_factors", {"A": 2}),
+                            ("precision", "mixed"), ("loops", 2)):
+            with pytest.raises(ValueError, match=f"{name} is an LSTM setting"):
+                spec_from_dict({"encoder": encoder, "epochs": 600, name: value}, source="s.toml")
+        for epochs in (0, -3, 1.5, "600", True):
+            with pytest.raises(ValueError, match=r"s.toml: epochs must be an integer >= 1"):
+                spec_from_dict({"encoder": encoder, "epochs": epochs}, source="s.toml")
 
 
 def test_grid_specs_set_the_sample_rate_and_ed_tcns_kernel(synth_dir):

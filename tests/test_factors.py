@@ -38,18 +38,23 @@ def _inner_spec(synth_dir, **keys):
                            **keys})
 
 
-def test_the_committed_ed_tcn_spec_keeps_its_config_and_settings_hash():
-    """The new options hold their defaults unrecorded: a run of results/tcn/ed-tcn.toml records
-    what the committed run recorded, and hashes alike."""
-    run = ROOT / "results/tcn/ed-tcn/runs/original/bidirectional/A-fixed/seed0/B/config.json"
+@pytest.mark.parametrize("encoder, epochs", [("ed-tcn", 200), ("ms-tcn", 50)])
+def test_the_committed_tcn_specs_keep_their_config_and_settings_hash(encoder, epochs):
+    """The new options hold their defaults unrecorded: a run of results/tcn/<encoder>.toml
+    records what the committed run recorded, and hashes alike; so does the spec with ``epochs``
+    at its reference's length (a ladder's shortest rung is the committed run)."""
+    run = ROOT / f"results/tcn/{encoder}/runs/original/bidirectional/A-fixed/seed0/B/config.json"
     recorded = json.loads(run.read_text())
-    spec = with_overrides(load_spec(ROOT / "results/tcn/ed-tcn.toml"), data_dir="/elsewhere")
-    configs = variant_configs(**run_arguments(spec, RunKey("original", "bidirectional", "A",
-                                                           "fixed", 0, "B")),
-                              fingerprint=recorded["data_fingerprint"])
-    assert settings_hash(configs) == recorded["settings_hash"]
-    assert to_jsonable(configs["run"])["encoder"] == recorded["run"]["encoder"]
-    assert "held_out_users" not in to_jsonable(configs["run"])
+    committed = with_overrides(load_spec(ROOT / f"results/tcn/{encoder}.toml"),
+                               data_dir="/elsewhere")
+    assert committed.epochs is None
+    for spec in (committed, with_overrides(committed, epochs=epochs)):
+        configs = variant_configs(**run_arguments(spec, RunKey("original", "bidirectional", "A",
+                                                               "fixed", 0, "B")),
+                                  fingerprint=recorded["data_fingerprint"])
+        assert settings_hash(configs) == recorded["settings_hash"]
+        assert to_jsonable(configs["run"])["encoder"] == recorded["run"]["encoder"]
+        assert "held_out_users" not in to_jsonable(configs["run"])
 
 
 def test_inner_runs_follow_their_outer_fold_cyclically():
