@@ -516,6 +516,41 @@ def test_an_output_under_a_file_is_one_line_naming_the_file(tmp_path, capsys):
     assert (tmp_path / "notes.txt").read_text() == "mine"
 
 
+def test_an_output_in_a_read_only_place_says_it_cannot_be_created(tmp_path, monkeypatch,
+                                                                    capsys):
+    """A folder or lock file the operating system refuses to create (/sys, a read-only mount:
+    EPERM, EROFS, EACCES) reads ``<path>: cannot create this folder (<reason>)`` like /proc's,
+    and a lock file that could not be made is never called an unusable one to remove."""
+    read_only = tmp_path / "ro"
+    real_mkdir, real_open = Path.mkdir, os.open
+
+    def mkdir(path, *args, **kwargs):
+        if str(path).startswith(str(read_only)):
+            raise OSError(errno.EROFS, os.strerror(errno.EROFS), str(path))
+        return real_mkdir(path, *args, **kwargs)
+
+    def open_(path, flags, *args):
+        if str(path).endswith(".out.lock") and flags & os.O_CREAT:
+            raise PermissionError(errno.EACCES, os.strerror(errno.EACCES), str(path))
+        return real_open(path, flags, *args)
+
+    monkeypatch.setattr(Path, "mkdir", mkdir)
+    code = tables_main(["ladder", str(Path(__file__).resolve().parents[1]
+                                      / "results/tcn/factors/grids/T-5hz-k15"),
+                        "--lengths", "100", "--out", str(read_only / "out")])
+    assert code == 2 and capsys.readouterr().err.strip() == (
+        f"multitask-tables: error: {read_only}: cannot create this folder "
+        f"({os.strerror(errno.EROFS)})")
+    assert not read_only.exists()
+    monkeypatch.setattr(lock.os, "open", open_)
+    with pytest.raises(PermissionError) as refused:
+        with hold_folder(tmp_path, "output out in the folder", ".out.lock"):
+            pass
+    assert refused.value.filename == str(tmp_path / ".out.lock")
+    assert refused.value.strerror.startswith("no file can be created there")
+    assert "remove it" not in str(refused.value)
+
+
 def _wait_for(condition, what: str, timeout: float = 300) -> None:
     deadline = time.time() + timeout
     while not condition():

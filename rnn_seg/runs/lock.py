@@ -120,13 +120,7 @@ def _take(folder: Path, what: str, lock_file: str) -> _Hold:
             continue                                   # or none can be made there (/proc)
         if taken is not None:
             return _Hold(*taken, list(made))
-    try:                                               # raises where no folder can be made;
-        made.update(dict.fromkeys(_make_folders(folder)))
-    except FileExistsError:
-        raise
-    except OSError as error:
-        raise type(error)(error.errno, f"cannot create this folder ({error.strerror})",
-                          error.filename) from None
+    made.update(dict.fromkeys(_make_folders(folder)))  # raises where no folder can be made;
     for path in reversed(made):                        # else no lock file can (removed again)
         if path.is_dir() and not any(path.iterdir()):
             path.rmdir()
@@ -135,7 +129,10 @@ def _take(folder: Path, what: str, lock_file: str) -> _Hold:
 
 
 def _make_folders(folder: Path) -> list[Path]:
-    """Create ``folder`` and its missing parents; returns those this call created, top first."""
+    """Create ``folder`` and its missing parents; returns those this call created, top first.
+    An error of the operating system reads ``<path>: a file, not a folder`` or ``<path>: cannot
+    create this folder (<reason>)`` (``/sys/x``: Operation not permitted), of the same type
+    (``FileNotFoundError``: a parent removed meanwhile, which ``_take`` tries again, or /proc)."""
     made = []
     for path in [*reversed(folder.parents), folder]:
         if path.is_dir():
@@ -146,6 +143,9 @@ def _make_folders(folder: Path) -> list[Path]:
             if not path.is_dir():
                 raise FileExistsError(errno.EEXIST, "a file, not a folder", str(path)) from None
             continue                        # created meanwhile by another process
+        except OSError as error:
+            raise type(error)(error.errno, f"cannot create this folder ({error.strerror})",
+                              str(path)) from None
         made.append(path)
     return made
 
@@ -232,6 +232,9 @@ def _open_lock_file(path: Path, what: str) -> tuple[int | None, bool]:
             raise
         return None, False                              # removed by its holder: try again
     except OSError as error:
+        if not (path.exists() or path.is_symlink()):   # none could be made (/sys, read-only)
+            raise type(error)(error.errno, f"no file can be created there ({error.strerror}; "
+                              f"the lock of the {what})", str(path)) from None
         problem = "a symbolic link" if path.is_symlink() else f"unusable ({error.strerror})"
         raise RunFolderError(f"{path}: the lock file of the {what} is {problem}; remove it "
                              "(nothing else holds it)") from None
