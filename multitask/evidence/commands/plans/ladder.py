@@ -6,9 +6,11 @@ learning rate (or its scores archive). For every run and length N, the project's
 check (``rnn_seg.convergence``: the 95 % interval of the training loss's drop over the last
 tenth) on its ``history.csv`` cut at N epochs, as if the schedule had ended there
 (``ladder_runs.csv``); per configuration and length, the runs still falling, undecided and
-converged (``ladder.csv``, ``ladder.md``); per backbone, the shortest length at which no run is
-still falling, else the longest (``ladder_choice.csv``). Only training losses are read. Listed
-in ``ladder.json`` (``plans.ladder``).
+converged (``ladder.csv``, ``ladder.md``); per backbone, among the lengths long enough to judge
+every run, the shortest at which no run is still falling, else the longest
+(``ladder_choice.csv``). Only training losses are read. A grid not finished or given twice, a
+run whose learning rate decays (an LSTM's) is refused. Listed in ``ladder.json``
+(``plans.ladder``).
 
     multitask-tables ladder runs/tcn/ladders/ms-tcn --lengths 50 100 150 200 \\
         --out results/tcn/ladders/ms-tcn-tables
