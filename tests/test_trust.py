@@ -1049,3 +1049,12 @@ def test_a_refused_checkpoint_names_its_file_and_leaves_no_part(tmp_path, reason
     assert f"checkpoint {checkpoint_prefix(tmp_path, 7)}" in str(raised.value)
     assert isinstance(raised.value, WriteFailed) == (refusal is WriteFailed)
     assert not list((tmp_path / "checkpoints").iterdir())
+
+
+def test_an_output_folder_in_a_loop_of_symbolic_links_is_one_line(tmp_path, capsys):
+    (tmp_path / "a").symlink_to(tmp_path / "b")
+    (tmp_path / "b").symlink_to(tmp_path / "a")
+    code = multitask_main(["--synthetic", "--out", str(tmp_path / "a" / "run")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1 and "Traceback" not in err
+    assert str(tmp_path / "a") in err and "symbolic links" in err

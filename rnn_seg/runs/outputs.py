@@ -64,7 +64,11 @@ def check_output_folder(out: Path, command: str, *, run_place: str | None = None
             files and folders into it).
     """
     out = Path(out)
-    place = out.resolve()
+    try:
+        place = out.resolve()
+    except RuntimeError:                      # Python < 3.13: a symbolic link loop
+        raise OutputFolderError(f"{out}: a loop of symbolic links, not a folder (choose "
+                                "another output folder)") from None
     if place.exists() and not place.is_dir():
         raise OutputFolderError(f"{out} is a file, not a folder; {command} writes a folder "
                                 "(choose another output folder)")
