@@ -17,7 +17,7 @@ from typing import Sequence
 
 import pandas as pd
 
-from rnn_seg.convergence import VERDICTS, drop_interval, history_convergence
+from rnn_seg.convergence import drop_interval, history_convergence
 from rnn_seg.runs.folder import HISTORY, write_atomic
 from rnn_seg.runs.logs import read_log
 
@@ -87,11 +87,10 @@ def ladder_runs(grid: Path, lengths: Sequence[int]) -> pd.DataFrame:
 def ladder_summary(runs: pd.DataFrame) -> pd.DataFrame:
     """Per grid, configuration and length: the runs and how many have each verdict."""
     keys = ["grid", "architecture", *CONFIG_COLUMNS, "length"]
-    table = runs.groupby(keys, sort=False).agg(
+    return runs.groupby(keys, sort=False).agg(
         runs=("verdict", "size"),
         **{name: ("verdict", lambda v, kind=kind: int((v == kind).sum()))
            for name, kind in _COUNTS.items()}).reset_index()
-    return table
 
 
 def ladder_choice(summary: pd.DataFrame) -> pd.DataFrame:

@@ -29,7 +29,6 @@ import numpy as np
 from rnn_seg.runs.folder import write_atomic
 
 from ...grid.kept_predictions import read_kept_predictions
-from ...models.run_record import read_run_record
 from ..runs.collect import run_records
 from ..runs.method import TrialTruth, truth
 
