@@ -227,8 +227,9 @@ wait
     with pytest.raises(build.KernelUnavailable, match="took over 2 s; stopped"):
         build.build(tmp_path / "kernels" / "lstm_loops-x.so")    # -E hangs too: stopped
     assert time.monotonic() - started < 60
-    for pid in map(int, pids.read_text().split()):
-        assert not _running(pid), f"process {pid} of the compiler still runs"
+    # a process sent SIGKILL ends when it is next scheduled: on a busy machine, not at once
+    _wait_for(lambda: not any(_running(pid) for pid in map(int, pids.read_text().split())),
+              seconds=30)
     assert list((tmp_path / "kernels").iterdir()) == []
 
 
