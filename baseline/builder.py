@@ -1,13 +1,11 @@
 """Model "A": DiPietro et al.'s BiLSTM gesture recogniser (and its forward-LSTM online twin)."""
 from __future__ import annotations
 
-import logging
 import time
 from pathlib import Path
 from typing import Callable, Sequence
 
-from jigsaws_tools.dataset import DataConfig, Dataset, Trial, cache_key, load_dataset
-from jigsaws_tools.release import discover
+from jigsaws_tools.dataset import DataConfig, Dataset, Trial, data_fingerprint, load_dataset
 from jigsaws_tools.task_definition import SUTURING, TaskDefinition
 from rnn_seg.model import SegmentationModel
 from rnn_seg.tasks import SoftmaxClassification, Task
@@ -37,18 +35,6 @@ def to_sequences(trials: Sequence[Trial], tasks: Sequence[Task], data: DataConfi
 
 
 TrainerFactory = Callable[..., Trainer]
-
-
-def data_fingerprint(data: DataConfig) -> str:
-    """Hash of the data options and the content of the release files a run reads (the dataset
-    cache's key): part of every run's settings, so changed data never resumes old weights."""
-    release_log = logging.getLogger("jigsaws_tools.release")
-    level = release_log.level
-    release_log.setLevel(logging.ERROR)      # loading the data reports incomplete trials already
-    try:
-        return cache_key(data, discover(data.data_dir, data.task, data.recording_format))
-    finally:
-        release_log.setLevel(level)
 
 
 def run_configs(config: RunConfig, tasks: Sequence[Task], extra_configs: dict | None = None,

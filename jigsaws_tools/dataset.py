@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import logging
 import os
 import tempfile
 import zipfile
@@ -257,6 +258,18 @@ def cache_key(config: DataConfig, index: ReleaseIndex) -> str:
                           "amendments": amendment_table_text(config.annotations, config.task),
                           "files": files}, sort_keys=True)
     return hashlib.sha256(payload.encode()).hexdigest()[:24]
+
+
+def data_fingerprint(config: DataConfig) -> str:
+    """``cache_key`` of ``config`` over the release it names (read now, its incomplete trials
+    not reported again): what a run records as its ``data_fingerprint``."""
+    release_log = logging.getLogger("jigsaws_tools.release")
+    level = release_log.level
+    release_log.setLevel(logging.ERROR)
+    try:
+        return cache_key(config, discover(config.data_dir, config.task, config.recording_format))
+    finally:
+        release_log.setLevel(level)
 
 
 def holds_unrecorded_default(obj: Any, name: str) -> bool:

@@ -12,7 +12,7 @@ import tensorflow as tf
 
 from multitask.evidence.cli import main as tables_main
 from multitask.evidence.plans.factors import (BASELINE, PENDING, Level, choice,
-                                              combination_spec, settings)
+                                              combination_spec, fold_settings_toml, settings)
 from multitask.grid.cli import main as grid_main
 from multitask.grid.folder import comparable_spec
 from multitask.grid.spec import (RunKey, expand, fold_users, inner_fold, load_spec, run_arguments,
@@ -196,6 +196,24 @@ def test_a_combination_spec_is_the_baselines_with_the_levels_keys(tmp_path):
     assert (spec.kernel, spec.lowpass, spec.test_users) == (20, False, ("B", "D"))
     assert comparable_spec(spec_payload(spec)) == comparable_spec(spec_payload(
         with_overrides(baseline, kernel=20, lowpass=False, test_users=("B", "D"))))
+
+
+def test_the_settled_settings_become_a_specs_fold_settings(tmp_path):
+    """fold_settings.toml, added to the baseline's spec, trains each fold at its setting (a
+    combination's keys merged, a baseline fold at the spec's own)."""
+    singles = [_level("T-5hz-k25", {"kernel": 25}, {}), _level("L-off", {"lowpass": False}, {}),
+               _level("T-5hz-k15", {"kernel": 15}, {})]
+    chosen = pd.DataFrame({"fold": ["B", "C", "D"],
+                           "setting": ["T-5hz-k25 + L-off", BASELINE, "T-5hz-k15"]})
+    path = tmp_path / "spec.toml"
+    path.write_text((ROOT / "results/tcn/factors/baseline.toml").read_text()
+                    + fold_settings_toml(chosen, singles))
+    spec = with_overrides(load_spec(path), data_dir="/elsewhere")
+    assert spec.fold_settings == {"B": {"kernel": 25, "lowpass": False}, "D": {"kernel": 15}}
+    key = expand(spec, USERS)[0]
+    config = run_config(spec, RunKey(key.annotations, key.direction, key.variant, key.weighting,
+                                     0, "C"))
+    assert (config.encoder.kernel, config.data.preprocessing.lowpass) == (10, True)
 
 
 def test_the_committed_factor_specs_are_the_plans_levels():

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import argparse
 import importlib.util
+import json
 import sys
 from functools import partial
 from pathlib import Path
@@ -159,6 +160,9 @@ def _run(args: argparse.Namespace) -> int:
                 thread_count(str(count))
             except argparse.ArgumentTypeError as error:
                 raise ValueError(f"{option}: {error}{note}") from None
+    if args.stack > 1 and spec.fold_settings:
+        raise ValueError("--stack trains runs of one setting in one vectorised step; this "
+                         "spec's fold_settings give folds settings of their own: use --stack 1")
     if args.stack > 1 and spec.loops == "auto":
         spec = with_overrides(spec, loops="graph")     # what a vectorised step runs
     if args.stack > 1 and spec.loops != "graph":
@@ -179,6 +183,12 @@ def _run(args: argparse.Namespace) -> int:
         print(f"inner runs: {spec.inner_validation} validation user(s) per outer fold, each "
               "scored on its validation user with the outer fold's user held out (folders "
               "<outer>-val-<validation>)", flush=True)
+    if spec.fold_settings:
+        print("settings per outer fold (a nested selection): " + "; ".join(
+            f"{fold} " + (", ".join(f"{k} {json.dumps(v)}" for k, v in entry.items())
+                          or "the spec's")
+            for fold, entry in spec.fold_settings.items()) + "; any other fold the spec's",
+            flush=True)
     if args.dry_run:
         return _dry_run(args, spec, keys)
     tracker = None

@@ -27,7 +27,7 @@ EXECUTION_KEYS = ("loops",)
 IMPLIED_BY_OLDER_RECORDS = {"schedule_factors": {}, "encoder": "lstm", "resample_factor": None,
                             "kernel": None, "format": "jigsaws", "lowpass": None,
                             "normalise": None, "feature_set": None, "padding": None,
-                            "head_init": None, "inner_validation": None}
+                            "head_init": None, "inner_validation": None, "fold_settings": None}
 
 
 def read_record(grid_dir: Path | str) -> dict | None:

@@ -80,6 +80,22 @@ follow u in the release's (cyclic) user order, trained on the users other than u
 on v; u's trials are dropped first (``RunConfig.held_out_users``), so no score of u exists. An
 inner run's folder is named ``<u>-val-<v>`` (``inner_fold``) where an outer run's is ``<u>``.
 
+``fold_settings`` gives outer folds settings of their own (a *nested selection*: each fold's
+chosen on its training users alone, e.g. by ``multitask-tables factors``), any of the keys in
+``SELECTABLE`` per fold; a fold it does not name keeps the spec's::
+
+    [fold_settings.B]
+    kernel = 25
+    lowpass = false
+
+    [fold_settings.F]
+    kernel = 15
+
+An inner run takes its outer fold's. Every run records the whole selection
+(``SelectionConfig``: each named fold's settings, the others', and the data fingerprint at the
+others'), so that tables pool the folds' runs as one configuration, the procedure that chose
+their settings (``multitask.evidence.runs.pooling``).
+
 The keys ``data`` and ``folds`` of earlier versions are read as ``data_dir`` and ``test_users``,
 with a deprecation warning.
 """
@@ -88,11 +104,13 @@ from __future__ import annotations
 import json
 import logging
 from dataclasses import asdict, dataclass, fields, replace
+from functools import lru_cache
 from pathlib import Path
+from typing import Any
 
 from baseline.config import DIRECTIONS, RunConfig
 from jigsaws_tools.annotations import ANNOTATION_VERSIONS
-from jigsaws_tools.dataset import DataConfig, default_cache_dir, default_data_dir
+from jigsaws_tools.dataset import DataConfig, data_fingerprint, default_cache_dir, default_data_dir
 from jigsaws_tools.features import FEATURE_SETS
 from jigsaws_tools.preprocessing import PreprocessConfig
 from jigsaws_tools.release import discover
@@ -104,15 +122,24 @@ from jigsaws_tools.recording_format import DEFAULT_FORMAT, RecordingFormat, load
 from rnn_seg.encoders.config import (ENCODERS, HEAD_INITS, PADDINGS, SCHEDULES, encoder_config,
                                      schedule_of_length)
 from rnn_seg.encoders.import_path import is_import_path, split_path
+from rnn_seg.runs.settings import settings_of
 from rnn_seg.validation import require_bool, require_choice, require_number
 
-from ..models.config import ORDINAL_LOSSES, RELATIVE_RATES, WEIGHTINGS, GradNormConfig, HeadConfig
+from ..models.config import (ORDINAL_LOSSES, RELATIVE_RATES, WEIGHTINGS, GradNormConfig,
+                             HeadConfig, SelectionConfig)
 from ..models.variants import MULTITASK_EVAL, VARIANTS, batch_size, get_variant
 
 log = logging.getLogger(__name__)
 PAPER_EPOCHS = MULTITASK_EVAL[-1]
 #: Old spec key -> its name now.
 DEPRECATED_KEYS = {"data": "data_dir", "folds": "test_users"}
+#: The spec keys ``fold_settings`` may set per outer fold -> the setting each run records of it.
+SELECTABLE = {"resample_factor": "run.data.preprocessing.resample_factor",
+              "lowpass": "run.data.preprocessing.lowpass",
+              "normalise": "run.data.preprocessing.normalise",
+              "feature_set": "run.data.feature_set",
+              "kernel": "run.encoder.kernel", "padding": "run.encoder.padding",
+              "head_init": "run.encoder.head_init"}
 
 
 def _tuple(value):
@@ -166,6 +193,10 @@ def expand(spec: GridSpec, users: tuple[str, ...]) -> list[RunKey]:
     if missing:
         raise ValueError(f"fold(s) {', '.join(missing)} not among the release's users "
                          f"{', '.join(users)}")
+    unknown = sorted(set(spec.fold_settings or {}) - set(folds))
+    if unknown:
+        raise ValueError(f"fold_settings names fold(s) {', '.join(unknown)}, not among the "
+                         f"grid's folds {', '.join(folds)}")
     if spec.inner_validation is not None:
         folds = tuple(inner_fold(u, v) for u in folds
                       for v in validation_users(users, u, spec.inner_validation))
@@ -216,7 +247,10 @@ def release_users(spec: GridSpec) -> tuple[str, ...]:
 
 
 def run_config(spec: GridSpec, key: RunKey) -> RunConfig:
-    """The ``RunConfig`` of one run: the variant's (scaled) paper schedule, the budget's size."""
+    """The ``RunConfig`` of one run: the variant's (scaled) paper schedule, the budget's size,
+    its outer fold's settings (``fold_settings``)."""
+    test_user, held_out = fold_users(key.fold)
+    spec = spec.for_fold(held_out[0] if held_out else test_user)
     budget = spec.budget
     optim, points = _schedule(spec, key)
     bidirectional = key.direction == "bidirectional"
@@ -225,7 +259,6 @@ def run_config(spec: GridSpec, key: RunKey) -> RunConfig:
                if spec.encoder == "lstm" else encoder_config(spec.encoder, not bidirectional))
     encoder = replace(encoder, **_given(spec, "kernel", "padding", "head_init"))
     preprocessing = PreprocessConfig(**_given(spec, "resample_factor", "lowpass", "normalise"))
-    test_user, held_out = fold_users(key.fold)
     return RunConfig(
         data=DataConfig(str(spec.release_dir()), annotations=key.annotations,
                         preprocessing=preprocessing, task=spec.task_definition(),
@@ -262,12 +295,41 @@ def _schedule(spec: GridSpec, key: RunKey):
     return get_variant(key.variant).schedule(spec.budget.scale_of(key.variant))
 
 
-def run_arguments(spec: GridSpec, key: RunKey) -> dict:
+def run_arguments(spec: GridSpec, key: RunKey, common_fingerprint: str | None = None) -> dict:
     """Keyword arguments of ``fold_run.variant_trainer`` (and ``variant_configs``) for one run:
     the one place a grid run's configuration is decided. Workers train with it and
-    ``record`` checks run folders against it, so the two never disagree."""
+    ``record`` checks run folders against it, so the two never disagree. ``common_fingerprint``:
+    a nested selection's (``selection``), as a run folder records it; None = read the release."""
     return {"variant": get_variant(key.variant), "weighting": key.weighting,
-            "config": run_config(spec, key), "gradnorm": spec.gradnorm, "heads": spec.heads}
+            "config": run_config(spec, key), "gradnorm": spec.gradnorm, "heads": spec.heads,
+            "selection": selection(spec, key, common_fingerprint)}
+
+
+def selection(spec: GridSpec, key: RunKey, common_fingerprint: str | None = None
+              ) -> SelectionConfig | None:
+    """The nested selection the run at ``key`` records (module docstring), None when the spec
+    sets no ``fold_settings``: every setting a fold's entry names, on each named fold and on
+    the others, and the data fingerprint on the others (``common_fingerprint``; None = read
+    the release for it)."""
+    if not spec.fold_settings:
+        return None
+    names = sorted({SELECTABLE[k] for entry in spec.fold_settings.values() for k in entry})
+    common = run_config(replace(spec, fold_settings=None), key)
+
+    def values(config: RunConfig) -> dict[str, Any]:
+        recorded = settings_of({"run": config})
+        return {name: recorded.get(name) for name in names}
+
+    per_fold = {fold: values(run_config(spec, replace(key, fold=fold)))
+                for fold in spec.fold_settings}
+    return SelectionConfig(per_fold, values(common),
+                           common_fingerprint or _fingerprint(common.data))
+
+
+@lru_cache(maxsize=16)
+def _fingerprint(data: DataConfig) -> str:
+    """``data_fingerprint``, once per process (a grid asks for it once per run)."""
+    return data_fingerprint(data)
 
 
 def stack_groups(keys: list[RunKey], size: int) -> list[list[RunKey]]:
@@ -431,6 +493,8 @@ class GridSpec:
     padding: str | None = None             # ED-TCN's; None = "masked"
     head_init: str | None = None           # ED-TCN's heads; None = "uniform"
     inner_validation: int | None = None    # validation users per outer fold; None = outer runs
+    #: outer fold -> its own values of ``SELECTABLE`` keys (a nested selection); None = none
+    fold_settings: dict[str, dict[str, Any]] | None = None
     experiments: tuple[Experiment, ...] = PAPER_EXPERIMENTS
 
     def __post_init__(self):
@@ -472,6 +536,7 @@ class GridSpec:
         if self.seeds is not None:
             _require_seeds("seeds", self.seeds)
         self._check_factor_keys()
+        self._check_fold_settings()
         for name in ("hidden", "epochs", "resample_factor", "kernel", "inner_validation"):
             if getattr(self, name) is not None:
                 require_number(name, getattr(self, name), integer=True, low=1)
@@ -502,6 +567,36 @@ class GridSpec:
                 require_bool(name, getattr(self, name))
         if self.feature_set is not None:
             require_choice("feature_set", self.feature_set, FEATURE_SETS)
+
+    def _check_fold_settings(self) -> None:
+        """``fold_settings``: a table per outer fold (among ``test_users`` when given) of
+        ``SELECTABLE`` keys, each fold's spec valid as a whole (module docstring)."""
+        if self.fold_settings is None:
+            return
+        if not isinstance(self.fold_settings, dict) or not self.fold_settings:
+            raise ValueError("fold_settings must be a table of outer folds, each a table of "
+                             f"settings (got {self.fold_settings!r})")
+        for fold, entry in self.fold_settings.items():
+            if not isinstance(entry, dict):
+                raise ValueError(f"fold_settings.{fold} must be a table of settings (got "
+                                 f"{entry!r})")
+            if self.test_users and fold not in self.test_users:
+                raise ValueError(f"fold_settings.{fold}: {fold} is not among test_users "
+                                 f"({', '.join(self.test_users)})")
+            unknown = sorted(set(entry) - set(SELECTABLE))
+            if unknown:
+                raise ValueError(f"fold_settings.{fold}: {', '.join(unknown)} cannot be set per "
+                                 f"fold; these can: {', '.join(SELECTABLE)}")
+            try:
+                self.for_fold(fold)
+            except ValueError as error:
+                raise ValueError(f"fold_settings.{fold}: {error}") from None
+
+    def for_fold(self, outer: str) -> GridSpec:
+        """This spec as outer fold ``outer`` runs it: its ``fold_settings`` entry applied."""
+        if not self.fold_settings:
+            return self
+        return replace(self, **self.fold_settings.get(outer, {}), fold_settings=None)
 
     @property
     def budget(self) -> Budget:

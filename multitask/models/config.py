@@ -4,7 +4,7 @@ lines and the grid read it without loading it; ``gradnorm.GradNormTrainer`` trai
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Literal
+from typing import Any, Literal
 
 from rnn_seg.validation import require_choice, require_number
 
@@ -46,3 +46,35 @@ class HeadConfig:
 
     def __post_init__(self):
         require_choice("HeadConfig.ordinal_loss", self.ordinal_loss, ORDINAL_LOSSES)
+
+
+@dataclass(frozen=True)
+class SelectionConfig:
+    """Settings chosen per outer fold on that fold's training users alone (a nested selection,
+    e.g. ``results/tcn/PLAN_factors.md``, section D.2), recorded by every run of a grid whose
+    spec sets ``fold_settings`` (``multitask.grid.spec``), so that tables pool the runs of its
+    folds as one configuration: the procedure that chose each fold's settings
+    (``multitask.evidence.runs.pooling``).
+
+    Settings are named as in a run's recorded settings (``rnn_seg.runs.settings``, e.g.
+    ``run.encoder.kernel``; a default that config.json leaves out is None).
+
+    ``per_fold``: outer fold -> each selected setting -> its value on that fold;
+    ``common``: each selected setting -> its value on the folds ``per_fold`` does not name;
+    ``common_fingerprint``: the data fingerprint at ``common`` (what a run of the same release
+    without the selection records).
+    """
+
+    per_fold: dict[str, dict[str, Any]]
+    common: dict[str, Any]
+    common_fingerprint: str
+
+    def __post_init__(self):
+        for fold, values in self.per_fold.items():
+            if not isinstance(values, dict) or set(values) != set(self.common):
+                raise ValueError(f"SelectionConfig.per_fold.{fold}: expected the settings "
+                                 f"{', '.join(sorted(self.common))} (got {values!r})")
+
+    def expected(self, outer: str) -> dict[str, Any]:
+        """The selected settings of outer fold ``outer``."""
+        return self.per_fold.get(outer, self.common)

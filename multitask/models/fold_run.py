@@ -10,7 +10,7 @@ from baseline.config import RunConfig
 from jigsaws_tools.dataset import Dataset
 from rnn_seg.trainer import Trainer
 
-from .config import Weighting
+from .config import SelectionConfig, Weighting
 from .gradnorm import GradNormConfig, GradNormTrainer
 from .heads import HeadConfig
 from .run_record import variant_extra, variant_record
@@ -19,7 +19,8 @@ from .variants import Variant
 
 def variant_configs(variant: Variant, weighting: Weighting, config: RunConfig,
                     gradnorm: GradNormConfig = GradNormConfig(),
-                    fingerprint: str | None = None, heads: HeadConfig = HeadConfig()) -> dict:
+                    fingerprint: str | None = None, heads: HeadConfig = HeadConfig(),
+                    selection: SelectionConfig | None = None) -> dict:
     """The record (and settings) of a run of ``variant``, as ``variant_trainer`` writes it to
     config.json.
 
@@ -30,15 +31,16 @@ def variant_configs(variant: Variant, weighting: Weighting, config: RunConfig,
         gradnorm: GradNorm's settings (with ``"gradnorm"``).
         fingerprint: the data's (``baseline.builder.data_fingerprint``); None = compute it.
         heads: the progress heads' settings.
+        selection: the nested selection the run is part of (None: none).
     """
     return variant_record(variant, weighting, config, gradnorm, heads,
-                          fingerprint or data_fingerprint(config.data))
+                          fingerprint or data_fingerprint(config.data), selection)
 
 
 def variant_trainer(variant: Variant, weighting: Weighting, config: RunConfig, run_dir: Path,
                     gradnorm: GradNormConfig = GradNormConfig(), dataset: Dataset | None = None,
-                    log: Callable[[str], None] = print, heads: HeadConfig = HeadConfig()
-                    ) -> Trainer:
+                    log: Callable[[str], None] = print, heads: HeadConfig = HeadConfig(),
+                    selection: SelectionConfig | None = None) -> Trainer:
     """A ready trainer of ``variant`` on ``run_dir``'s fold.
 
     Args:
@@ -51,8 +53,9 @@ def variant_trainer(variant: Variant, weighting: Weighting, config: RunConfig, r
         dataset: ``config.data``'s dataset, already loaded; None = load it.
         log: where progress lines go.
         heads: the progress head's loss.
+        selection: the nested selection the run is part of, recorded (None: none).
     """
-    extra = variant_extra(variant, weighting, gradnorm, heads)
+    extra = variant_extra(variant, weighting, gradnorm, heads, selection)
     trainer = partial(GradNormTrainer, gradnorm=gradnorm) if weighting == "gradnorm" else Trainer
     return build_trainer(config, variant.tasks(config.data.task, heads), run_dir, dataset,
                          trainer=trainer, extra_configs=extra, log=log)

@@ -20,7 +20,7 @@ from rnn_seg.runs.folder import (CONFIG, FINISHED, ConfigError, RunFolderError, 
 from rnn_seg.runs.provenance import started_loops
 from rnn_seg.runs.segments import SEGMENTS, ran_loops
 
-from .config import WEIGHTINGS, GradNormConfig, HeadConfig, Weighting
+from .config import WEIGHTINGS, GradNormConfig, HeadConfig, SelectionConfig, Weighting
 from .variants import VARIANTS, Variant
 
 
@@ -33,16 +33,18 @@ def check_weighting(variant: Variant, weighting: Weighting) -> None:
 
 
 def variant_extra(variant: Variant, weighting: Weighting, gradnorm: GradNormConfig,
-                  heads: HeadConfig) -> dict:
+                  heads: HeadConfig, selection: SelectionConfig | None = None) -> dict:
     """What config.json records of a variant beyond its ``RunConfig`` and tasks: its name and
     weighting, the GradNorm settings of a GradNorm run, the head settings of an ordered progress
-    head.
+    head, the nested selection a run of one is part of.
 
     Args:
         variant: the model variant (``variants.VARIANTS``).
         weighting: ``"fixed"`` or ``"gradnorm"`` (checked against the variant).
         gradnorm: GradNorm's settings, recorded with ``"gradnorm"``.
         heads: the progress heads' settings, recorded for an ordered progress head.
+        selection: the settings chosen per outer fold, when the run's were (None: not
+            recorded).
     """
     check_weighting(variant, weighting)
     extra = {"variant": variant.name, "weighting": weighting}
@@ -50,15 +52,19 @@ def variant_extra(variant: Variant, weighting: Weighting, gradnorm: GradNormConf
         extra["gradnorm"] = gradnorm
     if variant.progress == "oc":
         extra["heads"] = heads
+    if selection is not None:
+        extra["selection"] = selection
     return extra
 
 
 def variant_record(variant: Variant, weighting: Weighting, config: RunConfig,
-                   gradnorm: GradNormConfig, heads: HeadConfig, fingerprint: str | None) -> dict:
+                   gradnorm: GradNormConfig, heads: HeadConfig, fingerprint: str | None,
+                   selection: SelectionConfig | None = None) -> dict:
     """The record (and settings) of a run of ``variant`` whose data has ``fingerprint``, as
     config.json holds it (``baseline.builder.run_configs``' layout)."""
     return {"run": config, "tasks": list(variant.task_names),
-            **variant_extra(variant, weighting, gradnorm, heads), "data_fingerprint": fingerprint}
+            **variant_extra(variant, weighting, gradnorm, heads, selection),
+            "data_fingerprint": fingerprint}
 
 
 #: Fields of config.json's ``run`` that place a run and that tables read (dotted): present in
@@ -84,6 +90,7 @@ class RunRecord:
     gradnorm: GradNormConfig        # as recorded, else the default (a fixed-weight run's)
     heads: HeadConfig               # as recorded, else the default (a run without ordered head)
     fingerprint: str | None         # of the data; None in a record of an early version
+    selection: SelectionConfig | None = None    # a nested selection's, else None
 
     def configs(self) -> dict[str, Any]:
         """The record as ``variant_record`` writes it, for ``rnn_seg.runs.settings``: every
@@ -91,7 +98,7 @@ class RunRecord:
         record's version did not write at its default, and a ``baseline-train`` run's variant
         and weighting, which it leaves unsaid, as model A's with fixed weights."""
         return variant_record(VARIANTS[self.variant], self.weighting, self.config,
-                              self.gradnorm, self.heads, self.fingerprint)
+                              self.gradnorm, self.heads, self.fingerprint, self.selection)
 
     def loops(self) -> str:
         """The LSTM loops that trained the run: its finished.json's segments' (one name, or
@@ -154,6 +161,8 @@ def read_run_record(run_dir: Path) -> RunRecord:
         check_weighting(VARIANTS[variant], weighting)
         gradnorm = from_jsonable(GradNormConfig, saved.get("gradnorm", {}), f"{path}: gradnorm")
         heads = from_jsonable(HeadConfig, saved.get("heads", {}), f"{path}: heads")
+        selection = (from_jsonable(SelectionConfig, saved["selection"], f"{path}: selection")
+                     if saved.get("selection") is not None else None)
     except ConfigError as error:
         raise RunFolderError(f"{error.where}: {error.problem} (value: "
                              f"{str(error.value)[:60]!r})") from None
@@ -168,7 +177,7 @@ def read_run_record(run_dir: Path) -> RunRecord:
         raise RunFolderError(f"{path}: data_fingerprint: not a fingerprint (value: "
                              f"{fingerprint!r})")
     return RunRecord(path, saved, config, variant, weighting, tuple(tasks), gradnorm, heads,
-                     fingerprint)
+                     fingerprint, selection)
 
 
 def _holds(tree: dict, keys: list[str]) -> bool:

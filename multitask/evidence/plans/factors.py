@@ -36,7 +36,10 @@ Output (``write_factors``), in percentage points:
   factor T at another rate than the model's, its difference and whether it is eligible;
 * ``combination-<folds>.toml``: for each combination still pending, the spec that runs it on
   the folds that chose it (the baseline's spec, the taken levels' keys, ``test_users``): run it
-  with ``multitask-grid`` and give its grid with ``--combination``.
+  with ``multitask-grid`` and give its grid with ``--combination``;
+* ``fold_settings.toml``, once no fold's setting is pending: each fold's setting as the
+  ``fold_settings`` tables of a grid spec (``multitask.grid.spec``; a fold at the baseline's
+  setting has none), to add to the specs that train with the chosen settings.
 """
 from __future__ import annotations
 
@@ -76,6 +79,8 @@ ELIGIBLE = 1.0
 COMBINATION_MARGIN = 0.5
 BASELINE = "baseline"
 PENDING = "pending"
+#: The settled settings as a grid spec's ``fold_settings`` tables.
+FOLD_SETTINGS = "fold_settings.toml"
 
 
 @dataclass(frozen=True)
@@ -190,6 +195,9 @@ def write_factors(baseline: Path, levels: list[Path], combinations: list[Path], 
                      "(multitask-grid) and give its grid with --combination")
     final = set(tables["factors_settings"].setting)
     if PENDING not in final:
+        path = out / FOLD_SETTINGS
+        write_atomic(path, fold_settings_toml(tables["factors_settings"], singles))
+        written.append(path)
         notes.append("every fold's setting: " + ("the same, " if len(final) == 1 else
                                                  "not the same (a nested selection), ")
                      + "; ".join(f"{f} {s}" for f, s in zip(tables["factors_settings"].fold,
@@ -298,6 +306,22 @@ def _other_rate(base: Level, singles: list[Level], fold: str) -> dict[str, Any]:
     best = max(diffs, key=diffs.get)
     return {"other_rate_best": best, "other_rate_diff": diffs[best],
             "other_rate_eligible": bool(diffs[best] >= ELIGIBLE)}
+
+
+def fold_settings_toml(chosen: pd.DataFrame, singles: list[Level]) -> str:
+    """``fold_settings.toml`` (module docstring) from ``factors_settings.csv``'s table
+    (``chosen``) and the single levels its settings name."""
+    by_name = {level.name: level for level in singles}
+    lines = ["# Each outer fold's setting of results/tcn/PLAN_factors.md (section D.2), chosen on "
+             "its inner runs: written by multitask-tables factors. A fold not listed keeps the "
+             "baseline's.", "# Add to a grid spec (multitask.grid.spec, fold_settings)."]
+    for fold, setting in zip(chosen.fold, chosen.setting):
+        if setting == BASELINE:
+            continue
+        changes = _merged([by_name[name] for name in setting.split(" + ")])
+        lines += ["", f"[fold_settings.{fold}]  # {setting}"]
+        lines += [f"{key} = {_toml_value(value)}" for key, value in changes.items()]
+    return "\n".join(lines) + "\n"
 
 
 def combination_spec(baseline: GridSpec, taken: list[Level], folds: tuple[str, ...]) -> str:

@@ -31,6 +31,8 @@ log = logging.getLogger(__name__)
 
 #: First words of the problem line of a run folder of other settings than the grid's.
 OTHER_SETTINGS = "other settings than the grid's spec:"
+#: What a record check expects of a fingerprint the run folder does not record.
+NOT_RECORDED = "(not recorded)"
 
 
 def other_settings(root: Path, keys: dict[Path, RunKey]) -> dict[Path, str]:
@@ -87,18 +89,21 @@ def _planned(spec: GridSpec, keys: dict[Path, RunKey]) -> set[RunKey]:
 
 def _mismatch(run_dir: Path, spec: GridSpec, key: RunKey) -> str | None:
     """What differs between the run folder's config.json and the run ``spec`` puts at ``key``
-    (the fingerprint as the folder records it); None when they agree or the folder holds no
+    (the fingerprints as the folder records them); None when they agree or the folder holds no
     config.json."""
     path = run_dir / CONFIG
     if not path.is_file():
         return None
     try:
         saved = read_json(path)
-        fingerprint = saved.get("data_fingerprint") if isinstance(saved, dict) else None
-        args = run_arguments(spec, key)
+        saved = saved if isinstance(saved, dict) else {}
+        chosen = saved.get("selection")
+        args = run_arguments(spec, key, (chosen.get("common_fingerprint") if isinstance(
+            chosen, dict) else None) or NOT_RECORDED)
         check_run_dir(run_dir, variant_record(args["variant"], key.weighting, args["config"],
                                               spec.gradnorm, spec.heads,
-                                              fingerprint or "(not recorded)"))
+                                              saved.get("data_fingerprint") or NOT_RECORDED,
+                                              args["selection"]))
     except SettingsMismatchError as error:
         return error.details
     except (RunFolderError, ValueError, JigsawsError) as error:   # config.json, the task file

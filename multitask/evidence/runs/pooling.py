@@ -30,7 +30,14 @@ one, whether or not a grid's spec vouches for the runs.
 * an inner run (a validation user's, inside an outer fold's training users: its config.json
   records ``held_out_users``; ``multitask.grid.spec``, ``inner_validation``) is pooled only by a
   table made for inner runs (``INNER_SETTING`` among ``pool``'s ``varying``), and never with
-  outer runs: the folds of the paper's tables are test users, not validation users.
+  outer runs: the folds of the paper's tables are test users, not validation users;
+* the runs of a nested selection (settings chosen per outer fold on its training users: their
+  config.json records the selection, ``SelectionConfig``; ``multitask.grid.spec``,
+  ``fold_settings``) are one configuration, the procedure: they may differ across folds in the
+  settings it selects, and in the data fingerprint where those change the data, and must agree
+  on everything else and on the selection itself; each run must hold the settings the
+  selection gives its outer fold (``selected_mismatch``). Where a table compares data, a run of
+  a selection counts with its data at the selection's common setting (``_data``).
 """
 from __future__ import annotations
 
@@ -148,12 +155,43 @@ def _data_by_annotations(records: dict[Path, RunRecord]) -> dict[str, dict[str, 
 
 
 def _data(record: RunRecord) -> dict[str, Any]:
-    """The run's data settings but where the data lay, and its data fingerprint."""
-    return {**{name: value for name, value in settings_of(record.configs()).items()
+    """The run's data settings but where the data lay, and its data fingerprint; for a run of a
+    nested selection, those at the selection's common setting (``SelectionConfig``)."""
+    settings, fingerprint = settings_of(record.configs()), record.fingerprint
+    if record.selection is not None:
+        common = record.selection.common           # None: a default the record leaves out
+        settings = {name: value for name, value in {**settings, **common}.items()
+                    if name not in common or value is not None}
+        fingerprint = record.selection.common_fingerprint
+    return {**{name: value for name, value in settings.items()
                if name.startswith("run.data.")
                and name.removeprefix("run.data.") not in DataConfig.output_fields
                and name != "run.data.annotations"},
-            "data_fingerprint": record.fingerprint}
+            "data_fingerprint": fingerprint}
+
+
+def outer_fold(record: RunRecord) -> str:
+    """The run's outer fold: its held-out user for an inner run, else its test user."""
+    held_out = record.config.held_out_users
+    return held_out[0] if held_out else record.config.test_user
+
+
+def selected_mismatch(record: RunRecord) -> str | None:
+    """Where a run of a nested selection does not hold the settings its selection gives its
+    outer fold, e.g. ``run.encoder.kernel 15, its selection's 25 on fold B``; None when it does
+    (or the run is of none)."""
+    if record.selection is None:
+        return None
+    fold = outer_fold(record)
+    settings = settings_of(record.configs())
+    wrong = [f"{name} {settings.get(name)!r}, its selection's {value!r} on fold {fold}"
+             for name, value in record.selection.expected(fold).items()
+             if settings.get(name) != value]
+    if not wrong and fold not in record.selection.per_fold \
+            and record.fingerprint != record.selection.common_fingerprint:
+        wrong.append(f"data_fingerprint {record.fingerprint}, its selection's "
+                     f"{record.selection.common_fingerprint} on fold {fold}")
+    return "; ".join(wrong) or None
 
 
 def record_key(record: RunRecord) -> RunKey:
@@ -170,8 +208,12 @@ def record_key(record: RunRecord) -> RunKey:
 
 def configuration(record: RunRecord) -> dict[str, Any]:
     """The settings that identify the run's configuration (``{"run.encoder.hidden": 128, ...}``):
-    every setting of its record but ``POOLED``."""
-    return {k: v for k, v in settings_of(record.configs()).items() if k not in POOLED}
+    every setting of its record but ``POOLED``; for a run of a nested selection, but also the
+    settings it selects and the data fingerprint, which its recorded selection stands for."""
+    skipped = set(POOLED)
+    if record.selection is not None:
+        skipped |= {*record.selection.common, "data_fingerprint"}
+    return {k: v for k, v in settings_of(record.configs()).items() if k not in skipped}
 
 
 def misplaced(record: RunRecord, place: RunKey) -> str | None:
@@ -202,6 +244,13 @@ def pool(records: dict[Path, RunRecord], where: Path | str, varying: tuple[str, 
             whose runs differ, each setting that differs and the runs of each of its values.
     """
     _check_inner(records, where, INNER_SETTING in varying)
+    wrong = [f"{run}: {problem}" for run, problem
+             in ((run, selected_mismatch(record)) for run, record in records.items()) if problem]
+    if wrong:
+        raise MixedSettings(f"{where}: runs of a nested selection that do not hold the settings "
+                            f"it gives their fold ({'; '.join(wrong[:SHOWN])}"
+                            + (f"; and {len(wrong) - SHOWN} more" if len(wrong) > SHOWN else "")
+                            + "), so no table pools them")
     encoders: dict[str, list[str]] = {}
     for run, record in records.items():
         encoders.setdefault(encoder_identity(record), []).append(str(run))

@@ -8,8 +8,9 @@ differences and the folds favouring it (``factors.csv``, ``factors_per_fold.csv`
 fold, the eligible levels, each factor's level taken and their combination
 (``factors_choice.csv``, ``factors_settings.csv``); and, for each combination not yet run, the
 spec that runs it (``combination-<folds>.toml``): run it with ``multitask-grid``, then give its
-grid with ``--combination`` to settle each fold's setting. Listed in ``factors.json``
-(``plans.factors``).
+grid with ``--combination`` to settle each fold's setting; once every fold's is settled, the
+settings as a grid spec's ``fold_settings`` tables (``fold_settings.toml``). Listed in
+``factors.json`` (``plans.factors``).
 
     multitask-tables factors runs/tcn/factors/baseline runs/tcn/factors/T-5hz-k15 \\
         runs/tcn/factors/L-off --out results/tcn/factors/tables

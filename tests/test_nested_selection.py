@@ -1,0 +1,162 @@
+"""A nested selection in one grid (``fold_settings``): settings chosen per outer fold on its
+training users (results/tcn/PLAN_factors.md, section D.2) reach each fold's runs and inner runs,
+are recorded by every run, and make one configuration that tables pool, compare with other
+architectures on the same data, and refuse when a run does not hold its fold's settings."""
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from multitask.evidence.cli import main as tables_main
+from multitask.grid.cli import main as grid_main
+from multitask.grid.spec import (RunKey, expand, inner_fold, run_arguments, run_config,
+                                 spec_from_dict)
+from multitask.models.fold_run import variant_configs
+from rnn_seg.runs.folder import read_json, write_json
+from rnn_seg.runs.settings import settings_of
+
+USERS = tuple("BCDEFGHI")
+SELECTION = {"B": {"kernel": 5, "lowpass": False}, "C": {"kernel": 7}}
+
+
+def _spec(synth_dir, **keys):
+    return spec_from_dict({"encoder": "ed-tcn", "data_dir": str(synth_dir), "seeds": [0],
+                           "experiments": [{"variants": ["A"], "annotations": ["original"]}],
+                           **keys})
+
+
+def _key(fold: str) -> RunKey:
+    return RunKey("original", "bidirectional", "A", "fixed", 0, fold)
+
+
+def test_each_outer_fold_and_its_inner_runs_train_with_its_own_settings(synth_dir):
+    spec = _spec(synth_dir, fold_settings=SELECTION, inner_validation=1)
+    for fold, (kernel, lowpass) in {"B": (5, False), "C": (7, True), "D": (10, True)}.items():
+        for run in (fold, inner_fold(fold, USERS[USERS.index(fold) + 1])):
+            config = run_config(spec, _key(run))
+            assert (config.encoder.kernel, config.data.preprocessing.lowpass) == (kernel, lowpass)
+    assert len(expand(spec, USERS)) == 8
+
+
+def test_every_run_records_the_whole_selection(synth_dir):
+    spec = _spec(synth_dir, fold_settings=SELECTION)
+    records = {fold: variant_configs(**run_arguments(spec, _key(fold))) for fold in "BCD"}
+    selections = {fold: record["selection"] for fold, record in records.items()}
+    assert selections["B"] == selections["C"] == selections["D"]
+    selection = selections["B"]
+    names = {"run.encoder.kernel", "run.data.preprocessing.lowpass"}
+    assert set(selection.common) == names
+    assert selection.per_fold["B"] == {"run.encoder.kernel": 5,
+                                       "run.data.preprocessing.lowpass": False}
+    assert selection.common == {"run.encoder.kernel": 10, "run.data.preprocessing.lowpass": True}
+    for fold, record in records.items():          # each run holds what its selection says
+        settings = settings_of(record)
+        assert {n: settings.get(n) for n in names} == selection.expected(fold)
+    assert selection.common_fingerprint == records["D"]["data_fingerprint"]
+    assert records["B"]["data_fingerprint"] != selection.common_fingerprint     # lowpass off
+    assert "selection" not in variant_configs(**run_arguments(_spec(synth_dir), _key("B")))
+
+
+@pytest.mark.parametrize("keys, words", [
+    ({"fold_settings": {"B": {"hidden": 64}}}, "fold_settings.B: hidden cannot be set per fold"),
+    ({"fold_settings": {"B": {"kernel": 0}}}, "fold_settings.B: kernel"),
+    ({"fold_settings": {"B": {"kernel": 5}}, "encoder": "ms-tcn"},
+     "fold_settings.B: kernel is ED-TCN's setting"),
+    ({"fold_settings": {"B": {"lowpass": "no"}}}, "fold_settings.B: lowpass must be true or"),
+    ({"fold_settings": {"B": 5}}, "fold_settings.B must be a table of settings"),
+    ({"fold_settings": {}}, "fold_settings must be a table of outer folds"),
+    ({"fold_settings": {"E": {"kernel": 5}}, "test_users": ["B", "C"]},
+     "fold_settings.E: E is not among test_users"),
+])
+def test_a_bad_selection_is_one_line_naming_the_fold_and_key(keys, words):
+    with pytest.raises(ValueError, match=words) as error:
+        spec_from_dict({"encoder": "ed-tcn", **keys}, source="s.toml")
+    assert str(error.value).startswith("s.toml: ") and "\n" not in str(error.value)
+
+
+def test_a_selection_of_a_fold_the_release_lacks_is_refused(synth_dir):
+    with pytest.raises(ValueError, match="fold_settings names fold.s. Z, not among"):
+        expand(_spec(synth_dir, fold_settings={"Z": {"kernel": 5}}), USERS)
+
+
+TINY = """
+preset = "quick"
+encoder = "{encoder}"
+data_dir = "{data}"
+test_users = ["B", "C"]
+epochs = 3
+{extra}
+[[experiments]]
+variants = ["A"]
+annotations = ["original"]
+"""
+FOLD_SETTINGS = """
+[fold_settings.B]
+kernel = 5
+lowpass = false
+"""
+
+
+@pytest.fixture(scope="module")
+def grids(tmp_path_factory, synth_dir) -> dict[str, Path]:
+    root = tmp_path_factory.mktemp("nested")
+    found = {}
+    for name, encoder, extra in (("ed-tcn", "ed-tcn", FOLD_SETTINGS), ("ms-tcn", "ms-tcn", "")):
+        spec = root / f"{name}.toml"
+        spec.write_text(TINY.format(encoder=encoder, data=synth_dir, extra=extra))
+        assert grid_main(["--spec", str(spec), "--out", str(root / name)]) == 0
+        found[name] = root / name
+    return found
+
+
+@pytest.mark.slow
+def test_a_nested_selection_is_one_configuration_beside_other_architectures(grids, tmp_path,
+                                                                             capsys):
+    """Its folds' runs differ in kernel, low-pass filter and data fingerprint, yet pool as one
+    configuration; beside MS-TCN on the same release its data counts at the common setting."""
+    run = grids["ed-tcn"] / "runs/original/bidirectional/A-fixed/seed0"
+    assert read_json(run / "B/config.json")["run"]["encoder"]["kernel"] == 5
+    assert read_json(run / "C/config.json")["run"]["encoder"]["kernel"] == 10
+    assert tables_main(["paper", str(grids["ed-tcn"]), "--no-figures", "--out",
+                        str(tmp_path / "paper")]) == 0
+    runs = pd.read_csv(tmp_path / "paper" / "runs.csv")
+    assert len(runs) == 2
+    assert tables_main(["architectures", str(grids["ed-tcn"]), str(grids["ms-tcn"]), "--out",
+                        str(tmp_path / "side")]) == 0, capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_a_run_that_does_not_hold_its_folds_selected_settings_is_refused(grids, tmp_path,
+                                                                         capsys):
+    grid = tmp_path / "grid"
+    shutil.copytree(grids["ed-tcn"], grid)
+    config = grid / "runs/original/bidirectional/A-fixed/seed0/B/config.json"
+    saved = read_json(config)
+    saved["run"]["encoder"]["kernel"] = 7
+    write_json(config, saved)
+    capsys.readouterr()
+    assert tables_main(["paper", str(grid), "--no-figures", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "A-fixed/seed0/B" in err and "run.encoder.kernel" in err and "Traceback" not in err
+    assert not (tmp_path / "o").exists()
+    (grid / "grid.json").unlink()          # runs without a grid's spec: the pooling rule's check
+    assert tables_main(["runs", str(grid / "runs"), "--out",
+                        str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "run.encoder.kernel 7, its selection's 5 on fold B" in err and "Traceback" not in err
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.slow
+def test_a_selection_is_never_stacked_and_is_shown_before_a_grid_runs(synth_dir, tmp_path,
+                                                                      capsys):
+    spec = tmp_path / "s.toml"
+    spec.write_text(TINY.format(encoder="ed-tcn", data=synth_dir, extra=FOLD_SETTINGS))
+    assert grid_main(["--spec", str(spec), "--out", str(tmp_path / "g"), "--stack", "2"]) == 2
+    assert "use --stack 1" in capsys.readouterr().err
+    assert grid_main(["--spec", str(spec), "--out", str(tmp_path / "g"), "--dry-run"]) == 0
+    out = capsys.readouterr().out
+    assert "settings per outer fold (a nested selection): B kernel 5, lowpass false" in out
