@@ -312,9 +312,11 @@ def fold_settings_toml(chosen: pd.DataFrame, singles: list[Level]) -> str:
     """``fold_settings.toml`` (module docstring) from ``factors_settings.csv``'s table
     (``chosen``) and the single levels its settings name."""
     by_name = {level.name: level for level in singles}
-    lines = ["# Each outer fold's setting of results/tcn/PLAN_factors.md (section D.2), chosen on "
-             "its inner runs: written by multitask-tables factors. A fold not listed keeps the "
-             "baseline's.", "# Add to a grid spec (multitask.grid.spec, fold_settings)."]
+    lines = ["# Each outer fold's setting of results/tcn/PLAN_factors.md (section D.2), chosen "
+             "on its inner runs",
+             "# only: written by multitask-tables factors. A fold not listed keeps the "
+             "baseline's. Add to a",
+             "# grid spec (multitask.grid.spec, fold_settings)."]
     for fold, setting in zip(chosen.fold, chosen.setting):
         if setting == BASELINE:
             continue
