@@ -126,6 +126,9 @@ def test_a_nested_selection_is_one_configuration_beside_other_architectures(grid
     assert len(runs) == 2
     assert tables_main(["architectures", str(grids["ed-tcn"]), str(grids["ms-tcn"]), "--out",
                         str(tmp_path / "side")]) == 0, capsys.readouterr().err
+    caption = "kernel, lowpass chosen per outer fold on its training users alone (a nested"
+    assert caption in (tmp_path / "paper" / "table2.tex").read_text()
+    assert caption not in (tmp_path / "side" / "table2.tex").read_text().split("MS-TCN")[-1]
 
 
 @pytest.mark.slow

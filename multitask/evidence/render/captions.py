@@ -35,6 +35,7 @@ class RunsDescription:
     encoders: tuple[str, ...] = ()           # TCNs, users' encoders by path (rnn_seg.encoders)
     lengths: dict[int, tuple[str, ...]] = field(default_factory=dict)  # length -> its variants
     unit: str = "epochs"                     # of the lengths: "epochs" or "sweeps"
+    selected: tuple[str, ...] = ()           # settings a nested selection chose per outer fold
 
     def sentence(self) -> str:
         """E.g. ``Data: JIGSAWS Suturing kinematics, 38 trials, leave-one-user-out over 8 folds
@@ -47,6 +48,9 @@ class RunsDescription:
         models += [self._schedule()] if self.lengths else []
         models.append(f"{len(self.seeds)} seed{'s' * (len(self.seeds) != 1)} "
                       f"({', '.join(map(str, self.seeds))})")
+        if self.selected:
+            models.append(f"{', '.join(self.selected)} chosen per outer fold on its training "
+                          "users alone (a nested selection)")
         return f"{', '.join(data)}. Models: {', '.join(models)}."
 
     def _schedule(self) -> str:
@@ -63,8 +67,11 @@ def describe_runs(grid_dir: Path | str, runs: pd.DataFrame) -> RunsDescription:
     root = Path(grid_dir)
     keys = [RunKey(**{k: row[k] for k in RunKey.__dataclass_fields__})
             for row in runs.to_dict("records")]
-    configs = {key: read_json(path)["run"] for key in keys
-               if (path := root / key.path() / "config.json").is_file()}
+    saved = {key: read_json(path) for key in keys
+             if (path := root / key.path() / "config.json").is_file()}
+    configs = {key: record["run"] for key, record in saved.items()}
+    selected = {name.rsplit(".", 1)[-1] for record in saved.values()
+                for name in (record.get("selection") or {}).get("common", {})}
     lengths: dict[int, list[str]] = {}
     for key, config in configs.items():
         variants = lengths.setdefault(config["optim"]["total"], [])
@@ -83,7 +90,8 @@ def describe_runs(grid_dir: Path | str, runs: pd.DataFrame) -> RunsDescription:
                                for c in configs.values()
                                if c["encoder"].get("kind", "lstm") != "lstm"})),
         lengths={n: tuple(sorted(v, key=list(VARIANTS).index)) for n, v in lengths.items()},
-        unit=first["optim"]["unit"] if first else "epochs")
+        unit=first["optim"]["unit"] if first else "epochs",
+        selected=tuple(sorted(selected)))
 
 
 def _test_trials(root: Path, keys: list[RunKey]) -> set[str]:
