@@ -42,10 +42,15 @@ def require_choice(name: str, value: Any, choices: Collection) -> None:
 
     Args:
         name: what the message calls the value, e.g. ``"OptimConfig.unit"``.
-        value: the value to check; a bool is never a choice (``True == 1``).
+        value: the value to check; a bool is never a choice (``True == 1``), nor is a value
+            that cannot be looked up among them (a TOML table or array, unhashable).
         choices: the allowed values, listed in the message.
     """
-    if isinstance(value, bool) or value not in choices:
+    try:
+        known = not isinstance(value, bool) and value in choices
+    except TypeError:
+        known = False
+    if not known:
         raise ValueError(f"{name} must be one of {', '.join(map(repr, choices))} (got {value!r})")
 
 

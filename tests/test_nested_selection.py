@@ -70,11 +70,29 @@ def test_every_run_records_the_whole_selection(synth_dir):
     ({"fold_settings": {}}, "fold_settings must be a table of outer folds"),
     ({"fold_settings": {"E": {"kernel": 5}}, "test_users": ["B", "C"]},
      "fold_settings.E: E is not among test_users"),
+    ({"fold_settings": {1: {"kernel": 5}}}, "fold_settings must name outer folds by their user"),
+    ({"fold_settings": {"B": {"feature_set": ["all"]}}},
+     "fold_settings.B: feature_set must be one of"),
+    ({"fold_settings": {"B": {"feature_set": {"all": 1}}}},
+     "fold_settings.B: feature_set must be one of"),
 ])
 def test_a_bad_selection_is_one_line_naming_the_fold_and_key(keys, words):
     with pytest.raises(ValueError, match=words) as error:
         spec_from_dict({"encoder": "ed-tcn", **keys}, source="s.toml")
     assert str(error.value).startswith("s.toml: ") and "\n" not in str(error.value)
+
+
+@pytest.mark.parametrize("keys, words", [
+    ({"kernel": 0}, "kernel must be an integer >= 1"),
+    ({"epochs": 0}, "epochs must be an integer >= 1"),
+    ({"inner_validation": 0}, "inner_validation must be an integer >= 1"),
+    ({"experiments": []}, "experiments must be a non-empty list"),
+])
+def test_a_bad_key_beside_a_selection_is_named_as_the_specs_not_a_folds(keys, words):
+    with pytest.raises(ValueError, match=words) as error:
+        spec_from_dict({"encoder": "ed-tcn", "fold_settings": {"B": {"lowpass": False}},
+                        **keys}, source="s.toml")
+    assert str(error.value).startswith(f"s.toml: {words}")
 
 
 def test_a_selection_of_a_fold_the_release_lacks_is_refused(synth_dir):

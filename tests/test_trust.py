@@ -335,6 +335,8 @@ def test_grid_record_carries_provenance(finished_grid):
     ("seeds = 0", "seeds must be a non-empty list"),
     ('epochs = "four"', "epochs must be an integer >= 1 (got 'four')"),
     ('seeds = [0, "../../../../ESCAPED"]', "seeds must be a list of integers >= 0"),
+    ('preset = {name = "quick"}', "preset must be one of 'converged', 'paper', 'quick'"),
+    ('feature_set = [["all"]]', "feature_set must be one of"),
 ])
 def test_bad_spec_values_fail_at_load_time(tmp_path, small_dir, capsys, line, named):
     spec = tmp_path / "bad.toml"

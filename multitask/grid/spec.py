@@ -536,7 +536,6 @@ class GridSpec:
         if self.seeds is not None:
             _require_seeds("seeds", self.seeds)
         self._check_factor_keys()
-        self._check_fold_settings()
         for name in ("hidden", "epochs", "resample_factor", "kernel", "inner_validation"):
             if getattr(self, name) is not None:
                 require_number(name, getattr(self, name), integer=True, low=1)
@@ -552,6 +551,7 @@ class GridSpec:
             if not isinstance(experiment, Experiment):
                 raise ValueError(f"experiments must be tables of variants, weightings, "
                                  f"annotations, directions (got {experiment!r})")
+        self._check_fold_settings()         # last: each fold's spec is checked whole again
 
     def _check_factor_keys(self) -> None:
         """The keys of the factor study (module docstring): ED-TCN's only with it."""
@@ -577,6 +577,9 @@ class GridSpec:
             raise ValueError("fold_settings must be a table of outer folds, each a table of "
                              f"settings (got {self.fold_settings!r})")
         for fold, entry in self.fold_settings.items():
+            if not isinstance(fold, str) or not fold:
+                raise ValueError(f"fold_settings must name outer folds by their user (got "
+                                 f"{fold!r})")
             if not isinstance(entry, dict):
                 raise ValueError(f"fold_settings.{fold} must be a table of settings (got "
                                  f"{entry!r})")
