@@ -5,16 +5,21 @@ architectures on the same data, and refuse when a run does not hold its fold's s
 from __future__ import annotations
 
 import shutil
+from dataclasses import replace
 from pathlib import Path
 
 import pandas as pd
 import pytest
 
 from multitask.evidence.cli import main as tables_main
+from multitask.evidence.runs.checks import other_settings
+from multitask.evidence.runs.pooling import MixedSettings, pool
 from multitask.grid.cli import main as grid_main
+from multitask.grid.folder import GRID_RECORD
 from multitask.grid.spec import (RunKey, expand, inner_fold, run_arguments, run_config,
-                                 spec_from_dict)
+                                 spec_from_dict, spec_payload)
 from multitask.models.fold_run import variant_configs
+from multitask.models.run_record import read_run_record
 from rnn_seg.runs.folder import read_json, write_json
 from rnn_seg.runs.settings import settings_of
 
@@ -28,8 +33,19 @@ def _spec(synth_dir, **keys):
                            **keys})
 
 
-def _key(fold: str) -> RunKey:
-    return RunKey("original", "bidirectional", "A", "fixed", 0, fold)
+def _key(fold: str, seed: int = 0) -> RunKey:
+    return RunKey("original", "bidirectional", "A", "fixed", seed, fold)
+
+
+def _write_records(root: Path, spec, keys) -> dict[Path, Path]:
+    """The config.json of each run at ``keys`` as ``spec``'s grid writes it, without training;
+    run path (relative to ``root``) -> its config.json."""
+    written = {}
+    for key in keys:
+        write_json(root / key.path() / "config.json",
+                   variant_configs(**run_arguments(spec, key)))
+        written[key.path()] = root / key.path() / "config.json"
+    return written
 
 
 def test_each_outer_fold_and_its_inner_runs_train_with_its_own_settings(synth_dir):
@@ -98,6 +114,73 @@ def test_a_bad_key_beside_a_selection_is_named_as_the_specs_not_a_folds(keys, wo
 def test_a_selection_of_a_fold_the_release_lacks_is_refused(synth_dir):
     with pytest.raises(ValueError, match="fold_settings names fold.s. Z, not among"):
         expand(_spec(synth_dir, fold_settings={"Z": {"kernel": 5}}), USERS)
+
+
+def test_the_tables_check_an_inner_selection_grid_against_its_spec(synth_dir, tmp_path):
+    """Inner runs (folders ``<u>-val-<v>``) of a selection over the release's users (no
+    ``test_users``): each checked against the settings of its outer fold, as
+    ``multitask-tables factors`` and ``ladder`` read them; a folder of another fold's settings
+    is named."""
+    spec = _spec(synth_dir, fold_settings=SELECTION, inner_validation=1)
+    keys = expand(spec, USERS)
+    written = _write_records(tmp_path, spec, keys)
+    write_json(tmp_path / GRID_RECORD, {"spec": spec_payload(spec),
+                                        "runs": [str(key.path()) for key in keys]})
+    runs = {key.path(): key for key in keys}
+    assert other_settings(tmp_path, runs) == {}
+    moved = _key(inner_fold("B", "C")).path()
+    saved = read_json(written[moved])
+    saved["run"]["encoder"]["kernel"] = 10                  # fold D's (the spec's), not B's
+    write_json(written[moved], saved)
+    assert list(other_settings(tmp_path, runs)) == [moved]
+    assert "run.encoder.kernel: 10 -> 5" in other_settings(tmp_path, runs)[moved]
+
+
+@pytest.mark.parametrize("fold_settings, edited", [
+    ({"B": {"kernel": 5}}, "B"),                 # fold B's data: the common setting's
+    ({"B": {}}, "B"),                            # a fold table that sets nothing
+    (SELECTION, "C"),                            # a fold at the common setting
+    ({"B": {"lowpass": False}}, "B"),            # fold B's own data, its other seed's
+])
+def test_runs_of_a_selection_on_the_same_data_record_one_fingerprint(
+        synth_dir, tmp_path, fold_settings, edited):
+    """The data fingerprint hashes the data: two runs of one selection on the same data (a fold
+    whose selected settings leave the data at the common setting counts as on the common
+    setting's data) that record other fingerprints are refused, naming the run."""
+    spec = _spec(synth_dir, fold_settings=fold_settings)
+    keys = [_key(fold, seed) for fold in "BC" for seed in (0, 1)]
+    written = _write_records(tmp_path, spec, keys)
+
+    def records():
+        return {path: read_run_record(tmp_path / path) for path in written}
+
+    pool(records(), tmp_path)
+    saved = read_json(written[_key(edited).path()])
+    saved["data_fingerprint"] = "0" * 24
+    write_json(written[_key(edited).path()], saved)
+    with pytest.raises(MixedSettings, match="record other data fingerprints") as error:
+        pool(records(), tmp_path)
+    assert f"{'0' * 24} ({_key(edited).path()})" in str(error.value)
+    assert "\n" not in str(error.value)
+
+
+def test_two_configurations_of_a_selection_on_one_folds_data_record_one_fingerprint(
+        synth_dir, tmp_path):
+    """Runs of A and APc on fold B, whose selection changes its data (low-pass filter off):
+    each configuration's runs agree, yet the two record other fingerprints for the same data,
+    so their pairing would compare other data: refused."""
+    spec = spec_from_dict({"encoder": "ed-tcn", "data_dir": str(synth_dir), "seeds": [0],
+                           "experiments": [{"variants": ["A", "APc"],
+                                            "annotations": ["original"]}],
+                           "fold_settings": {"B": {"lowpass": False}}})
+    keys = [replace(_key(fold), variant=variant) for variant in ("A", "APc") for fold in "BC"]
+    written = _write_records(tmp_path, spec, keys)
+    other = replace(_key("B"), variant="APc").path()
+    saved = read_json(written[other])
+    saved["data_fingerprint"] = "0" * 24
+    write_json(written[other], saved)
+    with pytest.raises(MixedSettings, match=f"{'0' * 24} [(]{other}[)]"):
+        pool({path: read_run_record(tmp_path / path) for path in written}, tmp_path)
 
 
 TINY = """

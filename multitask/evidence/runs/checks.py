@@ -78,7 +78,9 @@ def _planned(spec: GridSpec, keys: dict[Path, RunKey]) -> set[RunKey]:
     """The runs of ``spec`` among the folds of ``keys`` (the data, and so the release's users,
     unknown here): its LOUO folds; for inner runs (``inner_validation``), every inner fold of
     ``keys`` whose outer fold is the spec's (which users follow it in the release is not
-    checked)."""
+    checked). Which runs a spec holds does not depend on its ``fold_settings`` (checked against
+    the release's users when the grid was launched), so they are not checked here."""
+    spec = replace(spec, fold_settings=None)
     folds = tuple(sorted({key.fold for key in keys.values()}))
     if spec.inner_validation is None:
         return set(expand(spec, spec.test_users or folds))

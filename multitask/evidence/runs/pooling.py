@@ -36,8 +36,10 @@ one, whether or not a grid's spec vouches for the runs.
   ``fold_settings``) are one configuration, the procedure: they may differ across folds in the
   settings it selects, and in the data fingerprint where those change the data, and must agree
   on everything else and on the selection itself; each run must hold the settings the
-  selection gives its outer fold (``selected_mismatch``). Where a table compares data, a run of
-  a selection counts with its data at the selection's common setting (``_data``).
+  selection gives its outer fold (``selected_mismatch``), and runs on the same data (its
+  selection's common setting counted as data too) one data fingerprint
+  (``one_fingerprint_per_data``). Where a table compares data, a run of a selection counts
+  with its data at the selection's common setting (``_data``).
 """
 from __future__ import annotations
 
@@ -155,18 +157,25 @@ def _data_by_annotations(records: dict[Path, RunRecord]) -> dict[str, dict[str, 
 
 
 def _data(record: RunRecord) -> dict[str, Any]:
-    """The run's data settings but where the data lay, and its data fingerprint; for a run of a
-    nested selection, those at the selection's common setting (``SelectionConfig``)."""
+    """The run's data settings but where the data lay and its labels, and its data fingerprint;
+    for a run of a nested selection, those at the selection's common setting
+    (``SelectionConfig``)."""
+    return {name: value for name, value in _run_data(record, record.selection is not None).items()
+            if name != "run.data.annotations"}
+
+
+def _run_data(record: RunRecord, common: bool = False) -> dict[str, Any]:
+    """The run's data settings (its labels included) but where the data lay, and its data
+    fingerprint; with ``common``, those at its nested selection's common setting."""
     settings, fingerprint = settings_of(record.configs()), record.fingerprint
-    if record.selection is not None:
-        common = record.selection.common           # None: a default the record leaves out
-        settings = {name: value for name, value in {**settings, **common}.items()
-                    if name not in common or value is not None}
+    if common:
+        chosen = record.selection.common           # None: a default the record leaves out
+        settings = {name: value for name, value in {**settings, **chosen}.items()
+                    if name not in chosen or value is not None}
         fingerprint = record.selection.common_fingerprint
     return {**{name: value for name, value in settings.items()
                if name.startswith("run.data.")
-               and name.removeprefix("run.data.") not in DataConfig.output_fields
-               and name != "run.data.annotations"},
+               and name.removeprefix("run.data.") not in DataConfig.output_fields},
             "data_fingerprint": fingerprint}
 
 
@@ -187,11 +196,34 @@ def selected_mismatch(record: RunRecord) -> str | None:
     wrong = [f"{name} {settings.get(name)!r}, its selection's {value!r} on fold {fold}"
              for name, value in record.selection.expected(fold).items()
              if settings.get(name) != value]
-    if not wrong and fold not in record.selection.per_fold \
-            and record.fingerprint != record.selection.common_fingerprint:
-        wrong.append(f"data_fingerprint {record.fingerprint}, its selection's "
-                     f"{record.selection.common_fingerprint} on fold {fold}")
     return "; ".join(wrong) or None
+
+
+def one_fingerprint_per_data(records: dict[Path, RunRecord], where: Path | str) -> None:
+    """Check that the runs of nested selections among ``records`` record one data fingerprint
+    per data (``_run_data``'s settings), a selection's common setting counted as data too
+    (``SelectionConfig.common_fingerprint``): the fingerprint hashes the data, and
+    ``configuration`` leaves it out for these runs, whose folds' data may differ.
+
+    Raises:
+        MixedSettings: naming, per data with several fingerprints, each and what records it.
+    """
+    found: dict[str, dict[str, list[str]]] = {}     # data -> fingerprint -> what records it
+    for run, record in records.items():
+        if record.selection is None:
+            continue
+        for data, source in ((_run_data(record), str(run)),
+                             (_run_data(record, common=True), f"{run}'s selection")):
+            fingerprint = str(data.pop("data_fingerprint"))
+            found.setdefault(repr(sorted(data.items())), {}).setdefault(fingerprint,
+                                                                         []).append(source)
+    mixed = [" / ".join(f"{fingerprint} ({_runs(sources)})"
+                        for fingerprint, sources in by_fingerprint.items())
+             for by_fingerprint in found.values() if len(by_fingerprint) > 1]
+    if mixed:
+        raise MixedSettings(f"{where}: runs of a nested selection record other data "
+                            f"fingerprints for the same data (data_fingerprint "
+                            f"{'; '.join(mixed)}), so no table pools them")
 
 
 def record_key(record: RunRecord) -> RunKey:
@@ -240,8 +272,11 @@ def pool(records: dict[Path, RunRecord], where: Path | str, varying: tuple[str, 
         MixedSettings: runs of several encoders (an LSTM, ED-TCN, MS-TCN, a user's encoder of
             another import path or source: a table of one grid would pair them as one model's
             configurations), naming each; inner runs in a table not made for them
-            (``INNER_SETTING`` not in ``varying``), or with outer runs; or, naming, per row
-            whose runs differ, each setting that differs and the runs of each of its values.
+            (``INNER_SETTING`` not in ``varying``), or with outer runs; runs of a nested
+            selection not holding their fold's settings (``selected_mismatch``) or recording
+            other fingerprints for the same data (``one_fingerprint_per_data``); or, naming,
+            per row whose runs differ, each setting that differs and the runs of each of its
+            values.
     """
     _check_inner(records, where, INNER_SETTING in varying)
     wrong = [f"{run}: {problem}" for run, problem
@@ -251,6 +286,7 @@ def pool(records: dict[Path, RunRecord], where: Path | str, varying: tuple[str, 
                             f"it gives their fold ({'; '.join(wrong[:SHOWN])}"
                             + (f"; and {len(wrong) - SHOWN} more" if len(wrong) > SHOWN else "")
                             + "), so no table pools them")
+    one_fingerprint_per_data(records, where)
     encoders: dict[str, list[str]] = {}
     for run, record in records.items():
         encoders.setdefault(encoder_identity(record), []).append(str(run))
