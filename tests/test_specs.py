@@ -6,14 +6,20 @@ from pathlib import Path
 
 import pytest
 
-from multitask.grid.spec import expand, load_spec, release_users, with_budget
+from jigsaws_tools.toml_files import read_toml
+from multitask.evidence.plans.factors import FOLD_SETTINGS
+from multitask.grid.spec import expand, load_spec, release_users, spec_from_dict, with_budget
 
 ROOT = Path(__file__).resolve().parents[1]
 #: Confirmatory plans (``multitask.evidence.plans.confirm``) and the exploratory analyses
-#: beside them (``multitask.evidence.plans.exploratory``) are TOML too, but no grid spec.
+#: beside them (``multitask.evidence.plans.exploratory``) are TOML too, but no grid spec; nor
+#: is a factor study's settled choice, ``fold_settings`` tables to add to one
+#: (``multitask.evidence.plans.factors``).
 PLANS = sorted((ROOT / "results").rglob("plan.toml"))
 EXPLORATORY = sorted((ROOT / "results").rglob("exploratory.toml"))
-SPECS = sorted(set((ROOT / "results").rglob("*.toml")) - set(PLANS) - set(EXPLORATORY))
+CHOICES = sorted((ROOT / "results").rglob(FOLD_SETTINGS))
+SPECS = sorted(set((ROOT / "results").rglob("*.toml")) - set(PLANS) - set(EXPLORATORY)
+               - set(CHOICES))
 
 
 def test_there_are_specs():
@@ -27,6 +33,16 @@ def test_every_committed_spec_expands(path):
         pytest.skip(f"{spec.release_dir()} not found")
     keys = expand(spec, release_users(spec))
     assert keys and len(set(keys)) == len(keys)
+
+
+@pytest.mark.parametrize("path", CHOICES, ids=[str(p.relative_to(ROOT)) for p in CHOICES])
+def test_every_committed_fold_settings_file_adds_to_an_ed_tcn_spec(path):
+    """Its tables alone, each of a user of the release, valid for ED-TCN (the factor study's
+    backbone)."""
+    raw = read_toml(path, "fold settings")
+    assert set(raw) == {"fold_settings"}
+    spec = spec_from_dict({"encoder": "ed-tcn", "data_dir": "synthetic", **raw}, str(path))
+    assert expand(spec, release_users(spec))
 
 
 @pytest.mark.parametrize("path", PLANS, ids=[str(p.relative_to(ROOT)) for p in PLANS])
