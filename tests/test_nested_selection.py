@@ -111,9 +111,17 @@ def test_a_bad_key_beside_a_selection_is_named_as_the_specs_not_a_folds(keys, wo
     assert str(error.value).startswith(f"s.toml: {words}")
 
 
-def test_a_selection_of_a_fold_the_release_lacks_is_refused(synth_dir):
+def test_a_selection_of_a_fold_the_release_lacks_is_refused(synth_dir, tmp_path, capsys):
     with pytest.raises(ValueError, match="fold_settings names fold.s. Z, not among"):
         expand(_spec(synth_dir, fold_settings={"Z": {"kernel": 5}}), USERS)
+    spec = tmp_path / "s.toml"
+    spec.write_text(TINY.format(encoder="ed-tcn", data=synth_dir, extra="").replace(
+        'test_users = ["B", "C"]', "") + "[fold_settings.Z]\nkernel = 5\n")
+    capsys.readouterr()
+    assert grid_main(["--spec", str(spec), "--out", str(tmp_path / "g"), "--dry-run"]) == 2
+    err = capsys.readouterr().err
+    assert f"{spec}: fold_settings names fold(s) Z" in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "g").exists()
 
 
 def test_the_tables_check_an_inner_selection_grid_against_its_spec(synth_dir, tmp_path):

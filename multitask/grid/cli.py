@@ -171,7 +171,11 @@ def _run(args: argparse.Namespace) -> int:
                          f"{spec.loops} (or graph loops with --stack)")
     _check_grid_folder(args.out)
     spec = _on_recorded_loops(spec, args.out)
-    keys = expand(spec, release_users(spec))
+    users = release_users(spec)
+    try:
+        keys = expand(spec, users)
+    except ValueError as error:                 # folds the release lacks: the spec's
+        raise ValueError(f"{args.spec}: {error}" if args.spec else str(error)) from None
     budget = spec.budget
     size = f"H={budget.hidden}" if spec.encoder == "lstm" else f"encoder {spec.encoder}"
     schedule = (f"{spec.epochs} epochs" if spec.encoder in SCHEDULES and spec.epochs
