@@ -191,6 +191,20 @@ def test_two_configurations_of_a_selection_on_one_folds_data_record_one_fingerpr
         pool({path: read_run_record(tmp_path / path) for path in written}, tmp_path)
 
 
+def test_a_run_without_its_selection_is_named_beside_the_runs_of_it(synth_dir, tmp_path):
+    """A run whose config.json lost its selection differs from the selection's runs in the
+    settings the selection chooses per fold, said as such (not as settings they lack)."""
+    spec = _spec(synth_dir, fold_settings=SELECTION)
+    written = _write_records(tmp_path, spec, [_key("B"), _key("D")])
+    saved = read_json(written[_key("B").path()])
+    del saved["selection"]
+    write_json(written[_key("B").path()], saved)
+    with pytest.raises(MixedSettings) as error:
+        pool({path: read_run_record(tmp_path / path) for path in written}, tmp_path)
+    assert (f"run.encoder.kernel 5 ({_key('B').path()}) / (chosen per fold) "
+            f"({_key('D').path()})") in str(error.value)
+
+
 TINY = """
 preset = "quick"
 encoder = "{encoder}"

@@ -60,6 +60,8 @@ POOLED = ("run.train.seed", "run.test_user")
 INNER_SETTING = "run.held_out_users"
 #: Runs named per value in a difference, the rest counted.
 SHOWN = 3
+#: What ``configuration`` holds for a setting that a run's nested selection chooses per fold.
+CHOSEN = "(chosen per fold)"
 
 
 class MixedSettings(ValueError):
@@ -240,12 +242,12 @@ def record_key(record: RunRecord) -> RunKey:
 
 def configuration(record: RunRecord) -> dict[str, Any]:
     """The settings that identify the run's configuration (``{"run.encoder.hidden": 128, ...}``):
-    every setting of its record but ``POOLED``; for a run of a nested selection, but also the
-    settings it selects and the data fingerprint, which its recorded selection stands for."""
-    skipped = set(POOLED)
+    every setting of its record but ``POOLED``; for a run of a nested selection, the settings it
+    selects and the data fingerprint read ``CHOSEN``: its recorded selection stands for them."""
+    settings = {k: v for k, v in settings_of(record.configs()).items() if k not in POOLED}
     if record.selection is not None:
-        skipped |= {*record.selection.common, "data_fingerprint"}
-    return {k: v for k, v in settings_of(record.configs()).items() if k not in skipped}
+        settings |= {name: CHOSEN for name in (*record.selection.common, "data_fingerprint")}
+    return settings
 
 
 def misplaced(record: RunRecord, place: RunKey) -> str | None:
