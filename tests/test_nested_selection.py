@@ -205,6 +205,20 @@ def test_a_run_without_its_selection_is_named_beside_the_runs_of_it(synth_dir, t
             f"({_key('D').path()})") in str(error.value)
 
 
+def test_values_that_read_alike_are_told_apart_in_a_refusal(synth_dir, tmp_path):
+    """A selection's kernel of fold B written as "5" in one run's config.json, 5 in the
+    other's: the refusal shows both, not an empty list of differences."""
+    spec = _spec(synth_dir, fold_settings=SELECTION)
+    written = _write_records(tmp_path, spec, [_key("B"), _key("D")])
+    saved = read_json(written[_key("D").path()])
+    saved["selection"]["per_fold"]["B"]["run.encoder.kernel"] = "5"
+    write_json(written[_key("D").path()], saved)
+    with pytest.raises(MixedSettings) as error:
+        pool({path: read_run_record(tmp_path / path) for path in written}, tmp_path)
+    assert (f"selection.per_fold.B.run.encoder.kernel 5 ({_key('B').path()}) / '5' "
+            f"({_key('D').path()})") in str(error.value)
+
+
 TINY = """
 preset = "quick"
 encoder = "{encoder}"

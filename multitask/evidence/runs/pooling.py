@@ -335,12 +335,18 @@ def _differences(runs: dict[Path, dict]) -> str:
     names = sorted({name for settings in runs.values() for name in settings})
     clauses = []
     for name in names:
-        by_value: dict[str, list[str]] = {}
+        values: dict[str, Any] = {}                 # repr of each value -> the value
+        folders: dict[str, list[str]] = {}          # repr of each value -> its runs
         for run, settings in runs.items():
-            by_value.setdefault(_shown(settings.get(name, "(not recorded)")), []).append(str(run))
-        if len(by_value) > 1:
-            clauses.append(f"{name} " + " / ".join(f"{value} ({_runs(folders)})"
-                                                   for value, folders in by_value.items()))
+            value = settings.get(name, "(not recorded)")
+            values.setdefault(repr(value), value)
+            folders.setdefault(repr(value), []).append(str(run))
+        if len(values) > 1:
+            shown = {key: _shown(value) for key, value in values.items()}
+            if len(set(shown.values())) < len(shown):       # 5 and "5", or alike once cut
+                shown = {key: key for key in values}
+            clauses.append(f"{name} " + " / ".join(f"{shown[key]} ({_runs(folders[key])})"
+                                                   for key in values))
     return ", ".join(clauses)
 
 
