@@ -238,10 +238,10 @@ def _run(args: argparse.Namespace) -> int:
         for key, message in failed:
             print(f"  {key.path()}: {message}", file=sys.stderr)
         return 1
-    study = ("paper" if spec.inner_validation is None
-             else "factors BASELINE")              # inner runs: against a baseline's grid
-    print(f"grid complete: {len(keys)} runs in {args.out}; tables: multitask-tables {study} "
-          f"{args.out}")
+    tables = (f"multitask-tables paper {args.out}" if spec.inner_validation is None
+              else f"multitask-tables factors BASELINE {args.out} (a factor's level) or "
+                   f"multitask-tables ladder {args.out} --lengths N... (pilot runs)")
+    print(f"grid complete: {len(keys)} runs in {args.out}; tables: {tables}")
     return 0
 
 
