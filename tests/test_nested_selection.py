@@ -84,6 +84,7 @@ def test_every_run_records_the_whole_selection(synth_dir):
     ({"fold_settings": {"B": {"lowpass": "no"}}}, "fold_settings.B: lowpass must be true or"),
     ({"fold_settings": {"B": 5}}, "fold_settings.B must be a table of settings"),
     ({"fold_settings": {}}, "fold_settings must be a table of outer folds"),
+    ({"fold_settings": {"B": {"kernel": 5}, "C": {}}}, "fold_settings.C sets nothing"),
     ({"fold_settings": {"E": {"kernel": 5}}, "test_users": ["B", "C"]},
      "fold_settings.E: E is not among test_users"),
     ({"fold_settings": {1: {"kernel": 5}}}, "fold_settings must name outer folds by their user"),

@@ -583,6 +583,9 @@ class GridSpec:
             if not isinstance(entry, dict):
                 raise ValueError(f"fold_settings.{fold} must be a table of settings (got "
                                  f"{entry!r})")
+            if not entry:
+                raise ValueError(f"fold_settings.{fold} sets nothing: remove it (a fold not "
+                                 "listed keeps the spec's settings)")
             if self.test_users and fold not in self.test_users:
                 raise ValueError(f"fold_settings.{fold}: {fold} is not among test_users "
                                  f"({', '.join(self.test_users)})")
