@@ -36,7 +36,7 @@ from jigsaws_tools.cli.options import add_data_arguments
 from .common import add_out_options, publish
 from .release import MANIFEST as RELEASE_MANIFEST
 
-SUMMARY = "another method's predictions scored and paired with archived baselines"
+SUMMARY = "another method's predictions scored beside archived baselines"
 #: The list of the files the last call wrote into ``--out``; it names the folders and grids.
 MANIFEST = "score.json"
 
