@@ -261,6 +261,18 @@ def test_baselines_of_two_grids_alike_are_named_apart_and_an_unreachable_family_
     assert "at most 6 comparisons" in text and (many.p_holm > 0.05).all()
 
 
+def test_out_inside_a_prediction_folder_is_refused_before_anything_is_read(tmp_path, capsys):
+    predictions = tmp_path / "seed0"
+    predictions.mkdir()
+    for out in (predictions, predictions / "tables"):
+        code = tables_main(["score", str(predictions), "--rate", "30", "--synthetic",
+                            "--out", str(out)])
+        err = capsys.readouterr().err
+        assert code == 2 and len(err.strip().splitlines()) == 1, err
+        assert f"--out {out}: inside the prediction folder {predictions}" in err
+    assert list(predictions.iterdir()) == []
+
+
 def test_a_folder_where_a_prediction_file_should_be_is_named(tmp_path):
     (tmp_path / "Suturing_B001.txt").mkdir()
     with pytest.raises(ValueError, match=r"Suturing_B001\.txt: a folder \(give"):
