@@ -17,6 +17,7 @@ import pytest
 from jigsaws_tools.cli import arg_types
 from jigsaws_tools.cli.common import (_TF_NOISE, Interrupted, configure_output, package_version,
                                       run_command)
+from multitask.evidence.commands import STUDIES
 
 ROOT = Path(__file__).resolve().parents[1]
 COMMANDS = {"jigsaws-tools": "jigsaws_tools.cli.main", "baseline-train": "baseline.cli",
@@ -380,3 +381,25 @@ def test_every_command_passes_its_arguments_to_run_command(module):
              if isinstance(node, ast.Call) and getattr(node.func, "id", "") == "run_command"]
     assert calls and all(any(k.arg == "argv" and getattr(k.value, "id", "") == "argv"
                              for k in call.keywords) for call in calls), module
+
+
+def test_the_tables_help_lists_every_study_on_one_screen():
+    """``multitask-tables --help``: every study on a line of its own, in at most 40 lines of at
+    most 80 characters (a terminal's default width)."""
+    from multitask.evidence.cli import build_parser
+
+    shown = build_parser().format_help().splitlines()
+    assert len(shown) <= 40, f"{len(shown)} lines"
+    assert not [line for line in shown if len(line) > 80]
+    for study in STUDIES:
+        assert any(re.match(rf"^  {study}\s{{2,}}\S", line) for line in shown), study
+
+
+@pytest.mark.parametrize("study", sorted(STUDIES))
+def test_every_study_s_help_shows_an_example_of_it(study):
+    """Each ``multitask-tables STUDY --help`` holds an indented example command of that study."""
+    from multitask.evidence.cli import build_parser
+
+    sub = next(a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction))
+    shown = sub.choices[study].format_help()
+    assert re.search(rf"^    multitask-tables {study} \S", shown, re.M), shown

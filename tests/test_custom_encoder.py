@@ -122,7 +122,7 @@ def test_a_changed_or_missing_source_is_refused_naming_the_path(gru_run, importa
 BAD = {
     "no_such_module_xyz:build": "no module no_such_module_xyz",
     "bad_encoders:missing": "has no name 'missing'",
-    "bad_encoders:NUMBER": "not a function or class",
+    "bad_encoders:NUMBER": "NUMBER is of type int, not a function or class",
     "bad_encoders:wrong_shape": "not [2, 7, D]",
     "bad_encoders:shorter": "not [2, 7, D]",
     "bad_encoders:batch_norm": "non-trainable state",

@@ -165,6 +165,27 @@ def test_a_paper_size_training_says_so_beside_a_quick_variant():
         assert quick, f"{command}: no quick variant in its block"
 
 
+#: A user's encoder by its import path (``--encoder package.module:name``).
+USER_ENCODER = re.compile(r"^[\w.]+:\w+$")
+#: The commands that import a run's encoder: they train or load it.
+IMPORTS_ENCODER = ("multitask-train", "multitask-grid", "multitask-evaluate", "multitask-predict",
+                   "multitask-export")
+
+
+def test_a_block_with_a_user_s_encoder_puts_its_folder_on_the_path_of_each_command():
+    """A console script does not look in the working folder: each command of a block that trains
+    a user's encoder, and each that loads its run, sets PYTHONPATH on its own line (a reader
+    copies lines one by one)."""
+    commands = _documented(DOCUMENTS)
+    for document, block in {(c.document, c.block) for c in commands
+                            if "--encoder" in c.words and USER_ENCODER.match(
+                                c.words[c.words.index("--encoder") + 1])}:
+        for command in commands:
+            if (command.document, command.block) == (document, block) \
+                    and command.words[0] in IMPORTS_ENCODER:
+                assert "PYTHONPATH=" in command.text, f"{command}: no PYTHONPATH on its line"
+
+
 def test_the_rules_find_what_they_should(tmp_path):
     """The extraction on a document of every shape the rules name."""
     doc = tmp_path / "doc.md"

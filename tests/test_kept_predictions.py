@@ -249,6 +249,32 @@ def test_a_release_refuses_a_configuration_the_grid_lacks_and_an_archive_without
 
 
 @pytest.mark.slow
+def test_a_release_with_the_data_moved_names_the_recorded_folder_and_reads_data_dir(
+        trained, tmp_path, capsys):
+    """The runs' recorded data folder gone, a release is one line naming it and --data-dir (no
+    longer the data loader's 'JIGSAWS Suturing folder not found'); given the folder, it writes
+    the same files as with the data in place."""
+    grid, archive, data = trained
+    assert tables_main(["release", str(archive), "--out", str(tmp_path / "here"),
+                        "--configs", "A-fixed"]) == 0
+    moved = data.parent.parent / "moved"
+    data.parent.rename(moved)
+    try:
+        capsys.readouterr()
+        assert tables_main(["release", str(archive), "--out", str(tmp_path / "x"),
+                            "--configs", "A-fixed"]) == 2
+        error = capsys.readouterr().err.strip()
+        assert len(error.splitlines()) == 1 and str(data) in error and "--data-dir" in error
+        assert not (tmp_path / "x").exists()
+        assert tables_main(["release", str(archive), "--out", str(tmp_path / "elsewhere"),
+                            "--configs", "A-fixed", "--data-dir", str(moved / "Suturing")]) == 0
+    finally:
+        moved.rename(data.parent)
+    here, elsewhere = _files(tmp_path / "here"), _files(tmp_path / "elsewhere")
+    assert elsewhere == here and len(here) > 1
+
+
+@pytest.mark.slow
 def test_a_release_and_score_say_that_a_release_scores_the_last_evaluation_point(
         trained, tmp_path, capsys):
     """The release's README says that a release scores its runs' last evaluation point, not the

@@ -18,9 +18,9 @@ import pytest
 from jigsaws_tools.dataset import DataConfig, load_dataset
 from jigsaws_tools.task_definition import SUTURING
 from multitask.evidence.cli import main as tables_main
-from multitask.evidence.runs.method import method_scores, truth
+from multitask.evidence.runs.method import _trial_files, method_scores, truth
 from multitask.evidence.statistics.paired import ConfigId, Contrast, holm, paired
-from multitask.evidence.studies.method import compare, read_baselines
+from multitask.evidence.studies.method import caption, compare, read_baselines
 from multitask.grid.archive import ARCHIVE_RECORD
 from multitask.grid.spec import Experiment
 from rnn_seg.metrics import segmentation_metrics
@@ -235,6 +235,48 @@ def test_the_pairing_is_statistics_paired_on_the_same_numbers(tmp_path, synth_di
         assert (row.diff, row.ci_low, row.ci_high, row.p_value) == pytest.approx(
             (result.mean, *result.ci, result.p_value))
         assert row.folds == " ".join(result.folds) and row.baseline_seeds == result.seeds[1]
+
+
+@pytest.mark.slow
+def test_baselines_of_two_grids_alike_are_named_apart_and_an_unreachable_family_said(
+        tmp_path, synth_dir, trials, baselines):
+    """Two grids of one architecture (results/grid and results/reference/grid) give rows and
+    caption entries that tell them apart; a call of more comparisons than the folds' smallest p
+    can carry through Holm says that no verdict but 'no difference detected' is possible."""
+    rng = np.random.default_rng(4)
+    folder = _write(tmp_path / "seed0", {t.name: _frame_labels(t, rng) for t in trials}, 30,
+                    "txt")
+    scores, folds = method_scores([folder], DataConfig(str(synth_dir)), 30)
+    twin = shutil.copytree(baselines["lstm"], tmp_path / "twin")
+    against = [(baselines["lstm"], [ConfigId("A"), ConfigId("APc")]), (twin, [ConfigId("A")])]
+    chosen, runs = read_baselines(against, "revised", folds)
+    assert [b.name for b in chosen] == [f"LSTM-16 A-fixed ({baselines['lstm']})",
+                                        "LSTM-16 APc-fixed", f"LSTM-16 A-fixed ({twin})"]
+    few = compare(scores, "M", chosen, runs, ["gesture_accuracy", "gesture_edit"])
+    assert "whatever the data" not in caption(few, "M", "revised", "Suturing")
+    many = compare(scores, "M", chosen, runs, ["gesture_accuracy", "gesture_edit",
+                                               "gesture_f1@10"])
+    text = caption(many, "M", "revised", "Suturing")
+    assert "With 8 folds no p Holm-adjusted over 9 comparisons can fall below 0.070" in text
+    assert "at most 6 comparisons" in text and (many.p_holm > 0.05).all()
+
+
+def test_out_inside_a_prediction_folder_is_refused_before_anything_is_read(tmp_path, capsys):
+    predictions = tmp_path / "seed0"
+    predictions.mkdir()
+    for out in (predictions, predictions / "tables"):
+        code = tables_main(["score", str(predictions), "--rate", "30", "--synthetic",
+                            "--out", str(out)])
+        err = capsys.readouterr().err
+        assert code == 2 and len(err.strip().splitlines()) == 1, err
+        assert f"--out {out}: inside the prediction folder {predictions}" in err
+    assert list(predictions.iterdir()) == []
+
+
+def test_a_folder_where_a_prediction_file_should_be_is_named(tmp_path):
+    (tmp_path / "Suturing_B001.txt").mkdir()
+    with pytest.raises(ValueError, match=r"Suturing_B001\.txt: a folder \(give"):
+        _trial_files(tmp_path, {"Suturing_B001"}, SUTURING)
 
 
 def test_a_grid_tested_on_other_trials_is_refused(tmp_path, synth_dir, baselines):

@@ -103,7 +103,7 @@ def load_builder(path: str) -> Callable[..., Any]:
     builder = getattr(module, name)
     if not callable(builder) or _is_layer(builder):
         raise EncoderImportError(
-            f"encoder {path}: {name} is a {type(builder).__name__}, not a function or class "
+            f"encoder {path}: {name} is of type {type(builder).__name__}, not a function or class "
             "building a Keras layer from (input_size, config)")
     return builder
 

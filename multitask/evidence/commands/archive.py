@@ -22,7 +22,7 @@ from pathlib import Path
 
 from .common import add_data_option, check_folders
 
-SUMMARY = "a grid's scores archive (configs, metrics, logs, predicted labels), to commit"
+SUMMARY = "a grid's scores archive: configs, scores, logs, predictions"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -20,7 +20,7 @@ from pathlib import Path
 
 from .common import add_out_options, check_folders, publish
 
-SUMMARY = "a grid's test predictions as per-split files to pair against (score reads them)"
+SUMMARY = "a grid's test predictions as per-split files others can read"
 #: The list of the files the last call wrote into ``--out``.
 MANIFEST = "release.json"
 

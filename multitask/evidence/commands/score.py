@@ -36,7 +36,7 @@ from jigsaws_tools.cli.options import add_data_arguments
 from .common import add_out_options, publish
 from .release import MANIFEST as RELEASE_MANIFEST
 
-SUMMARY = "another method's predictions scored and paired with archived baselines"
+SUMMARY = "another method's predictions scored beside archived baselines"
 #: The list of the files the last call wrote into ``--out``; it names the folders and grids.
 MANIFEST = "score.json"
 
@@ -72,6 +72,7 @@ def run(args: argparse.Namespace) -> None:
     from ..studies.method import (caption, check_metrics, compare, comparison_markdown,
                                   parse_against, read_baselines, summary_markdown, write_method)
 
+    check_out_outside(args.out, args.folders)
     task = task_from_options(args)
     config = DataConfig(str(data_dir_from_args(args, task)), annotations=args.annotations,
                         task=task, recording_format=format_from_options(args))
@@ -100,6 +101,17 @@ def run(args: argparse.Namespace) -> None:
                     "annotations": args.annotations, "against": args.against})
     print(comparison_markdown(table, text) if table is not None else summary_markdown(
         scores, args.metrics, args.name, args.annotations, task.name), end="")
+
+
+def check_out_outside(out: Path, folders: list[Path]) -> None:
+    """A ``ValueError`` when ``out`` is one of the prediction ``folders`` or inside one: its
+    files would join the predictions, and the next call would refuse the folder."""
+    where = Path(out).resolve()
+    for folder in folders:
+        inside = Path(folder).resolve()
+        if where == inside or inside in where.parents:
+            raise ValueError(f"--out {out}: inside the prediction folder {folder}, which must "
+                             "hold trial files only; write the tables elsewhere")
 
 
 def released_from(folder: Path) -> str | None:

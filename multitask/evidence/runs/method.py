@@ -139,7 +139,8 @@ def _trial_files(folder: Path, expected: set[str], task: TaskDefinition) -> dict
     for path in sorted(p for p in folder.iterdir() if not p.name.startswith(".")):
         name = _TRIAL_NAME.match(path.stem)
         if path.suffix not in FORMATS or not path.is_file():
-            raise ValueError(f"{path}: not a prediction file (<trial>.csv or <trial>.txt)")
+            what = "a folder" if path.is_dir() else "not a prediction file"
+            raise ValueError(f"{path}: {what} (give <trial>.csv or <trial>.txt files only)")
         if name and name["task"] != task.name:
             raise ValueError(f"{path}: a trial of another task ({name['task']}); the predictions "
                              f"are scored on {task.name}")

@@ -9,7 +9,9 @@ seeds within the fold, tested as ``claims.csv`` tests a claim (``paired.paired_s
 two-sided sign-flip test over the folds both sides have, the 95 % interval that inverts it);
 Holm's correction runs over every comparison of the call (baselines x metrics). Verdict at the
 adjusted p: ``<method> above`` / ``<method> below`` (p <= alpha), else ``no difference
-detected``.
+detected``; when the comparisons are too many for the folds' smallest p to pass Holm at alpha
+(``claims.smallest_adjusted_p``) the caption says that no other verdict is possible. Baselines of
+one name (model A of two LSTM-128 grids) are named apart by their grids.
 
 A grid is compared only when its runs were tested on the method's trials: per fold both must
 name the same trials (a grid records them in its kept predictions or its archive's
@@ -23,7 +25,8 @@ baselines, ``score.csv`` (one row per comparison: ``COLUMNS``), ``score.tex`` an
 from __future__ import annotations
 
 import sys
-from dataclasses import dataclass
+from collections import Counter
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Sequence
 
@@ -41,6 +44,7 @@ from ..runs.collect import run_records
 from ..runs.pooling import architecture, architecture_name
 from ..statistics.paired import (ConfigId, NotPaired, StatsConfig, config_labels, fold_values,
                                  holm, paired_sides, seed_values)
+from .claims import smallest_adjusted_p
 
 #: The configurations a grid named without any is compared by: these variants' (any weighting).
 DEFAULT_VARIANTS = ("A", "APc", "APoc")
@@ -105,7 +109,17 @@ def read_baselines(against: Sequence[tuple[Path, list[ConfigId]]], annotations: 
                                  "once: Holm counts every comparison)")
             chosen.append(Baseline(grid, config, f"{kind} {config.label}"))
         tables.append(runs.assign(grid=str(grid)))
-    return chosen, pd.concat(tables, ignore_index=True) if tables else pd.DataFrame()
+    runs = pd.concat(tables, ignore_index=True) if tables else pd.DataFrame()
+    return _named_apart(chosen), runs
+
+
+def _named_apart(baselines: list[Baseline]) -> list[Baseline]:
+    """``baselines``, a name that two of them share followed by its grid (``LSTM-128 A-fixed
+    (results/reference/grid)`` beside ``LSTM-128 A-fixed (results/grid)``), so that a table's rows
+    and caption tell them apart."""
+    shared = Counter(b.name for b in baselines)
+    return [replace(b, name=f"{b.name} ({b.grid})") if shared[b.name] > 1 else b
+            for b in baselines]
 
 
 def _check_grid(grid: Path) -> None:
@@ -215,7 +229,27 @@ def caption(table: pd.DataFrame, name: str, annotations: str, task: str,
             f"over its evaluation points. Per fold each side is the mean over its "
             f"seeds; diff = {name} - baseline (points; lower is better for MAE), its "
             f"{config.confidence:.0%} interval and p from the exact sign-flip test over the "
-            f"folds (as claims.csv), p Holm-adjusted over the {len(table)} comparisons.")
+            f"folds (as claims.csv), p Holm-adjusted over the {len(table)} comparisons."
+            f"{_unreachable(table, config)}")
+
+
+def _unreachable(table: pd.DataFrame, config: StatsConfig) -> str:
+    """A sentence saying that no verdict but "no difference detected" is possible when the
+    smallest adjusted p the comparisons can reach (``claims.smallest_adjusted_p``, at the most
+    folds any row has) is above the level; else ``""``."""
+    folds = max((len(row.split()) for row in table.folds), default=0)
+    floor = smallest_adjusted_p(len(table), folds)
+    if floor <= config.alpha:
+        return ""
+    return (f" With {folds} folds no p Holm-adjusted over {len(table)} comparisons can fall "
+            f"below {floor:.3f}: every verdict is 'no difference detected' whatever the data "
+            f"(at most {_reachable(folds, config)} comparisons can reach p <= "
+            f"{config.alpha:g}: name fewer baselines or --metrics).")
+
+
+def _reachable(folds: int, config: StatsConfig) -> int:
+    """The most comparisons whose Holm-adjusted p can reach the level over ``folds`` folds."""
+    return int(config.alpha * 2 ** folds / 2 + 1e-9)
 
 
 def _cells(row, fmt) -> list[str]:

@@ -29,6 +29,7 @@ import numpy as np
 from rnn_seg.runs.folder import write_atomic
 
 from ...grid.kept_predictions import read_kept_predictions
+from ...inference.run_record import recorded_data_dir
 from ..runs.collect import run_records
 from ..runs.method import TrialTruth, truth
 
@@ -94,8 +95,8 @@ def write_release(grid: Path, out: Path, configs: Sequence[str] = (),
         kept = read_kept_predictions(run_dir)
         if kept is None:
             continue
-        data = record.config.data if data_dir is None else replace(
-            record.config.data, data_dir=str(data_dir))
+        source = recorded_data_dir(record.config, run_dir) if data_dir is None else data_dir
+        data = replace(record.config.data, data_dir=str(source))
         key = repr(data)
         if key not in releases:
             releases[key] = {t.name: t for t in truth(data)}

@@ -20,7 +20,7 @@ from pathlib import Path
 
 from ..common import add_out_options, add_seeds_option, check_folders, publish, seeds_of
 
-SUMMARY = "what a plan's folds x seeds could detect: variance shares, power"
+SUMMARY = "what a plan's folds x seeds could detect: variance, power"
 #: The list of the files the last call wrote into ``--out``.
 MANIFEST = "design.json"
 

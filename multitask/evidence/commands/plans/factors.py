@@ -24,7 +24,7 @@ from pathlib import Path
 
 from ..common import add_out_options, check_folders, publish_noted
 
-SUMMARY = "the factor study's inner runs: each level against the baseline, each fold's choice"
+SUMMARY = "factor study: each level vs. the baseline, each fold's choice"
 #: The list of the files the last call wrote into ``--out``; it names the grids too.
 MANIFEST = "factors.json"
 

@@ -24,7 +24,7 @@ from jigsaws_tools.cli.arg_types import positive_int
 
 from ..common import add_out_options, check_folders, publish
 
-SUMMARY = "convergence ladders: each pilot run's training loss checked at shorter lengths"
+SUMMARY = "convergence ladders: each pilot run's loss at shorter lengths"
 #: The list of the files the last call wrote into ``--out``; it names the grids too.
 MANIFEST = "ladder.json"
 
