@@ -117,6 +117,9 @@ def test_tables_regenerate_identically_with_the_data_elsewhere_or_absent(trained
         assert len(notes) == 1 and "no example-trial figures" in notes[0] \
             and str(data) in notes[0]
         assert absent == {name: text for name, text in here.items() if "_example." not in name}
+        again = _tables(archive, tmp_path / "here")       # over the earlier output, no data
+        assert "left as they were" in capsys.readouterr().err
+        assert again == here                               # its example figures and manifest too
         elsewhere = _tables(archive, tmp_path / "elsewhere", "--data-dir",
                             str(moved / "Suturing"))
         assert elsewhere == here

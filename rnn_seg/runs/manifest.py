@@ -8,7 +8,7 @@ place together, and the folder's *manifest* (a JSON file named by the command, e
 - the folder holds the last call's output: the files the last manifest listed and this output
   lacks (a figure the grid can no longer draw) are removed, and nothing else is, but for those
   under the folders the call leaves alone (``kept``: the figures of a call told to write the
-  tables only), which stay listed;
+  tables only, or figures that need data this machine lacks), which stay listed;
 - a file of an output's name that the manifest does not list (the user's own ``table1.csv``, a
   file of another command) is never written over: the whole output is refused before anything
   is moved, unless ``overwrite`` says to replace such files;
@@ -30,7 +30,7 @@ import os
 import shutil
 from contextlib import contextmanager
 from pathlib import Path, PurePosixPath
-from typing import Any, Iterator
+from typing import Any, Iterator, Sequence
 
 from .folder import RunFolderError, read_json, write_json
 from .lock import hold_folder
@@ -46,7 +46,7 @@ FILES, JOURNAL = "files", "journal.json"
 @contextmanager
 def staged_outputs(out: Path, manifest: str, command: str, overwrite: bool = False,
                    record: dict[str, Any] | None = None,
-                   kept: tuple[str, ...] = ()) -> Iterator[Path]:
+                   kept: Sequence[str] = ()) -> Iterator[Path]:
     """Write a command's files into the staging folder yielded; publish them in ``out``.
 
     Args:
@@ -56,8 +56,9 @@ def staged_outputs(out: Path, manifest: str, command: str, overwrite: bool = Fal
         overwrite: replace files of the output's names that the manifest does not list.
         record: more to say in the manifest (e.g. the run a prediction used), beside its
             ``written_by`` and ``files``.
-        kept: folders of ``out`` (relative, e.g. ``"figures/"``) whose listed files this call
-            does not write and leaves as they are.
+        kept: folders of ``out`` (relative, e.g. ``"figures/"``) or file-name prefixes whose
+            listed files this call does not write and leaves as they are; read after the
+            command's block, so the command may add to a list given here while it writes.
 
     Raises:
         OutputFolderError: a file to be written exists in ``out`` and the manifest does not
@@ -73,7 +74,7 @@ def staged_outputs(out: Path, manifest: str, command: str, overwrite: bool = Fal
             staging.mkdir()
             with naming_full_disk(staging, out):
                 yield staging
-            plan = _plan(staging, out, manifest, command, overwrite, kept)
+            plan = _plan(staging, out, manifest, command, overwrite, tuple(kept))
         except BaseException:
             shutil.rmtree(work, ignore_errors=True)
             raise

@@ -81,7 +81,7 @@ LISTED = 100
 
 
 def publish(out: Path, manifest: str, overwrite: bool, write: Callable[[Path], list[Path]],
-            record: dict[str, Any] | None = None, kept: tuple[str, ...] = ()) -> None:
+            record: dict[str, Any] | None = None, kept: Sequence[str] = ()) -> None:
     """``write(staging)`` (the study: returns the paths it wrote under ``staging``), published
     into ``out`` and listed in ``manifest`` (module docstring); then every path printed, or, past
     ``LISTED`` paths (a release's trial files), their count and where the manifest lists them.
@@ -92,8 +92,9 @@ def publish(out: Path, manifest: str, overwrite: bool, write: Callable[[Path], l
         overwrite: ``--overwrite``.
         write: the study's work.
         record: more entries of the manifest (e.g. the grids compared).
-        kept: folders of ``out`` whose listed files stay although this call did not write them
-            (e.g. ``figures/`` after ``--no-figures``).
+        kept: folders (or file-name prefixes) of ``out`` whose listed files stay although this
+            call did not write them (e.g. ``figures/`` after ``--no-figures``); read when the
+            files are published, so ``write`` may add to a list given here.
     """
     from rnn_seg.runs.manifest import staged_outputs
     from rnn_seg.runs.outputs import check_output_folder

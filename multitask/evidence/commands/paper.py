@@ -54,13 +54,15 @@ def run(args: argparse.Namespace) -> None:
     if is_run_collection(args.grid):
         raise ValueError(f"{args.grid} holds runs trained one by one, not a grid: tabulate them "
                          f"with multitask-tables runs {args.grid} --out DIR")
+    left_alone = list(_left_alone(args))     # the study adds what it cannot redraw here
     publish(args.out or args.grid / "tables", MANIFEST, args.overwrite,
             lambda staging: write_tables(
                 args.grid, staging, figures=not args.no_figures, ours_only=args.ours_only,
                 example_trial=args.example_trial, curves=args.curves,
                 allow_incomplete=args.allow_incomplete, seeds=seeds_of(args),
-                finished_only=args.finished_only, data_dir=args.data_dir),
-            kept=_left_alone(args))
+                finished_only=args.finished_only, data_dir=args.data_dir,
+                left_alone=left_alone),
+            kept=left_alone)
 
 
 def _left_alone(args: argparse.Namespace) -> tuple[str, ...]:

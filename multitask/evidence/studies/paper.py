@@ -40,11 +40,16 @@ from ..statistics.time_baseline import with_time_baseline
 from .claims import CONJECTURE_CLAIMS
 from .claims_table import write_claims
 
+#: The example figures' files in ``--out`` (each a ``.pdf`` and a ``.png``): the figures that
+#: need the data, which the scores archive never holds (true labels).
+EXAMPLE_FIGURES = ("figures/segmentation_example.", "figures/progress_example.")
+
 
 def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: bool = False,
                  example_trial: str | None = None, curves: bool = False,
                  allow_incomplete: bool = False, seeds: tuple[int, ...] | None = None,
-                 finished_only: bool = False, data_dir: Path | None = None) -> list[Path]:
+                 finished_only: bool = False, data_dir: Path | None = None,
+                 left_alone: list[str] | None = None) -> list[Path]:
     """Everything ``multitask-tables paper`` writes (the module docstring) into ``out``; returns
     the paths. A folder of runs trained one by one gets ``run_collection_tables``.
 
@@ -61,6 +66,9 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
         finished_only: leave out the configurations with a run not finished yet.
         data_dir: the grid's release (the time-only rows, the example figures' true labels);
             None: the folder the grid records, where the archive keeps no time-only scores.
+        left_alone: where the names of files this call cannot redraw but must not remove are
+            added (``EXAMPLE_FIGURES`` when the data cannot be read: the earlier call's example
+            figures stay as they were; the publish's ``kept``).
     """
     if is_run_collection(grid_dir):
         return run_collection_tables(grid_dir, out, allow_incomplete or finished_only, seeds)
@@ -69,7 +77,8 @@ def write_tables(grid_dir: Path, out: Path, figures: bool = True, ours_only: boo
     if foreign and (figures or curves):      # these read run folders, not the checked table
         print("note: no example-trial, GradNorm-weight or training-curve figures: they read run "
               "folders, and folders of other settings were left out (above)", file=sys.stderr)
-    example = (_example(Path(grid_dir), folds, example_trial, data_dir)
+    example = (_example(Path(grid_dir), folds, example_trial, data_dir,
+                        [] if left_alone is None else left_alone)
                if figures and not foreign else None)
     written = _evidence_tables(Path(grid_dir), runs, folds, out, seeds, ours_only, data_dir)
     written += write_per_class(Path(grid_dir), runs, folds, out, figures)
@@ -100,11 +109,13 @@ def _evidence_tables(grid_dir: Path, runs: pd.DataFrame, folds: pd.DataFrame, ou
 
 
 def _example(grid_dir: Path, folds: pd.DataFrame, example_trial: str | None,
-             data_dir: Path | None) -> ExampleTrial | None:
+             data_dir: Path | None, left_alone: list[str]) -> ExampleTrial | None:
     """The example figures' trial (``render.figures.example_trial``), chosen before anything is
     written (an unknown ``example_trial`` is an error), with its true labels from the data
     (``render.figures.example_truth``); None, with a note, when no run kept predictions or the
-    data cannot be read."""
+    data cannot be read: then the grid cannot draw them and an earlier call's are removed, or
+    only this machine cannot, and they are left as they were (``EXAMPLE_FIGURES`` added to
+    ``left_alone``)."""
     skipped = "note: no example-trial figures (figures/segmentation_example, progress_example): "
     example = choose_example(grid_dir, folds, example_trial)
     if example is None:
@@ -115,7 +126,8 @@ def _example(grid_dir: Path, folds: pd.DataFrame, example_trial: str | None,
         return example_truth(grid_dir, *example, data_dir)
     except (OSError, ValueError) as error:
         print(f"{skipped}their true labels are read from the data: {error} (--data-dir: the "
-              "release)", file=sys.stderr)
+              "release); those an earlier call drew are left as they were", file=sys.stderr)
+        left_alone.extend(EXAMPLE_FIGURES)
         return None
 
 
