@@ -20,6 +20,7 @@ wrote has one. The extraction is ``documented.py``'s, shared with that script.
 from __future__ import annotations
 
 import importlib
+import importlib.util
 import os
 import re
 import shlex
@@ -235,3 +236,39 @@ def test_the_regeneration_script_lists_the_marked_commands():
     listed = subprocess.run([sys.executable, str(ROOT / "bench" / "regenerate_results.py"),
                              "--list"], capture_output=True, text=True, timeout=60, check=True)
     assert listed.stdout.splitlines() == [shlex.join(c.words) for c in regenerating()]
+
+
+def _script():
+    spec = importlib.util.spec_from_file_location("regenerate_results",
+                                                  ROOT / "bench" / "regenerate_results.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_regeneration_script_reports_failures_and_changed_files(monkeypatch, capsys):
+    """Exit 1 naming a failed command with its stderr's last lines and every changed or new
+    file; 2 (nothing run) when results/ was not clean before; 0 when all ran and nothing
+    changed."""
+    script = _script()
+    command = Command(("multitask-tables", "paper", "g", "--out", "results"),
+                      ROOT / "results" / "README.md", 7, "", 6, REGENERATES)
+    monkeypatch.setattr(script, "regenerating", lambda: [command, command])
+    statuses = iter([[], [" M results/table1.csv", "?? results/new.png"]])
+    monkeypatch.setattr(script, "changed_files", lambda: next(statuses))
+    outcomes = iter([(0, "", 1.0), (3, "line 1\n\nTraceback\nValueError: bad\n", 2.0)])
+    monkeypatch.setattr(script, "run", lambda _: next(outcomes))
+    assert script.main([]) == 1
+    out = capsys.readouterr().out
+    assert "1 failed, 2 file(s)" in out and "failed (exit 3)" in out
+    assert "    ValueError: bad" in out and "results/README.md:7:" in out
+    assert " M results/table1.csv" in out and "?? results/new.png" in out
+
+    monkeypatch.setattr(script, "changed_files", lambda: [" M results/README.md"])
+    assert script.main([]) == 2
+    assert "uncommitted" in capsys.readouterr().err
+
+    monkeypatch.setattr(script, "changed_files", lambda: [])
+    monkeypatch.setattr(script, "run", lambda _: (0, "", 1.0))
+    assert script.main([]) == 0
+    assert "byte-identically" in capsys.readouterr().out
