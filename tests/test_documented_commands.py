@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import importlib
 import importlib.util
+import json
 import os
 import re
 import shlex
@@ -158,15 +159,19 @@ def test_the_marked_blocks_run_end_to_end(block, tmp_path):
 
 #: The programs that train: never in a ``regenerates`` block (it reads committed archives only).
 TRAINERS = ("baseline-train", "multitask-train", "multitask-grid")
-#: How a results folder written by ``multitask-tables`` says so, in the file listing its outputs.
-WRITTEN_BY = '"written_by": "multitask-tables"'
 
 
 def _listed_folders() -> set[str]:
     """Every folder under ``results/`` holding a listing of ``multitask-tables``' outputs
-    (``tables.json``, ``width.json``, ...), relative to the repository root."""
-    return {str(path.parent.relative_to(ROOT)) for path in (ROOT / "results").rglob("*.json")
-            if WRITTEN_BY in path.read_text()[:200]}
+    (``tables.json``, ``width.json``, ...: ``"written_by": "multitask-tables"``), relative to the
+    repository root; archives' ``runs/`` folders are not read."""
+    folders = set()
+    for path in (ROOT / "results").rglob("*.json"):
+        if "runs" not in path.relative_to(ROOT).parts:
+            listing = json.loads(path.read_text())
+            if isinstance(listing, dict) and listing.get("written_by") == "multitask-tables":
+                folders.add(str(path.parent.relative_to(ROOT)))
+    return folders
 
 
 def _out(command: Command) -> str:
