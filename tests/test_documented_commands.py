@@ -11,111 +11,32 @@ its block holds a quick training beside it.
 
 Blocks preceded by the comment ``<!-- tested end to end -->`` are cheap: they run for real, in a
 temporary folder beside a link to the project's ``results/`` (read only: they write under
-``runs/``), on the synthetic release (``slow``).
+``runs/``), on the synthetic release (``slow``). Blocks of the results READMEs preceded by
+``<!-- regenerates -->`` rewrite committed outputs from committed archives, in place, from the
+repository root (``bench/regenerate_results.py`` runs them): each line is one command of
+``multitask-tables``, none trains, and every folder of ``results/`` that ``multitask-tables``
+wrote has one. The extraction is ``documented.py``'s, shared with that script.
 """
 from __future__ import annotations
 
 import importlib
+import importlib.util
+import json
 import os
 import re
 import shlex
 import subprocess
 import sys
-from dataclasses import dataclass
 from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
-DOCUMENTS = [ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md"))]
-RESULTS_READMES = sorted((ROOT / "results").rglob("README.md"))
-#: The marker of a block whose commands run end to end.
-END_TO_END = "<!-- tested end to end -->"
-SHELLS = {"bash", "sh", "shell", "console"}
-#: Command -> module, from setup.py's console scripts.
-COMMANDS = dict(re.findall(r'"([\w-]+)=([\w.]+):main"', (ROOT / "setup.py").read_text()))
-SEPARATORS = {"&&", "||", ";", "|", "&"}
+from documented import (COMMANDS, DOCUMENTS, END_TO_END, REGENERATES, RESULTS_READMES, ROOT,
+                        Command, blocks_of, command_parts, commands_of, documented,
+                        logical_lines, regenerating)
+
 PAPER_SIZE = re.compile(r"paper[ -]size", re.I)
 TRAINING = ("baseline-train", "multitask-train")
-
-
-@dataclass(frozen=True)
-class Command:
-    """One command line of a document: its words (the program first), where it stands, the text
-    of its line (comment included) and the block it belongs to."""
-
-    words: tuple[str, ...]
-    document: Path
-    line: int
-    text: str
-    block: int
-    end_to_end: bool
-
-    def __str__(self) -> str:
-        return f"{self.document.relative_to(ROOT)}:{self.line}: {shlex.join(self.words)}"
-
-
-def _blocks(path: Path) -> list[tuple[int, list[tuple[int, str]], bool]]:
-    """The shell blocks of a Markdown file: (first line, [(line number, text)], marked end to
-    end); fenced blocks of a shell language, and indented blocks (4 spaces, after a blank line)
-    that start with a command of the package."""
-    lines = path.read_text().splitlines()
-    blocks, i = [], 0
-    while i < len(lines):
-        fence = re.match(r"^\s*```(\w*)", lines[i])
-        if fence:
-            end = next(j for j in range(i + 1, len(lines)) if lines[j].strip().startswith("```"))
-            marked = i > 0 and lines[i - 1].strip() == END_TO_END
-            if fence.group(1) in SHELLS:
-                blocks.append((i + 1, [(k + 1, lines[k]) for k in range(i + 1, end)], marked))
-            i = end + 1
-        elif lines[i].startswith("    ") and i > 0 and not lines[i - 1].strip():
-            start = i
-            while i < len(lines) and (lines[i].startswith("    ") or not lines[i].strip()):
-                i += 1
-            if Path(lines[start].split()[0]).name in COMMANDS:     # not an indented list item
-                blocks.append((start + 1, [(k + 1, lines[k][4:]) for k in range(start, i)],
-                               False))
-        else:
-            i += 1
-    return blocks
-
-
-def commands_of(path: Path) -> list[Command]:
-    """Every command of the package in ``path``'s shell blocks, continuation lines joined,
-    comments dropped, ``&&``-chains split, ``<placeholders>`` one word."""
-    found = []
-    for block, lines, marked in _blocks(path):
-        logical: list[tuple[int, str]] = []
-        for number, text in lines:
-            text = re.sub(r"^\$ ", "", text)
-            if logical and logical[-1][1].endswith("\\"):
-                logical[-1] = (logical[-1][0], logical[-1][1][:-1] + " " + text.strip())
-            elif text.strip():
-                logical.append((number, text))
-        for number, text in logical:
-            words = shlex.split(re.sub(r"<[^<>]+>", "PLACEHOLDER", text), comments=True)
-            for part in _split(words):
-                while part and re.match(r"^\w+=", part[0]):          # VAR=value command
-                    part = part[1:]
-                if part and Path(part[0]).name in COMMANDS:
-                    found.append(Command((Path(part[0]).name, *part[1:]), path, number, text,
-                                         block, marked))
-    return found
-
-
-def _split(words: list[str]) -> list[list[str]]:
-    parts = [[]]
-    for word in words:
-        if word in SEPARATORS:
-            parts.append([])
-        else:
-            parts[-1].append(word)
-    return [part for part in parts if part]
-
-
-def _documented(paths: list[Path]) -> list[Command]:
-    return [command for path in paths for command in commands_of(path)]
 
 
 def _checked(command: Command, monkeypatch, capsys) -> str:
@@ -132,13 +53,13 @@ def _checked(command: Command, monkeypatch, capsys) -> str:
     return err
 
 
-@pytest.mark.parametrize("command", _documented(DOCUMENTS), ids=str)
+@pytest.mark.parametrize("command", documented(DOCUMENTS), ids=str)
 def test_every_command_of_the_readme_and_docs_is_read_as_written(command, monkeypatch, capsys):
     err = _checked(command, monkeypatch, capsys)
     assert "deprecated" not in err, f"{command}: an old form\n{err}"
 
 
-@pytest.mark.parametrize("command", _documented(RESULTS_READMES), ids=str)
+@pytest.mark.parametrize("command", documented(RESULTS_READMES), ids=str)
 def test_every_command_of_the_results_readmes_is_read(command, monkeypatch, capsys):
     _checked(command, monkeypatch, capsys)
 
@@ -157,7 +78,7 @@ def _paper_size(command: Command) -> bool:
 
 
 def test_a_paper_size_training_says_so_beside_a_quick_variant():
-    commands = _documented(DOCUMENTS)
+    commands = documented(DOCUMENTS)
     for command in filter(_paper_size, commands):
         assert PAPER_SIZE.search(command.text), f"{command}: say 'paper size' on its line"
         quick = [c for c in commands if c.document == command.document
@@ -176,7 +97,7 @@ def test_a_block_with_a_user_s_encoder_puts_its_folder_on_the_path_of_each_comma
     """A console script does not look in the working folder: each command of a block that trains
     a user's encoder, and each that loads its run, sets PYTHONPATH on its own line (a reader
     copies lines one by one)."""
-    commands = _documented(DOCUMENTS)
+    commands = documented(DOCUMENTS)
     for document, block in {(c.document, c.block) for c in commands
                             if "--encoder" in c.words and USER_ENCODER.match(
                                 c.words[c.words.index("--encoder") + 1])}:
@@ -193,20 +114,24 @@ def test_the_rules_find_what_they_should(tmp_path):
                    "    --hidden 8 --out runs/x   # a comment\n.venv/bin/multitask-grid --out "
                    "../<this checkout>/g\n```\n\n```python\nmultitask-train --no\n```\n\n"
                    f"{END_TO_END}\n```console\n$ MLFLOW_X=1 jigsaws-tools synth --out s\n```\n"
-                   "\n    multitask-tables pair g X Y --metric m\n")
-    found = [(c.words, c.end_to_end) for c in commands_of(doc)]
+                   "\n    multitask-tables pair g X Y --metric m\n\n"
+                   f"{REGENERATES}\n```bash\nmultitask-tables paper g \\\n    --out results\n```\n"
+                   f"{REGENERATES}\n\n```bash\nmultitask-tables paper h --out results\n```\n")
+    found = [(c.words, c.marker) for c in commands_of(doc)]
     assert found == [
-        (("multitask-train", "--synthetic", "--hidden", "8", "--out", "runs/x"), False),
-        (("multitask-grid", "--out", "../PLACEHOLDER/g"), False),
-        (("jigsaws-tools", "synth", "--out", "s"), True),
-        (("multitask-tables", "pair", "g", "X", "Y", "--metric", "m"), False)]
-    paper = Command(("baseline-train", "--data-dir", "D"), doc, 1, "", 0, False)
+        (("multitask-train", "--synthetic", "--hidden", "8", "--out", "runs/x"), ""),
+        (("multitask-grid", "--out", "../PLACEHOLDER/g"), ""),
+        (("jigsaws-tools", "synth", "--out", "s"), END_TO_END),
+        (("multitask-tables", "pair", "g", "X", "Y", "--metric", "m"), ""),
+        (("multitask-tables", "paper", "g", "--out", "results"), REGENERATES),
+        (("multitask-tables", "paper", "h", "--out", "results"), "")]   # not directly above
+    paper = Command(("baseline-train", "--data-dir", "D"), doc, 1, "", 0, "")
     assert _paper_size(paper)
-    assert not _paper_size(Command((*paper.words, "--hidden", "64"), doc, 1, "", 0, False))
+    assert not _paper_size(Command((*paper.words, "--hidden", "64"), doc, 1, "", 0, ""))
 
 
 def _end_to_end() -> list[Command]:
-    return [command for command in _documented(DOCUMENTS) if command.end_to_end]
+    return [command for command in documented(DOCUMENTS) if command.end_to_end]
 
 
 def test_some_commands_are_marked_to_run_end_to_end():
@@ -230,3 +155,125 @@ def test_the_marked_blocks_run_end_to_end(block, tmp_path):
         result = subprocess.run([sys.executable, "-c", script, *words[1:]], cwd=tmp_path,
                                 env=env, capture_output=True, text=True, timeout=1800)
         assert result.returncode == 0, f"{command}\n{result.stderr}"
+
+
+#: The programs that train: never in a ``regenerates`` block (it reads committed archives only).
+TRAINERS = ("baseline-train", "multitask-train", "multitask-grid")
+
+
+def _listed_folders() -> set[str]:
+    """Every folder under ``results/`` holding a listing of ``multitask-tables``' outputs
+    (``tables.json``, ``width.json``, ...: ``"written_by": "multitask-tables"``), relative to the
+    repository root; archives' ``runs/`` folders are not read."""
+    folders = set()
+    for path in (ROOT / "results").rglob("*.json"):
+        if "runs" not in path.relative_to(ROOT).parts:
+            listing = json.loads(path.read_text())
+            if isinstance(listing, dict) and listing.get("written_by") == "multitask-tables":
+                folders.add(str(path.parent.relative_to(ROOT)))
+    return folders
+
+
+def _out(command: Command) -> str:
+    words = command.words
+    return words[words.index("--out") + 1] if "--out" in words else ""
+
+
+def test_every_output_folder_of_results_has_a_regenerating_command():
+    """Each committed output of ``multitask-tables`` (20 folders on 2026-12-03: ``results``,
+    ``results/paper``, ``results/confirm`` and its ``design``, ``design-128``, both
+    ``precision/*-vs-fp32``, ``reference``, ``tasks`` and its two tasks, ``tcn`` with its
+    ``ed-tcn-tables``, ``ms-tcn-tables``, ``factors/tables`` and three ladders, ``width`` and
+    ``width/a180``) is rewritten in place by a marked block (``bench/regenerate_results.py``)."""
+    folders = _listed_folders()
+    assert len(folders) >= 20, sorted(folders)
+    missing = folders - {_out(command) for command in regenerating()}
+    assert not missing, f"no <!-- regenerates --> block writes {sorted(missing)}"
+
+
+@pytest.mark.parametrize("command", regenerating(), ids=str)
+def test_a_regenerating_command_reads_committed_archives_into_its_folder(command, monkeypatch,
+                                                                         capsys):
+    """Read by its program's parser in its current form, not a training, writing a committed
+    folder of ``results/`` in place from paths that exist (relative to the repository root)."""
+    assert command.words[0] not in TRAINERS, f"{command}: a training in a regenerates block"
+    assert command.words[:2] != ("multitask-tables", "archive"), f"{command}: reads runs/"
+    out = _out(command)
+    assert out.split("/")[0] == "results" and (ROOT / out).is_dir(), \
+        f"{command}: --out is not a committed folder of results/"
+    for word in command.words[2:]:
+        for path in re.split(r"[+=]", word):
+            assert not path.startswith(("results/", "runs/")) or (ROOT / path).exists(), \
+                f"{command}: {path} does not exist"
+    err = _checked(command, monkeypatch, capsys)
+    assert "deprecated" not in err, f"{command}: an old form\n{err}"
+
+
+def test_every_line_of_a_regenerating_block_is_one_command_of_the_package():
+    """``bench/regenerate_results.py`` runs each line as one command of the package: a ``cp``,
+    a chain (``&&``) or a variable would be skipped or misread."""
+    for readme in RESULTS_READMES:
+        for block in blocks_of(readme):
+            if block.marker != REGENERATES:
+                continue
+            for number, text in logical_lines(block):
+                parts = command_parts(text)
+                assert len(parts) == 1 and parts[0][0] in COMMANDS and "$" not in text, \
+                    f"{readme.relative_to(ROOT)}:{number}: not one command of the package"
+
+
+def test_a_marker_stands_directly_above_a_shell_block_of_its_documents():
+    """A marker on another line is silently ignored; ``regenerates`` belongs to results READMEs
+    only (the script reads nowhere else)."""
+    for document in [*DOCUMENTS, *RESULTS_READMES]:
+        lines = document.read_text().splitlines()
+        for i, line in enumerate(lines):
+            if line.strip() in (END_TO_END, REGENERATES):
+                where = f"{document.relative_to(ROOT)}:{i + 1}"
+                nxt = lines[i + 1].strip() if i + 1 < len(lines) else ""
+                assert re.match(r"^```(bash|sh|shell|console)$", nxt), \
+                    f"{where}: its marker is not directly above a shell block"
+                assert line.strip() != REGENERATES or document in RESULTS_READMES, \
+                    f"{where}: a regenerates block outside results/**/README.md"
+
+
+def test_the_regeneration_script_lists_the_marked_commands():
+    listed = subprocess.run([sys.executable, str(ROOT / "bench" / "regenerate_results.py"),
+                             "--list"], capture_output=True, text=True, timeout=60, check=True)
+    assert listed.stdout.splitlines() == [shlex.join(c.words) for c in regenerating()]
+
+
+def _script():
+    spec = importlib.util.spec_from_file_location("regenerate_results",
+                                                  ROOT / "bench" / "regenerate_results.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_regeneration_script_reports_failures_and_changed_files(monkeypatch, capsys):
+    """Exit 1 naming a failed command with its stderr's last lines and every changed or new
+    file; 2 (nothing run) when results/ was not clean before; 0 when all ran and nothing
+    changed."""
+    script = _script()
+    command = Command(("multitask-tables", "paper", "g", "--out", "results"),
+                      ROOT / "results" / "README.md", 7, "", 6, REGENERATES)
+    monkeypatch.setattr(script, "regenerating", lambda: [command, command])
+    statuses = iter([[], [" M results/table1.csv", "?? results/new.png"]])
+    monkeypatch.setattr(script, "changed_files", lambda: next(statuses))
+    outcomes = iter([(0, "", 1.0), (3, "line 1\n\nTraceback\nValueError: bad\n", 2.0)])
+    monkeypatch.setattr(script, "run", lambda _: next(outcomes))
+    assert script.main([]) == 1
+    out = capsys.readouterr().out
+    assert "1 failed, 2 file(s)" in out and "failed (exit 3)" in out
+    assert "    ValueError: bad" in out and "results/README.md:7:" in out
+    assert " M results/table1.csv" in out and "?? results/new.png" in out
+
+    monkeypatch.setattr(script, "changed_files", lambda: [" M results/README.md"])
+    assert script.main([]) == 2
+    assert "uncommitted" in capsys.readouterr().err
+
+    monkeypatch.setattr(script, "changed_files", lambda: [])
+    monkeypatch.setattr(script, "run", lambda _: (0, "", 1.0))
+    assert script.main([]) == 0
+    assert "byte-identically" in capsys.readouterr().out
