@@ -248,6 +248,7 @@ encoder = "ed-tcn"
 data_dir = "{data}"
 test_users = ["B"]
 inner_validation = 1
+epochs = 3
 {level}
 [[experiments]]
 variants = ["A"]
