@@ -23,6 +23,7 @@ test_users = ["B"]
 seeds = [0]
 inner_validation = 1
 epochs = {epochs}
+plots = "none"
 [[experiments]]
 variants = ["A"]
 annotations = ["original"]

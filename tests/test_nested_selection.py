@@ -226,6 +226,7 @@ encoder = "{encoder}"
 data_dir = "{data}"
 test_users = ["B", "C"]
 epochs = {epochs}
+plots = "none"
 {extra}
 [[experiments]]
 variants = ["A"]
