@@ -49,7 +49,11 @@ class SegmentationModel(tf.Module):
         if self._multistage and encoder.stages > 1:
             from .encoders.ms_tcn import Refinement
             self.refinement = Refinement(tasks, encoder, rng)
-        self.infer = tf.function(self._infer, input_signature=[
+        # Traced without AutoGraph, as every graph function of the engine: its graph code never
+        # branches or loops on a tensor in Python (its loops are tf.while_loop), and AutoGraph
+        # does not convert Keras's code, so a user's layer is traced as written either way; its
+        # conversion cost seconds in every process that trains or predicts and added no op.
+        self.infer = tf.function(self._infer, autograph=False, input_signature=[
             tf.TensorSpec([None, None, input_size], tf.float32, name="inputs"),
             tf.TensorSpec([None, None], tf.bool, name="resets")])
 

@@ -134,7 +134,8 @@ def _compiled_step(members: list[Trainer]):
                  tf.TensorSpec([m, b, None], tf.bool),
                  tf.TensorSpec([m], tf.float32)]
     began = time.perf_counter()
-    step = tf.function(partial(_vector_step, members), input_signature=signature)
+    step = tf.function(partial(_vector_step, members), input_signature=signature,
+                       autograph=False)                                 # as model.infer
     step.get_concrete_function()
     for t in members:
         t.clock.add("trace", (time.perf_counter() - began) / m)

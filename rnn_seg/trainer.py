@@ -189,7 +189,7 @@ class Trainer:
         self.settings_hash = settings_hash(configs)     # config.json's, once ``prepare`` ran
         self._saved_hash = tf.Variable("", dtype=tf.string, trainable=False, name="settings")
         self._targets = {t.name: [t.encode(y) for y in train.labels[t.name]] for t in self.tasks}
-        self._train_step = tf.function(self._train_step_graph,
+        self._train_step = tf.function(self._train_step_graph, autograph=False,  # as infer's
                                        input_signature=self._step_signature(train))
         self.clock = PhaseClock()
         self._test_outputs_at: tuple[int, dict] | None = None   # (sweep, outputs) of the test set

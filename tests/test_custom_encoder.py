@@ -169,7 +169,8 @@ preset = "quick"
 data_dir = "{data}"
 test_users = ["B", "C"]
 seeds = [0]
-epochs = 4
+epochs = 2
+plots = "none"
 encoder = "{encoder}"
 {extra}
 [[experiments]]

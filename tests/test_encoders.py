@@ -280,7 +280,7 @@ def test_commands_train_predict_evaluate_and_export_a_tcn_run(synth_dir, tmp_pat
     monkeypatch.setenv("JIGSAWS_DIR", str(synth_dir))
     out = tmp_path / "x"
     assert multitask_main(["--encoder", kind, "--variant", "APoc", "--weighting", "gradnorm",
-                           "--epochs", "1", "--batch-size", "8", "--test-user", "D",
+                           "--sweeps", "1", "--batch-size", "8", "--test-user", "D",
                            "--no-plots",
                            "--out", str(out)]) == 0
     config = json.loads((out / "config.json").read_text())

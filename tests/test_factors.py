@@ -248,6 +248,8 @@ encoder = "ed-tcn"
 data_dir = "{data}"
 test_users = ["B"]
 inner_validation = 1
+epochs = 3
+plots = "none"
 {level}
 [[experiments]]
 variants = ["A"]

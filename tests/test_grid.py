@@ -54,6 +54,26 @@ def _metrics(grid: Path) -> dict[str, dict]:
             for p in sorted(grid.glob("runs/*/*/*/*/*/metrics.json"))}
 
 
+def test_a_specs_plots_reach_its_runs_and_are_no_setting(synth_dir):
+    """``plots`` is each run's ``TrainConfig.plots``; like the loops it changes neither a run's
+    settings hash nor what the grid's record compares, so a grid may resume with another."""
+    from multitask.grid.folder import comparable_spec
+    from multitask.grid.spec import run_arguments, spec_payload
+    from multitask.models.fold_run import variant_configs
+    from rnn_seg.runs.settings import settings_hash
+
+    specs = [spec_from_dict({"data_dir": str(synth_dir), "plots": plots}) for plots in
+             ("none", "last")]
+    key = expand(specs[0], ("B",))[0]
+    assert [run_config(spec, key).train.plots for spec in specs] == ["none", "last"]
+    hashes = {settings_hash(variant_configs(**run_arguments(spec, key), fingerprint="f"))
+              for spec in specs}
+    assert len(hashes) == 1
+    assert comparable_spec(spec_payload(specs[0])) == comparable_spec(spec_payload(specs[1]))
+    with pytest.raises(ValueError, match="s.toml: plots"):
+        spec_from_dict({"plots": "first"}, source="s.toml")
+
+
 def test_spec_errors_name_the_file_and_key(tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text('preset = "quick"\nhiden = 64\n')

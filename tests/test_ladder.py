@@ -23,24 +23,26 @@ test_users = ["B"]
 seeds = [0]
 inner_validation = 1
 epochs = {epochs}
+plots = "none"
 [[experiments]]
 variants = ["A"]
 annotations = ["original"]
 """
 RUN = "runs/original/bidirectional/A-fixed/seed0/B-val-C"
 ROOT = Path(__file__).resolve().parents[1]
-#: Committed archives of ED-TCN inner runs (200 epochs at a constant rate), and of LSTM runs
-#: (their rate halves from epoch 80).
+#: Committed archives of ED-TCN inner runs (200 epochs at a constant rate), and of four LSTM
+#: runs (their rate halves from epoch 80).
 FACTORS = ROOT / "results/tcn/factors/grids"
-LSTM = ROOT / "results/grid"
+LSTM = ROOT / "results/figures/examples-grid"
 
 
 @pytest.fixture(scope="module")
 def pilots(tmp_path_factory, synth_dir) -> dict[int, Path]:
-    """One ED-TCN pilot run trained for 24 epochs, and the same run trained for 12."""
+    """One ED-TCN pilot run trained for 18 epochs, and the same run trained for 9 (16 and 18
+    are the shortest lengths a ladder judges: ``MIN_POINTS`` epochs in their last fifth)."""
     root = tmp_path_factory.mktemp("ladder")
     grids = {}
-    for epochs in (24, 12):
+    for epochs in (18, 9):
         spec = root / f"pilot-{epochs}.toml"
         spec.write_text(PILOT.format(data=synth_dir, epochs=epochs))
         assert grid_main(["--spec", str(spec), "--out", str(root / f"g{epochs}")]) == 0
@@ -50,42 +52,42 @@ def pilots(tmp_path_factory, synth_dir) -> dict[int, Path]:
 
 @pytest.mark.slow
 def test_a_constant_rate_runs_first_epochs_do_not_depend_on_its_length(pilots):
-    """What the ladder rests on: the longer run's history cut at 12 epochs is the shorter's."""
-    long, short = (read_log(pilots[n] / RUN / "history.csv") for n in (24, 12))
-    assert len(long) == 24 and len(short) == 12
-    pd.testing.assert_series_equal(long["loss_gesture"].iloc[:12], short["loss_gesture"],
+    """What the ladder rests on: the longer run's history cut at 9 epochs is the shorter's."""
+    long, short = (read_log(pilots[n] / RUN / "history.csv") for n in (18, 9))
+    assert len(long) == 18 and len(short) == 9
+    pd.testing.assert_series_equal(long["loss_gesture"].iloc[:9], short["loss_gesture"],
                                    rtol=1e-5)
 
 
 @pytest.mark.slow
 def test_ladder_tables_from_pilot_runs_and_their_archive(pilots, tmp_path, capsys):
     out = tmp_path / "ladder"
-    assert tables_main(["ladder", str(pilots[24]), "--lengths", "20", "24", "12",
+    assert tables_main(["ladder", str(pilots[18]), "--lengths", "16", "18", "9",
                         "--out", str(out)]) == 0
     runs = pd.read_csv(out / "ladder_runs.csv")
-    assert runs.length.tolist() == [12, 20, 24]
+    assert runs.length.tolist() == [9, 16, 18]
     assert runs.verdict.iloc[0] == TOO_SHORT and set(runs.verdict[1:]) <= set(VERDICTS)
     assert runs.fold.unique().tolist() == ["B-val-C"]
     summary = pd.read_csv(out / "ladder.csv")
     counted = summary[["converged", "undecided", "still_falling", "too_short"]].sum(axis=1)
     assert (counted == summary.runs).all() and (summary.runs == 1).all()
     choice = pd.read_csv(out / "ladder_choice.csv")
-    assert len(choice) == 1 and choice.length.iloc[0] in (20, 24)
+    assert len(choice) == 1 and choice.length.iloc[0] in (16, 18)
     assert "| ED-TCN | A-fixed, original |" in (out / "ladder.md").read_text()
-    assert json.loads((out / "ladder.json").read_text())["lengths"] == [20, 24, 12]
+    assert json.loads((out / "ladder.json").read_text())["lengths"] == [16, 18, 9]
     archive = tmp_path / "archive"
-    assert tables_main(["archive", str(pilots[24]), str(archive)]) == 0
+    assert tables_main(["archive", str(pilots[18]), str(archive)]) == 0
     again = tmp_path / "again"
-    assert tables_main(["ladder", str(archive), "--lengths", "12", "20", "24",
+    assert tables_main(["ladder", str(archive), "--lengths", "9", "16", "18",
                         "--out", str(again)]) == 0
     for name in ("ladder_runs.csv", "ladder.csv", "ladder_choice.csv", "ladder.md"):
         assert (again / name).read_text().replace(str(archive), "G") == (
-            out / name).read_text().replace(str(pilots[24]), "G")
+            out / name).read_text().replace(str(pilots[18]), "G")
     capsys.readouterr()
-    assert tables_main(["ladder", str(pilots[24]), "--lengths", "25",
+    assert tables_main(["ladder", str(pilots[18]), "--lengths", "19",
                         "--out", str(tmp_path / "beyond")]) == 2
     err = capsys.readouterr().err.strip()
-    assert "25" in err and "24" in err and len(err.splitlines()) == 1
+    assert "19" in err and "18" in err and len(err.splitlines()) == 1
     assert not (tmp_path / "beyond").exists()
 
 

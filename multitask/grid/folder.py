@@ -21,8 +21,9 @@ from .spec import RunKey
 #: Spec keys saying where the data is, not what it holds: not compared with grid.json's, since
 #: every run folder's check compares the data fingerprint (a grid may resume on moved data).
 LOCATION_KEYS = ("data_dir",)
-#: Spec keys that say how the runs compute, not what: a grid may resume with other values.
-EXECUTION_KEYS = ("loops",)
+#: Spec keys that say how the runs compute or what they write besides their scores, not what they
+#: compute: a grid may resume with other values.
+EXECUTION_KEYS = ("loops", "plots")
 #: Spec keys added after grid.json was first written -> the value their absence meant.
 IMPLIED_BY_OLDER_RECORDS = {"schedule_factors": {}, "encoder": "lstm", "resample_factor": None,
                             "kernel": None, "format": "jigsaws", "lowpass": None,
@@ -109,7 +110,8 @@ def comparable_spec(spec: dict) -> dict:
     """A grid.json spec as two grids of the same runs record it alike: the keys its (older)
     writer did not know set to what that writer implied, less its ``LOCATION_KEYS`` and
     ``EXECUTION_KEYS``, its experiments in a fixed order (where the data lies, how the runs
-    compute and the order the experiments run in are not what the grid's runs are)."""
+    compute, the figures they draw and the order the experiments run in are not what the
+    grid's runs are)."""
     kept = {key: value for key, value in {**IMPLIED_BY_OLDER_RECORDS, **spec}.items()
             if key not in LOCATION_KEYS + EXECUTION_KEYS}
     if isinstance(kept.get("experiments"), list):

@@ -4,11 +4,11 @@
 the provenance of the launch that wrote it. It is written once and never rewritten with another
 spec: launching a spec whose values or runs differ stops before any work, naming each difference,
 unless the launch restarts (``--restart``); the data's folder may change (``LOCATION_KEYS``), so
-may how the runs compute (``EXECUTION_KEYS``: the LSTM's loops), and so may the order of the
-spec's experiments and of the recorded runs (the order they run in, not what they are). Run paths
-do not encode the budget; the record does, and every run's config.json records that run's
-settings (``rnn_seg.runs.settings``): a spec with another width or length never finds runs "already
-finished".
+may how the runs compute and what figures they draw (``EXECUTION_KEYS``: the LSTM's loops,
+``plots``), and so may the order of the spec's experiments and of the recorded runs (the order
+they run in, not what they are). Run paths do not encode the budget; the record does, and every
+run's config.json records that run's settings (``rnn_seg.runs.settings``): a spec with another
+width or length never finds runs "already finished".
 
 ``multitask-tables`` reads the record's run list to tell missing runs and stray folders, and
 checks each run folder as the grid does (``multitask.evidence.runs.checks``, without the data or

@@ -43,6 +43,8 @@ Example spec (every key optional)::
     resample_factor = 6           # one labelled 30 Hz frame in 6: the model's 5 Hz (10: 3 Hz)
     format = "jigsaws"            # the recordings' format: a built-in's name or a format file
                                   # (*.toml), as --format (docs/DATA.md, "Your own recordings")
+    plots = "last"                # per-trial figures at the last evaluation point, "all" or
+                                  # "none" (what runs write, not a setting; as --plots)
 
     [[experiments]]
     variants = ["A", "APc"]
@@ -117,7 +119,7 @@ from jigsaws_tools.release import discover
 from jigsaws_tools.synth import SynthConfig, ensure_release
 from jigsaws_tools.task_definition import PAPER_TASK, TaskDefinition, load_task
 from jigsaws_tools.toml_files import read_toml
-from rnn_seg.config import LOOPS, PRECISIONS, EncoderConfig, TrainConfig
+from rnn_seg.config import LOOPS, PLOT_POINTS, PRECISIONS, EncoderConfig, TrainConfig
 from jigsaws_tools.recording_format import DEFAULT_FORMAT, RecordingFormat, load_format
 from rnn_seg.encoders.config import (ENCODERS, HEAD_INITS, PADDINGS, SCHEDULES, encoder_config,
                                      schedule_of_length)
@@ -268,7 +270,7 @@ def run_config(spec: GridSpec, key: RunKey) -> RunConfig:
         encoder=encoder,
         optim=optim,
         train=TrainConfig(seed=key.seed, eval_points=points,
-                          batch_size=batch_size(spec.encoder)),
+                          batch_size=batch_size(spec.encoder), plots=spec.plots),
         held_out_users=held_out)
 
 
@@ -495,6 +497,7 @@ class GridSpec:
     inner_validation: int | None = None    # validation users per outer fold; None = outer runs
     #: outer fold -> its own values of ``SELECTABLE`` keys (a nested selection); None = none
     fold_settings: dict[str, dict[str, Any]] | None = None
+    plots: str = TrainConfig.plots         # a run's per-trial figures (TrainConfig.plots)
     experiments: tuple[Experiment, ...] = PAPER_EXPERIMENTS
 
     def __post_init__(self):
@@ -519,6 +522,7 @@ class GridSpec:
         require_choice("loops", self.loops, LOOPS)
         require_choice("ordinal_loss", self.ordinal_loss, ORDINAL_LOSSES)
         require_choice("relative_rate", self.relative_rate, RELATIVE_RATES)
+        require_choice("plots", self.plots, PLOT_POINTS)
         if not isinstance(self.task, str):
             raise ValueError(f"task must be a task's name or a definition file (got {self.task!r})")
         self.task_definition()          # a bad task fails here, not in every worker

@@ -97,9 +97,9 @@ class ExportedRun(tf.Module):
         self._step = decimation(self._prep, fmt.rate_hz)
         self._sos = butterworth(self._prep.cutoff_hz, self._prep.filter_order, fmt.rate_hz)
         size = len(self._columns)
-        self.features = tf.function(self._features,
+        self.features = tf.function(self._features, autograph=False,       # as model.infer
                                     input_signature=[tf.TensorSpec([None, size], tf.float32)])
-        self.serve = tf.function(self._serve, input_signature=[
+        self.serve = tf.function(self._serve, autograph=False, input_signature=[
             tf.TensorSpec([None, len(run.input_columns())], tf.float64, name="kinematics")])
 
     def _features(self, features: tf.Tensor) -> dict[str, tf.Tensor]:

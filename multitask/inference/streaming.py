@@ -97,7 +97,7 @@ class StreamingPredictor:
         return SamplePrediction(self.frames, outputs, scores, labels, names)
 
 
-@tf.function(reduce_retracing=True)
+@tf.function(reduce_retracing=True, autograph=False)          # as SegmentationModel.infer
 def _step(model, x, state):
     return model.step(x, state)
 
