@@ -37,8 +37,10 @@ variants = ["A", "APc"]
 
 @pytest.fixture(scope="module")
 def tiny_spec(tmp_path_factory, synth_dir) -> Path:
+    """TINY without the runs' per-trial figures, which no test here reads (the grids of
+    test_trust, test_cli and the documented smoke test draw theirs)."""
     path = tmp_path_factory.mktemp("spec") / "tiny.toml"
-    path.write_text(TINY.format(data=synth_dir))
+    path.write_text('plots = "none"' + TINY.format(data=synth_dir))
     return path
 
 
