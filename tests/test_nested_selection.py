@@ -147,7 +147,6 @@ def test_the_tables_check_an_inner_selection_grid_against_its_spec(synth_dir, tm
 
 @pytest.mark.parametrize("fold_settings, edited", [
     ({"B": {"kernel": 5}}, "B"),                 # fold B's data: the common setting's
-    ({"B": {}}, "B"),                            # a fold table that sets nothing
     (SELECTION, "C"),                            # a fold at the common setting
     ({"B": {"lowpass": False}}, "B"),            # fold B's own data, its other seed's
 ])
