@@ -10,12 +10,11 @@ changed or appeared. Exit status 0: every command succeeded and ``results/`` is 
 is listed (``git diff -- results`` shows how; ``git checkout -- results`` restores); 2:
 ``results/`` had uncommitted changes before the run (nothing is run) or git is missing.
 
-Cost: about 5-6 minutes on 2 cores, no training (the commands of the walk-through that found
-this promise checked by hand: ``multitask-tables paper``, ``confirm``, ``design``,
-``execution``, ``tasks``, ``architectures``, ``factors``, ``ladder``, ``width``). The time-only
-progress rows and the example figures need the JIGSAWS release each grid records
-(``../shared/jigsaws`` beside the clone): without it they are left out or left as they are,
-and the tables that hold them differ.
+Cost: about 5-6 minutes on 2 cores, no training (``multitask-tables paper``, ``confirm``,
+``design``, ``execution``, ``tasks``, ``architectures``, ``factors``, ``ladder``, ``width``). The time-only
+progress rows come from the archives; the example figures need the JIGSAWS release each grid
+records (``../shared/jigsaws`` beside the clone) for their true labels: without it they are
+not redrawn and stay as committed, so this check then cannot vouch for them.
 
     python bench/regenerate_results.py            # run every command, then check git status
     python bench/regenerate_results.py --list     # only print the commands, in order
