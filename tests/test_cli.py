@@ -95,7 +95,7 @@ def test_every_option_has_help_and_shows_its_default(parser):
     ("baseline.cli", ["--epochs", "0"], "--epochs: expected an integer >= 1, got '0'"),
     ("baseline.cli", ["--eval-at", "10,0"], "--eval-at: expected an integer >= 1, got '0'"),
     ("baseline.cli", ["--threads", "-1"], "--threads: expected an integer >= 0, got '-1'"),
-    ("multitask.grid.cli", ["--workers", "0"], "--workers: expected an integer >= 1, got '0'"),
+    ("multitask.grid.cli", ["--workers", "-1"], "--workers: expected an integer >= 0, got '-1'"),
     ("multitask.grid.cli", ["--stack", "two"], "--stack: expected an integer >= 1, got 'two'"),
     ("multitask.inference.predict_cli", ["--threads", "-1"],
      "--threads: expected an integer >= 0, got '-1'"),
@@ -311,7 +311,8 @@ def test_dry_run_lists_only_the_runs_still_to_run(synth_dir, tmp_path, capsys):
     spec = tmp_path / "spec.toml"
     spec.write_text(f'data_dir = "{synth_dir}"\ntest_users = ["C"]\nhidden = 8\nepochs = 1\n'
                     '[[experiments]]\nvariants = ["A"]\n')
-    command = ["--spec", str(spec), "--out", str(tmp_path / "g"), "--threads", "1"]
+    command = ["--spec", str(spec), "--out", str(tmp_path / "g"), "--threads", "1",
+               "--workers", "0"]
     assert grid_main([*command, "--dry-run"]) == 0
     before = capsys.readouterr().out
     assert "runs/revised/bidirectional/A-fixed/seed0/C" in before

@@ -264,7 +264,7 @@ def inner_grids(tmp_path_factory, synth_dir) -> dict[str, Path]:
     for name, level in (("baseline", ""), ("T-5hz-k5", "kernel = 5")):
         spec = root / f"{name}.toml"
         spec.write_text(TINY.format(data=synth_dir, level=level))
-        assert grid_main(["--spec", str(spec), "--out", str(root / name)]) == 0
+        assert grid_main(["--spec", str(spec), "--out", str(root / name), "--workers", "0"]) == 0
         grids[name] = root / name
     return grids
 

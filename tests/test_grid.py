@@ -316,6 +316,42 @@ def test_dask_cluster_gives_the_local_pool_metrics(tmp_path, tiny_spec, tiny_gri
 
 
 @pytest.mark.slow
+def test_a_grid_in_this_process_gives_the_worker_processes_metrics(tmp_path, tiny_spec,
+                                                                   tiny_grid, capsys):
+    """``--workers 0`` runs each job in the grid's own process, one after another, with the
+    same runs as the worker processes of ``tiny_grid``, and starts no process."""
+    import multiprocessing
+    out = tmp_path / "grid"
+    assert grid_main(["--spec", str(_one_configuration(tiny_spec, tmp_path)), "--out", str(out),
+                      "--workers", "0"]) == 0
+    assert "2 to run in this process" in capsys.readouterr().out
+    assert multiprocessing.active_children() == []
+    lone, here = _metrics(tiny_grid), _metrics(out)
+    assert here.keys() == {name for name in lone if "APc-fixed" in name} and len(here) == 2
+    _assert_same_metrics(here, {name: lone[name] for name in here}, rtol=1e-6)
+
+
+def test_a_job_that_fails_in_this_process_is_a_failed_run_and_the_next_one_runs(
+        tmp_path, tiny_spec, monkeypatch):
+    """In this process as in a worker, a job's exception fails its runs, named with it, and the
+    grid goes on with the next job; its runs' folders are the job's own to leave."""
+    from multitask.grid import executors
+    spec = load_spec(tiny_spec)
+    keys = [key for key in expand(spec, ("B", "C")) if key.variant == "APc"]
+    ran = []
+
+    def job(spec_payload, group, out, cores, command):
+        ran.append(group[0]["fold"])
+        if group[0]["fold"] == "B":
+            raise RuntimeError("a job's own error")
+        return []
+    monkeypatch.setattr(executors, "run_job", job)
+    failed = run_grid(spec, keys, tmp_path, workers=0, log=lambda message: None)
+    assert ran == ["B", "C"]
+    assert failed == [(keys[0], "RuntimeError: a job's own error")]
+
+
+@pytest.mark.slow
 def test_stacked_grid_gives_the_lone_runs_metrics(tmp_path, tiny_spec, tiny_grid):
     """``--stack 2`` trains folds B and C of a configuration (the multi-task APc) in one
     vectorised step, on the graph loops when the spec leaves the loops to ``auto``."""
@@ -343,7 +379,7 @@ def test_a_grid_resumed_with_the_default_loops_keeps_those_it_was_launched_with(
     run = grid / RunKey("revised", "bidirectional", "A", "fixed", 0, "C").path()
     shutil.rmtree(run)                                      # a run the grid had not started
     capsys.readouterr()
-    assert grid_main(["--spec", str(tiny_spec), "--out", str(grid)]) == 0
+    assert grid_main(["--spec", str(tiny_spec), "--out", str(grid), "--workers", "0"]) == 0
     assert "loops auto: graph" in capsys.readouterr().out
     assert json.loads((run / "config.json").read_text())["provenance"]["loops"] == "graph"
 
@@ -620,7 +656,7 @@ def test_a_grid_keeps_its_archive_up_to_date(tmp_path, tiny_spec, tiny_grid, cap
     shutil.copytree(tiny_grid, grid)
     marker = grid / RunKey("revised", "bidirectional", "APc", "fixed", 0, "B").path() / "finished.json"
     marker.unlink()                                        # one run to finish again
-    command = ["--spec", str(tiny_spec), "--out", str(grid), "--workers", "1"]
+    command = ["--spec", str(tiny_spec), "--out", str(grid), "--workers", "0"]
     assert grid_main([*command, "--archive", str(grid / "archive")]) == 2
     assert "neither inside the other" in capsys.readouterr().err and not marker.exists()
     assert grid_main([*command, "--archive", str(archive)]) == 0

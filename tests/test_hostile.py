@@ -594,7 +594,8 @@ variants = ["A", "APc"]
 def tiny_grid(small_dir, tmp_path_factory) -> Path:
     folder = tmp_path_factory.mktemp("grid")
     (folder / "spec.toml").write_text(GRID.format(data=small_dir))
-    assert grid_main(["--spec", str(folder / "spec.toml"), "--out", str(folder / "out")]) == 0
+    assert grid_main(["--spec", str(folder / "spec.toml"), "--out", str(folder / "out"),
+                      "--workers", "0"]) == 0
     return folder / "out"
 
 

@@ -43,7 +43,7 @@ def trained(tmp_path_factory, synth_dir) -> tuple[Path, Path, Path]:
     spec = root / "spec.toml"
     spec.write_text(SPEC.format(data=data))
     grid, archive = root / "grid", root / "archive"
-    assert grid_main(["--spec", str(spec), "--out", str(grid)]) == 0   # TensorFlow starts once
+    assert grid_main(["--spec", str(spec), "--out", str(grid), "--workers", "0"]) == 0
     assert tables_main(["archive", str(grid), str(archive)]) == 0
     return grid, archive, data
 

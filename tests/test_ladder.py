@@ -45,7 +45,8 @@ def pilots(tmp_path_factory, synth_dir) -> dict[int, Path]:
     for epochs in (18, 9):
         spec = root / f"pilot-{epochs}.toml"
         spec.write_text(PILOT.format(data=synth_dir, epochs=epochs))
-        assert grid_main(["--spec", str(spec), "--out", str(root / f"g{epochs}")]) == 0
+        assert grid_main(["--spec", str(spec), "--out", str(root / f"g{epochs}"),
+                          "--workers", "0"]) == 0
         grids[epochs] = root / f"g{epochs}"
     return grids
 

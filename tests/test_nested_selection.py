@@ -248,7 +248,7 @@ def grids(tmp_path_factory, synth_dir) -> dict[str, Path]:
             text = text.replace('test_users = ["B", "C"]', 'test_users = ["B"]')
         spec = root / f"{name}.toml"
         spec.write_text(text)
-        assert grid_main(["--spec", str(spec), "--out", str(root / name)]) == 0
+        assert grid_main(["--spec", str(spec), "--out", str(root / name), "--workers", "0"]) == 0
         found[name] = root / name
     return found
 

@@ -298,7 +298,7 @@ def test_knot_tying_grid_tables_and_figures(tmp_path, capsys):
                             'seeds = [0]\nhidden = 8\nepochs = 1\n'
                             '[[experiments]]\nvariants = ["A", "APc"]\n', "knot.toml")
     grid = tmp_path / "grid"
-    assert grid_main(["--spec", str(spec), "--out", str(grid)]) == 0
+    assert grid_main(["--spec", str(spec), "--out", str(grid), "--workers", "0"]) == 0
     assert "task Knot_Tying" in capsys.readouterr().out
     assert tables_main(["paper", str(grid)]) == 0
     tables = grid / "tables"
@@ -332,7 +332,7 @@ def test_a_grid_of_ones_own_task_tabulates_where_its_task_file_is_not(tmp_path, 
                             'test_users = ["B"]\nseeds = [0]\nhidden = 8\nepochs = 1\n'
                             '[[experiments]]\nvariants = ["A"]\n', "toy_grid.toml")
     grid = tmp_path / "grid"
-    assert grid_main(["--spec", str(spec), "--out", str(grid)]) == 0
+    assert grid_main(["--spec", str(spec), "--out", str(grid), "--workers", "0"]) == 0
     definition.rename(tmp_path / "elsewhere.toml")
     with caplog.at_level(logging.WARNING):
         assert tables_main(["paper", str(grid), "--no-figures"]) == 0

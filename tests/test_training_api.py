@@ -208,7 +208,7 @@ def test_a_grid_is_a_parent_run_with_its_runs_nested_under_it(synth_dir, tmp_pat
     spec.write_text(f'preset = "quick"\ndata_dir = "{synth_dir}"\ntest_users = ["B"]\n'
                     'hidden = 8\nepochs = 2\n[[experiments]]\nvariants = ["A"]\n')
     uri = (tmp_path / "mlruns").as_uri()
-    command = ["--spec", str(spec), "--out", str(tmp_path / "grid")]
+    command = ["--spec", str(spec), "--out", str(tmp_path / "grid"), "--workers", "0"]
     assert grid_main(command) == 0                          # trained without MLflow first
     assert grid_main(command + ["--mlflow", uri]) == 0      # its finished runs logged now
     client = MlflowClient(tracking_uri=uri)

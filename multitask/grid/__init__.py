@@ -1,7 +1,8 @@
 """The experiment grid: a spec's runs, trained resumably by local processes or on Dask.
 
 * ``spec``: TOML specs, presets and the runs they expand to (read first);
-* ``job``: one worker's job; ``executors``: the local process pool and Dask, lost workers;
+* ``job``: one worker's job; ``executors``: the local process pool (or this process alone) and
+  Dask, lost workers;
 * ``progress``: what the grid shows while it trains (runs done / running / queued, ETAs);
 * ``record`` and ``folder``: the grid folder's ``grid.json`` and the check of its runs;
 * ``archive``: a grid's scores archive, to commit or carry to another machine;

@@ -35,7 +35,7 @@ from pathlib import Path
 from typing import Callable
 
 from baseline.options import add_threads_argument
-from jigsaws_tools.cli.arg_types import positive_int, thread_count
+from jigsaws_tools.cli.arg_types import non_negative_int, positive_int, thread_count
 from jigsaws_tools.cli.common import (Interrupted, command_parser, deprecated_alias,
                                       import_tensorflow, run_command)
 from jigsaws_tools.cli.options import DEFAULT_DATA_DIR_TEXT
@@ -74,8 +74,10 @@ def build_parser() -> argparse.ArgumentParser:
                              "the loops its grid.json records)")
     parser.add_argument("--out", type=Path, required=True, metavar="DIR",
                         help="grid folder (shared by every worker on Dask)")
-    parser.add_argument("--workers", type=positive_int, default=1, metavar="N",
-                        help="local worker processes, at most the machine's cores")
+    parser.add_argument("--workers", type=non_negative_int, default=1, metavar="N",
+                        help="local worker processes, at most the machine's cores; 0 = none, "
+                             "each job in this process in turn (no worker start-up: small "
+                             "grids, a debugger)")
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help="Dask scheduler address (tcp://host:8786): run the jobs on that "
                              "cluster (default: none, local workers)")

@@ -63,10 +63,11 @@ def run_grid(spec: GridSpec, keys: list[RunKey], out: Path, workers: int = 1,
         spec: the grid's budget, data and experiments.
         keys: the runs to train (``spec.expand``).
         out: the grid's folder; on Dask, a folder every worker sees at the same path.
-        workers: local worker processes (ignored with ``scheduler``).
+        workers: local worker processes (ignored with ``scheduler``); 0 = none: each job
+            runs in this process, one after another (``_run_here``).
         scheduler: address of a Dask scheduler (``tcp://host:8786``); None = a local pool.
         cores_per_job: TensorFlow threads of each job; 0 = this machine's cores / ``workers``
-            locally, 1 on Dask (start workers with one thread each).
+            locally (all of them with none), 1 on Dask (start workers with one thread each).
         stack: runs of one configuration per job, trained in one vectorised step.
         log: where the progress lines go.
         after_job: called in this process after each job whose runs finished.
@@ -81,7 +82,8 @@ def run_grid(spec: GridSpec, keys: list[RunKey], out: Path, workers: int = 1,
     pending = [k for k in keys if not is_finished(out / k.path())]
     log(f"[grid] {len(keys)} runs, {len(keys) - len(pending)} already finished, "
         f"{len(pending)} to run"
-        + (f" on {scheduler}" if scheduler else f" with {workers} worker(s)"))
+        + (f" on {scheduler}" if scheduler else
+           f" with {workers} worker(s)" if workers else " in this process"))
     if not pending:
         return []
     payload = spec_payload(spec)
@@ -93,6 +95,9 @@ def run_grid(spec: GridSpec, keys: list[RunKey], out: Path, workers: int = 1,
                         status_every=status_every)
     if scheduler:
         _run_dask(payload, groups, out, scheduler, cores_per_job or 1, progress)
+    elif workers == 0:
+        with progress.watching():
+            _run_here(payload, groups, out, cores_per_job, progress)
     else:
         cores = cores_per_job or max(1, (os.cpu_count() or 1) // workers)
         with progress.watching():
@@ -118,6 +123,24 @@ def jobs_per_worker(spec: GridSpec, groups: list[list[RunKey]], cores: int) -> i
 
 def _job_args(payload: dict, group: list[RunKey], out: Path, cores: int) -> tuple:
     return payload, [asdict(key) for key in group], str(out), cores, command()
+
+
+def _run_here(payload: dict, groups: list[list[RunKey]], out: Path, cores: int,
+              progress: Progress) -> None:
+    """Run ``groups`` one after another in this process (``--workers 0``): no worker process
+    starts TensorFlow and the project anew (several seconds a worker, more than a small grid's
+    runs take), and a debugger or profiler sees the runs. A job that fails is reported as a
+    worker's failure is, and the next one runs; Ctrl-C stops the running job where it is, and its
+    runs resume from their checkpoints next time. TensorFlow fixes its thread pools at this
+    process's first op, so ``cores`` applies only if no job ran here before
+    (``rnn_seg.threads.configure_threads``)."""
+    for group in groups:
+        try:
+            run_job(*_job_args(payload, group, out, cores))
+        except Exception as error:                     # as a worker's job would end
+            progress.finished_group(group, error)
+        else:
+            progress.finished_group(group)
 
 
 def _run_local(payload: dict, groups: list[list[RunKey]], out: Path, workers: int, cores: int,
