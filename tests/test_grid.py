@@ -334,7 +334,7 @@ def test_a_grid_in_this_process_gives_the_worker_processes_metrics(tmp_path, tin
 def test_a_job_that_fails_in_this_process_is_a_failed_run_and_the_next_one_runs(
         tmp_path, tiny_spec, monkeypatch):
     """In this process as in a worker, a job's exception fails its runs, named with it, and the
-    grid goes on with the next job; its runs' folders are the job's own to leave."""
+    grid goes on with the next job."""
     from multitask.grid import executors
     spec = load_spec(tiny_spec)
     keys = [key for key in expand(spec, ("B", "C")) if key.variant == "APc"]

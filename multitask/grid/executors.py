@@ -95,14 +95,14 @@ def run_grid(spec: GridSpec, keys: list[RunKey], out: Path, workers: int = 1,
                         status_every=status_every)
     if scheduler:
         _run_dask(payload, groups, out, scheduler, cores_per_job or 1, progress)
-    elif workers == 0:
-        with progress.watching():
-            _run_here(payload, groups, out, cores_per_job, progress)
     else:
-        cores = cores_per_job or max(1, (os.cpu_count() or 1) // workers)
         with progress.watching():
-            _run_local(payload, groups, out, workers, cores, progress,
-                       jobs_per_worker(spec, groups, cores))
+            if workers == 0:
+                _run_here(payload, groups, out, cores_per_job, progress)
+            else:
+                cores = cores_per_job or max(1, (os.cpu_count() or 1) // workers)
+                _run_local(payload, groups, out, workers, cores, progress,
+                           jobs_per_worker(spec, groups, cores))
     return progress.failed
 
 
