@@ -62,6 +62,7 @@ class DataConfig:
     #: The release folder: absolute in the runs this version trains (``with_resolved_data_dir``),
     #: so that every command reading a run finds it from any working directory; a run of an
     #: earlier version may record it relative, as it was typed (``run_record.recorded_data_dir``).
+    #: A ``Path`` given is kept as its string.
     data_dir: str
     feature_set: str = DEFAULT_FEATURE_SET
     annotations: str = "revised"
@@ -73,6 +74,7 @@ class DataConfig:
     data_dir_as_given: str = ""
 
     def __post_init__(self):
+        object.__setattr__(self, "data_dir", os.fspath(self.data_dir))   # a Path is taken too
         check_version(self.annotations)
         object.__setattr__(self, "task", load_task(self.task))
         object.__setattr__(self, "recording_format", load_format(self.recording_format))

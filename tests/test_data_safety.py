@@ -50,6 +50,18 @@ def _trial(dataset, name=TRIAL):
 
 
 # -- item 5: the cache ------------------------------------------------------------------------------
+def test_a_release_given_as_a_path_loads_caches_and_fingerprints_as_its_string(release, tmp_path):
+    """``DataConfig(Path(...))``, as Python users write it, is its string: the cache is written
+    and read back, with the same fingerprint."""
+    as_path, as_str = DataConfig(release), DataConfig(str(release))
+    assert as_path == as_str and isinstance(as_path.data_dir, str)
+    first = load_dataset(as_path, cache_dir=tmp_path / "cache")
+    again = load_dataset(as_str, cache_dir=tmp_path / "cache")
+    assert first.fingerprint == again.fingerprint and len(list((tmp_path / "cache").glob("*.npz"))) == 1
+    for a, b in zip(first.trials, again.trials):
+        np.testing.assert_array_equal(a.inputs, b.inputs)
+
+
 def test_same_size_edit_with_restored_mtime_is_not_served_stale(release, tmp_path):
     config = DataConfig(str(release))
     before = load_dataset(config, cache_dir=tmp_path / "cache")
