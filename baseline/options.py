@@ -163,8 +163,8 @@ def add_test_user_argument(parser: argparse.ArgumentParser | argparse._ArgumentG
 def add_threads_argument(parser: argparse.ArgumentParser | argparse._ArgumentGroup,
                          what: str, this_machine: bool = True) -> argparse.Action:
     """``--threads N``: cores per training run, shared by the training CLIs and the grid.
-    ``this_machine``: at most this machine's cores (else any count: the runs may train on other
-    machines, whose workers check their own)."""
+    ``this_machine``: at most the cores this process may use (else any count: the runs may train
+    on other machines, whose workers check their own)."""
     count = thread_count if this_machine else non_negative_int
     return parser.add_argument("--threads", type=count, default=0, metavar="N",
                                help=f"{what}, split between TensorFlow's thread pools as "

@@ -43,6 +43,8 @@ from pathlib import Path
 os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "2")
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "bench")]
+from jigsaws_tools.cores import usable_cores  # noqa: E402 (on the path above)
+
 F, K, B = 14, 10, 5
 IMPLEMENTATIONS = ("rnn_seg", "rnn_seg_bf16", "rnn_seg_xla", "rnn_seg_fused",
                    "rnn_seg_fused_bf16", "per_gate", "torch", "torch_bf16", "keras", "keras_bf16")
@@ -210,7 +212,7 @@ def product_time(hidden: int, repeats: int) -> float:
     all cores inside each product."""
     import tensorflow as tf
 
-    tf.config.threading.set_intra_op_parallelism_threads(os.cpu_count() or 1)
+    tf.config.threading.set_intra_op_parallelism_threads(usable_cores())
     tf.config.threading.set_inter_op_parallelism_threads(1)
 
     steps = 800
@@ -254,7 +256,7 @@ def main() -> None:
     os.environ.update(ISA_LIMITS[args.isa])
     impls = _runnable(args.impl)
     print(f"training sweep: bidirectional LSTM, B={B}, F={F}, T={args.steps}, "
-          f"{args.repeats} timed repeats after one warm-up; {os.cpu_count()} cores")
+          f"{args.repeats} timed repeats after one warm-up; {usable_cores()} usable cores")
     print(_processor(args.isa))
     if any(impl.split("_")[0] in PEERS for impl in impls):
         print("peers (torch, keras): LSTM cells without peepholes, one input dropout mask for "
@@ -339,7 +341,7 @@ def _plan(impl: str, threads: str | None) -> str | None:
     the peers (None: every core), never for the per-gate reference (TensorFlow's default)."""
     if impl == "per_gate":
         return None
-    cores = os.cpu_count() or 1
+    cores = usable_cores()
     return threads or (None if impl.startswith("rnn_seg") else f"{cores},{cores}")
 
 

@@ -44,6 +44,7 @@ from typing import Callable
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from jigsaws_tools.cores import usable_cores  # noqa: E402 (on the path above)
 
 B, F = 5, 14
 
@@ -124,7 +125,7 @@ def torch_phases(hidden: int, steps: int, repeats: int) -> dict[str, float]:
     from lstm_peers import torch_step
     from lstm_sweep import _batch
 
-    cores = os.cpu_count() or 1
+    cores = usable_cores()
     x, _, y = _batch(steps)
     sweep = torch_step(hidden, "fp32", x, y, (cores, cores))   # sets the threads first
     lstm = torch.nn.LSTM(F, hidden, batch_first=True, bidirectional=True)

@@ -17,10 +17,11 @@ goes inside its products.
 """
 from __future__ import annotations
 
-import os
 import re
 from functools import lru_cache
 from pathlib import Path
+
+from jigsaws_tools.cores import usable_cores
 
 #: Last-level cache assumed when the machine does not report it (the EPYC above).
 DEFAULT_CACHE_BYTES = 32 * 2**20
@@ -65,7 +66,7 @@ def configure_threads(cores: int, hidden: int, precision: str = "fp32",
     """Apply ``thread_plan`` to TensorFlow's thread pools and return ``(intra_op, inter_op)``.
 
     Args:
-        cores: cores this process may use: 0 = all of this machine's, at most as many as it has.
+        cores: cores this process may use: 0 = all of them (``usable_cores``), at most as many.
         hidden: LSTM width H.
         precision: ``"fp32"`` or ``"bf16"``, the products' operand type (weight bytes).
         bidirectional: two directions' loops (else one, forward only).
@@ -74,14 +75,15 @@ def configure_threads(cores: int, hidden: int, precision: str = "fp32",
     notebook, a test) this keeps the pools as they are and returns their sizes (0 = default).
 
     Raises:
-        ValueError: ``cores`` negative or above this machine's (a pool of 100 000 threads would
-            take the memory before it hangs).
+        ValueError: ``cores`` negative or above those this process may use (a pool of
+            100 000 threads would take the memory before it hangs).
     """
     import tensorflow as tf
 
-    available = os.cpu_count() or 1
+    available = usable_cores()
     if not 0 <= cores <= available:
-        raise ValueError(f"cores: expected 0 (all) up to this machine's {available}, got {cores}")
+        raise ValueError(f"cores: expected 0 (all) up to the {available} this process may use, "
+                         f"got {cores}")
     intra, inter = thread_plan(cores or available, hidden, precision,
                                bidirectional=bidirectional)
     try:

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from jigsaws_tools.cores import usable_cores
 from jigsaws_tools.dataset import default_data_dir
 from jigsaws_tools.synth import SynthConfig, write_release
 
@@ -25,8 +26,8 @@ def pytest_cmdline_main(config: pytest.Config) -> None:
     if (not config.pluginmanager.hasplugin("xdist") or config.option.numprocesses is not None
             or config.option.usepdb or "PYTEST_XDIST_WORKER" in os.environ):
         return
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    if (cores or 1) > 1:
+    cores = usable_cores()
+    if cores > 1:
         config.option.numprocesses = cores
         if config.option.dist == "no":
             config.option.dist = "loadfile"

@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from jigsaws_tools.cores import usable_cores
 from multitask.evidence.cli import main as tables_main
 from multitask.grid.cli import main as grid_main
 from multitask.grid.executors import run_grid
@@ -267,7 +268,7 @@ def test_a_run_does_not_depend_on_the_jobs_before_it_in_its_worker(tmp_path, tin
     import multitask.grid.executors as executors
 
     monkeypatch.setattr(executors, "JOBS_PER_WORKER", 2)
-    cores = max(1, (os.cpu_count() or 1) // 2)                 # as tiny_grid's two workers
+    cores = max(1, usable_cores() // 2)                        # as tiny_grid's two workers
     spec = load_spec(tiny_spec)
     keys = expand(spec, ("B", "C"))[:3]                # two in one worker, the third in another
     assert run_grid(spec, keys, tmp_path, workers=1, cores_per_job=cores,

@@ -14,8 +14,9 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
 from typing import Callable
+
+from ..cores import usable_cores
 
 
 def int_range(low: int, high: int | None = None) -> Callable[[str], int]:
@@ -97,11 +98,13 @@ non_negative_int = int_range(0)
 
 
 def thread_count(text: str) -> int:
-    """Cores for a process: 0 (= all of them) up to this machine's (``os.cpu_count``)."""
+    """Cores for a process: 0 (= all of them) up to those this process may use
+    (``jigsaws_tools.cores.usable_cores``)."""
     value = non_negative_int(text)
-    cores = os.cpu_count() or 1
+    cores = usable_cores()
     if value > cores:
-        raise argparse.ArgumentTypeError(f"expected at most this machine's {cores} cores, "
+        raise argparse.ArgumentTypeError(f"expected at most the {cores} core"
+                                         f"{'s' if cores > 1 else ''} this process may use, "
                                          f"got {text!r}")
     return value
 

@@ -75,13 +75,13 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--out", type=Path, required=True, metavar="DIR",
                         help="grid folder (shared by every worker on Dask)")
     parser.add_argument("--workers", type=non_negative_int, default=1, metavar="N",
-                        help="local worker processes, at most the machine's cores; 0 = none, "
-                             "each job in this process in turn (no worker start-up: small "
-                             "grids, a debugger)")
+                        help="local worker processes, at most the cores this process may use; "
+                             "0 = none, each job in this process in turn (no worker start-up: "
+                             "small grids, a debugger)")
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help="Dask scheduler address (tcp://host:8786): run the jobs on that "
                              "cluster (default: none, local workers)")
-    threads = add_threads_argument(parser, "cores per run (default: 0 = the machine's cores / "
+    threads = add_threads_argument(parser, "cores per run (default: 0 = the usable cores / "
                                            "--workers locally, 1 on Dask)", this_machine=False)
     deprecated_alias(parser, "--threads-per-job", threads)
     parser.add_argument("--stack", type=positive_int, default=1, metavar="N",

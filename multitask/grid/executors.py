@@ -31,6 +31,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Callable
 
+from jigsaws_tools.cores import usable_cores
 from rnn_seg.runs.provenance import command
 from rnn_seg.runs.folder import is_finished, trained_units
 from rnn_seg.threads import thread_plan
@@ -66,7 +67,8 @@ def run_grid(spec: GridSpec, keys: list[RunKey], out: Path, workers: int = 1,
         workers: local worker processes (ignored with ``scheduler``); 0 = none: each job
             runs in this process, one after another (``_run_here``).
         scheduler: address of a Dask scheduler (``tcp://host:8786``); None = a local pool.
-        cores_per_job: TensorFlow threads of each job; 0 = this machine's cores / ``workers``
+        cores_per_job: TensorFlow threads of each job; 0 = the cores this process may use /
+            ``workers``
             locally (all of them with none), 1 on Dask (start workers with one thread each).
         stack: runs of one configuration per job, trained in one vectorised step.
         log: where the progress lines go.
@@ -100,7 +102,7 @@ def run_grid(spec: GridSpec, keys: list[RunKey], out: Path, workers: int = 1,
             if workers == 0:
                 _run_here(payload, groups, out, cores_per_job, progress)
             else:
-                cores = cores_per_job or max(1, (os.cpu_count() or 1) // workers)
+                cores = cores_per_job or max(1, usable_cores() // workers)
                 _run_local(payload, groups, out, workers, cores, progress,
                            jobs_per_worker(spec, groups, cores))
     return progress.failed

@@ -37,7 +37,7 @@ def run_job(spec: dict, keys: list[dict], out: str, cores: int, command: list[st
         spec: the grid's spec as plain data (``spec.spec_payload``).
         keys: the group's runs, each a ``RunKey`` as a dict (``dataclasses.asdict``).
         out: the grid's folder.
-        cores: TensorFlow threads of the job (0 = all of this machine's cores).
+        cores: TensorFlow threads of the job (0 = all the cores this process may use).
         command: the grid's command line, recorded in each run's provenance; None = this
             process's.
     """
