@@ -16,6 +16,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from jigsaws_tools.cores import usable_cores
 from jigsaws_tools.errors import DefinitionError
 from jigsaws_tools.synth import SynthConfig, write_release
 from jigsaws_tools.task_definition import read_task_file
@@ -418,8 +419,8 @@ def test_an_evaluation_the_disk_refuses_is_one_line_and_exit_1(trained, tmp_path
 def test_thread_counts_beyond_the_machine_are_refused_by_the_python_api():
     from rnn_seg.threads import configure_threads
 
-    with pytest.raises(ValueError, match="this machine's"):
-        configure_threads((os.cpu_count() or 1) + 1, hidden=8)
+    with pytest.raises(ValueError, match="this process may use"):
+        configure_threads(usable_cores() + 1, hidden=8)
     with pytest.raises(ValueError, match="got -1"):
         configure_threads(-1, hidden=8)
 
@@ -458,7 +459,8 @@ def test_thread_counts_are_bounded_by_the_machine(small_dir, tmp_path, capsys):
     last = err.strip().splitlines()[-1]                 # argparse's usage, then the error
     assert code == 2 and "Traceback" not in err
     assert last.startswith("multitask-train: error: argument --threads:") and all(
-        text in last for text in (f"this machine's {os.cpu_count()} cores", "'100000'")), err
+        text in last for text in (f"the {usable_cores()} core", "this process may use",
+                                  "'100000'")), err
     assert not (tmp_path / "run").exists()
 
 
@@ -469,11 +471,34 @@ def test_grid_threads_are_bounded_by_this_machine_only_when_it_trains_them(small
     spec = ["--spec", str(ROOT / "results" / "smoke.toml"), "--data-dir", str(small_dir),
             "--threads", "100000"]
     code, err = _cli(grid_main, [*spec, "--out", str(tmp_path / "local")], capsys)
-    _refused(code, err, "--threads", f"this machine's {os.cpu_count()} cores", "'100000'")
+    _refused(code, err, "--threads", f"the {usable_cores()} core", "'100000'")
     assert not (tmp_path / "local").exists()
     code, err = _cli(grid_main, [*spec, "--scheduler", "tcp://head:8786", "--dry-run",
                                  "--out", str(tmp_path / "cluster")], capsys)
     assert code == 0 and "Traceback" not in err, err
+
+
+@pytest.mark.skipif(not hasattr(os, "sched_setaffinity") or usable_cores() < 2,
+                    reason="needs CPU affinity and two cores")
+def test_counts_are_bounded_by_the_cores_the_process_may_use_not_the_machine_s(tmp_path):
+    """A batch job or ``taskset`` gives a process fewer cores than the machine has: its thread
+    and worker counts are bounded by those (0 = all of those), not by ``os.cpu_count()``."""
+    one_core = {min(os.sched_getaffinity(0))}
+    script = ("import os, sys\n"
+              f"os.sched_setaffinity(0, {one_core!r})\n"
+              "from jigsaws_tools.cores import usable_cores\n"
+              "from multitask.grid.cli import main\n"
+              "print(usable_cores(), os.cpu_count() > 1, flush=True)\n"
+              "sys.exit(main(sys.argv[1:]))\n")
+    spec = ROOT / "results" / "smoke.toml"
+    result = subprocess.run([sys.executable, "-c", script, "--spec", str(spec), "--out",
+                             str(tmp_path / "g"), "--workers", "2", "--dry-run"],
+                            capture_output=True, text=True, env=ENV)
+    assert result.stdout.split() == ["1", "True"]
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+    assert "--workers: expected at most the 1 core this process may use, got '2'" in (
+        result.stderr), result.stderr
+    assert not (tmp_path / "g").exists()
 
 
 def test_a_trial_too_short_for_the_filter_is_named_with_the_minimum(tmp_path, capsys):
@@ -610,8 +635,8 @@ def _run(grid: Path, variant: str, fold: str) -> Path:
 
 @pytest.mark.slow
 def test_tables_of_the_grid_as_trained(tiny_grid, tmp_path, capsys):
-    code, err = _cli(tables_main, ["paper", str(tiny_grid), "--out", str(tmp_path / "tables")],
-                     capsys)
+    code, err = _cli(tables_main, ["paper", str(tiny_grid), "--out", str(tmp_path / "tables"),
+                                   "--no-figures"], capsys)
     assert code == 0, err
     assert len(pd.read_csv(tmp_path / "tables" / "runs.csv")) == 4
 
