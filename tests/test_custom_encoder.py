@@ -193,7 +193,8 @@ def grids(importable, synth_dir, tmp_path_factory):
 
 @pytest.mark.slow
 def test_a_grid_of_it_tabulates_beside_a_built_in_encoder(grids, tmp_path):
-    assert tables_main(["paper", str(grids["gru"]), "--out", str(tmp_path / "gru")]) == 0
+    assert tables_main(["paper", str(grids["gru"]), "--out", str(tmp_path / "gru"),
+                        "--no-figures"]) == 0
     assert (tmp_path / "gru" / "table1.csv").is_file()
     assert tables_main(["architectures", str(grids["lstm"]), str(grids["gru"]),
                         "--out", str(tmp_path / "side")]) == 0
@@ -242,7 +243,8 @@ def test_a_grid_runs_tabulates_and_pairs_on_recordings_of_another_format(synth_d
     assert {c["run"]["data"]["recording_format"]["rate_hz"] for c in configs} == {float(RATE)}
     assert json.loads((grid / "grid.json").read_text())["spec"]["format"] == str(
         (robot / "my_robot.toml").resolve())
-    assert tables_main(["paper", str(grid), "--out", str(tmp_path / "tables")]) == 0
+    assert tables_main(["paper", str(grid), "--out", str(tmp_path / "tables"),
+                        "--no-figures"]) == 0
     assert (tmp_path / "tables" / "table1.csv").is_file()
     capsys.readouterr()
     assert tables_main(["pair", str(grid), "APc-fixed", "A-fixed", "--metric",
