@@ -305,6 +305,27 @@ def test_grid_prints_each_warning_once_and_logs_no_stray_message(synth_dir, tmp_
 
 
 @pytest.mark.slow
+def test_the_grid_s_own_process_never_imports_tensorflow(synth_dir, tmp_path):
+    """The workers train; the grid's process plans, launches, watches and archives: after a dry
+    run, a launch with one worker and its archive, TensorFlow is still not imported there (its
+    import is about 5 CPU-s and half a gigabyte of memory)."""
+    spec = tmp_path / "spec.toml"
+    spec.write_text(f'data_dir = "{synth_dir}"\ntest_users = ["C"]\nhidden = 8\nepochs = 1\n'
+                    'plots = "none"\n[[experiments]]\nvariants = ["A"]\n')
+    command = ["--spec", str(spec), "--out", str(tmp_path / "grid")]
+    script = ("import sys\nfrom multitask.grid.cli import main\n"
+              f"for extra in ['--dry-run'], ['--workers', '1', '--archive', "
+              f"{str(tmp_path / 'archive')!r}], ['--dry-run']:\n"
+              f"    code = main({command!r} + extra)\n"
+              "    print('exit', code, 'tensorflow' in sys.modules, flush=True)\n")
+    result = _python("-c", script)
+    said = [line for line in result.stdout.splitlines() if line.startswith("exit")]
+    assert said == ["exit 0 False"] * 3, result.stdout + result.stderr
+    assert "1 runs, 1 already finished, 0 to run" in result.stdout
+    assert not TF_LINE.search(result.stdout + result.stderr)
+
+
+@pytest.mark.slow
 def test_dry_run_lists_only_the_runs_still_to_run(synth_dir, tmp_path, capsys):
     from multitask.grid.cli import main as grid_main
 

@@ -18,7 +18,8 @@ from multitask.grid.folder import comparable_spec
 from multitask.grid.spec import (RunKey, expand, fold_users, inner_fold, load_spec, run_arguments,
                                  run_config, spec_from_dict, spec_payload, validation_users,
                                  with_overrides)
-from multitask.models.fold_run import variant_configs, variant_trainer
+from multitask.models.fold_run import variant_trainer
+from multitask.models.run_record import variant_configs
 from rnn_seg.encoders.config import EDTCNConfig
 from rnn_seg.model import SegmentationModel
 from rnn_seg.runs.folder import to_jsonable

@@ -62,7 +62,7 @@ def test_a_specs_plots_reach_its_runs_and_are_no_setting(synth_dir):
     settings hash nor what the grid's record compares, so a grid may resume with another."""
     from multitask.grid.folder import comparable_spec
     from multitask.grid.spec import run_arguments, spec_payload
-    from multitask.models.fold_run import variant_configs
+    from multitask.models.run_record import variant_configs
     from rnn_seg.runs.settings import settings_hash
 
     specs = [spec_from_dict({"data_dir": str(synth_dir), "plots": plots}) for plots in

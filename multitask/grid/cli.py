@@ -36,8 +36,7 @@ from typing import Callable
 
 from baseline.options import add_threads_argument
 from jigsaws_tools.cli.arg_types import non_negative_int, positive_int, thread_count
-from jigsaws_tools.cli.common import (Interrupted, command_parser, deprecated_alias,
-                                      import_tensorflow, run_command)
+from jigsaws_tools.cli.common import Interrupted, command_parser, deprecated_alias, run_command
 from jigsaws_tools.cli.options import DEFAULT_DATA_DIR_TEXT
 from jigsaws_tools.errors import WriteFailed
 from jigsaws_tools.recording_format import RELEASE_LAYOUT_ONLY
@@ -201,8 +200,7 @@ def _run(args: argparse.Namespace) -> int:
     if args.mlflow:
         from rnn_seg.runs.tracking import Tracker
         tracker = Tracker(args.mlflow)                       # checked before any work
-    import_tensorflow()          # quietly: checking run folders builds the runs' tasks
-    from .executors import run_grid
+    from .executors import run_grid              # TensorFlow: only where a job trains (run_job)
     from .progress import live_console
     from .record import prepare_grid
     from .spec import spec_payload
@@ -255,7 +253,6 @@ def _dry_run(args: argparse.Namespace, spec: GridSpec, keys: list) -> int:
     from rnn_seg.runs.folder import trained_units
     from rnn_seg.runs.lock import check_free
 
-    import_tensorflow()          # quietly: checking run folders builds the runs' tasks
     from .record import plan_launch
 
     check_free(args.out, "grid folder")

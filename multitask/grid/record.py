@@ -24,7 +24,7 @@ from rnn_seg.runs.provenance import now, provenance
 from rnn_seg.runs.folder import clear_run_dir, write_json
 from rnn_seg.runs.settings import SettingsMismatchError, check_run_dir, differences
 
-from ..models.fold_run import variant_configs
+from ..models.run_record import variant_configs
 from .folder import GRID_RECORD, comparable_spec, read_record, record_runs
 from .spec import GridSpec, RunKey, run_arguments, spec_payload
 

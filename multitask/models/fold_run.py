@@ -5,7 +5,7 @@ from functools import partial
 from pathlib import Path
 from typing import Callable
 
-from baseline.builder import build_trainer, data_fingerprint
+from baseline.builder import build_trainer
 from baseline.config import RunConfig
 from jigsaws_tools.dataset import Dataset
 from rnn_seg.trainer import Trainer
@@ -13,28 +13,8 @@ from rnn_seg.trainer import Trainer
 from .config import SelectionConfig, Weighting
 from .gradnorm import GradNormConfig, GradNormTrainer
 from .heads import HeadConfig
-from .run_record import variant_extra, variant_record
+from .run_record import variant_extra
 from .variants import Variant
-
-
-def variant_configs(variant: Variant, weighting: Weighting, config: RunConfig,
-                    gradnorm: GradNormConfig = GradNormConfig(),
-                    fingerprint: str | None = None, heads: HeadConfig = HeadConfig(),
-                    selection: SelectionConfig | None = None) -> dict:
-    """The record (and settings) of a run of ``variant``, as ``variant_trainer`` writes it to
-    config.json.
-
-    Args:
-        variant: the model variant.
-        weighting: ``"fixed"`` or ``"gradnorm"``.
-        config: the run's configuration.
-        gradnorm: GradNorm's settings (with ``"gradnorm"``).
-        fingerprint: the data's (``baseline.builder.data_fingerprint``); None = compute it.
-        heads: the progress heads' settings.
-        selection: the nested selection the run is part of (None: none).
-    """
-    return variant_record(variant, weighting, config, gradnorm, heads,
-                          fingerprint or data_fingerprint(config.data), selection)
 
 
 def variant_trainer(variant: Variant, weighting: Weighting, config: RunConfig, run_dir: Path,

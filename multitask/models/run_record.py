@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from baseline.config import RunConfig
+from jigsaws_tools.dataset import data_fingerprint
 from rnn_seg.runs.folder import (CONFIG, FINISHED, ConfigError, RunFolderError, from_jsonable,
                                  read_json)
 from rnn_seg.runs.provenance import started_loops
@@ -123,6 +124,27 @@ class RunRecord:
         ``"progress"``: its stages)."""
         definition = self.config.data.task
         return tuple(definition.gestures if task == "gesture" else definition.stage_names)
+
+
+def variant_configs(variant: Variant, weighting: Weighting, config: RunConfig,
+                    gradnorm: GradNormConfig = GradNormConfig(),
+                    fingerprint: str | None = None, heads: HeadConfig = HeadConfig(),
+                    selection: SelectionConfig | None = None) -> dict:
+    """The record (and settings) of a run of ``variant``, as ``variant_trainer`` writes it to
+    config.json.
+
+    Args:
+        variant: the model variant.
+        weighting: ``"fixed"`` or ``"gradnorm"``.
+        config: the run's configuration.
+        gradnorm: GradNorm's settings (with ``"gradnorm"``).
+        fingerprint: the data's (``jigsaws_tools.dataset.data_fingerprint``); None = compute
+            it (reading the release's files).
+        heads: the progress heads' settings.
+        selection: the nested selection the run is part of (None: none).
+    """
+    return variant_record(variant, weighting, config, gradnorm, heads,
+                          fingerprint or data_fingerprint(config.data), selection)
 
 
 def read_run_config(run_dir: Path) -> tuple[RunConfig, dict]:
