@@ -3,12 +3,13 @@ from __future__ import annotations
 
 import json
 import os
+import pickle
 import shutil
 import signal
 import subprocess
 import sys
 import time
-from dataclasses import replace
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import numpy as np
@@ -20,7 +21,8 @@ from multitask.evidence.cli import main as tables_main
 from multitask.grid.cli import main as grid_main
 from multitask.grid.executors import run_grid
 from multitask.grid.spec import (Experiment, GridSpec, RunKey, expand, job_groups, load_spec,
-                                 run_config, spec_from_dict, stack_groups, with_budget)
+                                 run_config, spec_from_dict, spec_payload, stack_groups,
+                                 with_budget)
 from multitask.models.variants import get_variant
 
 TINY = """
@@ -61,7 +63,7 @@ def test_a_specs_plots_reach_its_runs_and_are_no_setting(synth_dir):
     """``plots`` is each run's ``TrainConfig.plots``; like the loops it changes neither a run's
     settings hash nor what the grid's record compares, so a grid may resume with another."""
     from multitask.grid.folder import comparable_spec
-    from multitask.grid.spec import run_arguments, spec_payload
+    from multitask.grid.spec import run_arguments
     from multitask.models.run_record import variant_configs
     from rnn_seg.runs.settings import settings_hash
 
@@ -350,6 +352,22 @@ def test_a_job_that_fails_in_this_process_is_a_failed_run_and_the_next_one_runs(
     failed = run_grid(spec, keys, tmp_path, workers=0, log=lambda message: None)
     assert ran == ["B", "C"]
     assert failed == [(keys[0], "RuntimeError: a job's own error")]
+
+
+def test_a_failed_job_reaches_the_grid_as_its_error_s_words_alone(tmp_path, tiny_spec):
+    """A worker's exception is unpickled in the grid's process, which would import the module
+    that defines it (the trainer's, TensorFlow's); a job raises ``JobFailed`` with its words."""
+    from multitask.grid.job import JobFailed, run_job
+
+    spec = load_spec(tiny_spec)
+    gone = replace(spec, data_dir=str(tmp_path / "gone"))        # its data removed since
+    with pytest.raises(JobFailed) as raised:
+        run_job(spec_payload(gone), [asdict(expand(spec, ("B", "C"))[0])], str(tmp_path / "g"),
+                1)
+    back = pickle.loads(pickle.dumps(raised.value))
+    assert type(back) is JobFailed and str(back) == str(raised.value)
+    assert str(back).startswith("ReleaseNotFoundError: ") and str(tmp_path / "gone") in str(back)
+    assert "ReleaseNotFoundError" in next((tmp_path / "g").rglob("train.log")).read_text()
 
 
 @pytest.mark.slow

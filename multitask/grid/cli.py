@@ -36,12 +36,14 @@ from typing import Callable
 
 from baseline.options import add_threads_argument
 from jigsaws_tools.cli.arg_types import non_negative_int, positive_int, thread_count
-from jigsaws_tools.cli.common import Interrupted, command_parser, deprecated_alias, run_command
+from jigsaws_tools.cli.common import (Interrupted, command_parser, deprecated_alias,
+                                      import_tensorflow, run_command)
 from jigsaws_tools.cli.options import DEFAULT_DATA_DIR_TEXT
 from jigsaws_tools.errors import WriteFailed
 from jigsaws_tools.recording_format import RELEASE_LAYOUT_ONLY
 from rnn_seg.config import LOOPS, RUNNABLE_LOOPS, require_native_precision
 from rnn_seg.encoders.config import SCHEDULES
+from rnn_seg.encoders.import_path import is_import_path
 from rnn_seg.runs.folder import RunFolderError, is_finished
 from rnn_seg.runs.outputs import OutputFolderError, check_output_folder, folders_below
 from rnn_seg.runs.provenance import set_command
@@ -152,6 +154,8 @@ def _run(args: argparse.Namespace) -> int:
     spec = load_spec(args.spec) if args.spec else GridSpec()
     spec = with_overrides(spec, preset=args.preset, data_dir=args.data_dir, loops=args.loops)
     spec = with_budget(spec.with_absolute_paths())              # as recorded, one path
+    if is_import_path(spec.encoder):     # finding a user's encoder module imports its package,
+        import_tensorflow()              # which may import TensorFlow: quietly, before that
     if not args.scheduler:                       # a cluster's workers have their own CPUs
         require_native_precision(spec.precision)
         for option, count, note in (

@@ -23,6 +23,17 @@ from .spec import RunKey, run_arguments, spec_from_dict
 Log = Callable[[str], None]
 
 
+class JobFailed(Exception):
+    """A job's error as ``error_text`` words it: what a worker returns to the grid's process,
+    where unpickling the original exception would import the module that defines it (the
+    trainer's, TensorFlow's) and print TensorFlow's start-up lines."""
+
+
+def error_text(error: BaseException) -> str:
+    """``"<type>: <message>"`` of a job's error, as the grid reports a failed run."""
+    return str(error) if isinstance(error, JobFailed) else f"{type(error).__name__}: {error}"
+
+
 def run_job(spec: dict, keys: list[dict], out: str, cores: int, command: list[str] | None = None
             ) -> list[dict]:
     """Train a group of runs of one configuration (resuming interrupted ones) and return each
@@ -31,7 +42,8 @@ def run_job(spec: dict, keys: list[dict], out: str, cores: int, command: list[st
 
     Takes and returns plain data so that process pools and Dask workers can ship it; each run's
     log (and the traceback of a failure) goes to ``<run dir>/train.log``, and so do the warnings
-    of the data layer (the submitting process has shown them once already).
+    of the data layer (the submitting process has shown them once already). A failure raises
+    ``JobFailed``.
 
     Args:
         spec: the grid's spec as plain data (``spec.spec_payload``).
@@ -70,10 +82,10 @@ def run_job(spec: dict, keys: list[dict], out: str, cores: int, command: list[st
             for trainer in trainers:
                 trainer.clock.add("data", loading)          # shared by the job's runs
             return train_together(trainers)
-        except Exception:
+        except Exception as error:
             for log in logs:
                 log(traceback.format_exc())
-            raise
+            raise JobFailed(error_text(error)) from None
 
 
 def _line_writer(file: TextIO) -> Log:

@@ -30,6 +30,7 @@ from typing import Callable, Iterator
 from rnn_seg.runs.folder import HISTORY, is_finished
 from rnn_seg.runs.lock import appears_held
 
+from .job import error_text
 from .spec import RunKey
 
 Log = Callable[[str], None]
@@ -144,7 +145,7 @@ class Progress:
             self.work_done, self.work_left = self.work_done + work, max(0.0,
                                                                         self.work_left - work)
             if error:
-                self.failed.append((key, f"{type(error).__name__}: {error}"))
+                self.failed.append((key, error_text(error)))
             status = f"FAILED: {self.failed[-1][1]}" if error else "finished"
             self.log(f"[grid] {self.done}/{self.total} done, ETA {self._eta()} | "
                      f"{key.path()} {status}")
