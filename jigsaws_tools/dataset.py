@@ -74,7 +74,7 @@ class DataConfig:
     data_dir_as_given: str = ""
 
     def __post_init__(self):
-        object.__setattr__(self, "data_dir", os.fspath(self.data_dir))   # a Path is taken too
+        object.__setattr__(self, "data_dir", os.fsdecode(self.data_dir))   # a Path is taken too
         check_version(self.annotations)
         object.__setattr__(self, "task", load_task(self.task))
         object.__setattr__(self, "recording_format", load_format(self.recording_format))

@@ -15,8 +15,8 @@ from pathlib import Path
 import pytest
 
 from fake_grid import write_fake_grid
-from jigsaws_tools.cores import usable_cores
 from jigsaws_tools.cli.main import main as tools_main
+from jigsaws_tools.cores import usable_cores
 from multitask.evidence.cli import main as tables_main
 from multitask.grid.cli import main as grid_main
 from multitask.grid.spec import PAPER_EXPERIMENTS

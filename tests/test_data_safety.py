@@ -50,7 +50,8 @@ def _trial(dataset, name=TRIAL):
 
 
 # -- item 5: the cache ------------------------------------------------------------------------------
-def test_a_release_given_as_a_path_loads_caches_and_fingerprints_as_its_string(release, tmp_path):
+def test_a_release_given_as_a_path_loads_caches_and_fingerprints_as_its_string(release,
+                                                                                 tmp_path):
     """``DataConfig(Path(...))``, as Python users write it, is its string: the cache is written
     and read back, with the same fingerprint."""
     as_path, as_str = DataConfig(release), DataConfig(str(release))

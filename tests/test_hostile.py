@@ -416,13 +416,17 @@ def test_an_evaluation_the_disk_refuses_is_one_line_and_exit_1(trained, tmp_path
     assert not out.exists()
 
 
-def test_thread_counts_beyond_the_machine_are_refused_by_the_python_api():
+def test_thread_counts_beyond_the_usable_cores_are_refused_by_the_python_api(monkeypatch):
     from rnn_seg.threads import configure_threads
 
     with pytest.raises(ValueError, match="this process may use"):
         configure_threads(usable_cores() + 1, hidden=8)
     with pytest.raises(ValueError, match="got -1"):
         configure_threads(-1, hidden=8)
+    if hasattr(os, "sched_getaffinity"):                   # one core given, as a batch job may
+        monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0})
+        with pytest.raises(ValueError, match="up to the 1 this process may use, got 2"):
+            configure_threads(2, hidden=8)
 
 
 # -- 4. writes outside the folder named, and values nobody checked ------------------------------
@@ -453,7 +457,7 @@ def test_a_grid_record_cannot_lead_an_archive_outside_its_destination(tmp_path, 
     assert sorted(p.name for p in tmp_path.iterdir()) == ["escaped", "grid"]
 
 
-def test_thread_counts_are_bounded_by_the_machine(small_dir, tmp_path, capsys):
+def test_thread_counts_are_bounded_by_the_usable_cores(small_dir, tmp_path, capsys):
     code, err = _cli(train_main, [*TINY, "--data-dir", str(small_dir), "--threads", "100000",
                                   "--out", str(tmp_path / "run")], capsys)
     last = err.strip().splitlines()[-1]                 # argparse's usage, then the error
@@ -464,8 +468,8 @@ def test_thread_counts_are_bounded_by_the_machine(small_dir, tmp_path, capsys):
     assert not (tmp_path / "run").exists()
 
 
-def test_grid_threads_are_bounded_by_this_machine_only_when_it_trains_them(small_dir, tmp_path,
-                                                                         capsys):
+def test_grid_threads_are_bounded_by_the_usable_cores_only_when_it_trains_them(small_dir,
+                                                                              tmp_path, capsys):
     """Locally, more threads than cores is one line before any work; with ``--scheduler`` the
     runs train on the cluster's workers, so the head node's cores do not bound the count."""
     spec = ["--spec", str(ROOT / "results" / "smoke.toml"), "--data-dir", str(small_dir),

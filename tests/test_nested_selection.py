@@ -18,8 +18,7 @@ from multitask.grid.cli import main as grid_main
 from multitask.grid.folder import GRID_RECORD
 from multitask.grid.spec import (RunKey, expand, inner_fold, run_arguments, run_config,
                                  spec_from_dict, spec_payload)
-from multitask.models.run_record import variant_configs
-from multitask.models.run_record import read_run_record
+from multitask.models.run_record import read_run_record, variant_configs
 from rnn_seg.runs.folder import read_json, write_json
 from rnn_seg.runs.settings import settings_of
 

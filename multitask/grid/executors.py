@@ -68,8 +68,8 @@ def run_grid(spec: GridSpec, keys: list[RunKey], out: Path, workers: int = 1,
             runs in this process, one after another (``_run_here``).
         scheduler: address of a Dask scheduler (``tcp://host:8786``); None = a local pool.
         cores_per_job: TensorFlow threads of each job; 0 = the cores this process may use /
-            ``workers``
-            locally (all of them with none), 1 on Dask (start workers with one thread each).
+            ``workers`` locally (all of them with none), 1 on Dask (start workers with one
+            thread each).
         stack: runs of one configuration per job, trained in one vectorised step.
         log: where the progress lines go.
         after_job: called in this process after each job whose runs finished.
