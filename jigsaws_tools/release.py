@@ -28,6 +28,8 @@ from .task_definition import SUTURING, TaskDefinition
 
 NUM_KINEMATIC_COLUMNS = 76
 KINEMATICS_HZ = 30.0
+#: The largest magnitude of a usable kinematic value: float32's, the models' type.
+LARGEST_VALUE = float(np.finfo(np.float32).max)
 _BOM = b"\xef\xbb\xbf"
 _ANY_TRIAL_FILE = re.compile(r"^(.+)_[A-Z]\d{3}\.txt$", re.IGNORECASE)
 #: The longest step of a time column, and the farthest a time may lie from the time its row gives
@@ -302,6 +304,20 @@ def _check_readable(path: Path, what: str) -> None:
             log.warning("%s: starts with a UTF-8 byte-order mark; ignored", path)
 
 
+def unusable_value(values: np.ndarray) -> tuple[int, int, str] | None:
+    """The first kinematic value the models cannot take, as ``(row, column, problem)`` of
+    ``values`` ``[rows, columns]`` (0-based): a non-finite one, or one beyond float32's range
+    (``LARGEST_VALUE``), where the models compute and it would become infinite. None: all usable.
+    """
+    for bad, problem in ((~np.isfinite(values), "non-finite kinematic value"),
+                         (np.abs(values) > LARGEST_VALUE, "kinematic value beyond float32's "
+                          f"range (magnitude at most {LARGEST_VALUE:.4g}, the models' type)")):
+        found = np.argwhere(bad)
+        if len(found):
+            return int(found[0][0]), int(found[0][1]), problem
+    return None
+
+
 def read_kinematics(path: Path | str) -> np.ndarray:
     """Read a kinematics file: ``[n_frames, 76]`` float64, one row per 30 Hz frame."""
     return read_recording(path)
@@ -322,7 +338,8 @@ def read_recording(path: Path | str, recording_format: RecordingFormat = JIGSAWS
 
     Raises:
         FormatError: naming the file, the line, the column and the value: a byte that is not
-            UTF-8, a missing column, a row of another width, a non-numeric or non-finite value,
+            UTF-8, a missing column, a row of another width, a non-numeric value or one the
+            models cannot take (``unusable_value``: non-finite, beyond float32's range),
             times (``time_column``) that do not increase or whose rate is not the format's.
     """
     path, fmt = Path(path), recording_format
@@ -342,10 +359,11 @@ def read_recording(path: Path | str, recording_format: RecordingFormat = JIGSAWS
                           + (" after its header" if header_line else ""))
     data = _parse_rows(path, fmt, names, rows)
     numbers = [number for number, _ in rows]
-    if not np.isfinite(data).all():
-        row, column = np.argwhere(~np.isfinite(data))[0]
-        raise FormatError(path, numbers[row], "nan/inf",
-                          f"non-finite kinematic value in column {column + 1} ({names[column]})")
+    unusable = unusable_value(data)
+    if unusable:
+        row, column, problem = unusable
+        raise FormatError(path, numbers[row], float(data[row, column]),
+                          f"{problem} in column {column + 1} ({names[column]})")
     if fmt.time_column:
         _check_times(path, fmt, data[:, names.index(fmt.time_column)], numbers)
     return data[:, [names.index(c) for c in wanted]]

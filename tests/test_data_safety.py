@@ -49,6 +49,23 @@ def _trial(dataset, name=TRIAL):
     return next(t for t in dataset.trials if t.name == name)
 
 
+@pytest.mark.parametrize("value, problem", [("nan", "non-finite kinematic value"),
+                                            ("-1e39", "kinematic value beyond float32's range")])
+def test_a_value_the_models_cannot_take_is_refused_with_its_line_column_and_value(
+        release, value, problem):
+    """1e39 is finite, but infinite in the models' float32: refused as NaN is, not cast."""
+    path = _kinematics(release)
+    lines = path.read_text().splitlines(keepends=True)
+    fields = lines[4].split()
+    fields[2] = value
+    lines[4] = " ".join(fields) + "\n"
+    path.write_text("".join(lines))
+    with pytest.raises(FormatError) as raised:
+        read_kinematics(path)
+    assert str(raised.value).startswith(f"{path}:5: {problem}")
+    assert "in column 3" in str(raised.value) and f"(value: {float(value)!r})" in str(raised.value)
+
+
 # -- item 5: the cache ------------------------------------------------------------------------------
 def test_a_release_given_as_a_path_loads_caches_and_fingerprints_as_its_string(release,
                                                                                  tmp_path):

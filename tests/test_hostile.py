@@ -571,6 +571,10 @@ def test_the_python_api_refuses_a_non_finite_recording(trained, small_dir):
     kinematics[7, 3] = np.nan
     with pytest.raises(ValueError, match=r"mine: frame 8, column 4: non-finite"):
         run.predict(kinematics, where="mine")
+    kinematics[7, 3] = 1e39                 # finite, but infinite in the models' float32
+    with pytest.raises(ValueError, match=r"mine: frame 8, column 4: kinematic value beyond "
+                                         r"float32's range .* \(1e\+39\)"):
+        run.predict(kinematics, where="mine")
 
 
 @pytest.mark.parametrize("std,problem", [(float("nan"), "NaN is not strict JSON"),

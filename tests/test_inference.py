@@ -295,6 +295,13 @@ def test_streaming_equals_the_whole_sequence_under_causal_preprocessing(fw_run, 
     assert first.frame == 1 and first.label_names["gesture"] == GESTURES[first.labels["gesture"]]
     assert all(predictor.push(frame) is None for frame in kinematics[1:6])
     assert predictor.push(kinematics[6]).frame == 7
+    for value, problem in ((np.nan, "non-finite"), (-1e39, "kinematic value beyond float32's")):
+        broken = kinematics[7].copy()
+        broken[3] = value
+        with pytest.raises(ValueError, match=rf"frame 8, column 4: {problem}"):
+            predictor.push(broken)                      # not taken: the stream goes on
+    assert all(predictor.push(frame) is None for frame in kinematics[7:12])
+    assert predictor.push(kinematics[12]).frame == 13
 
 
 def test_labels_are_class_indices_and_label_names_their_names_offline_and_streaming(

@@ -19,6 +19,7 @@ import tensorflow as tf
 
 from jigsaws_tools.preprocessing import Normalisation, StreamingPreprocessor
 from jigsaws_tools.recording_format import RecordingFormat
+from jigsaws_tools.release import unusable_value
 
 from .predictions import RecordingPrediction
 from .trained_run import TrainedRun
@@ -80,12 +81,19 @@ class StreamingPredictor:
         """Feed the next frame, ``[C]`` in ``run.input_columns(recording_format)`` (the
         release's 76 JIGSAWS columns, at 30 Hz); returns the prediction when the frame is one
         the model samples (one in ``decimation`` from the first: every 6th at 30 Hz), else
-        None."""
+        None. A frame of the wrong width or with a value the model cannot take (non-finite,
+        beyond float32's range) is a ``ValueError`` and is not taken: the stream goes on with
+        the next frame as if it had not come."""
         frame = np.asarray(frame, dtype=np.float64)
         if frame.shape != (self._width,):
             raise ValueError(f"frame {self.frames + 1}: expected {self._width} kinematic "
                              f"values ({self.recording_format.name} columns), got shape "
                              f"{list(frame.shape)}")
+        unusable = unusable_value(frame[None])
+        if unusable:
+            _, column, problem = unusable
+            raise ValueError(f"frame {self.frames + 1}, column {column + 1}: {problem} "
+                             f"({frame[column]}); the frame is not taken")
         sample = self._preprocess.push(frame[self._columns])
         if sample is None:
             return None

@@ -21,7 +21,7 @@ from jigsaws_tools.dataset import check_format_fits
 from jigsaws_tools.features import feature_columns
 from jigsaws_tools.preprocessing import Normalisation, decimation, preprocess_recording
 from jigsaws_tools.recording_format import RecordingFormat, load_format
-from jigsaws_tools.release import discover, read_recording
+from jigsaws_tools.release import discover, read_recording, unusable_value
 from rnn_seg.runs.checkpoints import restore_weights
 from rnn_seg.model import SegmentationModel
 from rnn_seg.runs.folder import (RunFolderError, from_jsonable, is_finished, read_json,
@@ -139,12 +139,11 @@ class TrainedRun:
                              f"columns {shown}), got shape {list(kinematics.shape)}")
         if not len(kinematics):
             raise ValueError(f"{where}: no kinematic frames")
-        bad = np.argwhere(~np.isfinite(kinematics))
-        if len(bad):
-            frame, column = bad[0]
-            raise ValueError(f"{where}: frame {frame + 1}, column {column + 1}: non-finite "
-                             f"kinematic value ({kinematics[frame, column]}); the recording "
-                             "files refuse it too")
+        unusable = unusable_value(kinematics)
+        if unusable:
+            frame, column, problem = unusable
+            raise ValueError(f"{where}: frame {frame + 1}, column {column + 1}: {problem} "
+                             f"({kinematics[frame, column]}); the recording files refuse it too")
         return kinematics[:, self.feature_indices(fmt)]
 
     def read_inputs(self, path: Path | str,
