@@ -75,7 +75,8 @@ def test_a_release_given_as_a_path_loads_caches_and_fingerprints_as_its_string(r
     assert as_path == as_str and isinstance(as_path.data_dir, str)
     first = load_dataset(as_path, cache_dir=tmp_path / "cache")
     again = load_dataset(as_str, cache_dir=tmp_path / "cache")
-    assert first.fingerprint == again.fingerprint and len(list((tmp_path / "cache").glob("*.npz"))) == 1
+    assert first.fingerprint == again.fingerprint
+    assert len(list((tmp_path / "cache").glob("*.npz"))) == 1
     for a, b in zip(first.trials, again.trials):
         np.testing.assert_array_equal(a.inputs, b.inputs)
 

@@ -2,11 +2,11 @@
 
 ``variant_record`` is the record a run of a variant writes (``variant_configs`` adds the data
 fingerprint, reading the release when none is given; a grid's run folder is checked against it
-with the fingerprint the folder records). ``read_run_record`` reads a run folder's record back, every field checked: the
-run's ``RunConfig`` (``from_jsonable``: types, ranges, unknown keys), its variant, weighting,
-tasks, GradNorm and head settings and data fingerprint; a ``baseline-train`` run, which records no
-variant, is model A with fixed weights. A bad record is a ``RunFolderError`` naming the file and
-the field.
+with the fingerprint the folder records). ``read_run_record`` reads a run folder's record back,
+every field checked: the run's ``RunConfig`` (``from_jsonable``: types, ranges, unknown keys),
+its variant, weighting, tasks, GradNorm and head settings and data fingerprint; a
+``baseline-train`` run, which records no variant, is model A with fixed weights. A bad record is
+a ``RunFolderError`` naming the file and the field.
 """
 from __future__ import annotations
 
