@@ -3,6 +3,7 @@ one by name, reading one, and checking its keys and value types, each error nami
 key and the value."""
 from __future__ import annotations
 
+import functools
 import tomllib
 from importlib import resources
 from pathlib import Path
@@ -42,11 +43,18 @@ def find_definition(value: str | Path, kind: str, what: str, read: Callable[[Pat
     """
     names = builtin_names(kind)
     if str(value) in names:
-        return read(builtin_path(kind, str(value)))
+        return _read_builtin(kind, str(value), read)
     if str(value).endswith(".toml"):
         return read(Path(value))
     raise JigsawsError(f"unknown {what} {str(value)!r}; built-in {what}s are {', '.join(names)}, "
                        f"or pass a {what} file (*.toml)")
+
+
+@functools.cache
+def _read_builtin(kind: str, name: str, read: Callable[[Path], T]) -> T:
+    """``read`` of the shipped definition ``name`` of ``kind``, once per process: the package's
+    files do not change while it runs, and a grid's tables look its task up once per run."""
+    return read(builtin_path(kind, name))
 
 
 #: The largest TOML file read, in bytes: every definition, spec or plan is a few kilobytes; a

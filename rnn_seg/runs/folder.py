@@ -7,6 +7,7 @@ every file is written through a temporary file and a rename, with the user's uma
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import math
 import os
@@ -175,6 +176,14 @@ def _scalar_from_jsonable(tp: Any, value: Any, where: str) -> Any:
     raise TypeError(f"{where}: from_jsonable does not handle the type {tp!r}")
 
 
+@functools.cache
+def _field_types(cls: type) -> dict[str, Any]:
+    """``cls``'s annotations as types, resolved once per class: resolving them compiles every
+    string annotation (``from __future__ import annotations``), which took most of the time of
+    reading a grid's records when it was done per record."""
+    return typing.get_type_hints(cls)
+
+
 def _dataclass_from_jsonable(cls: type, value: Any, where: str) -> Any:
     if not isinstance(value, dict):
         raise ConfigError(where, f"expected an object for {cls.__name__}", value)
@@ -183,7 +192,7 @@ def _dataclass_from_jsonable(cls: type, value: Any, where: str) -> Any:
     if unknown:
         raise ConfigError(where, f"unknown field {unknown[0]!r} of {cls.__name__} (known: "
                                  f"{', '.join(fields)})", value[unknown[0]])
-    hints = typing.get_type_hints(cls)
+    hints = _field_types(cls)
     kwargs = {}
     for name, f in fields.items():
         if name in value:
