@@ -26,11 +26,17 @@ from multitask.train_cli import main as train_main
 TRIAL = "Suturing_C002"
 
 
+@pytest.fixture(scope="module")
+def _pristine(tmp_path_factory):
+    """A small synthetic release, written once: users B, C, D with two trials each."""
+    return write_release(tmp_path_factory.mktemp("pristine") / "Suturing",
+                         SynthConfig(users=("B", "C", "D"), trials_per_user=2))
+
+
 @pytest.fixture
-def release(tmp_path):
-    """A small synthetic release to damage: users B, C, D with two trials each."""
-    return write_release(tmp_path / "Suturing", SynthConfig(users=("B", "C", "D"),
-                                                            trials_per_user=2))
+def release(_pristine, tmp_path):
+    """A copy of the small release for one test to damage (copied: writing it costs ~1 CPU-s)."""
+    return shutil.copytree(_pristine, tmp_path / "Suturing")
 
 
 def _kinematics(root, name=TRIAL):
