@@ -31,17 +31,17 @@ COMMANDS = {"grid": DRY_RUN, "reference (TensorFlow imported)": "import tensorfl
 def measure(code: str, spec: Path) -> tuple[float, float, float]:
     """One dry run of ``spec`` by the Python ``code``: (CPU seconds, wall seconds, peak MB)."""
     env = {**os.environ, "TF_CPP_MIN_LOG_LEVEL": "3"}
-    with tempfile.TemporaryDirectory() as scratch:
+    with tempfile.TemporaryDirectory() as scratch, open(Path(scratch) / "stderr", "w+") as said:
         start = time.perf_counter()
         child = subprocess.Popen([sys.executable, "-c", code, str(spec), str(Path(scratch) / "g")],
-                                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
-        _, status, usage = os.wait4(child.pid, 0)
+                                 stdout=subprocess.DEVNULL, stderr=said, env=env)
+        _, status, usage = os.wait4(child.pid, 0)      # this child's own accounting
         wall = time.perf_counter() - start
-        child.returncode = os.waitstatus_to_exitcode(status)
-        error = child.stderr.read().decode(errors="replace")
-        child.stderr.close()
-    if child.returncode:
-        raise SystemExit(f"grid_start: the dry run failed (exit {child.returncode}): {error}")
+        exit_code = os.waitstatus_to_exitcode(status)
+        child.returncode = exit_code                   # reaped here, not by Popen
+        said.seek(0)
+        if exit_code:
+            raise SystemExit(f"grid_start: the dry run failed (exit {exit_code}): {said.read()}")
     return usage.ru_utime + usage.ru_stime, wall, usage.ru_maxrss / 1024
 
 
