@@ -161,9 +161,10 @@ def test_compiled_loops_equal_the_op_loops(mode, loops):
 
 @needs_fused
 def test_fused_loops_split_between_threads_equal_the_op_loops():
-    """At 130 units the intra-op threads share 9 panels of 16 units (the last one partial),
-    claiming them as they come: same outputs and gradients as the op loops, and the same to the
-    last bit whichever thread computed which panel."""
+    """At 130 units the intra-op threads share 9 panels of 16 units (AVX-512) or 17 of 8 (AVX2),
+    the last one partial, each thread its own part first, then what is left of the other's: same
+    outputs and gradients as the op loops, and the same to the last bit whichever thread computed
+    which panel."""
     fused, again, graph = (_outputs_and_gradients("corrected", loops, hidden=130, layers=1)
                            for loops in ("fused", "fused", "graph"))
     for got, repeated, want in zip(fused, again, graph):

@@ -26,8 +26,9 @@
 // bfloat16 matmul and cast do in rnn_seg.lstm.product.
 //
 // Threads: up to the op's intra-op thread count (at least 64 units a thread) share each step's
-// panels, claiming 32 units at a time (SharedSteps); a step starts once every panel of the one
-// before is done (every unit's h_t, or every gate's dz_t, is read by the next step's product).
+// panels, each claiming 32 units at a time of its own contiguous part of them first, then of the
+// others' parts that are left (SharedSteps); a step starts once every panel of the one before is
+// done (every unit's h_t, or every gate's dz_t, is read by the next step's product).
 #include <algorithm>
 #include <atomic>
 #include <condition_variable>
@@ -84,57 +85,51 @@ std::unique_ptr<T[], AlignedFree> aligned_zeros(size_t count) {
   return std::unique_ptr<T[], AlignedFree>(p);
 }
 
-// A loop over steps whose panels several threads share: every participant claims chunks of
-// the current step's panels, and a step's panels are claimed only once every panel of the step
-// before is done. A participant that is descheduled (a busy machine) holds up a step by at most
-// the chunk it claimed: the others claim the rest, so the op never waits for a thread that has
+// A loop over steps whose panels several threads share. The panels are split into one
+// contiguous part per participant; each participant claims chunks of its own part first, then
+// of the others' that are left, and a step's panels are claimed only once every panel of the
+// step before is done. A participant so streams the same weights on every step, which stay in
+// its core's own caches where a core has caches of its own (two cores of separate L3 slices:
+// each streams half of the weights from its L3 instead of all of them from memory). A
+// participant that is descheduled (a busy machine) holds up a step by at most the chunk it
+// claimed: the others claim the rest of its part, so the op never waits for a thread that has
 // not started. Waiting spins for about a step's time, then sleeps until the step completes.
 class SharedSteps {
  public:
-  SharedSteps(int steps, int panels, int chunk)
-      : panels_(panels), chunk_(chunk), total_(int64_t(steps) * panels) {}
+  SharedSteps(int steps, int panels, int chunk, int parts)
+      : steps_(steps), panels_(panels), chunk_(chunk),
+        parts_(std::max(1, std::min(parts, panels))), claimed_(new Counter[parts_]) {}
 
-  // Runs work(step, first_panel, end_panel) on chunks until nothing is left to claim;
+  // Runs work(step, first_panel, end_panel) on chunks until every step is claimed;
   // start(step) runs before this participant's first chunk of a step.
   template <typename Start, typename Work>
   void participate(Start start, Work work) {
+    const int home = homes_.fetch_add(1) % parts_;
     int64_t started = -1;
-    for (;;) {
-      int64_t first = claimed_.load();
-      const int64_t step = first / panels_;
-      if (first >= total_) return;
+    for (int64_t step = 0;; ++step) {
+      step = std::max(step, done_.load() / panels_);     // a late participant joins the present
+      if (step >= steps_) return;
       wait_done(step * panels_);                         // the step before is complete
-      const int64_t end_of_step = (step + 1) * panels_;
-      int64_t last = 0;
-      for (first = claimed_.load(); first < end_of_step;) {
-        last = std::min(first + chunk_, end_of_step);
-        if (claimed_.compare_exchange_weak(first, last)) break;
-      }
-      if (first >= end_of_step) continue;                // all claimed: on to the next step
-      if (started != step) {
-        start(static_cast<int>(step));
-        started = step;
-      }
-      // Odd steps visit the panels last to first: the panels a step streamed last are still in
-      // the cache when the next starts, where weights larger than the cache would otherwise
-      // be evicted before their reuse on every step.
-      int64_t lo = first - step * panels_, hi = last - step * panels_;
-      if (step % 2) {
-        const int64_t mirrored = panels_ - hi;
-        hi = panels_ - lo;
-        lo = mirrored;
-      }
-      work(static_cast<int>(step), static_cast<int>(lo), static_cast<int>(hi));
-      const int64_t done = done_.fetch_add(last - first) + (last - first);
-      if (done % panels_ == 0 && sleepers_.load() > 0) {
-        { std::lock_guard<std::mutex> lock(mutex_); }
-        wake_.notify_all();
+      for (int k = 0; k < parts_; ++k) {
+        int first, end;
+        while (claim((home + k) % parts_, step, &first, &end)) {
+          if (started != step) {
+            start(static_cast<int>(step));
+            started = step;
+          }
+          work(static_cast<int>(step), first, end);
+          const int64_t done = done_.fetch_add(end - first) + (end - first);
+          if (done % panels_ == 0 && sleepers_.load() > 0) {
+            { std::lock_guard<std::mutex> lock(mutex_); }
+            wake_.notify_all();
+          }
+        }
       }
     }
   }
 
   // Until every panel of every step is done.
-  void wait_all() { wait_done(total_); }
+  void wait_all() { wait_done(int64_t(steps_) * panels_); }
 
   // A pool task enters before it participates (false: the op is over, return at once) and
   // leaves after; finish() (the op's own thread, after wait_all) waits for those inside.
@@ -155,6 +150,36 @@ class SharedSteps {
   }
 
  private:
+  // Part p: panels [p * panels / parts, (p + 1) * panels / parts); its counter counts the
+  // panels of it claimed over all steps, one cache line a part.
+  struct alignas(64) Counter {
+    std::atomic<int64_t> claimed{0};
+  };
+
+  // Claims up to a chunk of part p's panels of `step`: false when none is left. Odd steps visit
+  // a part's panels last to first: the panels a step streamed last are still in the cache when
+  // the next starts, where weights larger than the cache would otherwise be evicted before their
+  // reuse on every step.
+  bool claim(int p, int64_t step, int* first, int* end) {
+    const int64_t begin = int64_t(p) * panels_ / parts_,
+                  size = int64_t(p + 1) * panels_ / parts_ - begin, stop = (step + 1) * size;
+    int64_t lo = claimed_[p].claimed.load(), hi;
+    do {
+      if (lo >= stop) return false;
+      hi = std::min(lo + chunk_, stop);
+    } while (!claimed_[p].claimed.compare_exchange_weak(lo, hi));
+    lo -= step * size;
+    hi -= step * size;
+    if (step % 2) {
+      const int64_t mirrored = size - hi;
+      hi = size - lo;
+      lo = mirrored;
+    }
+    *first = static_cast<int>(begin + lo);
+    *end = static_cast<int>(begin + hi);
+    return true;
+  }
+
   // Spins briefly (a step's panels usually complete within microseconds), then yields the
   // core while it waits, so that on a busy machine the thread it waits for runs instead of
   // a spin (sched_yield returns at once where nothing else wants the core), then sleeps.
@@ -176,9 +201,11 @@ class SharedSteps {
   }
 
   static constexpr int kSpins = 2000, kYields = 20000;
-  const int64_t panels_, chunk_, total_;
-  std::atomic<int64_t> claimed_{0}, done_{0};
-  std::atomic<int> sleepers_{0};
+  const int64_t steps_, panels_, chunk_;
+  const int parts_;
+  std::unique_ptr<Counter[]> claimed_;
+  std::atomic<int64_t> done_{0};
+  std::atomic<int> homes_{0}, sleepers_{0};
   int inside_ = 0;
   bool finished_ = false;
   std::mutex mutex_;
@@ -192,7 +219,8 @@ class SharedSteps {
 template <typename Participant>
 void run_shared(OpKernelContext* ctx, int threads, int steps, int panels,
                 Participant participant) {
-  auto shared = std::make_shared<SharedSteps>(steps, panels, std::max(1, kChunkUnits / kLanes));
+  auto shared = std::make_shared<SharedSteps>(steps, panels, std::max(1, kChunkUnits / kLanes),
+                                               threads);
   for (int t = 1; t < threads; ++t)
     ctx->device()->tensorflow_cpu_worker_threads()->workers->Schedule([shared, &participant] {
       if (!shared->enter()) return;
