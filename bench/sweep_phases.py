@@ -11,7 +11,8 @@ it trains with (``rnn_seg``: ``rnn_seg.threads``; PyTorch: every core in each op
   ``in turn`` (the reverse loop starts when the forward loop has ended);
 - ``backward loops``: both directions' backward loops (``[B, 4H] x [4H, H]`` a step), with the
   per-step factors computed before them, together and in turn;
-- ``weight gradients``: both directions' ``dW_h = h_prev^T dz`` (``[H, T B] x [T B, 4H]``);
+- ``weight gradients``: both directions' ``dW_h = h_prev^T dz`` (``[H, T B] x [T B, 4H]``), as
+  the loops sum it (``rnn_seg.lstm._weight_gradient``);
 - ``forward products alone``: the 2 T recurrent products of the forward loops with a tanh
   between them and nothing else (a step's input is the tanh of the previous product's first H
   columns): the products' share of ``forward loops``;
@@ -66,7 +67,7 @@ def rnn_seg_phases(hidden: int, steps: int, repeats: int, loops: str = "graph"
     import tensorflow as tf
 
     from lstm_sweep import _batch, _step_function
-    from rnn_seg.lstm import _LOOP_FUNCTIONS, _shift
+    from rnn_seg.lstm import _LOOP_FUNCTIONS, _shift, _weight_gradient
     from rnn_seg.threads import configure_threads
 
     _forward_loop, _backward_loop = _LOOP_FUNCTIONS[loops]
@@ -104,7 +105,7 @@ def rnn_seg_phases(hidden: int, steps: int, repeats: int, loops: str = "graph"
         "backward loops, in turn": tf.function(
             lambda: in_turn(backward, lambda k: (directions[k], states[k]))),
         "weight gradients": tf.function(
-            lambda: [tf.matmul(h, g, transpose_a=True) for h, g in zip(h_prev, dz)]),
+            lambda: [_weight_gradient(h, g, tf.float32, loops) for h, g in zip(h_prev, dz)]),
         "forward products alone": tf.function(lambda: [
             tf.while_loop(lambda t, h: t < steps,
                           lambda t, h: (t + 1, tf.tanh(tf.matmul(h, d["W"])[:, :hidden])),

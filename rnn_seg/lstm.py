@@ -180,8 +180,8 @@ def _bptt_in(dtype: tf.DType, loops: Loops):
             h_prev, c_prev = keep * _shift(h), keep * _shift(c)      # state entering each step
             dz = backward_loop(pad(dh_out), keep_in, state, pad(c_prev), W, peep,
                                steps)[:steps]                                 # [T, B, 4H]
-            dW_h = product(tf.reshape(h_prev, [-1, hidden]), tf.reshape(dz, [-1, 4 * hidden]),
-                           dtype, transpose_a=True)
+            dW_h = _weight_gradient(tf.reshape(h_prev, [-1, hidden]),
+                                    tf.reshape(dz, [-1, 4 * hidden]), dtype, loops)
             _, dz_i, dz_f, dz_o = tf.split(dz, 4, axis=2)
             dpeep = tf.stack([tf.reduce_sum(dz_i * c_prev, [0, 1]),
                               tf.reduce_sum(dz_f * c_prev, [0, 1]),
@@ -190,6 +190,30 @@ def _bptt_in(dtype: tf.DType, loops: Loops):
 
         return h, grad
     return bptt
+
+
+def _weight_gradient(h_prev: tf.Tensor, dz: tf.Tensor, dtype: tf.DType, loops: Loops
+                     ) -> tf.Tensor:
+    """``dW_h = h_prev^T dz``: ``h_prev`` ``[N, H]`` (the state entering each of N = T B steps
+    and rows), ``dz`` ``[N, 4H]`` -> ``[H, 4H]`` float32; by the fused loops' own product where
+    they run it (``fused_weight_gradient``), else by ``product`` in ``dtype``."""
+    if loops == "fused" and dtype == tf.float32 and fused_weight_gradient():
+        return fused_loops.weight_gradient(h_prev, dz)
+    return product(h_prev, dz, dtype, transpose_a=True)
+
+
+@functools.lru_cache(maxsize=None)
+def fused_weight_gradient() -> bool:
+    """Whether the fused loops sum ``dW_h`` (float32) with their own product
+    (``rnn_seg.kernels``): where TensorFlow's oneDNN operations are off (its default on
+    processors without AVX-512 VNNI or newer, and ``TF_ENABLE_ONEDNN_OPTS=0``), its matmul runs
+    Eigen's contraction, at 0.45x that product's rate on the AVX2 EPYC; where they are on,
+    TensorFlow's oneDNN matmul (docs/PERFORMANCE.md, "The recurrent weights' gradient")."""
+    try:
+        from tensorflow.python.util import _pywrap_util_port
+    except ImportError:                 # a TensorFlow that no longer says: keep its matmul
+        return False
+    return not _pywrap_util_port.IsMklEnabled()
 
 
 def _forward_loop(x_proj, keep, W, peep, steps, bounded=False):
@@ -515,13 +539,17 @@ def runnable(loops: Loops, precision: Precision) -> Loops:
 def loops_reason(asked: Loops, ran: Loops, precision: Precision) -> str:
     """Why a process runs ``ran`` loops where ``asked`` was asked for (``runnable``), in words
     for a run's record."""
-    if ran == asked:
-        return "asked for"
-    if ran == "graph":
+    if ran == "graph" and ran != asked:
         return _graph_because(precision)
-    return (f"auto: the fused loops build and load here ({fused_build.describe()}); the fastest "
-            "of this project's loops on AVX2 and AVX-512 processors at 128 and 1024 units "
-            f"({AUTO_EVIDENCE})")
+    reason = "asked for" if ran == asked else (
+        f"auto: the fused loops build and load here ({fused_build.describe()}); the fastest "
+        "of this project's loops on AVX2 and AVX-512 processors at 128 and 1024 units "
+        f"({AUTO_EVIDENCE})")
+    if ran == "fused" and precision == "fp32":
+        reason += ("; dW_h by their own product (TensorFlow's oneDNN operations off)"
+                   if fused_weight_gradient() else
+                   "; dW_h by TensorFlow's matmul (its oneDNN operations on)")
+    return reason
 
 
 #: Where the measurements behind ``auto``'s choice are.

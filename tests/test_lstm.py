@@ -173,6 +173,23 @@ def test_fused_loops_split_between_threads_equal_the_op_loops():
 
 
 @needs_fused
+@pytest.mark.parametrize("rows, units, columns", [(0, 3, 12), (1, 1, 4), (7, 5, 20),
+                                                  (300, 13, 52), (600, 130, 516)])
+def test_the_fused_weight_gradient_sums_every_row_of_any_shape(rows, units, columns):
+    """The fused loops' own ``h_prev^T dz`` (``rnn_seg.kernels``): rows past one block of k
+    (256), units past one block of A's rows (96) and not whole micro-panels of 6, columns not
+    whole panels, no rows at all (zeros): float64's product to float32 rounding."""
+    from rnn_seg.kernels.loops import weight_gradient
+    rng = np.random.default_rng(rows + units)
+    a, b = (rng.normal(size=shape).astype(np.float32) for shape in ((rows, units), (rows, columns)))
+    got = weight_gradient(tf.constant(a), tf.constant(b)).numpy()
+    assert got.shape == (units, columns)
+    want = a.astype(np.float64).T @ b.astype(np.float64)
+    scale = np.abs(a.astype(np.float64)).T @ np.abs(b.astype(np.float64))
+    assert np.all(np.abs(got - want) <= 1e-6 * scale)
+
+
+@needs_fused
 def test_fused_loops_take_any_number_of_rows():
     """The fused ops run a batch in passes of up to 6 rows: 13 rows (6 + 6 + 1), 20 units (a
     partial panel), give the op loops' outputs and gradients."""

@@ -1,6 +1,8 @@
-"""The fused loops with ``rnn_seg.lstm``'s loop signatures (``_forward_loop``, ``_backward_loop``).
+"""The fused loops with ``rnn_seg.lstm``'s loop signatures (``_forward_loop``, ``_backward_loop``),
+and the recurrent weights' gradient they sum with their own product (``rnn_seg.lstm``'s
+``fused_weight_gradient`` says where).
 
-Both take the recurrent weights ``W`` ``[H, 4H]`` already in the products' dtype (float32, or
+The loops take the recurrent weights ``W`` ``[H, 4H]`` already in the products' dtype (float32, or
 bfloat16 for ``bf16`` precision) and run the first ``steps`` of time-major inputs; later steps are
 zeros, as the graph loops leave them.
 """
@@ -26,3 +28,9 @@ def backward_loop(dh_out: tf.Tensor, keep: tf.Tensor, state: list[tf.Tensor], c_
     ``c_prev`` ``[T, B, H]``, the cell state entering each step (after its reset)."""
     _, c, g, i, f, o = state
     return library().mtrnn_lstm_backward(dh_out, keep, c, g, i, f, o, c_prev, W, peep, steps)
+
+
+def weight_gradient(h_prev: tf.Tensor, dz: tf.Tensor) -> tf.Tensor:
+    """``h_prev^T dz``, float32: ``h_prev`` ``[N, H]``, ``dz`` ``[N, 4H]`` -> ``[H, 4H]``, each
+    element summed over its N rows in order (the same bits on any number of threads)."""
+    return library().mtrnn_weight_gradient(h_prev, dz)

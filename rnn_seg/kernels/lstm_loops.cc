@@ -48,6 +48,7 @@
 #include "tensorflow/core/framework/op.h"
 #include "tensorflow/core/framework/op_kernel.h"
 #include "tensorflow/core/framework/shape_inference.h"
+#include "tensorflow/core/util/work_sharder.h"
 
 namespace {
 
@@ -669,6 +670,115 @@ tensorflow::Status check(const Tensor& x, int rank, const char* name) {
   return tensorflow::OkStatus();
 }
 
+// ---- the recurrent weights' gradient, float32 ------------------------------------------------
+
+// dW_h = h_prev^T dz over all steps and rows: A [N, M] (h entering each step, N = T B rows, M = H
+// units) and B [N, Q] (dz, Q = 4H) give C = A^T B [M, Q]. Where TensorFlow's own matmul runs
+// Eigen's contraction (a build without AVX2 and FMA in its general code), it sums at about half the
+// rate of this kernel's multiply-adds (docs/PERFORMANCE.md). Blocked as BLIS does: k in blocks
+// of kGradDepth, B's block packed in panels of kGradCols columns (k-major), A's block packed in
+// micro-panels of kGradRows rows (k-major, zero rows past M), and a micro-kernel that keeps a
+// kGradRows x kGradCols block of C in 12 registers. Each element of C sums its k in order, block
+// after block: the same bits on any number of threads.
+constexpr int kGradRows = 6;
+constexpr int kGradCols = 2 * kLanes;
+constexpr int kGradDepth = 256;
+constexpr int kGradRowBlock = 16 * kGradRows;      // rows of A packed at a time (L2)
+
+// c[r * ldc + j] (+)= sum over k of a[k * kGradRows + r] * b[k * kGradCols + j], for r < rows,
+// j < cols; `add` false: the first block, which stores.
+inline void weight_gradient_block(int depth, const float* a, const float* b, float* c,
+                                  size_t ldc, int rows, int cols, bool add) {
+  vec acc[kGradRows][2];
+  for (int r = 0; r < kGradRows; ++r) acc[r][0] = acc[r][1] = vec{};
+  const vec* bv = reinterpret_cast<const vec*>(b);
+  for (int k = 0; k < depth; ++k, a += kGradRows, bv += 2) {
+    const vec b0 = bv[0], b1 = bv[1];
+    for (int r = 0; r < kGradRows; ++r) {
+      acc[r][0] += a[r] * b0;
+      acc[r][1] += a[r] * b1;
+    }
+  }
+  for (int r = 0; r < rows; ++r) {
+    float* out = c + r * ldc;
+    const float* sums = reinterpret_cast<const float*>(acc[r]);
+    if (add)
+      for (int j = 0; j < cols; ++j) out[j] += sums[j];
+    else
+      std::memcpy(out, sums, cols * sizeof(float));
+  }
+}
+
+// Columns [col0, col1) of C (col0 a multiple of kGradCols).
+void weight_gradient_columns(const float* a, const float* b, float* c, int64_t n, int m, int q,
+                             int col0, int col1) {
+  const int panels = (col1 - col0 + kGradCols - 1) / kGradCols;
+  const int row_panels = (std::min(m, kGradRowBlock) + kGradRows - 1) / kGradRows;
+  auto packed_b = aligned_zeros<float>(size_t(panels) * kGradDepth * kGradCols);
+  auto packed_a = aligned_zeros<float>(size_t(row_panels) * kGradDepth * kGradRows);
+  for (int64_t k0 = 0; k0 < n; k0 += kGradDepth) {
+    const int depth = int(std::min<int64_t>(kGradDepth, n - k0));
+    for (int p = 0; p < panels; ++p) {                  // B's block, panel by panel
+      const int first = col0 + p * kGradCols, cols = std::min(kGradCols, col1 - first);
+      float* to = packed_b.get() + size_t(p) * kGradDepth * kGradCols;
+      for (int k = 0; k < depth; ++k)
+        std::memcpy(to + k * kGradCols, b + (k0 + k) * q + first, cols * sizeof(float));
+    }
+    for (int row0 = 0; row0 < m; row0 += kGradRowBlock) {
+      const int rows = std::min(kGradRowBlock, m - row0);
+      for (int rp = 0; rp * kGradRows < rows; ++rp) {   // A's block, micro-panel by micro-panel
+        float* to = packed_a.get() + size_t(rp) * kGradDepth * kGradRows;
+        const int count = std::min(kGradRows, rows - rp * kGradRows);
+        for (int k = 0; k < depth; ++k)
+          std::memcpy(to + k * kGradRows, a + (k0 + k) * m + row0 + rp * kGradRows,
+                      count * sizeof(float));
+      }
+      for (int p = 0; p < panels; ++p) {
+        const int first = col0 + p * kGradCols, cols = std::min(kGradCols, col1 - first);
+        for (int rp = 0; rp * kGradRows < rows; ++rp) {
+          const int row = row0 + rp * kGradRows;
+          weight_gradient_block(depth, packed_a.get() + size_t(rp) * kGradDepth * kGradRows,
+                                packed_b.get() + size_t(p) * kGradDepth * kGradCols,
+                                c + size_t(row) * q + first, q,
+                                std::min(kGradRows, m - row), cols, k0 > 0);
+        }
+      }
+    }
+  }
+}
+
+class WeightGradientOp : public OpKernel {
+ public:
+  explicit WeightGradientOp(OpKernelConstruction* ctx) : OpKernel(ctx) {}
+
+  void Compute(OpKernelContext* ctx) override {
+    const Tensor &a = ctx->input(0), &b = ctx->input(1);
+    OP_REQUIRES_OK(ctx, check(a, 2, "h_prev"));
+    OP_REQUIRES_OK(ctx, check(b, 2, "dz"));
+    OP_REQUIRES(ctx, a.dim_size(0) == b.dim_size(0),
+                InvalidArgument("h_prev ", a.shape().DebugString(), " and dz ",
+                                b.shape().DebugString(), " have other numbers of rows"));
+    const int64_t n = a.dim_size(0);
+    const int m = int(a.dim_size(1)), q = int(b.dim_size(1));
+    Tensor* c = nullptr;
+    OP_REQUIRES_OK(ctx, ctx->allocate_output(0, TensorShape({m, q}), &c));
+    float* out = c->flat<float>().data();
+    if (n == 0) {
+      std::fill(out, out + c->NumElements(), 0.0f);
+      return;
+    }
+    const float *pa = a.flat<float>().data(), *pb = b.flat<float>().data();
+    const int panels = (q + kGradCols - 1) / kGradCols;
+    auto* workers = ctx->device()->tensorflow_cpu_worker_threads();
+    // Each shard a run of whole column panels; the cost of a panel: its multiply-adds.
+    tensorflow::Shard(workers->num_threads, workers->workers, panels,
+                      n * m * kGradCols, [&](int64_t first, int64_t end) {
+                        weight_gradient_columns(pa, pb, out, n, m, q, int(first) * kGradCols,
+                                                std::min<int>(q, int(end) * kGradCols));
+                      });
+  }
+};
+
 template <typename T>
 class ForwardOp : public OpKernel {
  public:
@@ -831,6 +941,18 @@ REGISTER_OP("MtrnnLstmBackward")
       return tensorflow::OkStatus();
     });
 
+REGISTER_OP("MtrnnWeightGradient")
+    .Input("h_prev: float")
+    .Input("dz: float")
+    .Output("dw: float")
+    .SetShapeFn([](tensorflow::shape_inference::InferenceContext* c) {
+      tensorflow::shape_inference::ShapeHandle a, b;
+      TF_RETURN_IF_ERROR(c->WithRank(c->input(0), 2, &a));
+      TF_RETURN_IF_ERROR(c->WithRank(c->input(1), 2, &b));
+      c->set_output(0, c->Matrix(c->Dim(a, 1), c->Dim(b, 1)));
+      return tensorflow::OkStatus();
+    });
+
 REGISTER_KERNEL_BUILDER(
     Name("MtrnnLstmForward").Device(tensorflow::DEVICE_CPU).TypeConstraint<float>("T")
         .HostMemory("steps"),
@@ -839,6 +961,8 @@ REGISTER_KERNEL_BUILDER(
     Name("MtrnnLstmBackward").Device(tensorflow::DEVICE_CPU).TypeConstraint<float>("T")
         .HostMemory("steps"),
     BackwardOp<float>);
+REGISTER_KERNEL_BUILDER(Name("MtrnnWeightGradient").Device(tensorflow::DEVICE_CPU),
+                        WeightGradientOp);
 #if defined(__AVX512BF16__)
 REGISTER_KERNEL_BUILDER(
     Name("MtrnnLstmForward").Device(tensorflow::DEVICE_CPU).TypeConstraint<bfloat16>("T")
