@@ -143,7 +143,10 @@ def worker(impl: str, hidden: int, steps: int, repeats: int, plan: str | None = 
               "threads": threads}
     if "fused" in impl:
         from rnn_seg.kernels.build import describe
-        result["product"] = describe()
+        from rnn_seg.lstm import fused_weight_gradient
+        result["product"] = describe() + (
+            "; dW_h by its own product" if fused_weight_gradient() and "bf16" not in impl
+            else "; dW_h by TensorFlow's matmul")
     return result
 
 

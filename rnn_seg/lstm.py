@@ -208,7 +208,8 @@ def fused_weight_gradient() -> bool:
     (``rnn_seg.kernels``): where TensorFlow's oneDNN operations are off (its default on
     processors without AVX-512 VNNI or newer, and ``TF_ENABLE_ONEDNN_OPTS=0``), its matmul runs
     Eigen's contraction, at 0.45x that product's rate on the AVX2 EPYC; where they are on,
-    TensorFlow's oneDNN matmul (docs/PERFORMANCE.md, "The recurrent weights' gradient")."""
+    TensorFlow's oneDNN matmul (docs/PERFORMANCE.md, "On an AVX2 EPYC whose cores have L3
+    slices of their own")."""
     try:
         from tensorflow.python.util import _pywrap_util_port
     except ImportError:                 # a TensorFlow that no longer says: keep its matmul
