@@ -204,12 +204,14 @@ def _weight_gradient(h_prev: tf.Tensor, dz: tf.Tensor, dtype: tf.DType, loops: L
 
 @functools.lru_cache(maxsize=None)
 def fused_weight_gradient() -> bool:
-    """Whether the fused loops sum ``dW_h`` (float32) with their own product
-    (``rnn_seg.kernels``): where TensorFlow's oneDNN operations are off (its default on
-    processors without AVX-512 VNNI or newer, and ``TF_ENABLE_ONEDNN_OPTS=0``), its matmul runs
-    Eigen's contraction, at 0.45x that product's rate on the AVX2 EPYC; where they are on,
-    TensorFlow's oneDNN matmul (docs/PERFORMANCE.md, "On an AVX2 EPYC whose cores have L3
-    slices of their own")."""
+    """Whether the fused loops (loaded) sum ``dW_h`` (float32) with their own product
+    (``rnn_seg.kernels``): where it is a vector product (``FAST_PRODUCTS``) and TensorFlow's
+    oneDNN operations are off (its default on processors without AVX-512 VNNI or newer, and
+    ``TF_ENABLE_ONEDNN_OPTS=0``), for its matmul then runs Eigen's contraction, at 0.45x that
+    product's rate on the AVX2 EPYC; elsewhere TensorFlow's matmul (docs/PERFORMANCE.md, "On an
+    AVX2 EPYC whose cores have L3 slices of their own")."""
+    if _fused_slower():
+        return False
     try:
         from tensorflow.python.util import _pywrap_util_port
     except ImportError:                 # a TensorFlow that no longer says: keep its matmul
@@ -549,7 +551,7 @@ def loops_reason(asked: Loops, ran: Loops, precision: Precision) -> str:
     if ran == "fused" and precision == "fp32":
         reason += ("; dW_h by their own product (TensorFlow's oneDNN operations off)"
                    if fused_weight_gradient() else
-                   "; dW_h by TensorFlow's matmul (its oneDNN operations on)")
+                   "; dW_h by TensorFlow's matmul")
     return reason
 
 

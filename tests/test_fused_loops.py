@@ -138,6 +138,20 @@ def test_a_cpu_with_avx512_fp16_builds_the_loops_without_it(tmp_path, monkeypatc
     assert library.is_file()
 
 
+@pytest.mark.slow
+@pytest.mark.parametrize("target", ["x86-64", "haswell"])
+def test_the_loops_build_for_a_processor_without_avx_and_for_avx2(tmp_path, monkeypatch, target):
+    """The generic build (``RNN_SEG_MARCH=x86-64``: no AVX, a vector of 8 floats spans two
+    registers) and the AVX2 one compile on any x86 machine: register hints that only AVX
+    registers can meet once broke the first."""
+    if shutil.which(os.environ.get("CXX") or "g++") is None:
+        pytest.skip("no C++ compiler")
+    monkeypatch.setenv("RNN_SEG_MARCH", target)
+    library = tmp_path / "kernels" / f"lstm_loops-{target}.so"
+    build.build(library)
+    assert library.is_file()
+
+
 def test_the_cache_is_kept_per_tensorflow_version(tmp_path, monkeypatch):
     monkeypatch.setenv("JIGSAWS_CACHE_DIR", str(tmp_path))
     path = build.library_path()

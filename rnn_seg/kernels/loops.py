@@ -32,5 +32,6 @@ def backward_loop(dh_out: tf.Tensor, keep: tf.Tensor, state: list[tf.Tensor], c_
 
 def weight_gradient(h_prev: tf.Tensor, dz: tf.Tensor) -> tf.Tensor:
     """``h_prev^T dz``, float32: ``h_prev`` ``[N, H]``, ``dz`` ``[N, 4H]`` -> ``[H, 4H]``, each
-    element summed over its N rows in order (the same bits on any number of threads)."""
+    element summed over blocks of 256 rows in order, the blocks' sums added in order (the same
+    bits on any number of threads)."""
     return library().mtrnn_weight_gradient(h_prev, dz)

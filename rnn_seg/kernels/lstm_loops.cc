@@ -74,6 +74,17 @@ constexpr int kUnitsPerThread = 64; // at least, for one more thread to share a 
 typedef float vec __attribute__((vector_size(kLanes * sizeof(float))));
 typedef Eigen::Array<float, kLanes, 1> Lanes;
 
+// Keeps v in a vector register, so that the multiply-adds reading it do not each fold in a load
+// of it. Without AVX (the generic build) a vec spans two registers and the constraint cannot be
+// met: there it does nothing.
+__attribute__((always_inline)) inline void in_register(vec& v) {
+#if defined(__AVX__)
+  asm("" : "+v"(v));
+#else
+  (void)v;
+#endif
+}
+
 struct AlignedFree {
   void operator()(void* p) const { std::free(p); }
 };
@@ -356,10 +367,10 @@ struct Fp32Panels {
     for (int k = 0; k < depth; ++k, w += kForwardGates, a += kMaxRows) {
       vec wq[kForwardGates];
       for (int q = 0; q < kForwardGates; ++q) {
-        // in a register: folded into every multiply-add as a memory operand, the weights were
-        // loaded once per row (13 loads for 12 multiply-adds with AVX2)
+        // folded into every multiply-add as a memory operand, the weights were loaded once per
+        // row (13 loads for 12 multiply-adds with AVX2)
         vec v = w[q];
-        asm("" : "+v"(v));
+        in_register(v);
         wq[q] = v;
       }
       for (int r = 0; r < R; ++r) {
@@ -410,7 +421,7 @@ struct Fp32Panels {
         const vec x0 = reinterpret_cast<const vec*>(w0)[k], x1 = reinterpret_cast<const vec*>(w1)[k];
         for (int r = 0; r < R; ++r) {
           vec d = reinterpret_cast<const unaligned_vec*>(a[r])[k];
-          asm("" : "+v"(d));      // in a register: folded into both multiply-adds, loaded twice
+          in_register(d);         // folded into both multiply-adds, it was loaded twice
           acc[r][0] += d * x0;
           acc[r][1] += d * x1;
         }
@@ -576,8 +587,13 @@ __attribute__((always_inline)) inline void store(const Lanes& v, float* row, int
 // unaligned 256-bit store for AMD's and generic tuning) that a whole vector then waited for,
 // 15 % of the forward op's time at 256 units on the AVX2 EPYC.
 vec gate_inputs(const float* row, int unit, int hidden) {
-  vec v = vec{};
-  std::memcpy(&v, row + unit, sizeof(float) * std::max(0, std::min(kLanes, hidden - unit)));
+  vec v;
+  if (unit + kLanes <= hidden) {
+    std::memcpy(&v, row + unit, sizeof(v));            // one unaligned vector load
+    return v;
+  }
+  v = vec{};
+  std::memcpy(&v, row + unit, sizeof(float) * std::max(0, hidden - unit));
   return v;
 }
 
@@ -716,9 +732,10 @@ tensorflow::Status check(const Tensor& x, int rank, const char* name) {
 // Eigen's contraction (a build without AVX2 and FMA in its general code), it sums at about half the
 // rate of this kernel's multiply-adds (docs/PERFORMANCE.md). Blocked as BLIS does: k in blocks
 // of kGradDepth, B's block packed in panels of kGradCols columns (k-major), A's block packed in
-// micro-panels of kGradRows rows (k-major, zero rows past M), and a micro-kernel that keeps a
-// kGradRows x kGradCols block of C in 12 registers. Each element of C sums its k in order, block
-// after block: the same bits on any number of threads.
+// micro-panels of kGradRows rows (k-major; rows past M hold any values and are never written
+// back), and a micro-kernel that keeps a kGradRows x kGradCols block of C in 12 registers. Each
+// element of C sums each block's k in order, then adds the blocks' sums in order: the same bits
+// on any number of threads.
 constexpr int kGradRows = 6;
 constexpr int kGradCols = 2 * kLanes;
 constexpr int kGradDepth = 256;
@@ -831,6 +848,8 @@ class ForwardOp : public OpKernel {
     OP_REQUIRES_OK(ctx, check(steps, 0, "steps"));
     const Dims d{steps.scalar<int32_t>()(), int(x_proj.dim_size(0)), int(x_proj.dim_size(1)),
                  int(w.dim_size(0))};
+    OP_REQUIRES(ctx, d.hidden > 0, InvalidArgument("w must have at least one unit, got ",
+                                                    w.shape().DebugString()));
     OP_REQUIRES(ctx, x_proj.dim_size(2) == 4 * d.hidden && w.dim_size(1) == 4 * d.hidden &&
                      peep.NumElements() == 3 * d.hidden && keep.NumElements() == d.size * d.batch,
                 InvalidArgument("inconsistent shapes: x_proj ", x_proj.shape().DebugString(),
@@ -874,6 +893,8 @@ class BackwardOp : public OpKernel {
     OP_REQUIRES_OK(ctx, check(steps, 0, "steps"));
     const Dims d{steps.scalar<int32_t>()(), int(dh_out.dim_size(0)), int(dh_out.dim_size(1)),
                  int(w.dim_size(0))};
+    OP_REQUIRES(ctx, d.hidden > 0, InvalidArgument("w must have at least one unit, got ",
+                                                    w.shape().DebugString()));
     OP_REQUIRES(ctx, dh_out.dim_size(2) == d.hidden && w.dim_size(1) == 4 * d.hidden &&
                      peep.NumElements() == 3 * d.hidden && keep.NumElements() == d.size * d.batch,
                 InvalidArgument("inconsistent shapes: dh_out ", dh_out.shape().DebugString(),
