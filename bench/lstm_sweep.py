@@ -143,10 +143,9 @@ def worker(impl: str, hidden: int, steps: int, repeats: int, plan: str | None = 
               "threads": threads}
     if "fused" in impl:
         from rnn_seg.kernels.build import describe
-        from rnn_seg.lstm import fused_weight_gradient
-        result["product"] = describe() + (
-            "; dW_h by its own product" if fused_weight_gradient() and "bf16" not in impl
-            else "; dW_h by TensorFlow's matmul")
+        from rnn_seg.lstm import weight_gradient_path
+        result["product"] = (f"{describe()}; "
+                             f"{weight_gradient_path('bf16' if 'bf16' in impl else 'fp32')}")
     return result
 
 

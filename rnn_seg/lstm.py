@@ -204,12 +204,12 @@ def _weight_gradient(h_prev: tf.Tensor, dz: tf.Tensor, dtype: tf.DType, loops: L
 
 @functools.lru_cache(maxsize=None)
 def fused_weight_gradient() -> bool:
-    """Whether the fused loops (loaded) sum ``dW_h`` (float32) with their own product
-    (``rnn_seg.kernels``): where it is a vector product (``FAST_PRODUCTS``) and TensorFlow's
-    oneDNN operations are off (its default on processors without AVX-512 VNNI or newer, and
-    ``TF_ENABLE_ONEDNN_OPTS=0``), for its matmul then runs Eigen's contraction, at 0.45x that
-    product's rate on the AVX2 EPYC; elsewhere TensorFlow's matmul (docs/PERFORMANCE.md, "On an
-    AVX2 EPYC whose cores have L3 slices of their own")."""
+    """Whether the (loaded) fused loops sum ``dW_h`` (float32) with their own product
+    (``rnn_seg.kernels``): yes where it is a vector product (``FAST_PRODUCTS``) and TensorFlow's
+    oneDNN operations are off (its default on processors without AVX-512 VNNI or newer, and with
+    ``TF_ENABLE_ONEDNN_OPTS=0``), for TensorFlow's matmul then runs Eigen's contraction, at 0.45x
+    that product's rate on the AVX2 EPYC; else TensorFlow's matmul sums it (docs/PERFORMANCE.md,
+    "On an AVX2 EPYC whose cores have L3 slices of their own")."""
     if _fused_slower():
         return False
     try:
@@ -548,11 +548,15 @@ def loops_reason(asked: Loops, ran: Loops, precision: Precision) -> str:
         f"auto: the fused loops build and load here ({fused_build.describe()}); the fastest "
         "of this project's loops on AVX2 and AVX-512 processors at 128 and 1024 units "
         f"({AUTO_EVIDENCE})")
-    if ran == "fused" and precision == "fp32":
-        reason += ("; dW_h by their own product (TensorFlow's oneDNN operations off)"
-                   if fused_weight_gradient() else
-                   "; dW_h by TensorFlow's matmul")
-    return reason
+    return f"{reason}; {weight_gradient_path(precision)}" if ran == "fused" else reason
+
+
+def weight_gradient_path(precision: Precision) -> str:
+    """What sums ``dW_h`` on the fused loops at ``precision`` (``_weight_gradient``), in words
+    for a run's record and the benches."""
+    if precision == "fp32" and fused_weight_gradient():
+        return "dW_h by their own product (TensorFlow's oneDNN operations off)"
+    return "dW_h by TensorFlow's matmul"
 
 
 #: Where the measurements behind ``auto``'s choice are.

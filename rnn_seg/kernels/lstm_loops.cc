@@ -563,7 +563,7 @@ void product_rows(const Panels& w, const RowsT& rows, int row0, int count,
   }
 }
 
-// 16 lanes of a [.., H] row from `unit` on (zeros past H), and back.
+// kLanes lanes of a [.., H] row from `unit` on (zeros past H), and back.
 // Inlined: a call each (the compiler's choice in the backward op) took 8 % of its time.
 __attribute__((always_inline)) inline Lanes load(const float* row, int unit, int hidden) {
   if (unit + kLanes <= hidden) return Eigen::Map<const Lanes>(row + unit);
