@@ -23,9 +23,11 @@ Ours: model A on the original labels from a per-fold table (``multitask-tables p
 
     python bench/lea_predictions.py --reference PATH/TemporalConvolutionalNetworks \\
         [--model sensors_ED-TCN_L2_C15] [--data ../shared/jigsaws/Suturing] \\
-        [--ours results/tcn/ed-tcn-tables/per_fold.csv]
+        [--ours results/tcn/ed-tcn-tables/per_fold.csv] [--csv FILE]
 
-Prints a table; writes nothing. Needs the JIGSAWS release (licensed; never committed).
+Prints a table, the difference per metric and whether it is within 1.5 points on accuracy,
+edit and F1@10 (issue 64's target); ``--csv FILE`` also writes that table, and nothing else.
+Needs the JIGSAWS release (licensed; never committed).
 """
 from __future__ import annotations
 
@@ -42,6 +44,9 @@ METRICS = ("accuracy", "edit", "f1@10", "f1@25", "f1@50")
 OUR_STRIDE = 6
 KINEMATICS_HZ = 30.0
 LONGEST_STRIDE = 30
+#: Issue 64's target: ours within this many points of theirs on these metrics.
+TOLERANCE = 1.5
+TARGET_METRICS = ("accuracy", "edit", "f1@10")
 
 
 class UnusableFile(Exception):
@@ -191,21 +196,58 @@ def score_reference(reference: Path, model: str, data: Path, task_name: str = "S
     return out
 
 
-def report(scored: list[ScoredTrial], ours: dict[str, dict[str, float]]) -> str:
-    """The table: per metric ours, theirs and the difference, then the notes."""
-    same = [t for t in scored if t.in_our_release]
-    theirs_folds = fold_means(same)
-    missing = sorted(set(theirs_folds) ^ set(ours))
+def their_folds(scored: list[ScoredTrial], ours: dict[str, dict[str, float]]
+                ) -> dict[str, dict[str, float]]:
+    """Per fold, the mean of their scores over the trials our release holds; the folds must be
+    ours."""
+    theirs = fold_means([t for t in scored if t.in_our_release])
+    missing = sorted(set(theirs) ^ set(ours))
     if missing:
         raise UnusableFile(f"folds {', '.join(missing)}: in one of ours and theirs only")
-    a, b = over_folds(ours), over_folds(theirs_folds)
+    return theirs
+
+
+def comparison(scored: list[ScoredTrial], ours: dict[str, dict[str, float]]) -> list[dict]:
+    """Per metric (``METRICS``): the mean and sample std over the folds of ours and of theirs,
+    ours - theirs, and for ``TARGET_METRICS`` whether the difference, to the 2 decimals shown,
+    is within ``TOLERANCE`` points ("yes" / "no"; "" for the others)."""
+    a, b = over_folds(ours), over_folds(their_folds(scored, ours))
+    return [{"metric": m, "ours_mean": a[m][0], "ours_std": a[m][1],
+             "theirs_mean": b[m][0], "theirs_std": b[m][1], "ours_minus_theirs": a[m][0] - b[m][0],
+             f"within_{TOLERANCE:g}": ("" if m not in TARGET_METRICS else
+                                       "yes" if abs(round(a[m][0] - b[m][0], 2)) <= TOLERANCE else "no")}
+            for m in METRICS]
+
+
+def write_csv(rows: list[dict], path: Path) -> None:
+    """``rows`` as a CSV at ``path``, numbers to 2 decimals, whole or not at all (a temporary
+    file beside it, renamed)."""
+    partial = path.with_name(f".{path.name}.partial")
+    try:
+        with open(partial, "w", newline="") as f:
+            writer = csv.DictWriter(f, fieldnames=list(rows[0]), lineterminator="\n")
+            writer.writeheader()
+            writer.writerows({k: f"{v:.2f}" if isinstance(v, float) else v
+                              for k, v in row.items()} for row in rows)
+        partial.replace(path)
+    except OSError as e:
+        partial.unlink(missing_ok=True)
+        raise UnusableFile(f"{path}: cannot write ({e.strerror})") from None
+
+
+def report(scored: list[ScoredTrial], ours: dict[str, dict[str, float]]) -> str:
+    """The table of ``comparison``, then the notes."""
+    same = [t for t in scored if t.in_our_release]
+    theirs_folds = their_folds(scored, ours)
+    within = f"within {TOLERANCE:g}"
     lines = ["Lea et al.'s ED-TCN (their released predictions) against our ED-TCN model A, "
              "original labels,", f"scored by rnn_seg.metrics; mean (std) over the "
              f"{len(ours)} folds of each fold's mean over its trials ({len(same)} trials):", "",
-             f"{'metric':<10} {'ours (A)':>14} {'theirs':>14} {'ours - theirs':>14}"]
-    for m in METRICS:
-        lines.append(f"{m:<10} {a[m][0]:>7.2f} ({a[m][1]:4.1f}) {b[m][0]:>7.2f} ({b[m][1]:4.1f}) "
-                     f"{a[m][0] - b[m][0]:>+14.2f}")
+             f"{'metric':<10} {'ours (A)':>14} {'theirs':>14} {'ours - theirs':>14} {within:>10}"]
+    for r in comparison(scored, ours):
+        lines.append(f"{r['metric']:<10} {r['ours_mean']:>7.2f} ({r['ours_std']:4.1f}) "
+                     f"{r['theirs_mean']:>7.2f} ({r['theirs_std']:4.1f}) "
+                     f"{r['ours_minus_theirs']:>+14.2f} {r[f'within_{TOLERANCE:g}']:>10}")
     strides = {u: sorted({t.stride for t in same if t.user == u}) for u in theirs_folds}
     lines += ["", "their samples: " + ", ".join(
         f"{u} every {'/'.join(map(str, r))} frames ({'/'.join(f'{KINEMATICS_HZ / x:g}' for x in r)}"
@@ -239,11 +281,17 @@ def main(argv: list[str] | None = None) -> int:
                         help="the JIGSAWS Suturing release")
     parser.add_argument("--ours", type=Path,
                         default=Path("results/tcn/ed-tcn-tables/per_fold.csv"))
+    parser.add_argument("--csv", type=Path, metavar="FILE",
+                        help="also write the table (per metric: ours, theirs, the difference, "
+                             f"within {TOLERANCE:g} points) to FILE")
     args = parser.parse_args(argv)
     from jigsaws_tools.errors import JigsawsError
     try:
         ours = read_ours(args.ours)
-        print(report(score_reference(args.reference, args.model, args.data), ours))
+        scored = score_reference(args.reference, args.model, args.data)
+        print(report(scored, ours))
+        if args.csv:
+            write_csv(comparison(scored, ours), args.csv)
     except (UnusableFile, JigsawsError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 1

@@ -76,3 +76,35 @@ def test_a_split_file_with_other_trials_is_refused(tmp_path):
     with pytest.raises(lea.UnusableFile, match="1 predicted sequences, but its split's test.txt"
                                                " names 2 trials"):
         lea.score_split(tmp_path / "1.mat", ["a", "b"], "B", None, set())
+
+
+def _scored(user, accuracy, edit):
+    scores = dict.fromkeys(lea.METRICS, 50.0) | {"accuracy": accuracy, "edit": edit}
+    return lea.ScoredTrial(f"Suturing_{user}001", user, 10, True, scores, scores)
+
+
+def test_the_comparison_says_which_target_metrics_are_within_the_tolerance():
+    ours = {u: dict.fromkeys(lea.METRICS, 50.0) | {"accuracy": 80.0, "edit": 70.0}
+            for u in "BC"}
+    theirs = [_scored("B", 81.0, 74.0), _scored("C", 82.0, 74.0)]
+    rows = {r["metric"]: r for r in lea.comparison(theirs, ours)}
+    assert rows["accuracy"]["ours_minus_theirs"] == pytest.approx(-1.5)
+    assert rows["accuracy"]["within_1.5"] == "yes" and rows["edit"]["within_1.5"] == "no"
+    assert rows["f1@10"]["within_1.5"] == "yes" and rows["f1@50"]["within_1.5"] == ""
+
+
+def test_a_fold_in_one_side_only_is_named():
+    ours = {u: dict.fromkeys(lea.METRICS, 50.0) for u in "BD"}
+    with pytest.raises(lea.UnusableFile, match="folds C, D"):
+        lea.comparison([_scored("B", 1.0, 1.0), _scored("C", 1.0, 1.0)], ours)
+
+
+def test_the_csv_is_written_whole_or_not_at_all(tmp_path):
+    ours = {u: dict.fromkeys(lea.METRICS, 50.0) for u in "BC"}
+    rows = lea.comparison([_scored("B", 50.0, 50.0), _scored("C", 40.0, 40.0)], ours)
+    lea.write_csv(rows, tmp_path / "lea.csv")
+    lines = (tmp_path / "lea.csv").read_text().splitlines()
+    assert lines[0].split(",")[-1] == "within_1.5" and len(lines) == 1 + len(lea.METRICS)
+    with pytest.raises(lea.UnusableFile, match="missing/lea.csv: cannot write"):
+        lea.write_csv(rows, tmp_path / "missing" / "lea.csv")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["lea.csv"]
