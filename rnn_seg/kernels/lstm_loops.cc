@@ -402,13 +402,27 @@ struct Fp32Panels {
   }
 #else
   // Two units at a time, each unit's row of W against every row of dz, a vector of k at a time:
-  // 2 R lane-wise sums (12 registers at most), added across their lanes at the end. No
+  // 2 R lane-wise sums (10 registers at most), added across their lanes at the end. No
   // broadcasts, which the partial sums above need four of per step of k and row, and which share
   // a port with the multiply-adds on AVX2 cores.
   typedef float unaligned_vec __attribute__((vector_size(kLanes * sizeof(float)), aligned(4)));
+  // Rows a loop sums at most: 6 rows' 12 sums, 2 weight vectors and a row's vector would fill
+  // all 16 registers, and GCC 12 then kept 4 sums on the stack (bench/kernel_loops.py); 6 rows
+  // are summed as 3 and 3.
+  static constexpr int kBackwardRows = 5;
 
   template <int R>
   void backward_sums(const Rows& rows, int row0, int panel, vec (*acc_out)[4]) const {
+    if constexpr (R > kBackwardRows) {
+      backward_sums<R / 2>(rows, row0, panel, acc_out);
+      backward_sums<R - R / 2>(rows, row0 + R / 2, panel, acc_out + R / 2);
+    } else {
+      backward_rows<R>(rows, row0, panel, acc_out);
+    }
+  }
+
+  template <int R>
+  void backward_rows(const Rows& rows, int row0, int panel, vec (*acc_out)[4]) const {
     const int n = 4 * depth, whole = n / kLanes;
     const float* a[R];
     for (int r = 0; r < R; ++r) a[r] = rows.base + (row0 + r) * rows.stride;
