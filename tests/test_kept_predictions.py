@@ -284,7 +284,7 @@ def test_a_release_and_score_say_that_a_release_scores_the_last_evaluation_point
     """The release's README says that a release scores its runs' last evaluation point, not the
     mean over their points that the archive tabulates, and ``score`` knows a released folder
     (to note it); an unknown configuration is named with those the grid holds."""
-    from multitask.evidence.commands.score import released_from
+    from multitask.evidence.commands.score import release_note, released_from
     from multitask.evidence.studies.release import LAST_POINT
 
     grid, archive, data = trained
@@ -292,11 +292,35 @@ def test_a_release_and_score_say_that_a_release_scores_the_last_evaluation_point
     assert tables_main(["release", str(archive), "--out", str(out), "--configs", "A-fixed"]) == 0
     assert LAST_POINT in (out / "README.md").read_text()
     seed = out / "revised" / "bidirectional" / "A-fixed" / "seed0"
-    assert released_from(seed) == str(archive)
+    release = released_from(seed)
+    assert (release["grid"], release["sample_hz"]) == (str(archive), [5.0])
     assert released_from(shutil.copytree(seed, tmp_path / "mine" / "seed0")) is None
     assert released_from(out) is None
+    assert "scored at its runs' last evaluation point" in release_note(seed, release, 5.0,
+                                                                       "revised")
+    at_3 = release_note(seed, release | {"sample_hz": [3.0]}, 5.0, "original")
+    assert "whose runs predicted at 3 Hz: scored here at 5 Hz samples" in at_3
+    assert at_3.endswith("trained on revised labels, scored on original labels (--annotations)")
+    record = json.loads((out / "release.json").read_text())
+    (out / "release.json").write_text(json.dumps(record | {"sample_hz": "3"}))
+    assert "sample_hz" not in released_from(seed)
     capsys.readouterr()
     assert tables_main(["release", str(archive), "--out", str(tmp_path / "x"),
                         "--configs", "Z-fixed"]) == 2
     error = capsys.readouterr().err.strip()
     assert len(error.splitlines()) == 1 and "Z-fixed" in error and "revised/A-fixed" in error
+
+
+def test_a_release_of_runs_at_another_rate_says_that_score_does_not_give_their_scores():
+    """A 3 Hz ED-TCN's release: its README names its rate and that ``score`` (5 Hz samples) does
+    not give its runs' scores; at 5 Hz it says what scoring gives (``LAST_POINT``)."""
+    from multitask.evidence.studies.release import LAST_POINT, release_readme
+
+    folders = [Path("original/bidirectional/A-fixed/seed0")]
+    at_3 = release_readme(Path("results/tcn/retest/ed-tcn-3hz"), folders, [10])
+    assert "every 10th frame of a trial's labelled span (3 Hz)" in at_3
+    assert LAST_POINT not in at_3 and "scores at 5 Hz samples" in at_3
+    assert "does not give its runs' scores" in " ".join(at_3.split())
+    at_5 = release_readme(Path("results/reference/grid"), folders, [6])
+    assert "every 6th frame of a trial's labelled span (5 Hz)" in at_5 and LAST_POINT in at_5
+    assert "# Per-split test predictions of reference/grid" in at_5

@@ -219,7 +219,7 @@ def test_the_pairing_is_statistics_paired_on_the_same_numbers(tmp_path, synth_di
                       30, "txt") for k in range(2)]
     scores, folds = method_scores(folders, DataConfig(str(synth_dir)), 30)
     against = [(baselines["lstm"], []), (baselines["ms-tcn"], [ConfigId("A")])]
-    chosen, runs = read_baselines(against, "revised", folds)
+    chosen, runs = read_baselines(against, "revised", folds, 5.0)
     assert [b.name for b in chosen] == ["LSTM-16 A-fixed", "LSTM-16 APc-fixed",
                                         "MS-TCN A-fixed"]
     metrics = ["gesture_accuracy", "gesture_edit"]
@@ -249,7 +249,7 @@ def test_baselines_of_two_grids_alike_are_named_apart_and_an_unreachable_family_
     scores, folds = method_scores([folder], DataConfig(str(synth_dir)), 30)
     twin = shutil.copytree(baselines["lstm"], tmp_path / "twin")
     against = [(baselines["lstm"], [ConfigId("A"), ConfigId("APc")]), (twin, [ConfigId("A")])]
-    chosen, runs = read_baselines(against, "revised", folds)
+    chosen, runs = read_baselines(against, "revised", folds, 5.0)
     assert [b.name for b in chosen] == [f"LSTM-16 A-fixed ({baselines['lstm']})",
                                         "LSTM-16 APc-fixed", f"LSTM-16 A-fixed ({twin})"]
     few = compare(scores, "M", chosen, runs, ["gesture_accuracy", "gesture_edit"])
@@ -282,7 +282,24 @@ def test_a_folder_where_a_prediction_file_should_be_is_named(tmp_path):
 def test_a_grid_tested_on_other_trials_is_refused(tmp_path, synth_dir, baselines):
     folds = {"B": ["Suturing_B001"]}
     with pytest.raises(ValueError, match="fold B was tested on"):
-        read_baselines([(baselines["lstm"], [])], "revised", folds)
+        read_baselines([(baselines["lstm"], [])], "revised", folds, 5.0)
+
+
+def test_a_grid_scored_at_other_samples_is_refused(tmp_path, trials, baselines):
+    """A 3 Hz model's scores are not those of the 5 Hz samples the method is scored at."""
+    grid = shutil.copytree(baselines["ms-tcn"], tmp_path / "ms-tcn-3hz")
+    configs = sorted(grid.glob("runs/**/config.json"))
+    for config in configs:
+        record = json.loads(config.read_text())
+        record["run"]["data"]["preprocessing"]["resample_factor"] = 10
+        config.write_text(json.dumps(record))
+    folds: dict[str, list[str]] = {}
+    for trial in trials:
+        folds.setdefault(trial.user, []).append(trial.name)
+    read_baselines([(baselines["ms-tcn"], [])], "revised", folds, 5.0)
+    with pytest.raises(ValueError, match=rf"{configs[0].parent} was scored at its 3 Hz samples, the "
+                                         r"predictions are scored at 5 Hz"):
+        read_baselines([(grid, [])], "revised", folds, 5.0)
 
 
 @pytest.mark.slow

@@ -91,7 +91,8 @@ def publish(out: Path, manifest: str, overwrite: bool, write: Callable[[Path], l
         manifest: the study's list of its files in ``out`` (e.g. ``width.json``).
         overwrite: ``--overwrite``.
         write: the study's work.
-        record: more entries of the manifest (e.g. the grids compared).
+        record: more entries of the manifest (e.g. the grids compared); read when the files
+            are published, so ``write`` may add to it (a release's rates).
         kept: folders (or file-name prefixes) of ``out`` whose listed files stay although this
             call did not write them (e.g. ``figures/`` after ``--no-figures``); read when the
             files are published, so ``write`` may add to a list given here.

@@ -4,8 +4,8 @@ that any program can read and ``multitask-tables score`` scores: a reference to 
 One folder per configuration and seed, ``<annotations>/<direction>/<variant>-<weighting>/seed<k>/``,
 with one ``<trial>.csv`` per trial of the release (the prediction of the run whose test user made
 it): columns ``frame`` (every 30 Hz frame of the recording, from 1), ``gesture`` and, for models
-with a progress head, ``progress``; a frame holds the prediction of the last 5 Hz sample at or
-before it. ``README.md`` says so for readers without this project. Needs a grid or scores archive
+with a progress head, ``progress``; a frame holds the prediction of the last sample of its
+run's model (5 Hz: every 6th frame) at or before it. ``README.md`` says so for readers without this project. Needs a grid or scores archive
 whose runs kept their predictions, and the data (the frames): ``--data-dir``, else the folder the
 runs record. ``--configs`` keeps some configurations (``A-fixed``, ``original/A-fixed``).
 
@@ -41,6 +41,11 @@ def run(args: argparse.Namespace) -> None:
     from ..studies.release import write_release
 
     check_folders([args.grid], "a grid folder or a scores archive")
-    publish(args.out, MANIFEST, args.overwrite,
-            lambda staging: write_release(args.grid, staging, args.configs, args.data_dir),
-            record={"grid": str(args.grid), "configs": args.configs})
+    record = {"grid": str(args.grid), "configs": args.configs}
+
+    def write(staging: Path) -> list[Path]:
+        written, record["sample_hz"] = write_release(args.grid, staging, args.configs,
+                                                     args.data_dir)
+        return written
+
+    publish(args.out, MANIFEST, args.overwrite, write, record=record)

@@ -79,20 +79,16 @@ def run(args: argparse.Namespace) -> None:
     against = [parse_against(text, args.annotations) for text in args.against]
     scores, trials = method_scores(args.folders, config, args.rate)
     for folder in args.folders:
-        grid = released_from(folder)
-        if grid is None:
-            continue
-        labels = Path(folder).resolve().parents[2].name
-        other = (f"; trained on {labels} labels, scored on {args.annotations} labels "
-                 f"(--annotations)" if labels != args.annotations else "")
-        print(f"note: {folder}: released predictions of {grid}, scored at its runs' last "
-              "evaluation point; its tables and --against score a run as the mean over its "
-              f"evaluation points, about 1 point apart per run (the release's README.md){other}",
-              file=sys.stderr)
+        release = released_from(folder)
+        if release is not None:
+            note = release_note(folder, release, config.preprocessing.sample_hz,
+                                args.annotations)
+            print(f"note: {note}", file=sys.stderr)
     check_metrics(scores, args.metrics)
     table, text = None, ""
     if against:
-        baselines, runs = read_baselines(against, args.annotations, trials)
+        baselines, runs = read_baselines(against, args.annotations, trials,
+                                         config.preprocessing.sample_hz)
         table = compare(scores, args.name, baselines, runs, args.metrics)
         text = caption(table, args.name, args.annotations, task.name)
     publish(args.out, MANIFEST, args.overwrite,
@@ -114,10 +110,27 @@ def check_out_outside(out: Path, folders: list[Path]) -> None:
                              "hold trial files only; write the tables elsewhere")
 
 
-def released_from(folder: Path) -> str | None:
-    """The grid whose ``multitask-tables release`` wrote ``folder`` (a seed folder,
-    ``<release>/<annotations>/<direction>/<config>/seed<k>``, whose release folder holds the
-    release's manifest), else None."""
+def release_note(folder: Path, release: dict, sample_hz: float, annotations: str) -> str:
+    """What scoring ``folder``, a seed folder of a release (``released_from``'s ``release``), at
+    ``sample_hz`` samples on ``annotations`` labels gives beside its grid's own tables."""
+    labels = Path(folder).resolve().parents[2].name
+    other = (f"; trained on {labels} labels, scored on {annotations} labels (--annotations)"
+             if labels != annotations else "")
+    rates = release.get("sample_hz") or [sample_hz]     # releases before 2026-12-03: 5 Hz runs
+    if rates != [sample_hz]:
+        return (f"{folder}: released predictions of {release['grid']}, whose runs predicted at "
+                f"{' / '.join(f'{r:g}' for r in rates)} Hz: scored here at {sample_hz:g} Hz "
+                f"samples, these are not its runs' scores (the release's README.md){other}")
+    return (f"{folder}: released predictions of {release['grid']}, scored at its runs' last "
+            "evaluation point; its tables and --against score a run as the mean over its "
+            f"evaluation points, about 1 point apart per run (the release's README.md){other}")
+
+
+def released_from(folder: Path) -> dict | None:
+    """The manifest record of the ``multitask-tables release`` that wrote ``folder`` (a seed
+    folder, ``<release>/<annotations>/<direction>/<config>/seed<k>``, whose release folder holds
+    the release's manifest): its ``grid`` and the rates its runs predicted at (``sample_hz``; a
+    release before 2026-12-03 records none), else None."""
     parents = Path(folder).resolve().parents
     manifest = parents[3] / RELEASE_MANIFEST if len(parents) > 3 else None
     if manifest is None or not manifest.is_file():
@@ -126,4 +139,10 @@ def released_from(folder: Path) -> str | None:
         record = json.loads(manifest.read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return None
-    return record.get("grid") if isinstance(record, dict) else None
+    if not isinstance(record, dict) or "grid" not in record:
+        return None
+    rates = record.get("sample_hz")
+    if not (isinstance(rates, list) and rates and all(isinstance(r, (int, float)) and r > 0
+                                                      for r in rates)):
+        record.pop("sample_hz", None)
+    return record

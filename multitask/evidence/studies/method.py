@@ -15,7 +15,8 @@ one name (model A of two LSTM-128 grids) are named apart by their grids.
 
 A grid is compared only when its runs were tested on the method's trials: per fold both must
 name the same trials (a grid records them in its kept predictions or its archive's
-``archive.json``), else the grid is refused (another release, task or subset).
+``archive.json``), else the grid is refused (another release, task or subset); and only when its
+runs were scored at the samples the method is scored at (5 Hz: a 3 Hz ED-TCN grid is refused).
 
 Files (``write_method``): ``score_folds.csv`` (the method's scores per seed and fold),
 ``score_summary.csv`` (per metric, mean and sd over folds of the per-fold seed means) and, with
@@ -81,15 +82,18 @@ def parse_against(text: str, annotations: str) -> tuple[Path, list[ConfigId]]:
 
 
 def read_baselines(against: Sequence[tuple[Path, list[ConfigId]]], annotations: str,
-                   trials: dict[str, list[str]]) -> tuple[list[Baseline], pd.DataFrame]:
+                   trials: dict[str, list[str]], sample_hz: float
+                   ) -> tuple[list[Baseline], pd.DataFrame]:
     """The baselines of ``against`` (``parse_against``' pairs) and their runs (one table, a
-    ``grid`` column naming each run's grid), every grid's runs checked (``collect.run_records``)
-    and tested on ``trials`` (fold -> the method's trials)."""
+    ``grid`` column naming each run's grid), every grid's runs checked (``collect.run_records``),
+    tested on ``trials`` (fold -> the method's trials) and scored at the method's samples
+    (``sample_hz``, the rate its predictions are scored at: 5 Hz)."""
     chosen, tables = [], []
     for grid, configs in against:
         _check_grid(grid)
         runs, _, records = run_records(grid)
         _check_trials(grid, records, trials)
+        _check_rate(grid, records, sample_hz)
         kinds = sorted({architecture(record) for record in records.values()})
         kind = architecture_name(kinds[0]) if len(kinds) == 1 else grid.name
         configs = configs or [c for c in map(ConfigId.parse, config_labels(runs))
@@ -145,6 +149,17 @@ def _check_trials(grid: Path, records: dict, trials: dict[str, list[str]]) -> No
             raise ValueError(f"{grid}: fold {fold} was tested on {', '.join(sorted(names))}, the "
                              f"predictions are scored on {', '.join(trials[fold])}: another "
                              "release or task (--data-dir, --task)")
+
+
+def _check_rate(grid: Path, records: dict, sample_hz: float) -> None:
+    """A ``ValueError`` when a run of ``grid`` was scored at other samples than ``sample_hz``
+    (its model's rate: a 3 Hz ED-TCN's scores are not the 5 Hz samples' the method gets)."""
+    for run, record in sorted(records.items()):
+        rate = record.config.data.preprocessing.sample_hz
+        if abs(rate - sample_hz) > 1e-9 * sample_hz:
+            raise ValueError(f"--against {grid}: its run {run} was scored at its {rate:g} Hz "
+                             f"samples, the predictions are scored at {sample_hz:g} Hz; pair "
+                             f"with grids of {sample_hz:g} Hz models")
 
 
 def compare(scores: pd.DataFrame, name: str, baselines: Sequence[Baseline],

@@ -7,13 +7,15 @@ a folder ``<annotations>/<direction>/<variant>-<weighting>/seed<k>/`` holds one
 ``<trial>.csv`` per test trial of its folds (every trial of the release once), in the CSV format
 ``multitask-tables score`` reads (``runs.method``): a header, then one row per 30 Hz frame of
 the recording, columns ``frame`` (1-based), ``gesture`` (a gesture name) and, for a model with a
-progress head, ``progress`` (a stage name). A run predicts at its 5 Hz samples (the labelled
-frames, every 6th from the first); frame ``f`` takes the prediction of the last sample at or
-before it (``multitask-predict``'s rule), and the frames before the first sample take the first
-sample's. Scoring such a folder at ``--rate 30`` reproduces, at every sample, the run's own
-predictions of its last evaluation point (``grid.kept_predictions``), and so that point's
-scores; the grid's tables score a run as the mean over its evaluation points (``LAST_POINT``
-says how far apart the two are).
+progress head, ``progress`` (a stage name). A run predicts at its model's samples (the labelled
+frames, every ``resample_factor``-th from the first: every 6th, 5 Hz, in the paper's protocol);
+frame ``f`` takes the prediction of the last sample at or before it (``multitask-predict``'s
+rule), and the frames before the first sample take the first sample's. Scoring such a folder at
+``--rate 30`` reproduces, at every 5 Hz sample, the run's own predictions of its last evaluation
+point (``grid.kept_predictions``), and so that point's scores, for runs at 5 Hz; the grid's
+tables score a run as the mean over its evaluation points (``LAST_POINT`` says how far apart the
+two are). Runs at another rate (a 3 Hz ED-TCN) are scored by ``score`` at other samples than
+their own (``OTHER_RATE``).
 
 The frames come from the data (the kept predictions hold none): the grid's release, or
 ``data_dir``. ``README.md`` in the output says all this for readers without this project.
@@ -26,6 +28,7 @@ from typing import Sequence
 
 import numpy as np
 
+from jigsaws_tools.preprocessing import KINEMATICS_HZ, PreprocessConfig
 from rnn_seg.runs.folder import write_atomic
 
 from ...grid.kept_predictions import read_kept_predictions
@@ -49,7 +52,8 @@ numbers, pair with `--against GRID:CONFIG`; score a release to compare with what
 predicted.
 """
 #: The text of the release's ``README.md``; ``{grid}`` (its folder's last two names, never a
-#: path of the machine), ``{folders}`` and ``{last_point}`` filled in.
+#: path of the machine), ``{folders}``, ``{sampling}`` and ``{scoring}`` filled in
+#: (``release_readme``).
 README = """# Per-split test predictions of {grid}
 
 Written by `multitask-tables release` (this project's evidence command line) from the grid's
@@ -60,17 +64,24 @@ scores archive. One folder per configuration and seed:
 Each holds one `<trial>.csv` per trial of the release: the predictions of the leave-one-user-out
 run whose test user made the trial. Columns: `frame` (1-based frame of the 30 Hz recording, every
 frame of it), `gesture` (the predicted gesture name) and, for models with a progress head,
-`progress` (the predicted stage name). The models predict every 6th frame of a trial's labelled
-span (5 Hz); a frame holds the prediction of the last such sample at or before it (the first
-sample's before it).
+`progress` (the predicted stage name). {sampling}; a frame holds the prediction of the last such
+sample at or before it (the first sample's before it).
 
-{last_point}"""
+{scoring}"""
+#: The ``{scoring}`` paragraph of a release whose runs predicted at other samples than those
+#: ``multitask-tables score`` scores at (``{rate}``: theirs, ``{ours}``: the scoring rate).
+OTHER_RATE = """\
+These runs predicted at {rate} samples, and their grid's tables score them there.
+`multitask-tables score FOLDER --rate 30` scores at {ours} samples, each taking the row of its
+frame: a folder so scored does not give its runs' scores, and `--against` refuses their grid.
+"""
 
 
 def write_release(grid: Path, out: Path, configs: Sequence[str] = (),
-                  data_dir: Path | None = None) -> list[Path]:
+                  data_dir: Path | None = None) -> tuple[list[Path], list[float]]:
     """Write the release of ``grid``'s finished runs with kept predictions into ``out``: the
-    folders and files of the module docstring, and ``README.md``; returns their paths.
+    folders and files of the module docstring, and ``README.md``; returns their paths and the
+    rates (Hz) the runs predicted at.
 
     Args:
         grid: a grid folder or scores archive.
@@ -90,13 +101,14 @@ def write_release(grid: Path, out: Path, configs: Sequence[str] = (),
         held = sorted({"/".join(_folder(Path(r), grid).parts[::2][:2]) for r in records})
         raise ValueError(f"{grid}: no finished run of configuration {missing[0]}; it holds "
                          f"{', '.join(held) or 'none'}")
-    written, folders, releases = [], set(), {}
+    written, folders, releases, factors = [], set(), {}, set()
     for run_dir, record in sorted(chosen.items()):
         kept = read_kept_predictions(run_dir)
         if kept is None:
             continue
         source = recorded_data_dir(record.config, run_dir) if data_dir is None else data_dir
         data = replace(record.config.data, data_dir=str(source))
+        factors.add(data.preprocessing.resample_factor)
         key = repr(data)
         if key not in releases:
             releases[key] = {t.name: t for t in truth(data)}
@@ -113,10 +125,30 @@ def write_release(grid: Path, out: Path, configs: Sequence[str] = (),
         raise ValueError(f"{grid}: no finished run kept its predictions (archives written "
                          "before 2026-12-02 keep none); retrain, then archive")
     readme = out / "README.md"
-    write_atomic(readme, README.format(grid="/".join(grid.parts[-2:]), last_point=LAST_POINT,
-                                       folders="\n".join(f"- `{folder.as_posix()}/`"
-                                                         for folder in sorted(folders))))
-    return [readme, *written]
+    write_atomic(readme, release_readme(grid, sorted(folders), sorted(factors)))
+    return [readme, *written], [KINEMATICS_HZ / k for k in sorted(factors)]
+
+
+def release_readme(grid: Path, folders: Sequence[Path], factors: Sequence[int]) -> str:
+    """The release's ``README.md``: ``grid``'s name, its ``folders`` and the rates its runs
+    predicted at (``factors``: their ``resample_factor``s, 30 Hz frames per sample), with what
+    scoring it gives (``LAST_POINT`` at the rate ``multitask-tables score`` scores at, else
+    ``OTHER_RATE``)."""
+    ours = PreprocessConfig().resample_factor
+    rates = " or ".join(f"every {_ordinal(k)} frame of a trial's labelled span "
+                        f"({KINEMATICS_HZ / k:g} Hz)" for k in factors)
+    scoring = LAST_POINT if list(factors) == [ours] else OTHER_RATE.format(
+        rate=" or ".join(f"{KINEMATICS_HZ / k:g} Hz" for k in factors),
+        ours=f"{KINEMATICS_HZ / ours:g} Hz")
+    return README.format(grid="/".join(grid.parts[-2:]), sampling=f"The models predict {rates}",
+                         scoring=scoring,
+                         folders="\n".join(f"- `{folder.as_posix()}/`" for folder in folders))
+
+
+def _ordinal(n: int) -> str:
+    """``6th``, ``1st``, ``2nd``, ``3rd``, ``10th``."""
+    suffix = "th" if 10 <= n % 100 <= 20 else {1: "st", 2: "nd", 3: "rd"}.get(n % 10, "th")
+    return f"{n}{suffix}"
 
 
 def trial_csv(trial: TrialTruth, labels: dict[str, np.ndarray],
