@@ -64,8 +64,10 @@ scores archive. One folder per configuration and seed:
 Each holds one `<trial>.csv` per trial of the release: the predictions of the leave-one-user-out
 run whose test user made the trial. Columns: `frame` (1-based frame of the 30 Hz recording, every
 frame of it), `gesture` (the predicted gesture name) and, for models with a progress head,
-`progress` (the predicted stage name). {sampling}; a frame holds the prediction of the last such
-sample at or before it (the first sample's before it).
+`progress` (the predicted stage name).
+{sampling}.
+A frame holds the prediction of the last such sample at or before it (the first sample's before
+it).
 
 {scoring}"""
 #: The ``{scoring}`` paragraph of a release whose runs predicted at other samples than those
