@@ -303,7 +303,7 @@ def test_a_release_and_score_say_that_a_release_scores_the_last_evaluation_point
     assert at_3.endswith("trained on revised labels, scored on original labels (--annotations)")
     record = json.loads((out / "release.json").read_text())
     (out / "release.json").write_text(json.dumps(record | {"sample_hz": "3"}))
-    assert "sample_hz" not in released_from(seed)
+    assert released_from(seed)["sample_hz"] is None
     capsys.readouterr()
     assert tables_main(["release", str(archive), "--out", str(tmp_path / "x"),
                         "--configs", "Z-fixed"]) == 2
@@ -343,3 +343,19 @@ def test_a_release_of_recordings_at_another_rate_names_their_rate_frames_and_for
     assert "exactly its runs' scores at their last evaluation point" in flat
     assert "30 Hz" not in flat and "6th" not in flat
 
+
+@pytest.mark.parametrize("recorded", ["3", 3.0, [], [True], [float("inf")], [0], [5.0, None]])
+def test_a_release_whose_rate_is_unreadable_is_noted_as_such_not_as_5_hz(tmp_path, recorded):
+    """A release.json whose ``sample_hz`` is no list of positive rates: score's note says its
+    rate is unknown (a bool read as 1 Hz, a scalar or an empty list as a 5 Hz release);
+    without ``sample_hz`` (an older release) its runs are at 5 Hz."""
+    from multitask.evidence.commands.score import release_note, released_from
+
+    seed = tmp_path / "rel" / "revised" / "bidirectional" / "A-fixed" / "seed0"
+    seed.mkdir(parents=True)
+    manifest = tmp_path / "rel" / "release.json"
+    manifest.write_text(json.dumps({"grid": "g", "sample_hz": recorded}))
+    note = release_note(seed, released_from(seed), 5.0, "revised")
+    assert "records no readable rate (sample_hz)" in note and "last evaluation point" not in note
+    manifest.write_text(json.dumps({"grid": "g"}))
+    assert "last evaluation point" in release_note(seed, released_from(seed), 5.0, "revised")
