@@ -65,15 +65,16 @@ class Loop:
 def build(target: str, out: Path) -> Path:
     """The library built for ``target`` (``RNN_SEG_MARCH``) at ``out``; the compiler's last
     lines on failure."""
-    from jigsaws_tools.cli.common import import_tensorflow
-
-    import_tensorflow()                 # its start-up lines filtered out, as the commands do
     from rnn_seg.kernels import build as kernels
 
     os.environ[kernels.MARCH_ENV] = target
     library = out / f"lstm_loops-{target}.so"
-    done = subprocess.run(kernels.compile_command(kernels.SOURCE, library),
-                          capture_output=True, text=True)
+    command = kernels.compile_command(kernels.SOURCE, library)
+    try:
+        done = subprocess.run(command, capture_output=True, text=True)
+    except OSError as e:
+        raise RuntimeError(f"{command[0]}: cannot run the compiler ({e.strerror}; $CXX names "
+                           "it, g++ when unset)") from None
     if done.returncode:
         raise RuntimeError(f"-march={target}: the build failed:\n" + done.stderr[-2000:])
     return library
@@ -117,6 +118,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--march", nargs="+", default=["native"], metavar="TARGET",
                         help="GCC -march targets to build for (default: native)")
     args = parser.parse_args(argv)
+    from jigsaws_tools.cli.common import import_tensorflow
+
+    import_tensorflow()                 # its start-up lines filtered out, as the commands do
+    from rnn_seg.kernels.build import MARCH_NAME
+
+    for target in args.march:
+        if not MARCH_NAME.fullmatch(target):
+            parser.error(f"--march {target!r}: not a GCC -march target name (e.g. native, "
+                         "haswell, skylake-avx512)")
     if shutil.which("objdump") is None:
         print("error: objdump (binutils) is needed to read the library", file=sys.stderr)
         return 1

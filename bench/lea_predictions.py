@@ -219,9 +219,21 @@ def comparison(scored: list[ScoredTrial], ours: dict[str, dict[str, float]]) -> 
             for m in METRICS]
 
 
+def check_destination(path: Path) -> None:
+    """An ``UnusableFile`` when ``path`` cannot name the CSV to write: no file name (``.``,
+    ``/``, empty), a folder, or in a folder that does not exist; checked before the scoring."""
+    if path.name in ("", ".", ".."):
+        raise UnusableFile(f"{str(path)!r}: not a file name (give --csv FILE)")
+    if path.is_dir():
+        raise UnusableFile(f"{path}: a folder (give --csv FILE)")
+    if not path.parent.is_dir():
+        raise UnusableFile(f"{path}: no folder {path.parent} to write it in")
+
+
 def write_csv(rows: list[dict], path: Path) -> None:
     """``rows`` as a CSV at ``path``, numbers to 2 decimals, whole or not at all (a temporary
     file beside it, renamed)."""
+    check_destination(path)
     partial = path.with_name(f".{path.name}.partial")
     try:
         with open(partial, "w", newline="") as f:
@@ -287,6 +299,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     from jigsaws_tools.errors import JigsawsError
     try:
+        if args.csv:
+            check_destination(args.csv)
         ours = read_ours(args.ours)
         scored = score_reference(args.reference, args.model, args.data)
         print(report(scored, ours))

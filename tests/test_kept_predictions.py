@@ -290,7 +290,7 @@ def test_a_release_and_score_say_that_a_release_scores_the_last_evaluation_point
     grid, archive, data = trained
     out = tmp_path / "release"
     assert tables_main(["release", str(archive), "--out", str(out), "--configs", "A-fixed"]) == 0
-    assert LAST_POINT in (out / "README.md").read_text()
+    assert LAST_POINT.format(frame_hz=30, format="") in (out / "README.md").read_text()
     seed = out / "revised" / "bidirectional" / "A-fixed" / "seed0"
     release = released_from(seed)
     assert (release["grid"], release["sample_hz"]) == (str(archive), [5.0])
@@ -303,7 +303,7 @@ def test_a_release_and_score_say_that_a_release_scores_the_last_evaluation_point
     assert at_3.endswith("trained on revised labels, scored on original labels (--annotations)")
     record = json.loads((out / "release.json").read_text())
     (out / "release.json").write_text(json.dumps(record | {"sample_hz": "3"}))
-    assert "sample_hz" not in released_from(seed)
+    assert released_from(seed)["sample_hz"] is None
     capsys.readouterr()
     assert tables_main(["release", str(archive), "--out", str(tmp_path / "x"),
                         "--configs", "Z-fixed"]) == 2
@@ -317,10 +317,45 @@ def test_a_release_of_runs_at_another_rate_says_that_score_does_not_give_their_s
     from multitask.evidence.studies.release import LAST_POINT, release_readme
 
     folders = [Path("original/bidirectional/A-fixed/seed0")]
-    at_3 = release_readme(Path("results/tcn/retest/ed-tcn-3hz"), folders, [10])
+    at_3 = release_readme(Path("results/tcn/retest/ed-tcn-3hz"), folders, [(30.0, 10, "jigsaws")])
     assert "every 10th frame of a trial's labelled span (3 Hz)" in at_3
-    assert LAST_POINT not in at_3 and "scores at 5 Hz samples" in at_3
+    assert LAST_POINT.format(frame_hz=30, format="") not in at_3
+    assert "scores at 5 Hz samples" in at_3
     assert "does not give its runs' scores" in " ".join(at_3.split())
-    at_5 = release_readme(Path("results/reference/grid"), folders, [6])
-    assert "every 6th frame of a trial's labelled span (5 Hz)" in at_5 and LAST_POINT in at_5
+    at_5 = release_readme(Path("results/reference/grid"), folders, [(30.0, 6, "jigsaws")])
+    assert "every 6th frame of a trial's labelled span (5 Hz)" in at_5
+    assert LAST_POINT.format(frame_hz=30, format="") in at_5
     assert "# Per-split test predictions of reference/grid" in at_5
+
+
+def test_a_release_of_recordings_at_another_rate_names_their_rate_frames_and_format():
+    """Runs trained on 100 Hz recordings of a user's format (5 Hz models, one sample in 20
+    frames): the README names the 100 Hz frames, every 20th frame, ``--rate 100`` and
+    ``--format``, and what scoring at 5 Hz gives, not the release's 30 Hz and every 6th frame."""
+    from multitask.evidence.studies.release import release_readme
+
+    folders = [Path("revised/bidirectional/A-fixed/seed0")]
+    text = release_readme(Path("runs/mine"), folders, [(100.0, 20, "my_robot")])
+    flat = " ".join(text.split())
+    assert "1-based frame of the 100 Hz recording" in flat
+    assert "every 20th frame of a trial's labelled span (5 Hz)" in flat
+    assert "`multitask-tables score FOLDER --rate 100` with `--format` naming the my_robot" in flat
+    assert "exactly its runs' scores at their last evaluation point" in flat
+    assert "30 Hz" not in flat and "6th" not in flat
+
+
+@pytest.mark.parametrize("recorded", ["3", 3.0, [], [True], [float("inf")], [0], [5.0, None]])
+def test_a_release_whose_rate_is_unreadable_is_noted_as_such_not_as_5_hz(tmp_path, recorded):
+    """A release.json whose ``sample_hz`` is no list of positive rates: score's note says its
+    rate is unknown (a bool read as 1 Hz, a scalar or an empty list as a 5 Hz release);
+    without ``sample_hz`` (an older release) its runs are at 5 Hz."""
+    from multitask.evidence.commands.score import release_note, released_from
+
+    seed = tmp_path / "rel" / "revised" / "bidirectional" / "A-fixed" / "seed0"
+    seed.mkdir(parents=True)
+    manifest = tmp_path / "rel" / "release.json"
+    manifest.write_text(json.dumps({"grid": "g", "sample_hz": recorded}))
+    note = release_note(seed, released_from(seed), 5.0, "revised")
+    assert "records no readable rate (sample_hz)" in note and "last evaluation point" not in note
+    manifest.write_text(json.dumps({"grid": "g"}))
+    assert "last evaluation point" in release_note(seed, released_from(seed), 5.0, "revised")

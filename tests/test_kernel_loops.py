@@ -3,6 +3,8 @@ import importlib.util
 import sys
 from pathlib import Path
 
+import pytest
+
 _PATH = Path(__file__).resolve().parents[1] / "bench" / "kernel_loops.py"
 _spec = importlib.util.spec_from_file_location("kernel_loops", _PATH)
 kernel_loops = importlib.util.module_from_spec(_spec)
@@ -46,3 +48,21 @@ def test_a_loop_counts_its_products_vector_memory_and_stack_operands():
     assert (len(spilled.instructions), spilled.products, len(spilled.vector_memory),
             spilled.stack) == (6, 3, 3, 2)
     assert (clean.products, len(clean.vector_memory), clean.stack) == (1, 2, 0)
+
+
+@pytest.mark.parametrize("target", ["", "foo bar", "../x"])
+def test_a_target_that_is_no_march_name_is_refused_naming_the_option(capsys, target):
+    """Before anything is built or printed: one line naming --march and the value (an empty
+    value built native under the label '', a bad one was blamed on RNN_SEG_MARCH)."""
+    with pytest.raises(SystemExit) as exit_:
+        kernel_loops.main(["--march", "native", target])
+    out, err = capsys.readouterr()
+    assert exit_.value.code == 2 and out == ""
+    assert f"--march {target!r}: not a GCC -march target name" in err
+
+
+def test_a_compiler_that_cannot_run_is_named_in_one_line(tmp_path, monkeypatch):
+    monkeypatch.setenv("CXX", str(tmp_path / "no-such-g++"))
+    monkeypatch.delenv("RNN_SEG_MARCH", raising=False)     # build sets it: restored after
+    with pytest.raises(RuntimeError, match=r"no-such-g\+\+: cannot run the compiler \(No such "):
+        kernel_loops.build("haswell", tmp_path)

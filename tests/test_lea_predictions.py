@@ -105,6 +105,20 @@ def test_the_csv_is_written_whole_or_not_at_all(tmp_path):
     lea.write_csv(rows, tmp_path / "lea.csv")
     lines = (tmp_path / "lea.csv").read_text().splitlines()
     assert lines[0].split(",")[-1] == "within_1.5" and len(lines) == 1 + len(lea.METRICS)
-    with pytest.raises(lea.UnusableFile, match="missing/lea.csv: cannot write"):
+    with pytest.raises(lea.UnusableFile, match="missing/lea.csv: no folder"):
         lea.write_csv(rows, tmp_path / "missing" / "lea.csv")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["lea.csv"]
+
+
+@pytest.mark.parametrize("given", ["", ".", "/", "folder", "missing/lea.csv"])
+def test_a_csv_destination_that_names_no_writable_file_is_refused_before_the_scoring(
+        tmp_path, monkeypatch, capsys, given):
+    """--csv naming no file (empty, ``.``, ``/``), a folder or a file in no folder: one line,
+    before the reference is read (here: it does not exist)."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "folder").mkdir()
+    assert lea.main(["--reference", "no-checkout", "--ours", "no.csv", "--csv", given]) == 1
+    error = capsys.readouterr().err.strip()
+    assert len(error.splitlines()) == 1 and ("--csv FILE" in error or "no folder" in error)
+    assert "no.csv" not in error
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["folder"]

@@ -63,6 +63,8 @@ MACROS_SECONDS = 20
 #: Seconds between the lines a build prints while the compiler works.
 PROGRESS_SECONDS = 15
 MARCH_ENV = "RNN_SEG_MARCH"
+#: What a ``-march`` target's name may look like (``native``, ``haswell``, ``x86-64-v3``).
+MARCH_NAME = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.+-]*")
 #: Instruction sets ``-march`` may switch on that the loops never use and that TensorFlow's
 #: bundled Eigen headers do not compile under with every compiler (AVX512-FP16, on Sapphire Rapids
 #: and later Xeons: TensorFlow 2.21's Eigen with g++ 12), by the macro that shows one is on -> the
@@ -119,7 +121,7 @@ def march() -> str:
         KernelUnavailable: the value is not a plausible ``-march`` name.
     """
     value = os.environ.get(MARCH_ENV, "").strip() or "native"
-    if not re.fullmatch(r"[A-Za-z0-9][A-Za-z0-9_.+-]*", value):
+    if not MARCH_NAME.fullmatch(value):
         raise KernelUnavailable(f"{MARCH_ENV}={value!r} is no -march target (e.g. native, "
                                 "haswell, skylake-avx512)")
     return value

@@ -3,7 +3,7 @@ that any program can read and ``multitask-tables score`` scores: a reference to 
 
 One folder per configuration and seed, ``<annotations>/<direction>/<variant>-<weighting>/seed<k>/``,
 with one ``<trial>.csv`` per trial of the release (the prediction of the run whose test user made
-it): columns ``frame`` (every 30 Hz frame of the recording, from 1), ``gesture`` and, for models
+it): columns ``frame`` (every frame of the recording, from 1: 30 Hz in JIGSAWS), ``gesture`` and, for models
 with a progress head, ``progress``; a frame holds the prediction of the last sample of its
 run's model (5 Hz: every 6th frame) at or before it. ``README.md`` says so for readers without this project. Needs a grid or scores archive
 whose runs kept their predictions, and the data (the frames): ``--data-dir``, else the folder the

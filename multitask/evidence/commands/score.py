@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
@@ -116,7 +117,12 @@ def release_note(folder: Path, release: dict, sample_hz: float, annotations: str
     labels = Path(folder).resolve().parents[2].name
     other = (f"; trained on {labels} labels, scored on {annotations} labels (--annotations)"
              if labels != annotations else "")
-    rates = release.get("sample_hz") or [sample_hz]     # releases before 2026-12-03: 5 Hz runs
+    rates = release.get("sample_hz", [sample_hz])     # releases before 2026-12-03: 5 Hz runs
+    if rates is None:
+        return (f"{folder}: released predictions of {release['grid']}, whose release.json "
+                "records no readable rate (sample_hz): its runs may have predicted at other "
+                f"samples than the {sample_hz:g} Hz ones scored here, and these then are not "
+                f"its runs' scores (the release's README.md){other}")
     if rates != [sample_hz]:
         return (f"{folder}: released predictions of {release['grid']}, whose runs predicted at "
                 f"{' / '.join(f'{r:g}' for r in rates)} Hz: scored here at {sample_hz:g} Hz "
@@ -129,8 +135,9 @@ def release_note(folder: Path, release: dict, sample_hz: float, annotations: str
 def released_from(folder: Path) -> dict | None:
     """The manifest record of the ``multitask-tables release`` that wrote ``folder`` (a seed
     folder, ``<release>/<annotations>/<direction>/<config>/seed<k>``, whose release folder holds
-    the release's manifest): its ``grid`` and the rates its runs predicted at (``sample_hz``; a
-    release before 2026-12-03 records none), else None."""
+    the release's manifest): its ``grid`` and the rates its runs predicted at (``sample_hz``,
+    Hz; absent from a release before 2026-12-03, None when not a list of positive numbers),
+    else None."""
     parents = Path(folder).resolve().parents
     manifest = parents[3] / RELEASE_MANIFEST if len(parents) > 3 else None
     if manifest is None or not manifest.is_file():
@@ -141,8 +148,14 @@ def released_from(folder: Path) -> dict | None:
         return None
     if not isinstance(record, dict) or "grid" not in record:
         return None
-    rates = record.get("sample_hz")
-    if not (isinstance(rates, list) and rates and all(isinstance(r, (int, float)) and r > 0
-                                                      for r in rates)):
-        record.pop("sample_hz", None)
+    if "sample_hz" in record and not _readable_rates(record["sample_hz"]):
+        record["sample_hz"] = None          # recorded but unreadable: the note says so
     return record
+
+
+def _readable_rates(value) -> bool:
+    """Whether ``value`` (read from JSON) lists rates in Hz: one or more finite positive
+    numbers."""
+    return isinstance(value, list) and bool(value) and all(
+        isinstance(r, (int, float)) and not isinstance(r, bool) and math.isfinite(r) and r > 0
+        for r in value)

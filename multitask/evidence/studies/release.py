@@ -3,19 +3,19 @@ the recording's rate: a release others pair their methods against (``multitask-t
 release``).
 
 For each configuration (``<annotations>/<direction>/<variant>-<weighting>``) and seed of the grid,
-a folder ``<annotations>/<direction>/<variant>-<weighting>/seed<k>/`` holds one
-``<trial>.csv`` per test trial of its folds (every trial of the release once), in the CSV format
-``multitask-tables score`` reads (``runs.method``): a header, then one row per 30 Hz frame of
-the recording, columns ``frame`` (1-based), ``gesture`` (a gesture name) and, for a model with a
+a folder ``<annotations>/<direction>/<variant>-<weighting>/seed<k>/`` holds one ``<trial>.csv`` per
+test trial of its folds (every trial of the release once), in the CSV format ``multitask-tables
+score`` reads (``runs.method``): a header, then one row per frame of the recording (30 Hz in the
+JIGSAWS release), columns ``frame`` (1-based), ``gesture`` (a gesture name) and, for a model with a
 progress head, ``progress`` (a stage name). A run predicts at its model's samples (the labelled
-frames, every ``resample_factor``-th from the first: every 6th, 5 Hz, in the paper's protocol);
-frame ``f`` takes the prediction of the last sample at or before it (``multitask-predict``'s
-rule), and the frames before the first sample take the first sample's. Scoring such a folder at
-``--rate 30`` reproduces, at every 5 Hz sample, the run's own predictions of its last evaluation
-point (``grid.kept_predictions``), and so that point's scores, for runs at 5 Hz; the grid's
-tables score a run as the mean over its evaluation points (``LAST_POINT`` says how far apart the
-two are). Runs at another rate (a 3 Hz ED-TCN) are scored by ``score`` at other samples than
-their own (``OTHER_RATE``).
+frames, one in ``preprocessing.decimation`` from the first: every 6th of a 30 Hz recording, 5 Hz,
+in the paper's protocol); frame ``f`` takes the prediction of the last sample at or before it
+(``multitask-predict``'s rule), and the frames before the first sample take the first sample's.
+Scoring such a folder at ``--rate`` the recording's rate reproduces, at every 5 Hz sample, the
+run's own predictions of its last evaluation point (``grid.kept_predictions``), and so that point's
+scores, for runs at 5 Hz; the grid's tables score a run as the mean over its evaluation points
+(``LAST_POINT`` says how far apart the two are). Runs at another rate (a 3 Hz ED-TCN) are scored by
+``score`` at other samples than their own (``OTHER_RATE``).
 
 The frames come from the data (the kept predictions hold none): the grid's release, or
 ``data_dir``. ``README.md`` in the output says all this for readers without this project.
@@ -28,7 +28,8 @@ from typing import Sequence
 
 import numpy as np
 
-from jigsaws_tools.preprocessing import KINEMATICS_HZ, PreprocessConfig
+from jigsaws_tools.preprocessing import PreprocessConfig, decimation
+from jigsaws_tools.recording_format import DEFAULT_FORMAT
 from rnn_seg.runs.folder import write_atomic
 
 from ...grid.kept_predictions import read_kept_predictions
@@ -37,13 +38,15 @@ from ..runs.collect import run_records
 from ..runs.method import TrialTruth, truth
 
 #: What scoring a release gives, beside the grid's own tables: in the release's README and in
-#: ``multitask-tables score``'s note on a released folder. Measured by scoring the release of
-#: ``results/reference/grid`` (18 configurations x 3 seeds x 8 folds) at 30 Hz against the
-#: per-run scores its archive records.
+#: ``multitask-tables score``'s note on a released folder; ``{frame_hz}`` (the recordings'
+#: rate) and ``{format}`` (``--format`` for recordings not in the release's format) filled in.
+#: Measured by scoring the release of ``results/reference/grid`` (18 configurations x 3 seeds x
+#: 8 folds) at 30 Hz against the per-run scores its archive records.
 LAST_POINT = """\
-Scored with `multitask-tables score FOLDER --rate 30` (and `--annotations original` for the
-`original/` folders), a folder gives exactly its runs' scores at their last evaluation point. The grid's own tables, and `multitask-tables score --against GRID`,
-score each run as the mean over its evaluation points (three near the end of training, the
+Scored with `multitask-tables score FOLDER --rate {frame_hz}`{format} (and `--annotations
+original` for the `original/` folders), a folder gives exactly its runs' scores at their last
+evaluation point. The grid's own tables, and `multitask-tables score --against GRID`, score each
+run as the mean over its evaluation points (three near the end of training, the
 paper's protocol), so a release scored and its archive differ a little. Measured on
 `results/reference/grid` (gesture accuracy / edit score, points): per run 0.4 / 1.0 (median;
 at most 2.8 / 6.7), per fold over its 3 seeds at most 1.5 / 2.9, and over the 8 folds by -0.35
@@ -52,7 +55,7 @@ numbers, pair with `--against GRID:CONFIG`; score a release to compare with what
 predicted.
 """
 #: The text of the release's ``README.md``; ``{grid}`` (its folder's last two names, never a
-#: path of the machine), ``{folders}``, ``{sampling}`` and ``{scoring}`` filled in
+#: path of the machine), ``{folders}``, ``{frame_hz}``, ``{sampling}`` and ``{scoring}`` filled in
 #: (``release_readme``).
 README = """# Per-split test predictions of {grid}
 
@@ -62,20 +65,22 @@ scores archive. One folder per configuration and seed:
 {folders}
 
 Each holds one `<trial>.csv` per trial of the release: the predictions of the leave-one-user-out
-run whose test user made the trial. Columns: `frame` (1-based frame of the 30 Hz recording, every
-frame of it), `gesture` (the predicted gesture name) and, for models with a progress head,
-`progress` (the predicted stage name).
+run whose test user made the trial. Columns: `frame` (1-based frame of the {frame_hz} Hz
+recording, every frame of it), `gesture` (the predicted gesture name) and, for models with a
+progress head, `progress` (the predicted stage name).
 {sampling}.
 A frame holds the prediction of the last such sample at or before it (the first sample's before
 it).
 
 {scoring}"""
 #: The ``{scoring}`` paragraph of a release whose runs predicted at other samples than those
-#: ``multitask-tables score`` scores at (``{rate}``: theirs, ``{ours}``: the scoring rate).
+#: ``multitask-tables score`` scores at (``{rate}``: theirs, ``{ours}``: the scoring rate;
+#: ``{frame_hz}`` and ``{format}`` as in ``LAST_POINT``).
 OTHER_RATE = """\
 These runs predicted at {rate} samples, and their grid's tables score them there.
-`multitask-tables score FOLDER --rate 30` scores at {ours} samples, each taking the row of its
-frame: a folder so scored does not give its runs' scores, and `--against` refuses their grid.
+`multitask-tables score FOLDER --rate {frame_hz}`{format} scores at {ours} samples, each
+taking the row of its frame: a folder so scored does not give its runs' scores, and `--against`
+refuses their grid.
 """
 
 
@@ -103,14 +108,16 @@ def write_release(grid: Path, out: Path, configs: Sequence[str] = (),
         held = sorted({"/".join(_folder(Path(r), grid).parts[::2][:2]) for r in records})
         raise ValueError(f"{grid}: no finished run of configuration {missing[0]}; it holds "
                          f"{', '.join(held) or 'none'}")
-    written, folders, releases, factors = [], set(), {}, set()
+    written, folders, releases, samplings = [], set(), {}, set()
     for run_dir, record in sorted(chosen.items()):
         kept = read_kept_predictions(run_dir)
         if kept is None:
             continue
         source = recorded_data_dir(record.config, run_dir) if data_dir is None else data_dir
         data = replace(record.config.data, data_dir=str(source))
-        factors.add(data.preprocessing.resample_factor)
+        samplings.add((data.recording_format.rate_hz,
+                       decimation(data.preprocessing, data.recording_format.rate_hz),
+                       data.recording_format.name))
         key = repr(data)
         if key not in releases:
             releases[key] = {t.name: t for t in truth(data)}
@@ -127,23 +134,30 @@ def write_release(grid: Path, out: Path, configs: Sequence[str] = (),
         raise ValueError(f"{grid}: no finished run kept its predictions (archives written "
                          "before 2026-12-02 keep none); retrain, then archive")
     readme = out / "README.md"
-    write_atomic(readme, release_readme(grid, sorted(folders), sorted(factors)))
-    return [readme, *written], [KINEMATICS_HZ / k for k in sorted(factors)]
+    write_atomic(readme, release_readme(grid, sorted(folders), sorted(samplings)))
+    return [readme, *written], sorted({hz / step for hz, step, _ in samplings})
 
 
-def release_readme(grid: Path, folders: Sequence[Path], factors: Sequence[int]) -> str:
-    """The release's ``README.md``: ``grid``'s name, its ``folders`` and the rates its runs
-    predicted at (``factors``: their ``resample_factor``s, 30 Hz frames per sample), with what
-    scoring it gives (``LAST_POINT`` at the rate ``multitask-tables score`` scores at, else
-    ``OTHER_RATE``)."""
-    ours = PreprocessConfig().resample_factor
-    rates = " or ".join(f"every {_ordinal(k)} frame of a trial's labelled span "
-                        f"({KINEMATICS_HZ / k:g} Hz)" for k in factors)
-    scoring = LAST_POINT if list(factors) == [ours] else OTHER_RATE.format(
-        rate=" or ".join(f"{KINEMATICS_HZ / k:g} Hz" for k in factors),
-        ours=f"{KINEMATICS_HZ / ours:g} Hz")
+def release_readme(grid: Path, folders: Sequence[Path],
+                   samplings: Sequence[tuple[float, int, str]]) -> str:
+    """The release's ``README.md``: ``grid``'s name, its ``folders`` and how its runs sampled
+    their recordings (``samplings``: per recording format, its rate in Hz, the recording frames
+    per model sample and the format's name), with what scoring it gives (``LAST_POINT`` when
+    every run predicted at the rate ``multitask-tables score`` scores at, else ``OTHER_RATE``).
+    """
+    ours = PreprocessConfig().sample_hz
+    model_hz = sorted({hz / step for hz, step, _ in samplings})
+    frame_hz = " or ".join(sorted({f"{hz:g}" for hz, _, _ in samplings}))
+    formats = sorted({name for _, _, name in samplings} - {DEFAULT_FORMAT})
+    given = {"frame_hz": frame_hz,
+             "format": f" with `--format` naming the {' or '.join(formats)} recording format's "
+                       "file" if formats else ""}
+    rates = " or ".join(f"every {_ordinal(step)} frame of a trial's labelled span "
+                        f"({hz / step:g} Hz)" for hz, step, _ in samplings)
+    scoring = (LAST_POINT.format(**given) if model_hz == [ours] else OTHER_RATE.format(
+        rate=" or ".join(f"{hz:g} Hz" for hz in model_hz), ours=f"{ours:g} Hz", **given))
     return README.format(grid="/".join(grid.parts[-2:]), sampling=f"The models predict {rates}",
-                         scoring=scoring,
+                         scoring=scoring, frame_hz=frame_hz,
                          folders="\n".join(f"- `{folder.as_posix()}/`" for folder in folders))
 
 
