@@ -406,9 +406,9 @@ struct Fp32Panels {
   // broadcasts, which the partial sums above need four of per step of k and row, and which share
   // a port with the multiply-adds on AVX2 cores.
   typedef float unaligned_vec __attribute__((vector_size(kLanes * sizeof(float)), aligned(4)));
-  // Rows a loop sums at most: 6 rows' 12 sums, 2 weight vectors and a row's vector would fill
-  // all 16 registers, and GCC 12 then kept 4 sums on the stack (bench/kernel_loops.py); 6 rows
-  // are summed as 3 and 3.
+  // Rows a loop sums at most: 6 rows' 12 sums, 2 weight vectors and a row's vector would take
+  // 15 of the 16 registers, and GCC 12 then kept 4 sums on the stack (bench/kernel_loops.py);
+  // 6 rows are summed as 3 and 3.
   static constexpr int kBackwardRows = 5;
 
   template <int R>
