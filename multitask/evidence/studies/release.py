@@ -38,8 +38,9 @@ from ..runs.collect import run_records
 from ..runs.method import TrialTruth, truth
 
 #: What scoring a release gives, beside the grid's own tables: in the release's README (the
-#: note of ``multitask-tables score`` on a released folder says it in short); ``{frame_hz}`` (the recordings'
-#: rate) and ``{format}`` (``--format`` for recordings not in the release's format) filled in.
+#: note of ``multitask-tables score`` on a released folder says it in short); ``{frame_hz}``
+#: (the recordings' rate) and ``{format}`` (``--format`` for recordings not in the release's
+#: format) filled in.
 #: Measured by scoring the release of ``results/reference/grid`` (18 configurations x 3 seeds x
 #: 8 folds) at 30 Hz against the per-run scores its archive records.
 LAST_POINT = """\
