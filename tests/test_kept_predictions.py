@@ -359,3 +359,22 @@ def test_a_release_whose_rate_is_unreadable_is_noted_as_such_not_as_5_hz(tmp_pat
     assert "records no readable rate (sample_hz)" in note and "last evaluation point" not in note
     manifest.write_text(json.dumps({"grid": "g"}))
     assert "last evaluation point" in release_note(seed, released_from(seed), 5.0, "revised")
+
+
+@pytest.mark.slow
+def test_a_release_names_each_run_it_leaves_out(trained, tmp_path, capsys):
+    """A run of other settings than its grid's spec, or without kept predictions, is left out
+    of a release with a note naming it, not silently."""
+    grid, archive, data = trained
+    copy = shutil.copytree(archive, tmp_path / "archive")
+    other, bare = _runs(copy)[:2]
+    config = json.loads((other / "config.json").read_text())
+    config["run"]["train"]["batch_size"] += 1
+    (other / "config.json").write_text(json.dumps(config))
+    for path in bare.rglob(FILE):
+        path.unlink()
+    capsys.readouterr()
+    assert tables_main(["release", str(copy), "--out", str(tmp_path / "out")]) == 0
+    notes = [line for line in capsys.readouterr().err.splitlines() if line.startswith("note:")]
+    assert any(str(other) in line for line in notes), notes
+    assert any(str(bare) in line and "kept no predictions" in line for line in notes), notes

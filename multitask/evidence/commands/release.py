@@ -8,6 +8,8 @@ with a progress head, ``progress``; a frame holds the prediction of the last sam
 run's model (5 Hz: every 6th frame) at or before it. ``README.md`` says so for readers without this project. Needs a grid or scores archive
 whose runs kept their predictions, and the data (the frames): ``--data-dir``, else the folder the
 runs record. ``--configs`` keeps some configurations (``A-fixed``, ``original/A-fixed``).
+Each run or configuration left out (unfinished, of other settings than the grid's spec, without
+kept predictions) is named in a ``note:`` line on standard error.
 
     multitask-tables release results/reference/grid --out reference_release
     multitask-tables score reference_release/revised/bidirectional/A-fixed/seed0 --rate 30 \\
@@ -18,7 +20,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from .common import add_out_options, check_folders, publish
+from .common import add_out_options, check_folders, publish_noted
 
 SUMMARY = "a grid's test predictions as per-split files others can read"
 #: The list of the files the last call wrote into ``--out``.
@@ -43,9 +45,9 @@ def run(args: argparse.Namespace) -> None:
     check_folders([args.grid], "a grid folder or a scores archive")
     record = {"grid": str(args.grid), "configs": args.configs}
 
-    def write(staging: Path) -> list[Path]:
-        written, record["sample_hz"] = write_release(args.grid, staging, args.configs,
-                                                     args.data_dir)
-        return written
+    def work(staging: Path) -> tuple[list[Path], list[str]]:
+        released = write_release(args.grid, staging, args.configs, args.data_dir)
+        record["sample_hz"] = released.sample_hz
+        return released.paths, released.left_out
 
-    publish(args.out, MANIFEST, args.overwrite, write, record=record)
+    publish_noted(args.out, MANIFEST, args.overwrite, work, record=record)

@@ -22,7 +22,7 @@ The frames come from the data (the kept predictions hold none): the grid's relea
 """
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Sequence
 
@@ -85,11 +85,21 @@ refuses their grid.
 """
 
 
+@dataclass(frozen=True)
+class Released:
+    """What ``write_release`` wrote: the paths (``README.md`` first), the rates (Hz) its runs
+    predicted at, and a line per run or configuration of the grid left out, saying why
+    (unfinished, other settings, no kept predictions)."""
+
+    paths: list[Path]
+    sample_hz: list[float]
+    left_out: list[str]
+
+
 def write_release(grid: Path, out: Path, configs: Sequence[str] = (),
-                  data_dir: Path | None = None) -> tuple[list[Path], list[float]]:
+                  data_dir: Path | None = None) -> Released:
     """Write the release of ``grid``'s finished runs with kept predictions into ``out``: the
-    folders and files of the module docstring, and ``README.md``; returns their paths and the
-    rates (Hz) the runs predicted at.
+    folders and files of the module docstring, and ``README.md``.
 
     Args:
         grid: a grid folder or scores archive.
@@ -101,7 +111,7 @@ def write_release(grid: Path, out: Path, configs: Sequence[str] = (),
         ValueError: a named configuration the grid lacks, or no run that kept predictions.
     """
     grid = Path(grid)
-    _, _, records = run_records(grid, allow_incomplete=True, finished_only=True)
+    _, left_out, records = run_records(grid, allow_incomplete=True, finished_only=True)
     chosen = {Path(run): record for run, record in records.items()  # keyed by grid / run
               if _wanted(Path(run), grid, configs)}
     missing = [c for c in configs if not any(_wanted(r, grid, [c]) for r in chosen)]
@@ -113,6 +123,8 @@ def write_release(grid: Path, out: Path, configs: Sequence[str] = (),
     for run_dir, record in sorted(chosen.items()):
         kept = read_kept_predictions(run_dir)
         if kept is None:
+            left_out.append(f"{run_dir}: kept no predictions (archived before 2026-12-02), "
+                            "left out")
             continue
         source = recorded_data_dir(record.config, run_dir) if data_dir is None else data_dir
         data = replace(record.config.data, data_dir=str(source))
@@ -136,7 +148,8 @@ def write_release(grid: Path, out: Path, configs: Sequence[str] = (),
                          "before 2026-12-02 keep none); retrain, then archive")
     readme = out / "README.md"
     write_atomic(readme, release_readme(grid, sorted(folders), sorted(samplings)))
-    return [readme, *written], sorted({hz / step for hz, step, _ in samplings})
+    return Released([readme, *written], sorted({hz / step for hz, step, _ in samplings}),
+                    left_out)
 
 
 def release_readme(grid: Path, folders: Sequence[Path],
