@@ -80,6 +80,12 @@ def build(target: str, out: Path) -> Path:
     return library
 
 
+def disassemble(library: Path) -> str:
+    """``objdump -d -C --no-show-raw-insn`` of ``library``."""
+    return subprocess.run(["objdump", "-d", "-C", "--no-show-raw-insn", str(library)],
+                          capture_output=True, text=True, check=True).stdout
+
+
 def innermost_loops(disassembly: str) -> list[Loop]:
     """Each product function's innermost loops (a backward jump's range holding no other) that
     multiply, from ``objdump -d -C --no-show-raw-insn`` output."""
@@ -130,25 +136,22 @@ def main(argv: list[str] | None = None) -> int:
     if shutil.which("objdump") is None:
         print("error: objdump (binutils) is needed to read the library", file=sys.stderr)
         return 1
+    with tempfile.TemporaryDirectory() as folder:
+        try:           # every target built and read before the table: an error comes alone
+            found = {target: innermost_loops(disassemble(build(target, Path(folder))))
+                     for target in args.march}
+        except RuntimeError as e:
+            print(f"error: {e}", file=sys.stderr)
+            return 1
     print(f"{'target':<16} {'function':<24} {'loop at':>8} {'instr':>6} {'prods':>6} "
           f"{'vec mem':>8} {'stack':>6}")
-    with tempfile.TemporaryDirectory() as folder:
-        for target in args.march:
-            try:
-                library = build(target, Path(folder))
-            except RuntimeError as e:
-                print(f"error: {e}", file=sys.stderr)
-                return 1
-            disassembly = subprocess.run(["objdump", "-d", "-C", "--no-show-raw-insn",
-                                          str(library)], capture_output=True, text=True,
-                                         check=True).stdout
-            loops = innermost_loops(disassembly)
-            if not loops:
-                print(f"{target:<16} (no loop of a product function multiplies)")
-            for loop in loops:
-                print(f"{target:<16} {loop.function:<24} {loop.start:>8x} "
-                      f"{len(loop.instructions):>6} {loop.products:>6} "
-                      f"{len(loop.vector_memory):>8} {loop.stack:>6}")
+    for target, loops in found.items():
+        if not loops:
+            print(f"{target:<16} (no loop of a product function multiplies)")
+        for loop in loops:
+            print(f"{target:<16} {loop.function:<24} {loop.start:>8x} "
+                  f"{len(loop.instructions):>6} {loop.products:>6} "
+                  f"{len(loop.vector_memory):>8} {loop.stack:>6}")
     return 0
 
 
