@@ -3,11 +3,11 @@ that any program can read and ``multitask-tables score`` scores: a reference to 
 
 One folder per configuration and seed, ``<annotations>/<direction>/<variant>-<weighting>/seed<k>/``,
 with one ``<trial>.csv`` per trial of the release (the prediction of the run whose test user made
-it): columns ``frame`` (every frame of the recording, from 1: 30 Hz in JIGSAWS), ``gesture`` and, for models
-with a progress head, ``progress``; a frame holds the prediction of the last sample of its
-run's model (5 Hz: every 6th frame) at or before it. ``README.md`` says so for readers without this project. Needs a grid or scores archive
-whose runs kept their predictions, and the data (the frames): ``--data-dir``, else the folder the
-runs record. ``--configs`` keeps some configurations (``A-fixed``, ``original/A-fixed``).
+it): columns ``frame`` (every frame of the recording, from 1: 30 Hz in JIGSAWS), ``gesture``
+and, for models with a progress head, ``progress``; a frame holds the prediction of the last
+sample of its run's model (5 Hz: every 6th frame) at or before it. ``README.md`` says so for
+readers without this project. Needs a grid or scores archive whose runs kept their predictions,
+and the data (the frames): ``--data-dir``, else the folder the runs record. ``--configs`` keeps some configurations (``A-fixed``, ``original/A-fixed``).
 Each run or configuration left out (unfinished, of other settings than the grid's spec, without
 kept predictions) is named in a ``note:`` line on standard error.
 

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Sequence
+from typing import Iterable, Sequence
 
 import numpy as np
 
@@ -148,8 +148,7 @@ def write_release(grid: Path, out: Path, configs: Sequence[str] = (),
                          "before 2026-12-02 keep none); retrain, then archive")
     readme = out / "README.md"
     write_atomic(readme, release_readme(grid, sorted(folders), sorted(samplings)))
-    return Released([readme, *written], sorted({hz / step for hz, step, _ in samplings}),
-                    left_out)
+    return Released([readme, *written], _model_rates(samplings), left_out)
 
 
 def release_readme(grid: Path, folders: Sequence[Path],
@@ -160,7 +159,7 @@ def release_readme(grid: Path, folders: Sequence[Path],
     every run predicted at the rate ``multitask-tables score`` scores at, else ``OTHER_RATE``).
     """
     ours = PreprocessConfig().sample_hz
-    model_hz = sorted({hz / step for hz, step, _ in samplings})
+    model_hz = _model_rates(samplings)
     frame_hz = " or ".join(sorted({f"{hz:g}" for hz, _, _ in samplings}))
     formats = sorted({name for _, _, name in samplings} - {DEFAULT_FORMAT})
     given = {"frame_hz": frame_hz,
@@ -173,6 +172,11 @@ def release_readme(grid: Path, folders: Sequence[Path],
     return README.format(grid="/".join(grid.parts[-2:]), sampling=f"The models predict {rates}",
                          scoring=scoring, frame_hz=frame_hz,
                          folders="\n".join(f"- `{folder.as_posix()}/`" for folder in folders))
+
+
+def _model_rates(samplings: Iterable[tuple[float, int, str]]) -> list[float]:
+    """The rates (Hz) the models of ``samplings`` (``release_readme``'s) predicted at, sorted."""
+    return sorted({hz / step for hz, step, _ in samplings})
 
 
 def _ordinal(n: int) -> str:
