@@ -19,6 +19,7 @@ ratios to the floor, the reference and the peers, and peak memory.
     python bench/lstm_sweep.py --threads 1,2     # force a thread plan (intra, inter) on rnn_seg
                                                  # and the peers
     python bench/lstm_sweep.py --impl rnn_seg torch keras     # a subset
+    python bench/lstm_sweep.py --batch 6       # another batch (sequences per sweep; default 5)
     python bench/lstm_sweep.py --isa avx2      # the AVX2 contest on an AVX-512 machine: the fused
                                                # loops built for haswell, oneDNN (TensorFlow's
                                                # and PyTorch's) limited to AVX2
@@ -118,8 +119,10 @@ def _step_function(impl: str, hidden: int):
     return step
 
 
-def worker(impl: str, hidden: int, steps: int, repeats: int, plan: str | None = None) -> dict:
-    """Time ``repeats`` sweeps of ``impl`` after one warm-up, in this process.
+def worker(impl: str, hidden: int, steps: int, repeats: int, plan: str | None = None,
+           batch: int = B) -> dict:
+    """Time ``repeats`` sweeps of ``impl`` over ``batch`` sequences after one warm-up, in this
+    process.
 
     ``plan`` is ``"intra,inter"`` or None (``rnn_seg``: its own plan; ``per_gate``: TensorFlow's
     default). Returns seconds per sweep, peak resident MB and the threads used, or, where the
@@ -127,7 +130,7 @@ def worker(impl: str, hidden: int, steps: int, repeats: int, plan: str | None = 
     """
     from lstm_peers import Unsupported
 
-    x, r, y = _batch(steps)
+    x, r, y = _batch(steps, batch)
     build = _torch_sweep if impl.startswith("torch") else _tensorflow_sweep
     try:
         sweep, threads = build(impl, hidden, x, r, y, plan)
@@ -156,15 +159,15 @@ def _peak_mb() -> float:
     return int(re.search(r"^VmHWM:\s+(\d+) kB", status, re.M).group(1)) / 1024
 
 
-def _batch(steps: int) -> tuple:
-    """One batch as NumPy: inputs ``[B, T, F]`` float32 normal, resets ``[B, T]`` bool (step 0
-    only), one-hot targets ``[B, T, K]`` float32."""
+def _batch(steps: int, batch: int = B) -> tuple:
+    """One batch as NumPy: inputs ``[batch, T, F]`` float32 normal, resets ``[batch, T]`` bool
+    (step 0 only), one-hot targets ``[batch, T, K]`` float32."""
     import numpy as np
 
     rng = np.random.default_rng(0)
-    x = rng.normal(size=(B, steps, F)).astype(np.float32)
-    r = np.eye(1, steps, dtype=bool).repeat(B, 0)
-    y = np.eye(K, dtype=np.float32)[rng.integers(0, K, (B, steps))]
+    x = rng.normal(size=(batch, steps, F)).astype(np.float32)
+    r = np.eye(1, steps, dtype=bool).repeat(batch, 0)
+    y = np.eye(K, dtype=np.float32)[rng.integers(0, K, (batch, steps))]
     return x, r, y
 
 
@@ -199,6 +202,14 @@ def _torch_sweep(impl: str, hidden: int, x, r, y, plan: str):
     return torch_step(hidden, _precision(impl), x, y, threads), threads
 
 
+def _positive(text: str) -> int:
+    """An ``argparse`` type: a whole number of at least 1."""
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, not {value}")
+    return value
+
+
 def _threads(plan: str) -> tuple[int, int]:
     """``"intra,inter"`` -> (intra, inter)."""
     intra, inter = (int(v) for v in plan.split(","))
@@ -209,16 +220,16 @@ def _precision(impl: str) -> str:
     return "bf16" if impl.endswith("bf16") else "fp32"
 
 
-def product_time(hidden: int, repeats: int) -> float:
-    """Seconds for one recurrent product ``[B, H] x [H, 4H]``: fastest of ``repeats`` loops of 800,
-    all cores inside each product."""
+def product_time(hidden: int, repeats: int, batch: int = B) -> float:
+    """Seconds for one recurrent product ``[batch, H] x [H, 4H]``: fastest of ``repeats`` loops of
+    800, all cores inside each product."""
     import tensorflow as tf
 
     tf.config.threading.set_intra_op_parallelism_threads(usable_cores())
     tf.config.threading.set_inter_op_parallelism_threads(1)
 
     steps = 800
-    h, W = tf.random.normal([B, hidden]), tf.random.normal([hidden, 4 * hidden]) * 0.01
+    h, W = tf.random.normal([batch, hidden]), tf.random.normal([hidden, 4 * hidden]) * 0.01
 
     @tf.function
     def loop():
@@ -239,6 +250,8 @@ def main() -> None:
     parser.add_argument("--hidden", type=int, nargs="+", default=[1024, 256])
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--steps", type=int, default=800)
+    parser.add_argument("--batch", type=_positive, default=B,
+                        help=f"sequences per sweep (default {B}, model A's batch)")
     parser.add_argument("--impl", nargs="+", choices=IMPLEMENTATIONS,
                         default=list(IMPLEMENTATIONS))
     parser.add_argument("--threads", help="thread plan 'intra,inter' for rnn_seg and the peers "
@@ -251,13 +264,13 @@ def main() -> None:
     args = parser.parse_args()
     if args.worker:
         impl, hidden = args.worker[0], int(args.worker[1])
-        result = (product_time(hidden, args.repeats) if impl == "product"
-                  else worker(impl, hidden, args.steps, args.repeats, args.threads))
+        result = (product_time(hidden, args.repeats, args.batch) if impl == "product"
+                  else worker(impl, hidden, args.steps, args.repeats, args.threads, args.batch))
         print(json.dumps(result))
         return
     os.environ.update(ISA_LIMITS[args.isa])
     impls = _runnable(args.impl)
-    print(f"training sweep: bidirectional LSTM, B={B}, F={F}, T={args.steps}, "
+    print(f"training sweep: bidirectional LSTM, B={args.batch}, F={F}, T={args.steps}, "
           f"{args.repeats} timed repeats after one warm-up; {usable_cores()} usable cores")
     print(_processor(args.isa))
     if any(impl.split("_")[0] in PEERS for impl in impls):
@@ -354,7 +367,7 @@ def _native_bf16() -> bool:
 
 def _run_worker(impl: str, hidden: int, plan: str | None, args: argparse.Namespace) -> dict:
     command = [sys.executable, __file__, "--worker", impl, str(hidden), "--steps",
-               str(args.steps), "--repeats", str(args.repeats)]
+               str(args.steps), "--repeats", str(args.repeats), "--batch", str(args.batch)]
     if plan:
         command += ["--threads", plan]
     out = subprocess.run(command, check=True, capture_output=True, text=True).stdout

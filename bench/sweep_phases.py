@@ -1,8 +1,9 @@
 """Where a training sweep's time goes: ``rnn_seg``'s phases beside PyTorch's, same invocation.
 
 Workload as ``lstm_sweep.py`` (model A's sweep: B=5 sequences of T steps, 14 inputs, one
-bidirectional layer of H units, float32). Each side runs in its own process with the thread plan
-it trains with (``rnn_seg``: ``rnn_seg.threads``; PyTorch: every core in each op).
+bidirectional layer of H units, float32; ``--batch`` sets B). Each side runs in its own process
+with the thread plan it trains with (``rnn_seg``: ``rnn_seg.threads``; PyTorch: every core in
+each op).
 
 ``rnn_seg`` phases, each a ``tf.function`` over random inputs of the right shapes:
 
@@ -29,6 +30,7 @@ backward`` (the LSTM and the gradient of a sum of its outputs), ``forward produc
 Run on a quiet machine; medians of ``--repeats`` after a warm-up::
 
     python bench/sweep_phases.py --hidden 1024 --steps 800 --repeats 5
+    python bench/sweep_phases.py --hidden 256 --batch 6 --peers rnn_seg_fused   # one side
 """
 from __future__ import annotations
 
@@ -46,6 +48,7 @@ from typing import Callable
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from jigsaws_tools.cores import usable_cores  # noqa: E402 (on the path above)
+from lstm_sweep import _positive  # noqa: E402
 
 B, F = 5, 14
 
@@ -61,9 +64,10 @@ def _median_time(call: Callable[[], object], repeats: int) -> float:
     return statistics.median(times)
 
 
-def rnn_seg_phases(hidden: int, steps: int, repeats: int, loops: str = "graph"
+def rnn_seg_phases(hidden: int, steps: int, repeats: int, batch: int = B, loops: str = "graph"
                    ) -> dict[str, float]:
-    """Seconds per phase of ``rnn_seg``'s float32 sweep with ``loops`` (module docstring)."""
+    """Seconds per phase of ``rnn_seg``'s float32 sweep of ``batch`` sequences with ``loops``
+    (module docstring)."""
     import tensorflow as tf
 
     from lstm_sweep import _batch, _step_function
@@ -75,9 +79,9 @@ def rnn_seg_phases(hidden: int, steps: int, repeats: int, loops: str = "graph"
     threads = configure_threads(0, hidden, "fp32")
     rng = tf.random.Generator.from_seed(0)
     directions = [
-        {"x_proj": rng.normal([steps, B, 4 * hidden]), "keep": tf.ones([steps, B, 1]),
+        {"x_proj": rng.normal([steps, batch, 4 * hidden]), "keep": tf.ones([steps, batch, 1]),
          "W": rng.uniform([hidden, 4 * hidden], -0.1, 0.1),
-         "peep": rng.uniform([3, hidden], -0.1, 0.1), "dh": rng.normal([steps, B, hidden])}
+         "peep": rng.uniform([3, hidden], -0.1, 0.1), "dh": rng.normal([steps, batch, hidden])}
         for _ in range(2)]
 
     def forward(d):
@@ -114,20 +118,20 @@ def rnn_seg_phases(hidden: int, steps: int, repeats: int, loops: str = "graph"
     times = {name: _median_time(lambda c=call: tf.nest.map_structure(
         lambda t: t.numpy(), c()), repeats) for name, call in calls.items()}
     step = _step_function("rnn_seg" if loops == "graph" else f"rnn_seg_{loops}", hidden)
-    x, r, y = (tf.constant(v) for v in _batch(steps))
+    x, r, y = (tf.constant(v) for v in _batch(steps, batch))
     times["sweep"] = _median_time(lambda: step(x, r, y).numpy(), repeats)
     return {"threads": list(threads), **times}
 
 
-def torch_phases(hidden: int, steps: int, repeats: int) -> dict[str, float]:
-    """Seconds per phase of PyTorch's float32 sweep (module docstring)."""
+def torch_phases(hidden: int, steps: int, repeats: int, batch: int = B) -> dict[str, float]:
+    """Seconds per phase of PyTorch's float32 sweep of ``batch`` sequences (module docstring)."""
     import torch
 
     from lstm_peers import torch_step
     from lstm_sweep import _batch
 
     cores = usable_cores()
-    x, _, y = _batch(steps)
+    x, _, y = _batch(steps, batch)
     sweep = torch_step(hidden, "fp32", x, y, (cores, cores))   # sets the threads first
     lstm = torch.nn.LSTM(F, hidden, batch_first=True, bidirectional=True)
     inputs = torch.from_numpy(x)
@@ -144,7 +148,7 @@ def torch_phases(hidden: int, steps: int, repeats: int) -> dict[str, float]:
 
     def products():
         for W in weights:
-            h = inputs.new_ones(B, hidden)
+            h = inputs.new_ones(batch, hidden)
             for _ in range(steps):
                 h = torch.tanh(torch.mm(h, W)[:, :hidden])
 
@@ -168,16 +172,22 @@ def main() -> None:
     parser.add_argument("--hidden", type=int, default=1024)
     parser.add_argument("--steps", type=int, default=800)
     parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--batch", type=_positive, default=B,
+                        help=f"sequences per sweep (default {B}, model A's batch)")
+    parser.add_argument("--peers", nargs="+", choices=PEERS, default=list(PEERS),
+                        help="the sides to time (default: all)")
     parser.add_argument("--worker", choices=PEERS, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
         phases, _ = PEERS[args.worker]
-        print(json.dumps(phases(args.hidden, args.steps, args.repeats)))
+        print(json.dumps(phases(args.hidden, args.steps, args.repeats, args.batch)))
         return
-    print(f"H={args.hidden}, B={B}, T={args.steps}, float32, median of {args.repeats}")
-    for peer, (_, environment) in PEERS.items():
+    print(f"H={args.hidden}, B={args.batch}, T={args.steps}, float32, median of {args.repeats}")
+    for peer in args.peers:
+        environment = PEERS[peer][1]
         command = [sys.executable, __file__, "--worker", peer, "--hidden", str(args.hidden),
-                   "--steps", str(args.steps), "--repeats", str(args.repeats)]
+                   "--steps", str(args.steps), "--repeats", str(args.repeats),
+                   "--batch", str(args.batch)]
         done = subprocess.run(command, capture_output=True, text=True,
                               env={**os.environ, **environment})
         if done.returncode:
