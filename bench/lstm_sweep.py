@@ -44,7 +44,8 @@ from pathlib import Path
 os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "2")
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "bench")]
-from jigsaws_tools.cores import usable_cores  # noqa: E402 (on the path above)
+from jigsaws_tools.cli.arg_types import positive_int  # noqa: E402 (on the path above)
+from jigsaws_tools.cores import usable_cores  # noqa: E402
 
 F, K, B = 14, 10, 5
 IMPLEMENTATIONS = ("rnn_seg", "rnn_seg_bf16", "rnn_seg_xla", "rnn_seg_fused",
@@ -202,14 +203,6 @@ def _torch_sweep(impl: str, hidden: int, x, r, y, plan: str):
     return torch_step(hidden, _precision(impl), x, y, threads), threads
 
 
-def _positive(text: str) -> int:
-    """An ``argparse`` type: a whole number of at least 1."""
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, not {value}")
-    return value
-
-
 def _threads(plan: str) -> tuple[int, int]:
     """``"intra,inter"`` -> (intra, inter)."""
     intra, inter = (int(v) for v in plan.split(","))
@@ -250,7 +243,7 @@ def main() -> None:
     parser.add_argument("--hidden", type=int, nargs="+", default=[1024, 256])
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--steps", type=int, default=800)
-    parser.add_argument("--batch", type=_positive, default=B,
+    parser.add_argument("--batch", type=positive_int, default=B,
                         help=f"sequences per sweep (default {B}, model A's batch)")
     parser.add_argument("--impl", nargs="+", choices=IMPLEMENTATIONS,
                         default=list(IMPLEMENTATIONS))

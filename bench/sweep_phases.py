@@ -47,10 +47,9 @@ from typing import Callable
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from jigsaws_tools.cores import usable_cores  # noqa: E402 (on the path above)
-from lstm_sweep import _positive  # noqa: E402
-
-B, F = 5, 14
+from jigsaws_tools.cli.arg_types import positive_int  # noqa: E402 (on the path above)
+from jigsaws_tools.cores import usable_cores  # noqa: E402
+from lstm_sweep import B, F  # noqa: E402 (model A's sweep, as lstm_sweep.py times it)
 
 
 def _median_time(call: Callable[[], object], repeats: int) -> float:
@@ -172,7 +171,7 @@ def main() -> None:
     parser.add_argument("--hidden", type=int, default=1024)
     parser.add_argument("--steps", type=int, default=800)
     parser.add_argument("--repeats", type=int, default=5)
-    parser.add_argument("--batch", type=_positive, default=B,
+    parser.add_argument("--batch", type=positive_int, default=B,
                         help=f"sequences per sweep (default {B}, model A's batch)")
     parser.add_argument("--peers", nargs="+", choices=PEERS, default=list(PEERS),
                         help="the sides to time (default: all)")
