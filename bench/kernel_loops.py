@@ -4,7 +4,8 @@ Builds ``rnn_seg/kernels/lstm_loops.cc`` with the project's compile command for 
 target (GCC ``-march`` names; the library is never loaded, so this processor need not have the
 target's instructions: the AVX-512 build can be read on an AVX2 machine), disassembles it with
 ``objdump`` and lists, per product function (the forward and backward ops' per panel products,
-the weight gradient's micro-kernel), each innermost loop that multiplies: its instructions, products (``vfmadd``, ``vdpbf16ps``;
+inlined in them or out of line as ``Panels::product<rows, backward>``, the weight gradient's
+micro-kernel), each innermost loop that multiplies: its instructions, products (``vfmadd``, ``vdpbf16ps``;
 ``mulps`` where the target has no FMA), vector memory operands, and those addressed from the
 stack or frame pointer (``%rsp`` / ``%rbp``: spills, vectors that did not stay in registers; an
 ``%rbp`` used as a plain register would count too). A product's loop should have none on AVX2
@@ -33,6 +34,7 @@ INSTRUCTION = re.compile(r"^\s+([0-9a-f]+):\s+(.*)$")
 JUMP = re.compile(r"^j\w+\s+([0-9a-f]+)\b")
 #: The product functions, by the part of their demangled name that says which.
 PRODUCTS = re.compile(r"((?:forward|backward)<\(anonymous namespace\)::\w+>"
+                      r"|\w+Panels::product<\d+, (?:true|false)>"
                       r"|weight_gradient_\w+)")
 #: Instructions that multiply (and add): FMA and BF16 dot products, or a multiply where the
 #: target has no FMA.

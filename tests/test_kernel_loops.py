@@ -31,6 +31,10 @@ DISASSEMBLY = """
     2010:	vaddps %ymm1,%ymm2,%ymm3
     2014:	jne    2010 <(anonymous namespace)::weight_gradient_columns(float const*)+0x10>
 
+0000000000002800 <void (anonymous namespace)::Bf16Panels::product<6, true>((anonymous namespace)::Bf16Panels::Rows const&, int, int, float __vector(16) (*) [4]) const>:
+    2800:	vdpbf16ps %zmm0,%zmm2,%zmm11
+    2804:	jne    2800 <void (anonymous namespace)::Bf16Panels::product<6, true>((anonymous namespace)::Bf16Panels::Rows const&, int, int, float __vector(16) (*) [4]) const>
+
 0000000000003000 <(anonymous namespace)::ForwardOp<float>::Compute()>:
     3000:	vfmadd231ps %ymm0,%ymm2,%ymm11
     3004:	jne    3000 <(anonymous namespace)::ForwardOp<float>::Compute()>
@@ -38,13 +42,16 @@ DISASSEMBLY = """
 
 
 def test_only_innermost_loops_of_product_functions_that_multiply_are_listed():
+    """A product compiled out of line (``Bf16Panels::product``, not inlined into the ops) is a
+    product function too."""
     loops = kernel_loops.innermost_loops(DISASSEMBLY)
     assert [(loop.function, loop.start) for loop in loops] == [
-        ("backward<Fp32Panels>", 0x1004), ("weight_gradient_columns", 0x2000)]
+        ("backward<Fp32Panels>", 0x1004), ("weight_gradient_columns", 0x2000),
+        ("Bf16Panels::product<6, true>", 0x2800)]
 
 
 def test_a_loop_counts_its_products_vector_memory_and_stack_operands():
-    spilled, clean = kernel_loops.innermost_loops(DISASSEMBLY)
+    spilled, clean, _ = kernel_loops.innermost_loops(DISASSEMBLY)
     assert (len(spilled.instructions), spilled.products, len(spilled.vector_memory),
             spilled.stack) == (6, 3, 3, 2)
     assert (clean.products, len(clean.vector_memory), clean.stack) == (1, 2, 0)

@@ -532,7 +532,11 @@ struct Bf16Panels {
     }
   };
 
+  // Without SLP vectorization: GCC's SLP vectorizer grouped the four consecutive pairs a
+  // backward row loads per step of k into one vector and then stored every sum to the stack each
+  // step (24 stores for 24 dot products at 6 rows; bench/kernel_loops.py lists them).
   template <int R, bool kBackward>
+  __attribute__((optimize("no-tree-slp-vectorize")))
   void product(const Rows& rows, int row0, int panel, vec (*acc_out)[4]) const {
     __m512 acc[R][4];
     for (int r = 0; r < R; ++r)
