@@ -23,7 +23,8 @@ B = 5
 
 def per_step(function, steps: int, repeats: int = 7) -> float:
     """Microseconds per step of ``function()``: median of ``repeats`` calls after a warm-up."""
-    import tensorflow as tf
+    from jigsaws_tools.cli.common import import_tensorflow
+    tf = import_tensorflow()
 
     tf.nest.flatten(function())[0].numpy()
     times = []
@@ -42,7 +43,8 @@ def main() -> None:
     args = parser.parse_args()
     os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "3")
     import numpy as np
-    import tensorflow as tf
+    from jigsaws_tools.cli.common import import_tensorflow
+    tf = import_tensorflow()
 
     from rnn_seg import lstm
     from rnn_seg.kernels.build import unavailable

@@ -106,7 +106,8 @@ def keras_step(hidden: int, precision: str, x: np.ndarray, y: np.ndarray) -> Cal
         A call that runs one sweep (forward, backward, clipping, SGD step) and returns its loss.
     """
     import keras
-    import tensorflow as tf
+    from jigsaws_tools.cli.common import import_tensorflow
+    tf = import_tensorflow()
 
     keras.mixed_precision.set_global_policy("mixed_bfloat16" if precision == "bf16"
                                             else "float32")

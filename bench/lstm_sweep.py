@@ -45,6 +45,7 @@ os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "2")
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT), str(ROOT / "bench")]
 from jigsaws_tools.cli.arg_types import positive_int  # noqa: E402 (on the path above)
+from jigsaws_tools.cli.common import import_tensorflow  # noqa: E402
 from jigsaws_tools.cores import usable_cores  # noqa: E402
 
 F, K, B = 14, 10, 5
@@ -71,7 +72,7 @@ RATIOS = (("rnn_seg vs per_gate", "per_gate", "rnn_seg"),
 
 
 def _step_function(impl: str, hidden: int):
-    import tensorflow as tf
+    tf = import_tensorflow()
 
     from rnn_seg.dense import Dense
     from rnn_seg.lstm import EncoderConfig
@@ -174,7 +175,7 @@ def _batch(steps: int, batch: int = B) -> tuple:
 
 def _tensorflow_sweep(impl: str, hidden: int, x, r, y, plan: str | None):
     """``rnn_seg*``, ``per_gate`` or ``keras*``: (a call running one sweep, threads used)."""
-    import tensorflow as tf
+    tf = import_tensorflow()
 
     from lstm_peers import keras_step
     from rnn_seg.threads import configure_threads
@@ -216,7 +217,7 @@ def _precision(impl: str) -> str:
 def product_time(hidden: int, repeats: int, batch: int = B) -> float:
     """Seconds for one recurrent product ``[batch, H] x [H, 4H]``: fastest of ``repeats`` loops of
     800, all cores inside each product."""
-    import tensorflow as tf
+    tf = import_tensorflow()
 
     tf.config.threading.set_intra_op_parallelism_threads(usable_cores())
     tf.config.threading.set_inter_op_parallelism_threads(1)
@@ -262,6 +263,7 @@ def main() -> None:
         print(json.dumps(result))
         return
     os.environ.update(ISA_LIMITS[args.isa])
+    import_tensorflow()     # before rnn_seg imports it: its start-up lines filtered out
     impls = _runnable(args.impl)
     print(f"training sweep: bidirectional LSTM, B={args.batch}, F={F}, T={args.steps}, "
           f"{args.repeats} timed repeats after one warm-up; {usable_cores()} usable cores")

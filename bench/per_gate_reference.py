@@ -5,7 +5,9 @@ al.'s ``_lstm_block`` is, with the inputs multiplied inside the step and autodif
 """
 from __future__ import annotations
 
-import tensorflow as tf
+from jigsaws_tools.cli.common import import_tensorflow
+
+tf = import_tensorflow()
 
 
 class PerGateLSTM(tf.Module):

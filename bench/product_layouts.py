@@ -24,7 +24,8 @@ def main() -> None:
     parser.add_argument("--threads", type=int, default=1, help="intra-op threads per product")
     args = parser.parse_args()
     os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "3")
-    import tensorflow as tf
+    from jigsaws_tools.cli.common import import_tensorflow
+    tf = import_tensorflow()
 
     tf.config.threading.set_intra_op_parallelism_threads(args.threads)
     tf.config.threading.set_inter_op_parallelism_threads(1)

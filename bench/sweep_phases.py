@@ -48,6 +48,7 @@ from typing import Callable
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from jigsaws_tools.cli.arg_types import positive_int  # noqa: E402 (on the path above)
+from jigsaws_tools.cli.common import import_tensorflow  # noqa: E402
 from jigsaws_tools.cores import usable_cores  # noqa: E402
 from lstm_sweep import B, F  # noqa: E402 (model A's sweep, as lstm_sweep.py times it)
 
@@ -67,7 +68,7 @@ def rnn_seg_phases(hidden: int, steps: int, repeats: int, batch: int = B, loops:
                    ) -> dict[str, float]:
     """Seconds per phase of ``rnn_seg``'s float32 sweep of ``batch`` sequences with ``loops``
     (module docstring)."""
-    import tensorflow as tf
+    tf = import_tensorflow()
 
     from lstm_sweep import _batch, _step_function
     from rnn_seg.lstm import _LOOP_FUNCTIONS, _shift, _weight_gradient
@@ -181,6 +182,7 @@ def main() -> None:
         phases, _ = PEERS[args.worker]
         print(json.dumps(phases(args.hidden, args.steps, args.repeats, args.batch)))
         return
+    import_tensorflow()     # before rnn_seg imports it: its start-up lines filtered out
     print(f"H={args.hidden}, B={args.batch}, T={args.steps}, float32, median of {args.repeats}")
     for peer in args.peers:
         environment = PEERS[peer][1]
