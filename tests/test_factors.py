@@ -11,8 +11,9 @@ import pytest
 import tensorflow as tf
 
 from multitask.evidence.cli import main as tables_main
-from multitask.evidence.plans.factors import (BASELINE, PENDING, Level, choice,
-                                              combination_spec, fold_settings_toml, settings)
+from multitask.evidence.plans.factors import (BASELINE, PENDING, Level, _changes, choice,
+                                              combination_spec, effects, fold_settings_toml,
+                                              per_fold, settings)
 from multitask.grid.cli import main as grid_main
 from multitask.grid.folder import comparable_spec
 from multitask.grid.spec import (RunKey, expand, fold_users, inner_fold, load_spec, run_arguments,
@@ -157,10 +158,41 @@ def test_glorot_heads_start_with_zero_bias_and_glorots_bound():
     assert to_jsonable(EDTCNConfig(head_init="glorot"))["head_init"] == "glorot"
 
 
-def _level(name, changes, means):
-    """A level whose validation score on fold u is ``means[u]`` on every metric."""
+def _level(name, changes, means, runs=None):
+    """A level whose validation score on fold u is ``means[u]`` on every metric, from one run
+    per fold (``u-val-x``), or from ``runs`` (run folder -> score) when given."""
+    runs = runs or {f"{u}-val-x": score for u, score in means.items()}
+    table = pd.DataFrame({"fold": list(runs), "outer": [f.split("-")[0] for f in runs],
+                          **{m: list(runs.values())
+                             for m in ("gesture_accuracy", "gesture_edit", "gesture_f1@10",
+                                       "mean")}})
     scores = pd.DataFrame({m: means for m in ("accuracy", "edit", "f1@10", "mean")})
-    return Level(name, None, changes, scores)
+    return Level(name, None, changes, scores, table)
+
+
+def test_a_level_with_fewer_validation_users_is_compared_on_its_own():
+    """A level holding only the first validation user of each fold (a pilot of the schedule
+    ladder, say) is set against the baseline's runs of that user, not the baseline's mean
+    over both."""
+    base = _level(BASELINE, {}, {"B": 85.0}, runs={"B-val-C": 80.0, "B-val-D": 90.0})
+    longer = _level("S-600", {"epochs": 600}, {"B": 83.0}, runs={"B-val-C": 83.0})
+    assert longer.factors == ("S",)
+    assert effects(base, [longer]).at[0, "edit_diff"] == pytest.approx(3.0)
+    row = per_fold(base, [longer]).set_index("metric").loc["edit"]
+    assert (row.baseline_score, row.difference) == (pytest.approx(80.0), pytest.approx(3.0))
+    both = _level("L-off", {"lowpass": False}, {"B": 86.0},
+                  runs={"B-val-C": 81.0, "B-val-D": 91.0})
+    assert effects(base, [both]).at[0, "edit_diff"] == pytest.approx(1.0)
+
+
+def test_a_level_with_more_validation_users_than_the_baseline_is_refused():
+    baseline = load_spec(ROOT / "results/tcn/factors/baseline.toml")
+    more = with_overrides(baseline, inner_validation=3)
+    with pytest.raises(ValueError, match=r"level: inner_validation 3 is more than the "
+                                         r"baseline's 2"):
+        _changes(Path("level"), more, baseline)
+    fewer = with_overrides(baseline, inner_validation=1, epochs=600)
+    assert _changes(Path("level"), fewer, baseline) == {"epochs": 600}
 
 
 def test_each_fold_takes_per_factor_its_best_eligible_level_and_combines_them():

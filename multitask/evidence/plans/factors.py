@@ -6,14 +6,17 @@ on a validation user, its outer fold's user held out: ``multitask.grid.spec``), 
 first. Every run of a grid must be finished and usable (``collect.run_records``; inner runs
 pooled over their outer folds, never with outer runs: ``pooling.INNER_SETTING``), a grid holds
 one configuration, and a level's spec differs from the baseline's only in the keys of the plan's
-factors (``FACTORS``; a key left out counts as its default) and in its outer folds
-(``test_users``, a subset of the baseline's); anything else is refused, naming the grid and the
-keys. A level's factors are the factors of the keys it changes (several: a combination).
+factors (``FACTORS``; a key left out counts as its default), in its outer folds
+(``test_users``, a subset of the baseline's) and in its validation users per fold
+(``inner_validation``, at most the baseline's: the first of them); anything else is refused,
+naming the grid and the keys. A level's factors are the factors of the keys it changes (several:
+a combination).
 
 A level's **validation score on outer fold u** is the mean over u's inner runs (its validation
 users, and seeds if several) of each run's score, per metric (``METRICS``: gesture accuracy,
 edit, F1@10, each run's the mean over its evaluation points) and for ``mean``, each run's mean
-of the three (section B).
+of the three (section B). The baseline's score it is set against is the same mean over the
+baseline's runs of the level's validation users.
 
 Output (``write_factors``), in percentage points:
 
@@ -63,16 +66,18 @@ from ..runs.pooling import INNER_SETTING
 #: The plan's metrics (section B) -> their names in the tables; ``mean`` is the three's mean.
 METRICS = {"gesture_accuracy": "accuracy", "gesture_edit": "edit", "gesture_f1@10": "f1@10"}
 MEAN = "mean"
-#: The plan's factors (section C) -> the spec keys each changes.
+#: The plan's factors (section C) -> the spec keys each changes; ``S``, the schedule's length,
+#: was added after the plan (exploratory: ``results/tcn/FINDINGS.md``, section 6).
 FACTORS = {"T": ("resample_factor", "kernel"), "L": ("lowpass",), "N": ("normalise",),
-           "F": ("feature_set",), "P": ("padding",), "H": ("head_init",)}
-#: What a factor key left out of a spec means.
+           "F": ("feature_set",), "P": ("padding",), "H": ("head_init",), "S": ("epochs",)}
+#: What a factor key left out of a spec means (``epochs``: the preset's schedule).
 DEFAULTS = {"resample_factor": PreprocessConfig.resample_factor, "kernel": EDTCNConfig.kernel,
             "lowpass": PreprocessConfig.lowpass, "normalise": PreprocessConfig.normalise,
             "feature_set": DataConfig.feature_set, "padding": EDTCNConfig.padding,
-            "head_init": EDTCNConfig.head_init}
-#: Spec keys a level may set otherwise than the baseline: its folds.
-FOLD_KEYS = ("test_users",)
+            "head_init": EDTCNConfig.head_init, "epochs": None}
+#: Spec keys a level may set otherwise than the baseline: its folds, and fewer validation users
+#: per fold (the first of the baseline's: the runs a level holds are then among the baseline's).
+FOLD_KEYS = ("test_users", "inner_validation")
 #: Points above the baseline's validation score on a fold that make a level eligible (D.2).
 ELIGIBLE = 1.0
 #: Points below the best single taken level's score that make a fold drop the combination.
@@ -86,13 +91,15 @@ FOLD_SETTINGS = "fold_settings.toml"
 @dataclass(frozen=True)
 class Level:
     """One grid of inner runs: its name (the folder's), spec, the factor keys it changes from
-    the baseline's (key -> value), and its validation scores (index: outer fold; columns:
-    ``METRICS``' names and ``MEAN``)."""
+    the baseline's (key -> value), its validation scores (index: outer fold; columns:
+    ``METRICS``' names and ``MEAN``) and its runs' (``fold``, e.g. ``B-val-C``; ``outer``;
+    ``METRICS``' columns and ``MEAN``; a row per run)."""
 
     name: str
     spec: GridSpec
     changes: dict[str, Any]
     scores: pd.DataFrame
+    runs: pd.DataFrame
 
     @property
     def factors(self) -> tuple[str, ...]:
@@ -132,11 +139,16 @@ def read_level(grid: Path, baseline: GridSpec | None = None) -> Level:
     changes = {} if baseline is None else _changes(grid, spec, baseline)
     rows = rows.assign(outer=[fold_users(fold)[1][0] for fold in rows.fold])
     rows[MEAN] = rows[list(METRICS)].mean(axis=1)
-    scores = rows.groupby("outer")[[*METRICS, MEAN]].mean().rename(columns=METRICS)
+    scores = _scores(rows)
     if baseline is not None and not set(scores.index) <= set(_folds(baseline, scores)):
         raise ValueError(f"{grid}: outer folds {', '.join(sorted(scores.index))} not all among "
                          "the baseline's")
-    return Level(grid.name, spec, changes, scores)
+    return Level(grid.name, spec, changes, scores, rows[["fold", "outer", *METRICS, MEAN]])
+
+
+def _scores(rows: pd.DataFrame) -> pd.DataFrame:
+    """Per outer fold, the mean of its runs' scores (``Level.scores``)."""
+    return rows.groupby("outer")[[*METRICS, MEAN]].mean().rename(columns=METRICS)
 
 
 def _folds(baseline: GridSpec, scores: pd.DataFrame) -> tuple[str, ...]:
@@ -148,6 +160,10 @@ def _changes(grid: Path, spec: GridSpec, baseline: GridSpec) -> dict[str, Any]:
     mine, theirs = (_effective(s) for s in (spec, baseline))
     differ = [k for k in mine.keys() | theirs.keys()
               if mine.get(k) != theirs.get(k) and k not in FOLD_KEYS]
+    if (spec.inner_validation or 0) > (baseline.inner_validation or 0):
+        raise ValueError(f"{grid}: inner_validation {spec.inner_validation} is more than the "
+                         f"baseline's {baseline.inner_validation}: its runs are not all among "
+                         "the baseline's")
     other = sorted(k for k in differ if k not in DEFAULTS)
     if other:
         raise ValueError(f"{grid}: its spec differs from the baseline's in {', '.join(other)}, "
@@ -205,9 +221,17 @@ def write_factors(baseline: Path, levels: list[Path], combinations: list[Path], 
     return written, notes
 
 
+def _baseline(base: Level, level: Level) -> pd.DataFrame:
+    """The baseline's scores on the level's runs: per outer fold of the level, the mean over
+    the baseline's runs of the validation users the level has (all of them, unless the level
+    sets fewer)."""
+    return _scores(base.runs[base.runs.fold.isin(set(level.runs.fold))])
+
+
 def _differences(base: Level, level: Level) -> pd.DataFrame:
-    """Level minus baseline per outer fold of the level (rows) and metric (columns)."""
-    return level.scores - base.scores.loc[level.scores.index]
+    """Level minus baseline per outer fold of the level (rows) and metric (columns), on the
+    level's validation users."""
+    return level.scores - _baseline(base, level).loc[level.scores.index]
 
 
 def effects(base: Level, levels: list[Level]) -> pd.DataFrame:
@@ -231,9 +255,10 @@ def per_fold(base: Level, levels: list[Level]) -> pd.DataFrame:
     """``factors_per_fold.csv`` (module docstring)."""
     rows = [{"level": level.name, "fold": fold, "metric": metric,
              "level_score": level.scores.at[fold, metric],
-             "baseline_score": base.scores.at[fold, metric],
-             "difference": level.scores.at[fold, metric] - base.scores.at[fold, metric]}
-            for level in levels for fold in level.scores.index for metric in level.scores.columns]
+             "baseline_score": baseline.at[fold, metric],
+             "difference": level.scores.at[fold, metric] - baseline.at[fold, metric]}
+            for level, baseline in ((level, _baseline(base, level)) for level in levels)
+            for fold in level.scores.index for metric in level.scores.columns]
     return pd.DataFrame(rows, columns=["level", "fold", "metric", "level_score",
                                        "baseline_score", "difference"])
 
