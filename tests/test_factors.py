@@ -183,6 +183,8 @@ def test_a_level_with_fewer_validation_users_is_compared_on_its_own():
     both = _level("L-off", {"lowpass": False}, {"B": 86.0},
                   runs={"B-val-C": 81.0, "B-val-D": 91.0})
     assert effects(base, [both]).at[0, "edit_diff"] == pytest.approx(1.0)
+    better = _level("S-300", {"epochs": 300}, {"B": 95.0}, runs={"B-val-C": 95.0})
+    assert choice(base, [better]).empty       # a schedule is no fold's setting (fold_settings)
 
 
 def test_a_level_with_more_validation_users_than_the_baseline_is_refused():

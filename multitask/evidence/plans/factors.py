@@ -26,10 +26,10 @@ Output (``write_factors``), in percentage points:
   favour the level (``<metric>_favouring``: a difference above 0);
 * ``factors_per_fold.csv``: level, outer fold, metric, the level's score, the baseline's and the
   difference (the per-fold differences of D.1);
-* ``factors_choice.csv`` (D.2, first step): per outer fold and factor, among the levels of that
-  factor alone at the model's rate, those *eligible* (mean difference at least ``ELIGIBLE``
-  points), the one taken (the eligible level of the highest score; ``baseline`` when none) and
-  its difference;
+* ``factors_choice.csv`` (D.2, first step): per outer fold and factor a fold's setting can
+  take (not S: ``_SELECTABLE_FACTORS``), among the levels of that factor alone at the model's
+  rate, those *eligible* (mean difference at least ``ELIGIBLE`` points), the one taken (the
+  eligible level of the highest score; ``baseline`` when none) and its difference;
 * ``factors_settings.csv`` (D.2, second step, and D.3): per outer fold the combination of the
   taken levels; when it combines two factors or more, the combination's grid (``combinations``,
   a grid whose spec changes exactly the taken levels' keys and holds the fold) and its
@@ -59,7 +59,7 @@ from rnn_seg.encoders.config import EDTCNConfig
 from rnn_seg.runs.folder import write_atomic
 
 from ...grid.folder import GRID_RECORD, comparable_spec, read_record
-from ...grid.spec import GridSpec, fold_users, spec_from_dict, spec_payload
+from ...grid.spec import SELECTABLE, GridSpec, fold_users, spec_from_dict, spec_payload
 from ..runs.collect import CONFIG_COLUMNS, run_records
 from ..runs.pooling import INNER_SETTING
 
@@ -75,6 +75,9 @@ DEFAULTS = {"resample_factor": PreprocessConfig.resample_factor, "kernel": EDTCN
             "lowpass": PreprocessConfig.lowpass, "normalise": PreprocessConfig.normalise,
             "feature_set": DataConfig.feature_set, "padding": EDTCNConfig.padding,
             "head_init": EDTCNConfig.head_init, "epochs": None}
+#: The factors a fold's setting may take (D.2): those whose keys ``fold_settings`` can set (not
+#: S: a grid's schedule is one for all its folds).
+_SELECTABLE_FACTORS = tuple(f for f, keys in FACTORS.items() if set(keys) <= set(SELECTABLE))
 #: Spec keys a level may set otherwise than the baseline: its folds, and fewer validation users
 #: per fold (the first of the baseline's: the runs a level holds are then among the baseline's).
 FOLD_KEYS = ("test_users", "inner_validation")
@@ -268,7 +271,7 @@ def choice(base: Level, singles: list[Level]) -> pd.DataFrame:
     and the one taken (module docstring)."""
     rows = []
     for fold in base.scores.index:
-        for factor in FACTORS:
+        for factor in _SELECTABLE_FACTORS:
             diffs = {level.name: _differences(base, level).at[fold, MEAN]
                      for level in singles if level.factors == (factor,) and level.at_model_rate
                      and fold in level.scores.index}
