@@ -5,12 +5,13 @@ target (GCC ``-march`` names; the library is never loaded, so this processor nee
 target's instructions: the AVX-512 build can be read on an AVX2 machine), disassembles it with
 ``objdump`` and lists, per product function (the forward and backward ops' per panel products,
 inlined in them or out of line as ``Panels::product<rows, backward>``, the weight gradient's
-micro-kernel), each innermost loop that multiplies: its instructions, products (``vfmadd``, ``vdpbf16ps``;
-``mulps`` where the target has no FMA), vector memory operands, and those addressed from the
-stack or frame pointer (``%rsp`` / ``%rbp``: spills, vectors that did not stay in registers; an
-``%rbp`` used as a plain register would count too). A product's loop should have none on AVX2
-and AVX-512 targets; the generic build (no AVX: a vector spans two SSE registers) spills. The
-long loops with few products are the gates' activations, not the products.
+micro-kernel), each innermost loop that multiplies: its instructions, products (``vfmadd``,
+``vdpbf16ps``; ``mulps`` where the target has no FMA), vector memory operands, and those
+addressed from the stack or frame pointer (``%rsp`` / ``%rbp``: spills, vectors that did not
+stay in registers; an ``%rbp`` used as a plain register would count too). A product's loop
+should have none on AVX2 and AVX-512 targets; the generic build (no AVX: a vector spans two SSE
+registers) spills. The long loops with few products are the gates' activations, not the
+products.
 
 This reads code, it does not time it: ``lstm_sweep.py`` and ``sweep_phases.py`` do, on a
 processor that runs the target.

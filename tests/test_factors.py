@@ -166,8 +166,7 @@ def _level(name, changes, means, runs=None):
                           **{m: list(runs.values())
                              for m in ("gesture_accuracy", "gesture_edit", "gesture_f1@10",
                                        "mean")}})
-    scores = pd.DataFrame({m: means for m in ("accuracy", "edit", "f1@10", "mean")})
-    return Level(name, None, changes, scores, table)
+    return Level(name, None, changes, table)
 
 
 def test_a_level_with_fewer_validation_users_is_compared_on_its_own():

@@ -47,6 +47,7 @@ Output (``write_factors``), in percentage points:
 from __future__ import annotations
 
 import json
+from functools import cached_property
 from dataclasses import dataclass, fields
 from pathlib import Path
 from typing import Any
@@ -94,15 +95,19 @@ FOLD_SETTINGS = "fold_settings.toml"
 @dataclass(frozen=True)
 class Level:
     """One grid of inner runs: its name (the folder's), spec, the factor keys it changes from
-    the baseline's (key -> value), its validation scores (index: outer fold; columns:
-    ``METRICS``' names and ``MEAN``) and its runs' (``fold``, e.g. ``B-val-C``; ``outer``;
-    ``METRICS``' columns and ``MEAN``; a row per run)."""
+    the baseline's (key -> value) and its runs' validation scores (``fold``, e.g. ``B-val-C``;
+    ``outer``; ``METRICS``' columns and ``MEAN``; a row per run)."""
 
     name: str
     spec: GridSpec
     changes: dict[str, Any]
-    scores: pd.DataFrame
     runs: pd.DataFrame
+
+    @cached_property
+    def scores(self) -> pd.DataFrame:
+        """Its validation score per outer fold (index) and metric (columns: ``METRICS``' names
+        and ``MEAN``): the mean of the fold's runs."""
+        return _scores(self.runs)
 
     @property
     def factors(self) -> tuple[str, ...]:
@@ -142,15 +147,16 @@ def read_level(grid: Path, baseline: GridSpec | None = None) -> Level:
     changes = {} if baseline is None else _changes(grid, spec, baseline)
     rows = rows.assign(outer=[fold_users(fold)[1][0] for fold in rows.fold])
     rows[MEAN] = rows[list(METRICS)].mean(axis=1)
-    scores = _scores(rows)
-    if baseline is not None and not set(scores.index) <= set(_folds(baseline, scores)):
-        raise ValueError(f"{grid}: outer folds {', '.join(sorted(scores.index))} not all among "
-                         "the baseline's")
-    return Level(grid.name, spec, changes, scores, rows[["fold", "outer", *METRICS, MEAN]])
+    level = Level(grid.name, spec, changes, rows[["fold", "outer", *METRICS, MEAN]])
+    if baseline is not None and not set(level.scores.index) <= set(_folds(baseline,
+                                                                         level.scores)):
+        raise ValueError(f"{grid}: outer folds {', '.join(sorted(level.scores.index))} not all "
+                         "among the baseline's")
+    return level
 
 
 def _scores(rows: pd.DataFrame) -> pd.DataFrame:
-    """Per outer fold, the mean of its runs' scores (``Level.scores``)."""
+    """Per outer fold, the mean of its runs' scores (``Level.scores``), metrics renamed."""
     return rows.groupby("outer")[[*METRICS, MEAN]].mean().rename(columns=METRICS)
 
 

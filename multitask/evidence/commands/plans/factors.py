@@ -4,10 +4,10 @@
 BASELINE and each LEVEL are grids whose spec sets ``inner_validation``, a level's spec differing
 from the baseline's in the plan's factor keys only (and the schedule's length, ``epochs``,
 factor S), and in its outer folds or a smaller ``inner_validation``: a level with fewer
-validation users is set against the baseline's runs of the same users. Per level, its mean validation score minus
-the baseline's per metric and for the mean of accuracy, edit and F1@10, the per-fold
-differences and the folds favouring it (``factors.csv``, ``factors_per_fold.csv``); per outer
-fold, the eligible levels, each factor's level taken and their combination
+validation users is set against the baseline's runs of the same users. Per level, its mean
+validation score minus the baseline's per metric and for the mean of accuracy, edit and F1@10,
+the per-fold differences and the folds favouring it (``factors.csv``, ``factors_per_fold.csv``);
+per outer fold, the eligible levels, each factor's level taken and their combination
 (``factors_choice.csv``, ``factors_settings.csv``); and, for each combination not yet run, the
 spec that runs it (``combination-<folds>.toml``): run it with ``multitask-grid``, then give its
 grid with ``--combination`` to settle each fold's setting; once every fold's is settled, the
