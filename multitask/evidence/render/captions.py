@@ -6,6 +6,7 @@ not have.
 from __future__ import annotations
 
 from collections import Counter
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -49,8 +50,7 @@ class RunsDescription:
         models.append(f"{len(self.seeds)} seed{'s' * (len(self.seeds) != 1)} "
                       f"({', '.join(map(str, self.seeds))})")
         if self.selected:
-            models.append(f"{', '.join(self.selected)} chosen per outer fold on its training "
-                          "users alone (a nested selection)")
+            models.append(selection_phrase(self.selected))
         return f"{', '.join(data)}. Models: {', '.join(models)}."
 
     def _schedule(self) -> str:
@@ -59,6 +59,19 @@ class RunsDescription:
         others = "; ".join(f"{n} for {', '.join(v)}"
                            for n, v in sorted(self.lengths.items(), reverse=True) if n != common)
         return f"{common} {self.unit}" + (f" ({others})" if others else "")
+
+
+def selection_phrase(selected: tuple[str, ...]) -> str:
+    """``kernel, lowpass chosen per outer fold on its training users alone (a nested
+    selection)``: what a caption or note says of the settings a nested selection chose."""
+    return f"{', '.join(selected)} chosen per outer fold on its training users alone " \
+           "(a nested selection)"
+
+
+def selected_names(names: Iterable[str]) -> tuple[str, ...]:
+    """The settings a nested selection chose, by the last part of each recorded name
+    (``run.encoder.kernel`` -> ``kernel``), sorted and each once."""
+    return tuple(sorted({name.rsplit(".", 1)[-1] for name in names}))
 
 
 def describe_runs(grid_dir: Path | str, runs: pd.DataFrame) -> RunsDescription:
@@ -70,8 +83,8 @@ def describe_runs(grid_dir: Path | str, runs: pd.DataFrame) -> RunsDescription:
     saved = {key: read_json(path) for key in keys
              if (path := root / key.path() / "config.json").is_file()}
     configs = {key: record["run"] for key, record in saved.items()}
-    selected = {name.rsplit(".", 1)[-1] for record in saved.values()
-                for name in (record.get("selection") or {}).get("common", {})}
+    selected = selected_names(name for record in saved.values()
+                              for name in (record.get("selection") or {}).get("common", {}))
     lengths: dict[int, list[str]] = {}
     for key, config in configs.items():
         variants = lengths.setdefault(config["optim"]["total"], [])
@@ -91,7 +104,7 @@ def describe_runs(grid_dir: Path | str, runs: pd.DataFrame) -> RunsDescription:
                                if c["encoder"].get("kind", "lstm") != "lstm"})),
         lengths={n: tuple(sorted(v, key=list(VARIANTS).index)) for n, v in lengths.items()},
         unit=first["optim"]["unit"] if first else "epochs",
-        selected=tuple(sorted(selected)))
+        selected=selected)
 
 
 def _test_trials(root: Path, keys: list[RunKey]) -> set[str]:

@@ -11,7 +11,8 @@ the grid records for them. A seed still training is left out and named in the ta
 (e.g. ``seed 1: 3 of 8 folds finished, left out``), never averaged over fewer folds; the
 ``seeds``, ``folds`` and ``runs`` columns say what entered. Any other problem of a grid (a NaN
 metric, a run of other settings or another place, a stray folder) is an error, as for its own
-tables (``collect``).
+tables (``collect``). A configuration whose folds' settings a nested selection chose (e.g.
+``results/tcn/retest/ed-tcn``) says so in its ``note``, naming the settings, as its captions do.
 
     multitask-tables architectures results/grid results/paper/grid results/tcn/ed-tcn \\
         results/tcn/ms-tcn --out results/tcn
@@ -48,7 +49,7 @@ from rnn_seg.runs.folder import RunFolderError, is_finished, read_json
 from ...grid.folder import GRID_RECORD
 from ...grid.spec import RunKey
 from ...models.run_record import RunRecord, read_run_record
-from ..render.captions import describe_runs
+from ..render.captions import describe_runs, selected_names, selection_phrase
 from ..render.latex import escape, mean_std, requires
 from ..render.markdown import markdown_table
 from ..runs.collect import finite, key_from_path, per_fold, recorded_runs, run_rows
@@ -220,6 +221,11 @@ def _model_row(part: ArchitectureEvidence, model: str, config: ConfigId) -> dict
     if runs.empty:
         row["note"] = row["note"] or "not in this grid"
         return row
+    records = [part.records[part.grid / _path(run)] for run in runs.itertuples(index=False)]
+    selected = selected_names(name for record in records if record.selection is not None
+                              for name in record.selection.common)
+    if selected:
+        row["note"] = "; ".join(filter(None, [selection_phrase(selected), row["note"]]))
     folds = per_fold(runs.drop(columns=["architecture", "seconds"]))
     for score in SCORES:
         if score in folds and folds[score].notna().any():
