@@ -197,6 +197,31 @@ def test_table2_has_no_tcn_row_without_original_label_runs(grids, tmp_path):
     assert frame.empty and caption == ""
 
 
+def test_a_tcn_grids_own_tables_name_its_encoder_never_the_papers_bilstm(grids, tmp_path):
+    """``multitask-tables paper`` on a TCN grid: Table II's row is the TCN's, alone (the paper has
+    no such row; its BiLSTM's numbers beside ours would read as the paper's TCN); Table I keeps the
+    paper's LSTM numbers and says so; the bold of the paper's rows stays the paper's own."""
+    assert tables_main(["paper", str(grids["ed-tcn"]), "--no-figures", "--out",
+                        str(tmp_path / "t")]) == 0
+    table2 = pd.read_csv(tmp_path / "t" / "table2.csv")
+    ours = table2[table2.config == "A-fixed"]
+    assert set(ours.model) == {"ED-TCN (A)"} and not table2.model.str.contains("BiLSTM").any()
+    assert ours.right_mean.isna().all() and ours["diff"].isna().all()
+    assert {"TCN", "TCN+RL"} <= set(table2.model)
+    tex = (tmp_path / "t" / "table2.tex").read_text()
+    assert "Ours: ED-TCN, which the paper did not run" in tex and "BiLSTM" not in tex
+    assert r"\textbf{87.9}" in tex and r"\textbf{82.1}" not in tex   # the paper's best edit only
+    table1 = pd.read_csv(tmp_path / "t" / "table1.csv")
+    assert table1[table1.config == "A-fixed"].right_mean.notna().all()
+    assert "The paper's numbers are its LSTM's: the difference compares our ED-TCN" in (
+        tmp_path / "t" / "table1.tex").read_text()
+    assert tables_main(["paper", str(grids["lstm"]), "--no-figures", "--out",
+                        str(tmp_path / "l")]) == 0
+    lstm = pd.read_csv(tmp_path / "l" / "table2.csv")
+    ours = lstm[lstm.config == "A-fixed"]
+    assert ours.model.str.startswith("BiLSTM (A)").all() and ours["diff"].notna().all()
+
+
 # --- The cross-architecture table -----------------------------------------------------------
 
 def test_an_unfinished_grid_enters_with_its_finished_seeds_only_and_says_so(grids, tmp_path):

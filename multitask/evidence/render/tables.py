@@ -16,7 +16,7 @@ table says. Each file starts with a comment naming the packages it needs (bookta
 from __future__ import annotations
 
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from itertools import groupby
 
 import pandas as pd
@@ -58,6 +58,7 @@ class PaperTable:
     labels: dict[str, str] = field(default_factory=dict)       # config -> row label override
     related: dict[str, dict[str, Number]] = field(default_factory=dict)   # paper-only rows
     note: str = ""              # added to the caption when the paper's columns are shown
+    rows_name_encoder: bool = False     # its rows name architectures (BiLSTM, TCN), not models
 
 
 PAPER_TABLES = (
@@ -70,12 +71,41 @@ PAPER_TABLES = (
                labels={"A-fixed": "BiLSTM (A)", "APoc-fixed": "APoc", "APc-fixed": "APc"},
                related=TABLE_2_RELATED,
                note="Paper's BiLSTM: DiPietro et al.'s published result; TCN, TCN+RL: the "
-                    "related work it lists, not reproduced here."),
+                    "related work it lists, not reproduced here.", rows_name_encoder=True),
     PaperTable("table3", "Online gesture recognition with a forward LSTM, revised annotations",
                "Table III", "revised", "forward", TABLE_3, ("gesture_accuracy", "gesture_edit"),
                labels={"A-fixed": "LSTM (A)", "APc-fixed": "APc"},
-               note="Paper's LSTM: DiPietro et al.'s published result."),
+               note="Paper's LSTM: DiPietro et al.'s published result.", rows_name_encoder=True),
 )
+
+
+def encoder_label(label: str, name: str) -> str:
+    """A row label of ``table.labels`` or ``CONFIG_LABELS`` for runs of the encoder ``name``
+    (``pooling.architecture_name``): an LSTM's width joins the paper's encoder (``BiLSTM (A)``
+    -> ``BiLSTM-128 (A)``), another encoder replaces it (-> ``ED-TCN (A)``), and a model's
+    label names the encoder after it (``APc`` -> ``APc (ED-TCN)``)."""
+    for paper in ("BiLSTM", "LSTM"):
+        if label.startswith(paper):
+            return label.replace("LSTM", name, 1) if name.startswith("LSTM") \
+                else name + label[len(paper):]
+    return f"{label} ({name})"
+
+
+def of_encoder(table: PaperTable, name: str) -> PaperTable:
+    """``table`` for runs of another encoder than the paper's LSTM (``name``, e.g. ``ED-TCN``).
+    A table whose rows name architectures (Tables II and III) labels ours by the encoder and
+    shows them alone: the paper has no such row, and its BiLSTM's numbers beside our ED-TCN's
+    would read as the paper's ED-TCN; its quoted rows stay. A table of models (Table I) keeps the
+    paper's numbers, which its caption says are its LSTM's."""
+    if not table.rows_name_encoder:
+        return replace(table, note=f"The paper's numbers are its LSTM's: the difference "
+                                   f"compares our {name} with them.")
+    labels = {config: encoder_label(table.labels.get(config, CONFIG_LABELS[config]), name)
+              for config in table.paper}
+    quoted = (f" {', '.join(table.related)}: the related work the paper lists, not reproduced "
+              "here." if table.related else "")
+    return replace(table, paper={config: {} for config in table.paper}, labels=labels,
+                   note=f"Ours: {name}, which the paper did not run.{quoted}")
 
 
 def paper_caption(table: PaperTable, budget: str, ours_only: bool = False) -> str:

@@ -329,8 +329,8 @@ def measured_table2(evidence: list[ArchitectureEvidence]) -> tuple[pd.DataFrame,
     the original labels, ours alone; then the quoted related-work rows. Returns the frame
     (``tables.paper_comparison``'s columns) and the caption's LaTeX (empty frame: no grid ran
     the original labels)."""
-    from ..render.tables import (CONFIG_LABELS, PAPER_TABLES, paper_caption, paper_comparison,
-                                 related_rows)
+    from ..render.tables import (CONFIG_LABELS, PAPER_TABLES, encoder_label, of_encoder,
+                                 paper_caption, paper_comparison, related_rows)
     from ..runs.collect import summary
 
     table = next(t for t in PAPER_TABLES if t.name == "table2")
@@ -345,17 +345,17 @@ def measured_table2(evidence: list[ArchitectureEvidence]) -> tuple[pd.DataFrame,
             continue
         stats = summary(per_fold(runs))
         if lstm:
-            labels = {config: _lstm_label(table.labels.get(config, CONFIG_LABELS[config]),
-                                          part.name) for config in table.paper}
-            frame = paper_comparison(stats, replace(table, labels=labels, related={}))
+            labels = {config: encoder_label(table.labels.get(config, CONFIG_LABELS[config]),
+                                            part.name) for config in table.paper}
+            shown = replace(table, labels=labels, related={})
         else:
-            labels = {"A-fixed": f"{part.name} (A)"}
-            frame = paper_comparison(stats, replace(table, paper={"A-fixed": {}}, related={},
-                                                    labels=labels))
+            shown = replace(of_encoder(table, part.name), related={})
+            labels = shown.labels
+        frame = paper_comparison(stats, shown)
         frame["config"] = part.architecture + "/" + frame.config
         parts.append(frame)
-        shown = dict.fromkeys(frame.config.str.split("/").str[-1])
-        measured += [labels[config] for config in shown]
+        measured += [labels[config] for config in dict.fromkeys(frame.config.str.split("/")
+                                                                .str[-1])]
         budgets.append(f"{part.name}: {describe_runs(part.grid, runs).sentence()}")
     if not parts:
         return pd.DataFrame(), ""
@@ -365,14 +365,6 @@ def measured_table2(evidence: list[ArchitectureEvidence]) -> tuple[pd.DataFrame,
             "BiLSTM: DiPietro et al.'s published result; TCN, TCN+RL: the related work the "
             "paper quotes (other features, sample rates, labels and metric code), not run here.")
     return frame, paper_caption(replace(table, note=note), " ".join(budgets))
-
-
-def _lstm_label(label: str, name: str) -> str:
-    """Table II's label of an LSTM configuration with the grid's width: ``BiLSTM (A)`` ->
-    ``BiLSTM-128 (A)``, ``APc`` -> ``APc (LSTM-128)``."""
-    if label.startswith("BiLSTM"):
-        return label.replace("BiLSTM", f"Bi{name}", 1)
-    return f"{label} ({name})"
 
 
 # --- The files ------------------------------------------------------------------------------

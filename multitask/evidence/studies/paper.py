@@ -30,8 +30,8 @@ from ..render.confusion import write_per_class
 from ..render.curves import training_curves
 from ..render.figures import ExampleTrial, all_figures, example_truth
 from ..render.figures import example_trial as choose_example
-from ..render.tables import (PAPER_TABLES, ablation_caption, annotation_ablation, paper_best,
-                             paper_caption, paper_comparison, table_runs, to_latex)
+from ..render.tables import (PAPER_TABLES, ablation_caption, annotation_ablation, of_encoder,
+                             paper_best, paper_caption, paper_comparison, table_runs, to_latex)
 from ..runs.checks import OTHER_SETTINGS
 from ..runs.collect import (CONFIG_COLUMNS, LEFT_OUT, MISPLACED, completeness, expected_runs,
                             grid_task_name, of_seeds, per_fold, recorded_runs, run_rows, summary)
@@ -99,9 +99,11 @@ def _evidence_tables(grid_dir: Path, runs: pd.DataFrame, folds: pd.DataFrame, ou
     stats = summary(folds).merge(completeness(runs, expected), on=CONFIG_COLUMNS, how="left")
     written = [_csv(runs, out / "runs.csv"), _csv(folds, out / "per_fold.csv"),
                _csv(stats, out / "summary.csv")]
-    budget = describe_runs(grid_dir, runs).sentence()
+    described = describe_runs(grid_dir, runs)
+    budget = described.sentence()
     if grid_task_name(grid_dir) == PAPER_TASK:
-        written += _paper_tables(grid_dir, runs, stats, out, ours_only, data_dir)
+        written += _paper_tables(grid_dir, runs, stats, out, ours_only, data_dir,
+                                 ", ".join(described.encoders))
         written += write_claims(runs, out, budget=budget)
     else:
         written += write_claims(runs, out, claims=CONJECTURE_CLAIMS, budget=budget)
@@ -160,10 +162,13 @@ def run_collection_tables(folder: Path, out: Path, allow_incomplete: bool,
 
 
 def _paper_tables(grid_dir: Path, runs: pd.DataFrame, stats: pd.DataFrame, out: Path,
-                  ours_only: bool, data_dir: Path | None) -> list[Path]:
-    """Tables I-III against the paper and the annotation ablation (Suturing grids only)."""
+                  ours_only: bool, data_dir: Path | None, encoder: str) -> list[Path]:
+    """Tables I-III against the paper and the annotation ablation (Suturing grids only);
+    ``encoder``: the grid's encoder when not the paper's LSTM (``tables.of_encoder``), else
+    empty."""
     written = []
-    for table in PAPER_TABLES:
+    for published in PAPER_TABLES:
+        table = of_encoder(published, encoder) if encoder else published
         frame = paper_comparison(stats, table)
         if frame.empty:
             continue
@@ -172,7 +177,7 @@ def _paper_tables(grid_dir: Path, runs: pd.DataFrame, stats: pd.DataFrame, out: 
                                                     table.direction)).sentence()
         written.append(_csv(frame, out / f"{table.name}.csv"))
         written.append(_tex(to_latex(frame, paper_caption(table, budget, ours_only), table.name,
-                                     ("Ours", "Paper"), paper_best(table), ours_only),
+                                     ("Ours", "Paper"), paper_best(published), ours_only),
                             out / f"{table.name}.tex"))
     ablation = annotation_ablation(stats)
     if not ablation.empty:
