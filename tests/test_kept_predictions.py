@@ -378,3 +378,19 @@ def test_a_release_names_each_run_it_leaves_out(trained, tmp_path, capsys):
     notes = [line for line in capsys.readouterr().err.splitlines() if line.startswith("note:")]
     assert any(str(other) in line for line in notes), notes
     assert any(str(bare) in line and "kept no predictions" in line for line in notes), notes
+
+
+def test_a_release_of_a_grid_whose_every_configuration_still_trains_says_so(trained, tmp_path,
+                                                                             capsys):
+    """Finished runs exist, but no configuration has all of its: the error says that, not
+    "no finished runs", and names each configuration's count."""
+    _, archive, _ = trained
+    copy = shutil.copytree(archive, tmp_path / "archive")
+    for config in sorted(copy.glob("runs/*/*/*")):
+        next(iter(sorted(config.rglob("finished.json")))).unlink()
+    capsys.readouterr()
+    assert tables_main(["release", str(copy), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "no configuration has finished all its runs" in err and "no finished runs" not in err
+    assert "runs finished" in err and "Traceback" not in err
+    assert not (tmp_path / "out").exists()

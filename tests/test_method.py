@@ -102,10 +102,11 @@ def test_both_formats_and_both_rates_score_alike(tmp_path, synth_dir, trials):
         pd.testing.assert_frame_equal(scores[0], other)
 
 
-def _refused(tmp_path, capsys, folder: Path, synth_dir: Path, *extra: str) -> str:
+def _refused(tmp_path, capsys, folder: Path | list[Path], synth_dir: Path, *extra: str) -> str:
     out = tmp_path / "tables"
-    code = tables_main(["score", str(folder), "--data-dir", str(synth_dir), "--rate", "30",
-                        *extra, "--out", str(out)])
+    folders = folder if isinstance(folder, list) else [folder]
+    code = tables_main(["score", *map(str, folders), "--data-dir", str(synth_dir), "--rate",
+                        "30", *extra, "--out", str(out)])
     err = capsys.readouterr().err
     assert code == 2 and not out.exists(), err
     assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, err
@@ -190,6 +191,47 @@ def test_files_as_other_tools_write_them_are_read_or_refused_in_one_line(tmp_pat
     assert f"{first.name}.txt:1:" in err and "MS-TCN" in err
     err = _refused(tmp_path, capsys, good / f"{first.name}.txt", synth_dir)
     assert "not a folder" in err
+
+
+@pytest.mark.slow
+def test_seeds_and_files_that_disagree_are_refused_naming_them(tmp_path, capsys, synth_dir,
+                                                               trials):
+    """One folder given twice (or by a second path), progress predictions in some files or some
+    seeds only, a trial's name in another case and a CSV column named twice: each one line."""
+    labels = {t.name: _frame_labels(t) for t in trials}
+    gestures = _write(tmp_path / "gestures", labels, 30, "csv")
+    first = trials[0]
+    err = _refused(tmp_path, capsys, [gestures, gestures], synth_dir)
+    assert "given twice" in err and "one folder per seed" in err
+    (tmp_path / "link").symlink_to(gestures)
+    err = _refused(tmp_path, capsys, [gestures, tmp_path / "link"], synth_dir)
+    assert f"{tmp_path / 'link'}: given twice (as {gestures})" in err
+
+    both = shutil.copytree(gestures, tmp_path / "both")
+    for path in both.iterdir():
+        table = pd.read_csv(path)
+        path.write_text(table.assign(progress=SUTURING.stage_names[0]).to_csv(index=False))
+    assert set(_score(both, synth_dir, 30).columns) > set(_score(gestures, synth_dir, 30).columns)
+    err = _refused(tmp_path, capsys, [both, gestures], synth_dir)
+    assert f"{gestures}: no progress predictions, which {both} has" in err
+
+    some = shutil.copytree(both, tmp_path / "some")
+    shutil.copy(gestures / f"{first.name}.csv", some / f"{first.name}.csv")
+    err = _refused(tmp_path, capsys, some, synth_dir)
+    assert f"{first.name}.csv: no progress column" in err and "every file or in none" in err
+
+    cased = shutil.copytree(gestures, tmp_path / "cased")
+    (cased / f"{first.name}.csv").rename(cased / f"{first.name.lower()}.csv")
+    err = _refused(tmp_path, capsys, cased, synth_dir)
+    assert f"the release spells it {first.name}" in err and "another task" not in err
+
+    twice = shutil.copytree(gestures, tmp_path / "twice")
+    path = twice / f"{first.name}.csv"
+    lines = path.read_text().splitlines()
+    path.write_text("\n".join(f"{line},{line.split(',')[1]}" if k else "frame,gesture,gesture"
+                               for k, line in enumerate(lines)) + "\n")
+    err = _refused(tmp_path, capsys, twice, synth_dir)
+    assert f"{first.name}.csv:1: column 'gesture' twice" in err
 
 
 @pytest.fixture(scope="module")

@@ -134,8 +134,9 @@ def run_records(grid_dir: Path | str, allow_incomplete: bool = False,
               "--allow-incomplete to mark the configurations concerned incomplete.")
     if not rows:
         which = "" if seeds is None else f" of seed(s) {', '.join(map(str, seeds))}"
-        raise IncompleteEvidence(f"{root}: no finished runs{which} under {root / 'runs'}"
-                                 + "".join(f"\n  {line}" for line in left_out))
+        none = (f"no configuration{which} has finished all its runs (each enters only once "
+                "complete)" if unfinished else f"no finished runs{which} under {root / 'runs'}")
+        raise IncompleteEvidence(f"{root}: {none}" + "".join(f"\n  {line}" for line in left_out))
     return pd.DataFrame(rows), problems + left_out, {root / run: record
                                                      for run, record in records.items()}
 

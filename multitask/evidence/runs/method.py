@@ -26,9 +26,11 @@ gives a run's: ``gesture_<metric>`` and, with progress predictions, ``progress_<
 ``progress_mae`` (100 x mean |stage - true stage| / (stages - 1), per trial then averaged).
 
 Every file is checked before anything is scored (``read_folder``): a missing trial, a file that is
-no trial of the task, a trial of another task, a file of another format, a file that is not
-UTF-8, an unknown or empty label, a wrong frame or a file of the wrong length (with the rate
-whose length it has, if any) is a ``ValueError`` naming the file (line and value).
+no trial of the task (or a trial's name in another case), a trial of another task, a file of
+another format, a file that is not UTF-8, a CSV column named twice, an unknown or empty label
+(spaces around a label are ignored), a wrong frame, a file of the wrong length (with the rate
+whose length it has, if any), or progress predictions in some files only is a ``ValueError``
+naming the file (line and value).
 """
 from __future__ import annotations
 
@@ -129,18 +131,28 @@ def read_folder(folder: Path, trials: Sequence[TrialTruth], task: TaskDefinition
         what = "not a folder" if folder.exists() else "no such folder"
         raise FileNotFoundError(f"{folder}: {what} (give a folder of prediction files)")
     files = _trial_files(folder, {t.name for t in trials}, task)
-    return {t.name: _read_trial(files[t.name], t, task, layout) for t in trials}
+    predicted = {t.name: _read_trial(files[t.name], t, task, layout) for t in trials}
+    without = [files[name] for name, p in predicted.items() if p.progress is None]
+    if 0 < len(without) < len(predicted):
+        raise ValueError(f"{without[0]}: no progress column, which {len(predicted) - len(without)} "
+                         f"of the folder's {len(predicted)} files have; give progress "
+                         "predictions in every file or in none")
+    return predicted
 
 
 def _trial_files(folder: Path, expected: set[str], task: TaskDefinition) -> dict[str, Path]:
     """Trial name -> its file in ``folder``; a ``ValueError`` for anything else there, a missing
     trial, or two formats."""
     found: dict[str, Path] = {}
+    spelled = {name.casefold(): name for name in expected}
     for path in sorted(p for p in folder.iterdir() if not p.name.startswith(".")):
         name = _TRIAL_NAME.match(path.stem)
         if path.suffix not in FORMATS or not path.is_file():
             what = "a folder" if path.is_dir() else "not a prediction file"
             raise ValueError(f"{path}: {what} (give <trial>.csv or <trial>.txt files only)")
+        if path.stem not in expected and path.stem.casefold() in spelled:
+            raise ValueError(f"{path}: no trial {path.stem}; the release spells it "
+                             f"{spelled[path.stem.casefold()]} (trial names are case-sensitive)")
         if name and name["task"] != task.name:
             raise ValueError(f"{path}: a trial of another task ({name['task']}); the predictions "
                              f"are scored on {task.name}")
@@ -213,6 +225,10 @@ def _read_csv(path: Path, text: str, layout: Layout) -> dict[str, list[tuple[int
     """Column -> ``(line, value)`` per row of ``gesture`` (and ``progress``) of a predictions CSV
     (``text``, read from ``path``), its ``frame`` column checked against ``layout``."""
     reader = csv.DictReader(io.StringIO(text, newline=""))
+    twice = sorted({c for c in reader.fieldnames or [] if reader.fieldnames.count(c) > 1})
+    if twice:
+        raise ValueError(f"{path}:1: column {twice[0]!r} twice (value: "
+                         f"{','.join(reader.fieldnames)!r}); one column per name")
     needed = [c for c in ("frame", "gesture") if c not in (reader.fieldnames or [])]
     if needed:
         raise ValueError(f"{path}:1: no column {', '.join(needed)} (value: "
@@ -272,10 +288,22 @@ def method_scores(folders: Sequence[Path], config: DataConfig, rate_hz: float
                   ) -> tuple[pd.DataFrame, dict[str, list[str]]]:
     """The prediction folders of a method, one per seed, scored: one row per seed and fold
     (``seed``: the folder's place in ``folders``, from 0; ``fold``; the scores, ``fold_scores``),
-    and each fold's trials (names). Every folder is checked before any is scored."""
+    and each fold's trials (names). Every folder is checked before any is scored; a folder given
+    twice, or progress predictions in some folders or files only, is a ``ValueError``."""
+    seen: dict[Path, Path] = {}
+    for folder in map(Path, folders):
+        if folder.resolve() in seen:
+            raise ValueError(f"{folder}: given twice (as {seen[folder.resolve()]}); one folder "
+                             "per seed of the method")
+        seen[folder.resolve()] = folder
     trials = truth(config)
     layout = Layout(rate_hz, config.recording_format.rate_hz)
     predicted = [read_folder(folder, trials, config.task, layout) for folder in folders]
+    progress = [next(iter(p.values())).progress is not None for p in predicted]
+    if len(set(progress)) > 1:
+        have, lack = folders[progress.index(True)], folders[progress.index(False)]
+        raise ValueError(f"{lack}: no progress predictions, which {have} has; give them for "
+                         "every seed of the method or for none")
     scores = pd.concat([fold_scores(p, trials, config.task.num_stages).assign(seed=seed)
                         for seed, p in enumerate(predicted)], ignore_index=True)
     folds: dict[str, list[str]] = {}
