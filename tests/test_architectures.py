@@ -215,11 +215,14 @@ def test_a_tcn_grids_own_tables_name_its_encoder_never_the_papers_bilstm(grids, 
     assert table1[table1.config == "A-fixed"].right_mean.notna().all()
     assert "The paper's numbers are its LSTM's: the difference compares our ED-TCN" in (
         tmp_path / "t" / "table1.tex").read_text()
+    assert "The paper's differences are its LSTM's; ours are ED-TCN's." in (
+        tmp_path / "t" / "claims.tex").read_text()
     assert tables_main(["paper", str(grids["lstm"]), "--no-figures", "--out",
                         str(tmp_path / "l")]) == 0
     lstm = pd.read_csv(tmp_path / "l" / "table2.csv")
     ours = lstm[lstm.config == "A-fixed"]
     assert ours.model.str.startswith("BiLSTM (A)").all() and ours["diff"].notna().all()
+    assert "LSTM's" not in (tmp_path / "l" / "claims.tex").read_text()
 
 
 # --- The cross-architecture table -----------------------------------------------------------

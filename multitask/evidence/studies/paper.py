@@ -101,10 +101,12 @@ def _evidence_tables(grid_dir: Path, runs: pd.DataFrame, folds: pd.DataFrame, ou
                _csv(stats, out / "summary.csv")]
     described = describe_runs(grid_dir, runs)
     budget = described.sentence()
+    encoder = ", ".join(described.encoders)
     if grid_task_name(grid_dir) == PAPER_TASK:
-        written += _paper_tables(grid_dir, runs, stats, out, ours_only, data_dir,
-                                 ", ".join(described.encoders))
-        written += write_claims(runs, out, budget=budget)
+        written += _paper_tables(grid_dir, runs, stats, out, ours_only, data_dir, encoder)
+        other = (f"The paper's differences are its LSTM's; ours are {encoder}'s. " if encoder
+                 else "")
+        written += write_claims(runs, out, budget=other + budget)
     else:
         written += write_claims(runs, out, claims=CONJECTURE_CLAIMS, budget=budget)
     return written
