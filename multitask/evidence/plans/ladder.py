@@ -22,7 +22,7 @@ from rnn_seg.runs.folder import HISTORY, write_atomic
 from rnn_seg.runs.logs import read_log
 
 from ..render.markdown import markdown_table
-from ..runs.collect import CONFIG_COLUMNS, run_records
+from ..runs.collect import CONFIG_COLUMNS, refuse_repeated, run_records
 from ..runs.pooling import INNER_SETTING, architecture, architecture_name, record_key
 
 #: Per run and length (``ladder_runs``), per grid, configuration and length (``ladder``), per
@@ -127,11 +127,7 @@ def write_ladder(grids: Sequence[Path], lengths: Sequence[int], out: Path) -> li
     ``grids`` (each a backbone's pilot runs, or its scores archive) at ``lengths`` into
     ``out``; returns the paths written."""
     lengths = sorted(set(int(n) for n in lengths))
-    seen = set()
-    for grid in grids:
-        if Path(grid).resolve() in seen:
-            raise LadderError(f"{grid}: given twice (its runs would be counted twice)")
-        seen.add(Path(grid).resolve())
+    refuse_repeated(grids, "its runs would be counted twice", LadderError)
     runs = pd.concat([ladder_runs(Path(grid), lengths) for grid in grids], ignore_index=True)
     summary = ladder_summary(runs)
     choice = ladder_choice(summary)

@@ -88,6 +88,16 @@ def run_rows(grid_dir: Path | str, allow_incomplete: bool = False,
     return rows, problems
 
 
+def refuse_repeated(folders, why: str, error: type[ValueError] = ValueError) -> None:
+    """An ``error`` naming the first of ``folders`` (paths as given) that is another's folder,
+    however spelled (resolved: links, ``..``, relative), and saying ``why`` each counts once."""
+    seen: dict[Path, Path] = {}
+    for folder in map(Path, folders):
+        if folder.resolve() in seen:
+            raise error(f"{folder}: given twice (as {seen[folder.resolve()]}); {why}")
+        seen[folder.resolve()] = folder
+
+
 def run_records(grid_dir: Path | str, allow_incomplete: bool = False,
                 seeds: tuple[int, ...] | None = None, finished_only: bool = False,
                 varying: tuple[str, ...] = ()

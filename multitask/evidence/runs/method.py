@@ -50,6 +50,8 @@ from jigsaws_tools.release import discover, read_recording
 from jigsaws_tools.task_definition import TaskDefinition
 from rnn_seg.metrics import segmentation_metrics
 
+from .collect import refuse_repeated
+
 #: The formats by file extension.
 FORMATS = {".csv": "CSV (frame,gesture[,progress])", ".txt": "text (one gesture per line)"}
 #: The first line of MS-TCN's result files (its ``predict``), whose labels follow on one line.
@@ -290,12 +292,7 @@ def method_scores(folders: Sequence[Path], config: DataConfig, rate_hz: float
     (``seed``: the folder's place in ``folders``, from 0; ``fold``; the scores, ``fold_scores``),
     and each fold's trials (names). Every folder is checked before any is scored; a folder given
     twice, or progress predictions in some folders or files only, is a ``ValueError``."""
-    seen: dict[Path, Path] = {}
-    for folder in map(Path, folders):
-        if folder.resolve() in seen:
-            raise ValueError(f"{folder}: given twice (as {seen[folder.resolve()]}); one folder "
-                             "per seed of the method")
-        seen[folder.resolve()] = folder
+    refuse_repeated(folders, "one folder per seed of the method")
     trials = truth(config)
     layout = Layout(rate_hz, config.recording_format.rate_hz)
     predicted = [read_folder(folder, trials, config.task, layout) for folder in folders]

@@ -52,7 +52,8 @@ from ...models.run_record import RunRecord, read_run_record
 from ..render.captions import describe_runs, selected_names, selection_phrase
 from ..render.latex import escape, mean_std, requires
 from ..render.markdown import markdown_table
-from ..runs.collect import finite, key_from_path, per_fold, recorded_runs, run_rows
+from ..runs.collect import (finite, key_from_path, per_fold, recorded_runs, refuse_repeated,
+                            run_rows)
 from ..runs.pooling import apart, architecture_name
 from ..statistics.paired import ConfigId
 
@@ -166,12 +167,7 @@ def _seconds(run_dir: Path) -> float:
 def read_architectures(grids: list[Path]) -> list[ArchitectureEvidence]:
     """``architecture_evidence`` of every grid, checked to be one architecture each, on one data
     set (``pooling.apart``)."""
-    seen: dict[Path, Path] = {}
-    for grid in map(Path, grids):
-        if grid.resolve() in seen:
-            raise ValueError(f"{grid}: given twice (as {seen[grid.resolve()]}); one grid per "
-                             "architecture")
-        seen[grid.resolve()] = grid
+    refuse_repeated(grids, "one grid per architecture")
     evidence = [architecture_evidence(Path(grid)) for grid in grids]
     apart({part.grid: part.records for part in evidence})
     return evidence
