@@ -397,8 +397,9 @@ def test_claims_latex_writes_numbers_and_quotes_as_the_tables_do():
     table["quote"] = r"50% of G1 & a_b ~ {x}^2 $# \ in words"
     table[["ours_diff", "ci_low", "ci_high", "paper_diff"]] = [-0.004, -1.25, 0.6, float("nan")]
     table["paper_in_ci"] = None
-    tex = claims_latex(table, FAST)
+    tex = claims_latex(table, FAST, budget="Models: my_pkg.enc:Enc encoder, feature_set chosen")
     assert escape(table.quote.iloc[0]) in tex
+    assert r"Models: my\_pkg.enc:Enc encoder, feature\_set chosen" in tex   # the caption's too
     row = next(line for line in tex.splitlines() if " & " in line and "Comparison" not in line)
     cells = row.removesuffix(r" \\").split(" & ")
     assert cells[3:6] == ["--", "0.00", "[$-$1.25, $+$0.60]"]

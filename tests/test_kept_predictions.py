@@ -394,3 +394,12 @@ def test_a_release_of_a_grid_whose_every_configuration_still_trains_says_so(trai
     assert "no configuration has finished all its runs" in err and "no finished runs" not in err
     assert "runs finished" in err and "Traceback" not in err
     assert not (tmp_path / "out").exists()
+    one = shutil.copytree(archive, tmp_path / "one")         # one configuration unfinished
+    config = sorted(one.glob("runs/*/*/*"))[0]
+    next(iter(sorted(config.rglob("finished.json")))).unlink()
+    name = f"{config.parts[-3]}/{config.name}"
+    assert tables_main(["release", str(one), "--configs", name, "--out",
+                        str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert f"configuration {name} has not finished all its runs (" in err and "of " in err
+    assert "no finished run" not in err and not (tmp_path / "out").exists()

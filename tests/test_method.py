@@ -224,6 +224,11 @@ def test_seeds_and_files_that_disagree_are_refused_naming_them(tmp_path, capsys,
     (cased / f"{first.name}.csv").rename(cased / f"{first.name.lower()}.csv")
     err = _refused(tmp_path, capsys, cased, synth_dir)
     assert f"the release spells it {first.name}" in err and "another task" not in err
+    (cased / f"{first.name.lower()}.csv").rename(cased / "suturing_Z001.csv")  # no such trial
+    err = _refused(tmp_path, capsys, cased, synth_dir)
+    assert "the release spells its task Suturing" in err and "another task" not in err
+    (cased / "suturing_Z001.csv").rename(cased / f"{first.name}.CSV")
+    assert "extension is lower case" in _refused(tmp_path, capsys, cased, synth_dir)
 
     twice = shutil.copytree(gestures, tmp_path / "twice")
     path = twice / f"{first.name}.csv"
@@ -232,6 +237,14 @@ def test_seeds_and_files_that_disagree_are_refused_naming_them(tmp_path, capsys,
                                for k, line in enumerate(lines)) + "\n")
     err = _refused(tmp_path, capsys, twice, synth_dir)
     assert f"{first.name}.csv:1: column 'gesture' twice" in err
+    for header, named in (("frame,gesture,Gesture", "'Gesture'"),
+                          ("frame,gesture, progress", "' progress'"),
+                          ("frame, gesture", "' gesture'")):
+        path.write_text("\n".join([header] + lines[1:]) + "\n")
+        err = _refused(tmp_path, capsys, twice, synth_dir)
+        assert f"{first.name}.csv:1: column {named}" in err and "names are exact" in err, header
+    path.write_text("\n".join(["frame,gesture,,"] + [f"{l},," for l in lines[1:]]) + "\n")
+    pd.testing.assert_frame_equal(_score(twice, synth_dir, 30), _score(gestures, synth_dir, 30))
 
 
 @pytest.fixture(scope="module")

@@ -24,6 +24,7 @@ import tensorflow as tf
 from baseline.builder import build_trainer, gesture_task
 from baseline.cli import main as baseline_main
 from baseline.config import RunConfig
+from jigsaws_tools.cli.common import run_command
 from jigsaws_tools.dataset import DataConfig
 from jigsaws_tools.errors import WriteFailed
 from jigsaws_tools.synth import SynthConfig, write_release
@@ -1060,3 +1061,20 @@ def test_an_output_folder_in_a_loop_of_symbolic_links_is_one_line(tmp_path, caps
     err = capsys.readouterr().err.strip()
     assert code == 2 and len(err.splitlines()) == 1 and "Traceback" not in err
     assert str(tmp_path / "a") in err and "symbolic links" in err
+
+
+def test_an_input_in_a_loop_of_symbolic_links_is_one_line_in_every_command(tmp_path, capsys):
+    """Wherever a command resolves a path it reads (here a prediction folder), a loop is one line
+    naming it (``run_command``, shared by every command), as an output folder's is."""
+    (tmp_path / "a").symlink_to(tmp_path / "b")
+    (tmp_path / "b").symlink_to(tmp_path / "a")
+    code = tables_main(["score", str(tmp_path / "a"), "--rate", "30", "--synthetic", "--out",
+                        str(tmp_path / "o")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1 and "Traceback" not in err, err
+    assert f"{tmp_path / 'a'}: a loop of symbolic links" in err and not (tmp_path / "o").exists()
+    code = run_command("prog", False, lambda: (tmp_path / "b" / "x").resolve() and 0)
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and err.startswith("prog: error: ") and "symbolic links" in err
+    with pytest.raises(RuntimeError, match="other"):        # any other RuntimeError is a bug
+        run_command("prog", False, lambda: (_ for _ in ()).throw(RuntimeError("other")))

@@ -379,7 +379,8 @@ def run_command(prog: str, verbose: bool, body: Callable[[], int | None],
     Returns:
         The exit code: ``body``'s, 0 if it returns None, 1 after a write the disk refused
         (``WriteFailed``, or an ``OSError`` of ``NO_SPACE``: one line ``<prog>: failed: ...``),
-        2 after a user error (``USER_ERRORS``: one line ``<prog>: error: ...``), 130 after Ctrl-C
+        2 after a user error (``USER_ERRORS``, or a path in a loop of symbolic links,
+        ``symlink_loop``: one line ``<prog>: error: ...``), 130 after Ctrl-C
         (one line: ``<prog>: interrupted``, or the ``Interrupted``'s own).
 
     Raises:
@@ -397,6 +398,15 @@ def run_command(prog: str, verbose: bool, body: Callable[[], int | None],
         print(f"{prog}: {'failed' if failed else 'error'}: {_worded(error, layout_advice)}",
               file=sys.stderr)
         return 1 if failed else 2
+    except RuntimeError as error:
+        loop = symlink_loop(error)
+        if loop is None:
+            raise
+        if verbose:
+            traceback.print_exc()
+        print(f"{prog}: error: {loop}: a loop of symbolic links, not a file or folder",
+              file=sys.stderr)
+        return 2
     except KeyboardInterrupt as interrupt:
         print(interrupt if isinstance(interrupt, Interrupted) else f"{prog}: interrupted",
               file=sys.stderr)
@@ -404,6 +414,14 @@ def run_command(prog: str, verbose: bool, body: Callable[[], int | None],
             raise
         return EXIT_INTERRUPTED
     return 0 if code is None else code
+
+
+def symlink_loop(error: RuntimeError) -> str | None:
+    """The path of a loop of symbolic links that ``pathlib.Path.resolve`` met (Python < 3.13
+    raises ``RuntimeError("Symlink loop from '<path>'")``; later versions an ``OSError``, which
+    ``run_command`` words as any), else None."""
+    match = re.fullmatch(r"Symlink loop from (['\"])(?P<path>.*)\1", str(error))
+    return None if match is None else match["path"]
 
 
 def _worded(error: BaseException, layout_advice: str | None) -> str:

@@ -8,7 +8,9 @@ is the prediction at frame ``i * 30 / rate + 1`` and holds until the next (30: o
 5: one per 6 frames from the first). Our runs are scored at their 5 Hz samples (the labelled
 frames, every 6th from the first): each sample takes the row holding its frame. Every file is
 checked first (a missing, extra or other task's trial, a wrong length, an unknown label: one
-line naming it, exit 2, nothing written). A folder of a ``multitask-tables release`` is noted:
+line naming it, exit 2, nothing written; ``runs.method`` lists every check: also a trial's
+name in another case, a CSV column named twice or not exactly, progress predictions in some
+files or seeds only, a folder given twice). A folder of a ``multitask-tables release`` is noted:
 it scores its runs' last evaluation point, its grid's tables the mean over their evaluation
 points (``studies.release.LAST_POINT``). Scores per LOUO fold as ``rnn_seg.metrics`` gives a
 run's (accuracy, edit, F1@{10,25,50}; progress with a ``progress`` column).

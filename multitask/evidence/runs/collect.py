@@ -94,7 +94,9 @@ def refuse_repeated(folders, why: str, error: type[ValueError] = ValueError) -> 
     seen: dict[Path, Path] = {}
     for folder in map(Path, folders):
         if folder.resolve() in seen:
-            raise error(f"{folder}: given twice (as {seen[folder.resolve()]}); {why}")
+            first = seen[folder.resolve()]
+            spelled = f" (as {first})" if str(first) != str(folder) else ""
+            raise error(f"{folder}: given twice{spelled}; {why}")
         seen[folder.resolve()] = folder
 
 

@@ -27,7 +27,8 @@ gives a run's: ``gesture_<metric>`` and, with progress predictions, ``progress_<
 
 Every file is checked before anything is scored (``read_folder``): a missing trial, a file that is
 no trial of the task (or a trial's name in another case), a trial of another task, a file of
-another format, a file that is not UTF-8, a CSV column named twice, an unknown or empty label
+another format, a file that is not UTF-8, a CSV column it reads named twice or not exactly
+(``Gesture``, `` progress``: other columns are ignored), an unknown or empty label
 (spaces around a label are ignored), a wrong frame, a file of the wrong length (with the rate
 whose length it has, if any), or progress predictions in some files only is a ``ValueError``
 naming the file (line and value).
@@ -52,6 +53,8 @@ from rnn_seg.metrics import segmentation_metrics
 
 from .collect import refuse_repeated
 
+#: The columns a predictions CSV's rows are read from (``frame``, ``gesture`` required).
+CSV_COLUMNS = ("frame", "gesture", "progress")
 #: The formats by file extension.
 FORMATS = {".csv": "CSV (frame,gesture[,progress])", ".txt": "text (one gesture per line)"}
 #: The first line of MS-TCN's result files (its ``predict``), whose labels follow on one line.
@@ -150,11 +153,16 @@ def _trial_files(folder: Path, expected: set[str], task: TaskDefinition) -> dict
     for path in sorted(p for p in folder.iterdir() if not p.name.startswith(".")):
         name = _TRIAL_NAME.match(path.stem)
         if path.suffix not in FORMATS or not path.is_file():
-            what = "a folder" if path.is_dir() else "not a prediction file"
+            what = ("a folder" if path.is_dir() else "its extension is lower case (.csv, .txt)"
+                    if path.suffix.lower() in FORMATS else "not a prediction file")
             raise ValueError(f"{path}: {what} (give <trial>.csv or <trial>.txt files only)")
         if path.stem not in expected and path.stem.casefold() in spelled:
             raise ValueError(f"{path}: no trial {path.stem}; the release spells it "
                              f"{spelled[path.stem.casefold()]} (trial names are case-sensitive)")
+        if name and name["task"] != task.name and name["task"].casefold() == \
+                task.name.casefold():
+            raise ValueError(f"{path}: no trial {path.stem}; the release spells its task "
+                             f"{task.name} (trial names are case-sensitive)")
         if name and name["task"] != task.name:
             raise ValueError(f"{path}: a trial of another task ({name['task']}); the predictions "
                              f"are scored on {task.name}")
@@ -227,11 +235,16 @@ def _read_csv(path: Path, text: str, layout: Layout) -> dict[str, list[tuple[int
     """Column -> ``(line, value)`` per row of ``gesture`` (and ``progress``) of a predictions CSV
     (``text``, read from ``path``), its ``frame`` column checked against ``layout``."""
     reader = csv.DictReader(io.StringIO(text, newline=""))
-    twice = sorted({c for c in reader.fieldnames or [] if reader.fieldnames.count(c) > 1})
+    header = reader.fieldnames or []
+    for name in header:
+        if name not in CSV_COLUMNS and name.strip().casefold() in CSV_COLUMNS:
+            raise ValueError(f"{path}:1: column {name!r} (value: {','.join(header)!r}); write "
+                             f"{name.strip().casefold()!r}: column names are exact")
+    twice = [c for c in CSV_COLUMNS if header.count(c) > 1]
     if twice:
-        raise ValueError(f"{path}:1: column {twice[0]!r} twice (value: "
-                         f"{','.join(reader.fieldnames)!r}); one column per name")
-    needed = [c for c in ("frame", "gesture") if c not in (reader.fieldnames or [])]
+        raise ValueError(f"{path}:1: column {twice[0]!r} twice (value: {','.join(header)!r}); "
+                         "one column per name")
+    needed = [c for c in ("frame", "gesture") if c not in header]
     if needed:
         raise ValueError(f"{path}:1: no column {', '.join(needed)} (value: "
                          f"{','.join(reader.fieldnames or [])!r}); a predictions CSV has "

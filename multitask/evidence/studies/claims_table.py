@@ -162,12 +162,13 @@ def _bound(value: float, margin: float = 0.0) -> str:
 
 
 def _caption(table: pd.DataFrame, config: StatsConfig, budget: str) -> str:
-    """What is compared, in two sentences, and ``budget``; the method is in ``claims_note``."""
+    """What is compared, in two sentences, and ``budget`` (plain text, escaped here); the method
+    is in ``claims_note``."""
     spread = _spread(table)
     return (f"{_subject(table)} tested on our runs, {_families(table)}: mean "
             f"per-fold paired differences in percentage points{spread}, exact sign-flip tests, "
             "Holm's correction within each family. Method, verdicts and abbreviations: the "
-            "note to this table." + (f" {budget}" if budget else ""))
+            "note to this table." + (f" {escape(budget)}" if budget else ""))
 
 
 def _spread(table: pd.DataFrame) -> str:

@@ -34,7 +34,7 @@ from rnn_seg.runs.folder import write_atomic
 
 from ...grid.kept_predictions import read_kept_predictions
 from ...inference.run_record import recorded_data_dir
-from ..runs.collect import run_records
+from ..runs.collect import LEFT_OUT, run_records
 from ..runs.method import TrialTruth, truth
 
 #: What scoring a release gives, beside the grid's own tables: in the release's README (the
@@ -108,7 +108,8 @@ def write_release(grid: Path, out: Path, configs: Sequence[str] = (),
         data_dir: the release the runs read (None: the folder each run records).
 
     Raises:
-        ValueError: a named configuration the grid lacks, or no run that kept predictions.
+        ValueError: a named configuration the grid lacks or has not finished, or no run that
+            kept predictions.
     """
     grid = Path(grid)
     _, left_out, records = run_records(grid, allow_incomplete=True, finished_only=True)
@@ -116,6 +117,12 @@ def write_release(grid: Path, out: Path, configs: Sequence[str] = (),
               if _wanted(Path(run), grid, configs)}
     missing = [c for c in configs if not any(_wanted(r, grid, [c]) for r in chosen)]
     if missing:
+        unfinished = [line.removeprefix(LEFT_OUT).strip() for line in left_out
+                      if line.startswith(LEFT_OUT) and _names(line, missing[0])]
+        if unfinished:
+            raise ValueError(f"{grid}: configuration {missing[0]} has not finished all its runs "
+                             f"({'; '.join(unfinished)}); a release holds complete "
+                             "configurations only")
         held = sorted({"/".join(_folder(Path(r), grid).parts[::2][:2]) for r in records})
         raise ValueError(f"{grid}: no finished run of configuration {missing[0]}; it holds "
                          f"{', '.join(held) or 'none'}")
@@ -205,6 +212,14 @@ def trial_csv(trial: TrialTruth, labels: dict[str, np.ndarray],
 def _folder(run_dir: Path, grid: Path) -> Path:
     """``<annotations>/<direction>/<config>/seed<k>`` of a run folder ``.../runs/.../<fold>``."""
     return run_dir.relative_to(grid).parent.relative_to("runs")
+
+
+def _names(left_out: str, config: str) -> bool:
+    """Whether a line of ``collect.run_records`` leaving out a configuration
+    (``left out: <annotations>/<direction>/<config>, ...``) is about ``config`` (``A-fixed`` or
+    ``original/A-fixed``, as ``--configs`` names it)."""
+    label = left_out.removeprefix(LEFT_OUT).strip().split(",")[0].split("/")
+    return len(label) == 3 and config in (label[2], f"{label[0]}/{label[2]}")
 
 
 def _wanted(run_dir: Path, grid: Path, configs: Sequence[str]) -> bool:
