@@ -163,3 +163,22 @@ def test_every_table_fits_an_ieee_two_column_page(tables, tmp_path):
         log = _pdflatex(tmp_path, f"ieee_{name}", document)
         assert "Overfull \\hbox" not in log, f"{name} is wider than its column or page"
         assert "Float too large" not in log, f"{name} is higher than a page"
+
+
+#: LaTeX that may hold an unescaped ``_``, ``#`` or ``%``: comments, math, labels and references.
+_NOT_TEXT = re.compile(r"^\s*%.*$|\$[^$]*\$|\\(?:label|ref|begin|end|usepackage)\{[^}]*\}",
+                       re.MULTILINE)
+
+
+def test_every_committed_latex_file_escapes_its_text():
+    """Without pdflatex (CI has none): no committed ``results/**/*.tex`` has a ``_``, ``#`` or
+    ``%`` outside math, comments, labels and references that is not escaped, as an encoder's
+    import path or a selected setting's name (``feature_set``) in a caption once was."""
+    root = Path(__file__).resolve().parents[1] / "results"
+    found = {}
+    for path in sorted(root.rglob("*.tex")):
+        text = _NOT_TEXT.sub("", path.read_text(encoding="utf-8"))
+        bare = re.findall(r".{0,30}(?<!\\)[_#%].{0,10}", text)
+        if bare:
+            found[str(path.relative_to(root))] = bare[0]
+    assert not found, found
