@@ -197,6 +197,19 @@ def test_table2_has_no_tcn_row_without_original_label_runs(grids, tmp_path):
     assert frame.empty and caption == ""
 
 
+def test_row_labels_name_the_encoder_and_only_an_lstm_joins_the_papers():
+    from multitask.evidence.render.tables import PAPER_TABLES, encoder_label, of_encoder
+    assert encoder_label("BiLSTM (A)", "LSTM-1024") == "BiLSTM-1024 (A)"
+    assert encoder_label("LSTM (A)", "LSTM-128") == "LSTM-128 (A)"
+    assert encoder_label("BiLSTM (A)", "ED-TCN") == "ED-TCN (A)"
+    assert encoder_label("BiLSTM (A)", "LSTMish.enc:Enc") == "LSTMish.enc:Enc (A)"
+    assert encoder_label("APc", "MS-TCN") == "APc (MS-TCN)"
+    table3 = next(t for t in PAPER_TABLES if t.name == "table3")
+    shown = of_encoder(table3, "my_pkg.enc:Enc")
+    assert "LSTM" not in shown.title and r"my\_pkg.enc:Enc" in shown.title
+    assert not any(shown.paper.values()) and shown.labels["A-fixed"] == "my_pkg.enc:Enc (A)"
+
+
 def test_a_tcn_grids_own_tables_name_its_encoder_never_the_papers_bilstm(grids, tmp_path):
     """``multitask-tables paper`` on a TCN grid: Table II's row is the TCN's, alone (the paper has
     no such row; its BiLSTM's numbers beside ours would read as the paper's TCN); Table I keeps the
@@ -210,6 +223,7 @@ def test_a_tcn_grids_own_tables_name_its_encoder_never_the_papers_bilstm(grids, 
     assert {"TCN", "TCN+RL"} <= set(table2.model)
     tex = (tmp_path / "t" / "table2.tex").read_text()
     assert "Ours: ED-TCN, which the paper did not run" in tex and "BiLSTM" not in tex
+    assert "ours beside the paper's Table II" in tex and r"$\Delta$ = ours" not in tex
     assert r"\textbf{87.9}" in tex and r"\textbf{82.1}" not in tex   # the paper's best edit only
     table1 = pd.read_csv(tmp_path / "t" / "table1.csv")
     assert table1[table1.config == "A-fixed"].right_mean.notna().all()

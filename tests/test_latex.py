@@ -166,19 +166,25 @@ def test_every_table_fits_an_ieee_two_column_page(tables, tmp_path):
 
 
 #: LaTeX that may hold an unescaped ``_``, ``#`` or ``%``: comments, math, labels and references.
-_NOT_TEXT = re.compile(r"^\s*%.*$|\$[^$]*\$|\\(?:label|ref|begin|end|usepackage)\{[^}]*\}",
-                       re.MULTILINE)
+_NOT_TEXT = re.compile(r"^\s*%.*$|(?<!\\)\$[^$]*(?<!\\)\$"
+                       r"|\\(?:label|ref|begin|end|usepackage)\{[^}]*\}", re.MULTILINE)
 
 
 def test_every_committed_latex_file_escapes_its_text():
-    """Without pdflatex (CI has none): no committed ``results/**/*.tex`` has a ``_``, ``#`` or
-    ``%`` outside math, comments, labels and references that is not escaped, as an encoder's
-    import path or a selected setting's name (``feature_set``) in a caption once was."""
-    root = Path(__file__).resolve().parents[1] / "results"
+    """Without compiling each (pdflatex may be missing): no committed ``results/**/*.tex`` has a
+    ``_``, ``#`` or ``%`` outside math, comments, labels and references that is not escaped, as
+    an encoder's import path or a selected setting's name (``feature_set``) in a caption once
+    was."""
+    root = Path(__file__).resolve().parents[1]
+    listed = subprocess.run(["git", "ls-files", "results/*.tex", "results/**/*.tex"], cwd=root,
+                            capture_output=True, text=True)
+    if listed.returncode != 0:
+        pytest.skip(f"git cannot list the committed files: {listed.stderr.strip()}")
+    assert listed.stdout.strip(), "no committed .tex file found"
     found = {}
-    for path in sorted(root.rglob("*.tex")):
-        text = _NOT_TEXT.sub("", path.read_text(encoding="utf-8"))
+    for name in sorted(set(listed.stdout.split())):
+        text = _NOT_TEXT.sub("", (root / name).read_text(encoding="utf-8"))
         bare = re.findall(r".{0,30}(?<!\\)[_#%].{0,10}", text)
         if bare:
-            found[str(path.relative_to(root))] = bare[0]
+            found[name] = bare[0]
     assert not found, found

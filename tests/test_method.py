@@ -228,7 +228,7 @@ def test_seeds_and_files_that_disagree_are_refused_naming_them(tmp_path, capsys,
     err = _refused(tmp_path, capsys, cased, synth_dir)
     assert "the release spells its task Suturing" in err and "another task" not in err
     (cased / "suturing_Z001.csv").rename(cased / f"{first.name}.CSV")
-    assert "extension is lower case" in _refused(tmp_path, capsys, cased, synth_dir)
+    assert "extension must be lower case" in _refused(tmp_path, capsys, cased, synth_dir)
 
     twice = shutil.copytree(gestures, tmp_path / "twice")
     path = twice / f"{first.name}.csv"

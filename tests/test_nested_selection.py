@@ -273,9 +273,11 @@ def test_a_nested_selection_is_one_configuration_beside_other_architectures(grid
     assert caption not in (tmp_path / "side" / "table2.tex").read_text().split("MS-TCN")[-1]
     side = pd.read_csv(tmp_path / "side" / "architectures.csv").set_index(["architecture",
                                                                              "model"])
-    assert side.loc[("ED-TCN", "A"), "note"].startswith(caption)
-    assert caption not in str(side.loc[("MS-TCN", "A"), "note"])
+    assert side.loc[("ED-TCN", "A"), "selection"].startswith(caption)
+    assert side.loc[("MS-TCN", "A"), "selection"] != side.loc[("MS-TCN", "A"), "selection"]  # NaN
     assert caption in (tmp_path / "side" / "architectures.md").read_text()
+    tex = (tmp_path / "side" / "architectures.tex").read_text()
+    assert tex.count(caption) == 1 and f"ED-TCN: {caption}" in tex     # once, its own sentence
 
 
 @pytest.mark.slow

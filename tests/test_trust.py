@@ -1076,5 +1076,9 @@ def test_an_input_in_a_loop_of_symbolic_links_is_one_line_in_every_command(tmp_p
     code = run_command("prog", False, lambda: (tmp_path / "b" / "x").resolve() and 0)
     err = capsys.readouterr().err.strip()
     assert code == 2 and err.startswith("prog: error: ") and "symbolic links" in err
+    with pytest.MonkeyPatch.context() as patch:              # a relative path as given
+        patch.chdir(tmp_path)
+        code = tables_main(["score", "a", "--rate", "30", "--synthetic", "--out", "o"])
+    assert "error: a: a loop of symbolic links" in capsys.readouterr().err
     with pytest.raises(RuntimeError, match="other"):        # any other RuntimeError is a bug
         run_command("prog", False, lambda: (_ for _ in ()).throw(RuntimeError("other")))

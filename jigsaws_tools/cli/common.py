@@ -50,6 +50,7 @@ Conventions:
 from __future__ import annotations
 
 import argparse
+import ast
 import difflib
 import logging
 import os
@@ -418,10 +419,15 @@ def run_command(prog: str, verbose: bool, body: Callable[[], int | None],
 
 def symlink_loop(error: RuntimeError) -> str | None:
     """The path of a loop of symbolic links that ``pathlib.Path.resolve`` met (Python < 3.13
-    raises ``RuntimeError("Symlink loop from '<path>'")``; later versions an ``OSError``, which
-    ``run_command`` words as any), else None."""
-    match = re.fullmatch(r"Symlink loop from (['\"])(?P<path>.*)\1", str(error))
-    return None if match is None else match["path"]
+    raises ``RuntimeError("Symlink loop from <repr of the path>")``; from 3.13 a non-strict
+    ``resolve`` raises nothing), else None."""
+    match = re.fullmatch(r"Symlink loop from (?P<path>(['\"]).*\2)", str(error), re.DOTALL)
+    if match is None:
+        return None
+    try:
+        return str(ast.literal_eval(match["path"]))
+    except (ValueError, SyntaxError):
+        return match["path"]
 
 
 def _worded(error: BaseException, layout_advice: str | None) -> str:

@@ -107,7 +107,10 @@ def check_out_outside(out: Path, folders: list[Path]) -> None:
     files would join the predictions, and the next call would refuse the folder."""
     where = Path(out).resolve()
     for folder in folders:
-        inside = Path(folder).resolve()
+        try:
+            inside = Path(folder).resolve()
+        except RuntimeError:                  # Python < 3.13: a loop of symbolic links
+            raise ValueError(f"{folder}: a loop of symbolic links, not a folder") from None
         if where == inside or inside in where.parents:
             raise ValueError(f"--out {out}: inside the prediction folder {folder}, which must "
                              "hold trial files only; write the tables elsewhere")

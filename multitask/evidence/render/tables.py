@@ -37,6 +37,8 @@ CONFIG_LABELS = {"A-fixed": "A", "APr-fixed": "APr (w1=w2=1)", "APr-gradnorm": "
                  "APc-fixed": "APc (w1=w2=1)", "APc-gradnorm": "APc (alpha=1.5)",
                  "APoc-fixed": "APoc (w1=w2=1)", "APoc-gradnorm": "APoc (alpha=1.5)",
                  "Pr-fixed": "Pr", "Pc-fixed": "Pc", "Poc-fixed": "Poc"}
+#: An LSTM's architecture name (``pooling.architecture_name``), e.g. ``LSTM-128``.
+_LSTM_NAME = re.compile(r"LSTM-\d+")
 #: Parenthesised detail of a model label -> its LaTeX in the column header's second line.
 _LATEX_DETAILS = {"w1=w2=1": "$w_1{=}w_2{=}1$", "alpha=1.5": r"$\alpha{=}1.5$"}
 #: Model columns up to which a table fits one IEEE column; wider ones span the page (table*).
@@ -86,25 +88,31 @@ def encoder_label(label: str, name: str) -> str:
     label names the encoder after it (``APc`` -> ``APc (ED-TCN)``)."""
     for paper in ("BiLSTM", "LSTM"):
         if label.startswith(paper):
-            return label.replace("LSTM", name, 1) if name.startswith("LSTM") \
+            return label.replace("LSTM", name, 1) if _LSTM_NAME.fullmatch(name) \
                 else name + label[len(paper):]
     return f"{label} ({name})"
+
+
+def encoder_labels(table: PaperTable, name: str) -> dict[str, str]:
+    """``encoder_label`` of every configuration ``table`` publishes."""
+    return {config: encoder_label(table.labels.get(config, CONFIG_LABELS[config]), name)
+            for config in table.paper}
 
 
 def of_encoder(table: PaperTable, name: str) -> PaperTable:
     """``table`` for runs of another encoder than the paper's LSTM (``name``, e.g. ``ED-TCN``).
     A table whose rows name architectures (Tables II and III) labels ours by the encoder and
     shows them alone: the paper has no such row, and its BiLSTM's numbers beside our ED-TCN's
-    would read as the paper's ED-TCN; its quoted rows stay. A table of models (Table I) keeps the
-    paper's numbers, which its caption says are its LSTM's."""
+    would read as the paper's ED-TCN; its quoted rows stay, its title names the encoder. A table
+    of models (Table I) keeps the paper's numbers, which its caption says are its LSTM's."""
     if not table.rows_name_encoder:
         return replace(table, note=f"The paper's numbers are its LSTM's: the difference "
                                    f"compares our {name} with them.")
-    labels = {config: encoder_label(table.labels.get(config, CONFIG_LABELS[config]), name)
-              for config in table.paper}
     quoted = (f" {', '.join(table.related)}: the related work the paper lists, not reproduced "
               "here." if table.related else "")
-    return replace(table, paper={config: {} for config in table.paper}, labels=labels,
+    return replace(table, title=table.title.replace("LSTM", escape(name)),
+                   paper={config: {} for config in table.paper},
+                   labels=encoder_labels(table, name),
                    note=f"Ours: {name}, which the paper did not run.{quoted}")
 
 
@@ -120,6 +128,9 @@ def paper_caption(table: PaperTable, budget: str, ours_only: bool = False) -> st
     if ours_only:
         return f"{table.title}: mean (std) over folds. {escape(budget)}"
     note = f" {escape(table.note)}" if table.note else ""
+    if not any(table.paper.values()):            # ours alone beside the quoted rows
+        return (f"{table.title}: ours beside the paper's {table.source}, mean (std) over "
+                f"folds.{note} {escape(budget)}")
     return (f"{table.title}: ours against the paper's {table.source}, mean (std) over folds; "
             rf"$\Delta$ = ours $-$ paper.{note} {escape(budget)}")
 

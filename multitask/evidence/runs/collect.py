@@ -31,6 +31,7 @@ error or the three-way verdict was saved get them from their ``history.csv`` and
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import asdict, fields
 from pathlib import Path
 
@@ -88,16 +89,21 @@ def run_rows(grid_dir: Path | str, allow_incomplete: bool = False,
     return rows, problems
 
 
-def refuse_repeated(folders, why: str, error: type[ValueError] = ValueError) -> None:
+def refuse_repeated(folders: Iterable[Path | str], why: str,
+                    error: type[ValueError] = ValueError) -> None:
     """An ``error`` naming the first of ``folders`` (paths as given) that is another's folder,
-    however spelled (resolved: links, ``..``, relative), and saying ``why`` each counts once."""
+    however spelled (resolved: links, ``..``, relative), and saying ``why`` each counts once; or
+    naming one in a loop of symbolic links."""
     seen: dict[Path, Path] = {}
     for folder in map(Path, folders):
-        if folder.resolve() in seen:
-            first = seen[folder.resolve()]
-            spelled = f" (as {first})" if str(first) != str(folder) else ""
+        try:
+            place = folder.resolve()
+        except RuntimeError:                  # Python < 3.13: a loop of symbolic links
+            raise error(f"{folder}: a loop of symbolic links, not a folder") from None
+        if place in seen:
+            spelled = f" (as {seen[place]})" if str(seen[place]) != str(folder) else ""
             raise error(f"{folder}: given twice{spelled}; {why}")
-        seen[folder.resolve()] = folder
+        seen[place] = folder
 
 
 def run_records(grid_dir: Path | str, allow_incomplete: bool = False,
@@ -147,7 +153,8 @@ def run_records(grid_dir: Path | str, allow_incomplete: bool = False,
     if not rows:
         which = "" if seeds is None else f" of seed(s) {', '.join(map(str, seeds))}"
         none = (f"no configuration{which} has finished all its runs (each enters only once "
-                "complete)" if unfinished else f"no finished runs{which} under {root / 'runs'}")
+                "complete)" if unfinished and not problems
+                else f"no finished runs{which} under {root / 'runs'}")
         raise IncompleteEvidence(f"{root}: {none}" + "".join(f"\n  {line}" for line in left_out))
     return pd.DataFrame(rows), problems + left_out, {root / run: record
                                                      for run, record in records.items()}

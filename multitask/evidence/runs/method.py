@@ -27,11 +27,12 @@ gives a run's: ``gesture_<metric>`` and, with progress predictions, ``progress_<
 
 Every file is checked before anything is scored (``read_folder``): a missing trial, a file that is
 no trial of the task (or a trial's name in another case), a trial of another task, a file of
-another format, a file that is not UTF-8, a CSV column it reads named twice or not exactly
-(``Gesture``, `` progress``: other columns are ignored), an unknown or empty label
-(spaces around a label are ignored), a wrong frame, a file of the wrong length (with the rate
-whose length it has, if any), or progress predictions in some files only is a ``ValueError``
-naming the file (line and value).
+another format or an extension in upper case, a file that is not UTF-8, a CSV column it reads
+(``CSV_COLUMNS``) named twice or not exactly (``Gesture``, `` progress``; other columns are
+ignored), an unknown or empty label (spaces around a label are ignored), a wrong frame, a file of
+the wrong length (with the rate whose length it has, if any), or progress predictions in some
+files only is a ``ValueError`` naming the file (line and value); across a method's folders
+(``method_scores``), a folder given twice or progress predictions in some seeds only.
 """
 from __future__ import annotations
 
@@ -153,7 +154,7 @@ def _trial_files(folder: Path, expected: set[str], task: TaskDefinition) -> dict
     for path in sorted(p for p in folder.iterdir() if not p.name.startswith(".")):
         name = _TRIAL_NAME.match(path.stem)
         if path.suffix not in FORMATS or not path.is_file():
-            what = ("a folder" if path.is_dir() else "its extension is lower case (.csv, .txt)"
+            what = ("a folder" if path.is_dir() else "its extension must be lower case (.csv, .txt)"
                     if path.suffix.lower() in FORMATS else "not a prediction file")
             raise ValueError(f"{path}: {what} (give <trial>.csv or <trial>.txt files only)")
         if path.stem not in expected and path.stem.casefold() in spelled:

@@ -12,7 +12,8 @@ the grid records for them. A seed still training is left out and named in the ta
 ``seeds``, ``folds`` and ``runs`` columns say what entered. Any other problem of a grid (a NaN
 metric, a run of other settings or another place, a stray folder) is an error, as for its own
 tables (``collect``). A configuration whose folds' settings a nested selection chose (e.g.
-``results/tcn/retest/ed-tcn``) says so in its ``note``, naming the settings, as its captions do.
+``results/tcn/retest/ed-tcn``) names the settings in its ``selection`` column, as its own
+captions do.
 
     multitask-tables architectures results/grid results/paper/grid results/tcn/ed-tcn \\
         results/tcn/ms-tcn --out results/tcn
@@ -184,7 +185,7 @@ def runs_of(evidence: list[ArchitectureEvidence]) -> pd.DataFrame:
 
 COLUMNS = ["architecture", "model", "config", "seeds", "folds", "runs", "runs_recorded",
            *(f"{score}_{stat}" for score in SCORES for stat in ("mean", "std")),
-           "seconds_mean", "seconds_min", "seconds_max", "note"]
+           "seconds_mean", "seconds_min", "seconds_max", "selection", "note"]
 
 
 def architecture_table(evidence: list[ArchitectureEvidence],
@@ -221,7 +222,7 @@ def _model_row(part: ArchitectureEvidence, model: str, config: ConfigId) -> dict
     selected = selected_names(name for record in records if record.selection is not None
                               for name in record.selection.common)
     if selected:
-        row["note"] = "; ".join(filter(None, [selection_phrase(selected), row["note"]]))
+        row["selection"] = selection_phrase(selected)
     folds = per_fold(runs.drop(columns=["architecture", "seconds"]))
     for score in SCORES:
         if score in folds and folds[score].notna().any():
@@ -273,9 +274,15 @@ def architecture_markdown(table: pd.DataFrame) -> str:
     rows = [[row.architecture, row.model,
              *(_cell(row, score, lambda m, s: f"{m:.1f} ({s:.1f})" if s is not None
                      else f"{m:.1f}") for score in SCORES),
-             _evidence(row), duration(row.seconds_mean), row.note or ""]
+             _evidence(row), duration(row.seconds_mean), _notes(row)]
             for _, row in table.iterrows()]
     return "\n".join(markdown_table(header, rows)) + "\n"
+
+
+def _notes(row: pd.Series) -> str:
+    """The Markdown table's note of a row: its nested selection, then what was left out."""
+    return "; ".join(text for text in (row.get("selection"), row.note)
+                     if isinstance(text, str) and text)
 
 
 def architecture_latex(table: pd.DataFrame, caption: str) -> str:
@@ -305,7 +312,9 @@ def architecture_latex(table: pd.DataFrame, caption: str) -> str:
 def architecture_caption(table: pd.DataFrame) -> str:
     """What the table shows and what entered it (plain text, escaped)."""
     notes = [f"{row.architecture} {row.model}: {row.note}" for _, row in table.iterrows()
-             if row.note and row.model != TIME_ONLY]
+             if isinstance(row.note, str) and row.note and row.model != TIME_ONLY]
+    selections = {row.architecture: row.selection for _, row in table.iterrows()
+                  if isinstance(row.get("selection"), str) and row.selection}
     return escape(
         "Model A and the paper's progress heads (APc with w1=w2=1, APoc with GradNorm alpha=1.5) "
         "on each architecture, revised labels, offline: mean (std) over LOUO folds of each "
@@ -313,6 +322,7 @@ def architecture_caption(table: pd.DataFrame) -> str:
         "(every phase of every session), mean over the configuration's runs, on the machine "
         "that ran its grid. Only seeds finished on every fold enter"
         + (f" ({'; '.join(notes)})." if notes else ".")
+        + "".join(f" {name}: {text}." for name, text in selections.items())
         + (f" {TIME_ONLY}: a trial's progress stage read from its relative time alone, fitted "
            "on each fold's training users." if (table.model == TIME_ONLY).any() else ""))
 
@@ -325,8 +335,8 @@ def measured_table2(evidence: list[ArchitectureEvidence]) -> tuple[pd.DataFrame,
     the original labels, ours alone; then the quoted related-work rows. Returns the frame
     (``tables.paper_comparison``'s columns) and the caption's LaTeX (empty frame: no grid ran
     the original labels)."""
-    from ..render.tables import (CONFIG_LABELS, PAPER_TABLES, encoder_label, of_encoder,
-                                 paper_caption, paper_comparison, related_rows)
+    from ..render.tables import (PAPER_TABLES, encoder_labels, of_encoder, paper_caption,
+                                 paper_comparison, related_rows)
     from ..runs.collect import summary
 
     table = next(t for t in PAPER_TABLES if t.name == "table2")
@@ -341,8 +351,7 @@ def measured_table2(evidence: list[ArchitectureEvidence]) -> tuple[pd.DataFrame,
             continue
         stats = summary(per_fold(runs))
         if lstm:
-            labels = {config: encoder_label(table.labels.get(config, CONFIG_LABELS[config]),
-                                            part.name) for config in table.paper}
+            labels = encoder_labels(table, part.name)
             shown = replace(table, labels=labels, related={})
         else:
             shown = replace(of_encoder(table, part.name), related={})
