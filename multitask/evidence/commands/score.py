@@ -33,6 +33,7 @@ import math
 import sys
 from pathlib import Path
 
+from jigsaws_tools.cli.common import resolved
 from jigsaws_tools.cli.format_options import add_format_option
 from jigsaws_tools.cli.options import add_data_arguments
 
@@ -107,10 +108,7 @@ def check_out_outside(out: Path, folders: list[Path]) -> None:
     files would join the predictions, and the next call would refuse the folder."""
     where = Path(out).resolve()
     for folder in folders:
-        try:
-            inside = Path(folder).resolve()
-        except RuntimeError:                  # Python < 3.13: a loop of symbolic links
-            raise ValueError(f"{folder}: a loop of symbolic links, not a folder") from None
+        inside = resolved(folder)
         if where == inside or inside in where.parents:
             raise ValueError(f"--out {out}: inside the prediction folder {folder}, which must "
                              "hold trial files only; write the tables elsewhere")

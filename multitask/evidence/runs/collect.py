@@ -38,6 +38,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from jigsaws_tools.cli.common import resolved
 from jigsaws_tools.task_definition import PAPER_TASK
 from rnn_seg.convergence import ConvergenceCriterion, history_convergence, verdict
 from rnn_seg.runs.folder import HISTORY, RunFolderError, is_finished, read_json
@@ -96,10 +97,7 @@ def refuse_repeated(folders: Iterable[Path | str], why: str,
     naming one in a loop of symbolic links."""
     seen: dict[Path, Path] = {}
     for folder in map(Path, folders):
-        try:
-            place = folder.resolve()
-        except RuntimeError:                  # Python < 3.13: a loop of symbolic links
-            raise error(f"{folder}: a loop of symbolic links, not a folder") from None
+        place = resolved(folder, error)
         if place in seen:
             spelled = f" (as {seen[place]})" if str(seen[place]) != str(folder) else ""
             raise error(f"{folder}: given twice{spelled}; {why}")
