@@ -62,3 +62,13 @@ def file_kind(mode: int) -> str:
     if stat.S_ISSOCK(mode):
         return "a socket"
     return "a device"
+
+
+def resolved(path: Path | str, error: type[ValueError] = ValueError) -> Path:
+    """``path`` resolved (links, ``..``, relative), or an ``error`` naming it as given when it
+    is in a loop of symbolic links (Python < 3.13 raises ``RuntimeError`` there, which
+    ``cli.common.run_command`` words with the loop's absolute path instead)."""
+    try:
+        return Path(path).resolve()
+    except RuntimeError:
+        raise error(f"{path}: a loop of symbolic links, not a file or folder") from None

@@ -1080,5 +1080,11 @@ def test_an_input_in_a_loop_of_symbolic_links_is_one_line_in_every_command(tmp_p
         patch.chdir(tmp_path)
         code = tables_main(["score", "a", "--rate", "30", "--synthetic", "--out", "o"])
     assert "error: a: a loop of symbolic links" in capsys.readouterr().err
+    (tmp_path / "preds").mkdir()                              # --out in the loop, as given
+    code = tables_main(["score", str(tmp_path / "preds"), "--rate", "30", "--synthetic", "--out",
+                        str(tmp_path / "a" / "x")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1 and "Traceback" not in err, err
+    assert f"{tmp_path / 'a' / 'x'}: a loop of symbolic links" in err
     with pytest.raises(RuntimeError, match="other"):        # any other RuntimeError is a bug
         run_command("prog", False, lambda: (_ for _ in ()).throw(RuntimeError("other")))

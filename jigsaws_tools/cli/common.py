@@ -58,7 +58,6 @@ import re
 import sys
 import tempfile
 import traceback
-from pathlib import Path
 from typing import Any, Callable, NoReturn, Sequence
 
 from ..errors import JigsawsError, WriteFailed
@@ -429,16 +428,6 @@ def symlink_loop(error: RuntimeError) -> str | None:
         return str(ast.literal_eval(match["path"]))
     except (ValueError, SyntaxError):
         return match["path"]
-
-
-def resolved(path: Path | str, error: type[ValueError] = ValueError) -> Path:
-    """``path`` resolved (links, ``..``, relative), or an ``error`` naming it as given when it
-    is in a loop of symbolic links (Python < 3.13; ``run_command`` would name the loop's
-    absolute path instead)."""
-    try:
-        return Path(path).resolve()
-    except RuntimeError:
-        raise error(f"{path}: a loop of symbolic links, not a file or folder") from None
 
 
 def _worded(error: BaseException, layout_advice: str | None) -> str:

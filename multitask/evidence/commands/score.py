@@ -33,9 +33,9 @@ import math
 import sys
 from pathlib import Path
 
-from jigsaws_tools.cli.common import resolved
 from jigsaws_tools.cli.format_options import add_format_option
 from jigsaws_tools.cli.options import add_data_arguments
+from jigsaws_tools.files import resolved
 
 from .common import add_out_options, publish
 from .release import MANIFEST as RELEASE_MANIFEST
@@ -106,7 +106,7 @@ def run(args: argparse.Namespace) -> None:
 def check_out_outside(out: Path, folders: list[Path]) -> None:
     """A ``ValueError`` when ``out`` is one of the prediction ``folders`` or inside one: its
     files would join the predictions, and the next call would refuse the folder."""
-    where = Path(out).resolve()
+    where = resolved(out)
     for folder in folders:
         inside = resolved(folder)
         if where == inside or inside in where.parents:

@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from jigsaws_tools.cli.common import resolved
+from jigsaws_tools.files import resolved
 from jigsaws_tools.task_definition import PAPER_TASK
 from rnn_seg.convergence import ConvergenceCriterion, history_convergence, verdict
 from rnn_seg.runs.folder import HISTORY, RunFolderError, is_finished, read_json
